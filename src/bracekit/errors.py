@@ -1,0 +1,63 @@
+"""Typed exceptions and warnings of bracekit.
+
+Every error a user can cause derives from :class:`InputError`; the command line maps it to exit code 2.
+Numerical trouble (singularities, non-convergence, barriers at their limit) has its own types so callers
+can tell a bad input from a hard configuration.
+"""
+
+from __future__ import annotations
+
+
+class BracekitError(Exception):
+    """Base class of every bracekit error."""
+
+
+class InputError(BracekitError, ValueError):
+    """Bad user input: a file, a name, a value or a scenario key. The message says how to fix it."""
+
+
+class ModelError(InputError):
+    """A robot model that bracekit cannot use (missing URDF, unsupported joint, unknown frame)."""
+
+
+class FrameNotFoundError(ModelError, KeyError):
+    """A frame or link name that the robot does not have."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class ContactError(InputError):
+    """A contact, surface or brace that is ill-defined (zero normal, brace not on the chain to the tip)."""
+
+
+class ScenarioError(InputError):
+    """A scenario file with a missing, unknown or malformed key."""
+
+
+class NumericalError(BracekitError, ArithmeticError):
+    """A computation that cannot give a finite, trustworthy result."""
+
+
+class SingularityError(NumericalError):
+    """A Jacobian (or J1 of the braced chain) is singular or too ill-conditioned to invert."""
+
+
+class BarrierError(NumericalError):
+    """A barrier term is at or beyond its limit (e.g. the bracing point left the bracing region)."""
+
+
+class ConvergenceError(NumericalError):
+    """An iterative solve (pose correction, static equilibrium, start configuration) did not converge."""
+
+
+class BracekitWarning(UserWarning):
+    """Base class of bracekit's warnings."""
+
+
+class UnloadedContactWarning(BracekitWarning):
+    """The contact carries no load from chain 1 along some constraint direction (Xᵀ C1 X is singular)."""
+
+
+class RegionWarning(BracekitWarning):
+    """The bracing point left the bracing region during a run whose strategy does not guard it."""

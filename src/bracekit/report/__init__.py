@@ -1,0 +1,9 @@
+"""Reporting: Table I, Figures 2–4, the animation, and whole-or-nothing output directories.
+
+No physics here: everything is read from a :class:`bracekit.run.RunResult`.
+"""
+
+from .output import write_run
+from .table import PAPER_TABLE_I, table_rows
+
+__all__ = ["PAPER_TABLE_I", "table_rows", "write_run"]

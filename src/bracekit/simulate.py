@@ -1,0 +1,273 @@
+"""Integrate a redundancy-resolution strategy along a task (Section VI's kinematic simulation).
+
+Each step: tip twist ẋ = feed-forward + pose-error feedback, q̇ from the strategy, an Euler step, then a
+Gauss–Newton correction that puts the tip back on the task pose and, for braced strategies, {b} back on
+the contact (to 1e-12), so neither error accumulates. Measures are recorded at every sample.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from .compliance import (
+    COMPLIANCE_MODELS,
+    ComplianceModel,
+    compliance_index,
+    end_effector_compliance,
+    free_space_compliance,
+)
+from .errors import BracekitError, ConvergenceError, InputError, RegionWarning
+from .kinematics import BracedRobot, BracedState
+from .measures import frobenius_condition, singular_value_measures, theta_z
+from .objective import ComplianceIndex, Objective
+from .resolution import Strategy
+from .tasks import Task
+
+Array = NDArray[np.float64]
+
+#: Residual (m, rad) at which the Gauss–Newton pose/contact correction stops.
+CORRECTION_TOL = 1e-12
+
+
+def pose_error(state: BracedState, position: Array, rotation: Array) -> Array:
+    """[p_d − e; log3(R_d R_eᵀ)] (6,), m and rad, world axes."""
+    return np.concatenate([position - state.e, pin.log3(rotation @ state.R_e.T)])
+
+
+def contact_residual(state: BracedState, anchor: Array, anchor_rotation: Array) -> Array:
+    """Violation of the contact along each constraint wrench (6 − l,): Xᵀ [b − b0; log3(R_b R_b0ᵀ)].
+
+    For the frictionless point this is n̂ᵀ(b − b0), the distance of {b} from the plane through b0.
+    """
+    return state.X.T @ np.concatenate([state.b - anchor, pin.log3(state.R_b @ anchor_rotation.T)])
+
+
+def correct(
+    braced: BracedRobot,
+    q: Array,
+    position: Array,
+    rotation: Array,
+    anchor: tuple[Array, Array] | None,
+    *,
+    tol: float = CORRECTION_TOL,
+    max_iter: int = 20,
+) -> BracedState:
+    """Minimum-norm Gauss–Newton: the state nearest q with the tip at the pose (and {b} on the contact)."""
+    for _ in range(max_iter):
+        st = braced.state(q)
+        res = pose_error(st, position, rotation)
+        rows = st.J_e
+        if anchor is not None:
+            res = np.concatenate([res, -contact_residual(st, *anchor)])
+            rows = np.vstack([rows, st.X.T @ st.J_b])
+        if np.max(np.abs(res)) < tol:
+            return st
+        q = q + rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
+    raise ConvergenceError(
+        f"the pose/contact correction did not converge in {max_iter} iterations "
+        f"(residual {np.max(np.abs(res)):.2e}); reduce the time step or move away from singularities"
+    )
+
+
+@dataclass
+class Trajectory:
+    """One strategy's run: samples at times t (N,), joint values q (N×n) and named measures (N,)."""
+
+    strategy: str
+    braced: bool
+    t: Array
+    q: Array
+    measures: dict[str, Array]
+    completed: bool
+    failure: str | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def steps(self) -> int:
+        """Steps taken (samples − 1)."""
+        return int(self.t.size - 1)
+
+    def ci_key(self, model: ComplianceModel) -> str:
+        """The C_i series of this run: free-space compliance for the unbraced run, else C_e of `model`."""
+        return f"Ci_{model}" if self.braced else "Ci_free"
+
+    def summary(self, model: ComplianceModel = "constrained") -> dict[str, Any]:
+        """The Table I metrics and run checks (SI units)."""
+        m = self.measures
+        ci = m[self.ci_key(model)]
+        return {
+            "Ci_mean": float(np.mean(ci)),
+            "Ci_min": float(np.min(ci)),
+            "prod_sigma_t_mean": float(np.mean(m["prod_sigma_t"])),
+            "prod_sigma_o_mean": float(np.mean(m["prod_sigma_o"])),
+            "sigma_t_min": float(np.min(m["sigma_t_min"])),
+            "sigma_o_min": float(np.min(m["sigma_o_min"])),
+            "k_mean": float(np.mean(m["k"])),
+            "k_free_mean": float(np.mean(m["k_free"])),
+            "theta_z_max_rad": float(np.max(m["theta_z"])),
+            "max_task_error_m": float(np.max(m["task_error"])),
+            "max_contact_violation_m": float(np.max(m["contact_violation"])),
+            "max_region_radius_m": float(np.max(m["region_radius"])),
+            "steps": self.steps,
+            "completed": self.completed,
+            "failure": self.failure,
+        }
+
+
+def measure(state: BracedState, beta_x: Array, centre: Array, task_error: float, braced: bool) -> dict[str, float]:
+    """The measures recorded at a sample (C_i in all models, J̃ singular values, k, θ_z, r)."""
+    sv = singular_value_measures(state.J_braced)
+    surface = state.braced.brace.surface
+    out = {
+        "Ci_free": compliance_index(free_space_compliance(state), beta_x),
+        "prod_sigma_t": sv.prod_sigma_t,
+        "prod_sigma_o": sv.prod_sigma_o,
+        "sigma_t_min": sv.sigma_t_min,
+        "sigma_o_min": sv.sigma_o_min,
+        "k": frobenius_condition(state.J_braced),
+        "k_free": frobenius_condition(state.J_e),
+        "theta_z": theta_z(surface.normal, state.z_b),
+        "region_radius": float(np.linalg.norm(state.b - centre)),
+        "contact_violation": abs(surface.signed_distance(state.b)),
+        "task_error": task_error,
+    }
+    for model in COMPLIANCE_MODELS:
+        out[f"Ci_{model}"] = compliance_index(end_effector_compliance(state, model), beta_x)  # type: ignore[arg-type]
+    return out
+
+
+def _with_beta(strategy: Strategy, beta_x: Array) -> Strategy:
+    objective = getattr(strategy, "objective", None)
+    if objective is None or not any(isinstance(t, ComplianceIndex) for t in objective.terms):
+        return strategy
+    terms = [dataclasses.replace(t, beta_x=beta_x) if isinstance(t, ComplianceIndex) else t for t in objective.terms]
+    return dataclasses.replace(strategy, objective=Objective(terms, objective.weights))  # type: ignore[type-var]
+
+
+def simulate(
+    braced: BracedRobot,
+    strategy: Strategy,
+    task: Task,
+    q0: ArrayLike,
+    dt: float,
+    beta_x: Callable[[float], Array],
+    *,
+    feedback_gain: float = 1.0,
+    progress: Callable[[int], None] | None = None,
+) -> Trajectory:
+    """Run `strategy` along `task` from q0 with time step dt (s); never raises on a failed step.
+
+    A step that meets a singularity, a barrier or a failed correction ends the run with
+    ``completed=False`` and the reason in ``failure``. `beta_x(t)` gives the unit twist (6,) along which
+    the compliance index is measured (and minimised by a gradient-projection strategy).
+    """
+    if not (np.isfinite(dt) and dt > 0):
+        raise InputError(f"time step dt must be a positive number of seconds, got {dt}")
+    steps = max(1, round(task.duration / dt))
+    st = braced.state(q0)
+    rotation = task.rotation if task.rotation is not None else st.R_e.copy()
+    anchor = (st.b.copy(), st.R_b.copy()) if strategy.braced else None
+    centre = braced.brace.surface.point
+    r_max = braced.brace.region_radius
+    ts, qs, rows = [0.0], [st.q.copy()], [measure(st, beta_x(0.0), centre, 0.0, strategy.braced)]
+    failure = None
+    for i in range(steps):
+        t, t_next = i * dt, (i + 1) * dt
+        try:
+            err = pose_error(st, task.position(t), rotation)
+            xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
+            current = _with_beta(strategy, beta_x(t))
+            if strategy.needs_hessians:
+                st = braced.state(st.q, hessians=True)
+            qdot = current.velocity(st, xdot)
+            st = correct(braced, st.q + qdot * dt, task.position(t_next), rotation, anchor)
+            task_err = float(np.linalg.norm(task.position(t_next) - st.e))
+            rows.append(measure(st, beta_x(t_next), centre, task_err, strategy.braced))
+        except BracekitError as exc:
+            failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
+            break
+        ts.append(t_next)
+        qs.append(st.q.copy())
+        if progress is not None:
+            progress(1)
+    measures = {key: np.array([r[key] for r in rows]) for key in rows[0]}
+    notes = []
+    if r_max is not None and np.max(measures["region_radius"]) >= r_max:
+        notes.append(
+            f"{strategy.name}: the bracing point left the bracing region "
+            f"(max r = {np.max(measures['region_radius']):.4f} m > r_max = {r_max:.4f} m)"
+        )
+        warnings.warn(notes[-1], RegionWarning, stacklevel=2)
+    return Trajectory(
+        strategy=strategy.name,
+        braced=strategy.braced,
+        t=np.array(ts),
+        q=np.array(qs),
+        measures=measures,
+        completed=failure is None,
+        failure=failure,
+        warnings=notes,
+    )
+
+
+def solve_start(
+    braced: BracedRobot,
+    position: ArrayLike,
+    guess: ArrayLike,
+    *,
+    rotation: ArrayLike | None = None,
+    region_weight: float = 1.0,
+    theta_weight: float = 0.3,
+    posture_weight: float = 0.01,
+) -> BracedState:
+    """A start configuration: tip at `position` (and `rotation` if given), {b} on the surface.
+
+    Solved from `guess` (n,) by SciPy least squares: the tip pose and the contact are hard residuals
+    (then polished to 1e-12 by Gauss–Newton), while the distance of {b} from the region centre, θ_z and
+    the distance from the guess are soft. Raises ConvergenceError if the hard residuals are not met or
+    {b} ends outside the bracing region.
+    """
+    from scipy.optimize import least_squares
+
+    target = np.asarray(position, dtype=float).reshape(3)
+    rot = None if rotation is None else np.asarray(rotation, dtype=float).reshape(3, 3)
+    q_guess = braced.robot.check_q(guess)
+    surface = braced.brace.surface
+    lo, hi = braced.robot.lower, braced.robot.upper
+
+    def residual(q: Array) -> Array:
+        st = braced.state(q)
+        hard = [target - st.e, [surface.signed_distance(st.b)]]
+        if rot is not None:
+            hard.append(pin.log3(rot @ st.R_e.T))
+        soft = [
+            region_weight * (st.b - surface.point),
+            [theta_weight * theta_z(surface.normal, st.z_b)],
+            posture_weight * (q - q_guess),
+        ]
+        return np.concatenate([1e3 * np.concatenate(hard), np.concatenate(soft)])
+
+    x0 = np.clip(q_guess, lo + 1e-6, hi - 1e-6)
+    sol = least_squares(residual, x0, bounds=(lo, hi), xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000)
+    st = braced.state(sol.x)
+    rotation_target = rot if rot is not None else st.R_e
+    anchor_rot = st.R_b
+    # the plane point under b: an anchor on the surface
+    anchor_point = st.b - surface.normal * surface.signed_distance(st.b)
+    st = correct(braced, st.q, target, rotation_target, (anchor_point, anchor_rot))
+    r_max = braced.brace.region_radius
+    r = float(np.linalg.norm(st.b - surface.point))
+    if r_max is not None and r >= r_max:
+        raise ConvergenceError(
+            f"no start configuration with the bracing point inside the region: r = {r:.4f} m ≥ r_max = {r_max} m; "
+            "move the region centre, the task or the start guess"
+        )
+    return st
