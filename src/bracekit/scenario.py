@@ -53,7 +53,8 @@ class _Table:
         unknown = sorted(set(data) - set(allowed))
         if unknown:
             where = f"[{path}]" if path else "the top level"
-            raise ScenarioError(f"unknown key '{_join(path, unknown[0])}'; allowed keys in {where}: {', '.join(allowed)}")
+            keys = ', '.join(allowed)
+            raise ScenarioError(f"unknown key '{_join(path, unknown[0])}'; allowed keys in {where}: {keys}")
         self.data, self.path = data, path
 
     def key(self, name: str) -> str:
