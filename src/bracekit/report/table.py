@@ -57,10 +57,10 @@ def table_rows(summaries: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
 def _fmt(v: Any, col: str) -> str:
     if v is None:
         return "–"
-    if col.startswith("Ci"):
-        return f"{v:.5f}"
     if col == "Ci_mean_reduction":
         return f"{100 * v:.1f} %"
+    if col.startswith("Ci"):
+        return f"{v:.5f}"
     return f"{v:.3f}"
 
 
