@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -52,3 +55,86 @@ def random_chain_urdf(n: int, seed: int, brace_link: int | None = None, brace_of
 def chain_urdf() -> str:
     """A 9-joint random chain braced on link 5 (n1 = 5 is not 6 on purpose)."""
     return random_chain_urdf(9, seed=3, brace_link=5)
+
+
+# --- helpers of the core-model tests (test_robot, test_kinematics, test_compliance, test_objective) ---
+def branched_chain_urdf(joint_type: str = "revolute") -> str:
+    """URDF of a 4-joint revolute chain base→l1..l4→`tip` with a side branch on l2.
+
+    The side branch is joint `a_side_joint` (of type `joint_type`, e.g. revolute, or `continuous`) from l2
+    to link `side`, which carries a fixed frame `side_tool`. Pinocchio orders sibling joints by name, so
+    it numbers the side joint between j2 and j3 (the reduced model must drop a joint inside the chain).
+    """
+    limit = '<limit lower="-3" upper="3" effort="10" velocity="1"/>'
+    joints = [
+        ("j1", "base", "l1", "0 0 0.1", "0 0 1"),
+        ("j2", "l1", "l2", "0 0.1 0.2", "0 1 0"),
+        ("a_side_joint", "l2", "side", "0.1 -0.2 0", "1 0 0"),
+        ("j3", "l2", "l3", "0.3 0 0", "0 1 0"),
+        ("j4", "l3", "l4", "0.25 0.05 0", "1 0 0"),
+    ]
+    parts = ['<robot name="branched">', '<link name="base"/>']
+    for link in ("l1", "l2", "side", "l3", "l4", "tip", "side_tool"):
+        parts.append(f'<link name="{link}"/>')
+    for name, parent, child, xyz, axis in joints:
+        kind = joint_type if name == "a_side_joint" else "revolute"
+        lim = "" if kind == "continuous" else limit
+        parts.append(
+            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="0.1 0.2 0.3"/><axis xyz="{axis}"/>{lim}</joint>'
+        )
+    parts.append(
+        '<joint name="tip_joint" type="fixed"><parent link="l4"/><child link="tip"/>'
+        '<origin xyz="0.1 0 0" rpy="0 0 0"/></joint>'
+    )
+    parts.append(
+        '<joint name="side_tool_joint" type="fixed"><parent link="side"/><child link="side_tool"/>'
+        '<origin xyz="0.05 0 0" rpy="0 0 0"/></joint>'
+    )
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def pin_frame_jacobian(model, frame: str, q: np.ndarray) -> np.ndarray:
+    """Reference: Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian (6×nv) from a fresh computeFrameJacobian."""
+    import pinocchio as pin
+
+    data = model.createData()
+    fid = model.getFrameId(frame)
+    return np.asarray(
+        pin.computeFrameJacobian(model, data, np.asarray(q, dtype=float), fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+    ).copy()
+
+
+def pin_frame_placement(model, frame: str, q: np.ndarray):
+    """Reference: the world placement (pin.SE3) of a frame from a fresh framesForwardKinematics."""
+    import pinocchio as pin
+
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, np.asarray(q, dtype=float))
+    return data.oMf[model.getFrameId(frame)].copy()
+
+
+def random_unit(rng: np.random.Generator, size: int = 3) -> np.ndarray:
+    """A random unit vector."""
+    v = rng.normal(size=size)
+    return v / np.linalg.norm(v)
+
+
+PAPER_TOML = Path(__file__).resolve().parents[1] / "src" / "bracekit" / "scenarios" / "paper.toml"
+
+
+def scenario_text(**task: float) -> str:
+    """The paper scenario's TOML with the task's scalar keys replaced (e.g. period=2.0) and dt=0.1."""
+    text = PAPER_TOML.read_text(encoding="utf-8")
+    for key, value in task.items():
+        text = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text, count=1)
+    return text
+
+
+@pytest.fixture
+def short_scenario_file(tmp_path: Path) -> Path:
+    """The paper scenario cut to its first 2 s (a tenth of the circle, 20 steps of 0.1 s per strategy)."""
+    path = tmp_path / "short.toml"
+    path.write_text(scenario_text(turns=0.1, dt=0.1), encoding="utf-8")
+    return path

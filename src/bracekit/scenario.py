@@ -282,7 +282,7 @@ def _robot(t: _Table, base: Path) -> Robot:
     if isinstance(stiffness, list):
         stiffness = t.vector("stiffness")
     else:
-        stiffness = t.number("stiffness", positive=True)
+        stiffness = t.number("stiffness", 170.0, positive=True)
     tip = t.string("tip", default=None) if t.has("tip") else None
     try:
         if t.has("model"):

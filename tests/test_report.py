@@ -1,0 +1,83 @@
+"""Reporting: the output folder is written whole or not at all; the table holds ours beside the paper's."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bracekit import load_scenario, run_scenario
+from bracekit.report import output as out_mod
+from bracekit.report import write_run
+from bracekit.report.table import PAPER_TABLE_I, table_csv, table_markdown
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory):
+    from conftest import scenario_text
+
+    p = tmp_path_factory.mktemp("sc") / "short.toml"
+    p.write_text(scenario_text(turns=0.05, dt=0.1), encoding="utf-8")
+    return run_scenario(load_scenario(p))
+
+
+def test_write_run_writes_every_file_and_summary_matches_the_result(short_run, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    written = write_run(short_run, out)
+    for p in written:
+        assert p.is_file() and p.stat().st_size > 0
+    names = {p.name for p in written}
+    assert {
+        "summary.json",
+        "table.md",
+        "table.csv",
+        "trajectories.npz",
+        "fig2_film_strip.png",
+        "fig3_ellipsoids.png",
+        "fig4_measures.png",
+        "animation.gif",
+    } <= names
+    data = json.loads((out / "summary.json").read_text())
+    assert set(data["strategies"]) == {"free_space_min_norm", "braced_min_norm", "braced_gradient_projection"}
+    assert data["strategies"]["braced_min_norm"]["Ci_mean"] == pytest.approx(
+        short_run.summary["strategies"]["braced_min_norm"]["Ci_mean"]
+    )
+    npz = np.load(out / "trajectories.npz")
+    q = npz["constrained/braced_gradient_projection/q"]
+    assert np.allclose(q, short_run.trajectories["constrained"]["braced_gradient_projection"].q)
+    assert (out / "fig4_measures.png").read_bytes()[:4] == b"\x89PNG"
+    assert (out / "animation.gif").read_bytes()[:3] == b"GIF"
+    assert not list(tmp_path.glob(".out.tmp-*"))
+
+
+def test_a_failure_while_writing_leaves_no_partial_output(short_run, tmp_path: Path, monkeypatch) -> None:
+    from bracekit.report import figures
+
+    def boom(*_a, **_k):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(figures, "figure_ellipsoids", boom)
+    out = tmp_path / "never"
+    with pytest.raises(RuntimeError):
+        write_run(short_run, out)
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_json_refuses_non_finite_numbers() -> None:
+    with pytest.raises(ValueError, match="non-finite"):
+        out_mod.to_json({"a": float("nan")})
+    assert json.loads(out_mod.to_json({"a": np.float64(1.5), "b": np.arange(2)})) == {"a": 1.5, "b": [0, 1]}
+
+
+def test_table_holds_the_paper_rows_and_ours_for_both_models(short_run) -> None:
+    md = table_markdown(short_run.summaries, "short")
+    assert "0.02490" in md and "49.7 %" in md and "59.2 %" in md  # the paper's, converted to m/N
+    csv = table_csv(short_run.summaries)
+    lines = csv.strip().splitlines()
+    assert len(lines) == 1 + 3 + 3 * 2
+    assert PAPER_TABLE_I["braced_gradient_projection"]["k_mean"] == 4.33
+    ours = short_run.summaries["projection"]["strategies"]["braced_min_norm"]["Ci_mean"]
+    assert any(line.startswith("bracekit,projection,braced_min_norm,") and str(ours) in line for line in lines)

@@ -1,0 +1,112 @@
+"""Scenario files: the shipped paper scenario, and one-line errors that name the key."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bracekit import Circle, ScenarioError, load_scenario
+from bracekit.scenario import parse_scenario, shipped_scenarios
+from conftest import PAPER_TOML, scenario_text
+
+
+def test_paper_scenario_matches_the_paper_setup() -> None:
+    sc = load_scenario("paper")
+    assert "paper" in shipped_scenarios()
+    assert sc.robot.n == 11 and sc.braced.n1 == 6 and sc.braced.n2 == 5
+    assert np.all(sc.robot.stiffness == 170.0)
+    assert sc.braced.brace.contact.name == "frictionless_point"
+    assert np.allclose(sc.braced.brace.surface.normal, [0, 0, 1])  # horizontal plane
+    assert isinstance(sc.task, Circle) and abs(sc.task.normal[2]) < 1e-12  # vertical circle
+    assert sc.alpha == -1.0
+    assert sc.weights == {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01}
+    # radial β_x: unit, in the circle plane, pointing from the centre to the desired point
+    for t in (0.0, 5.0, 12.5):
+        beta = sc.beta_x(t)
+        radial = sc.task.position(t) - sc.task.centre
+        assert np.allclose(beta[:3], radial / np.linalg.norm(radial)) and np.allclose(beta[3:], 0)
+
+
+def test_scenario_loads_from_a_path_too(tmp_path: Path) -> None:
+    p = tmp_path / "mine.toml"
+    p.write_text(PAPER_TOML.read_text(), encoding="utf-8")
+    assert load_scenario(p).robot.n == 11
+
+
+def _edit(text: str, old: str, new: str) -> str:
+    assert old in text
+    return text.replace(old, new, 1)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "fragment"),
+    [
+        ("period = 20.0", "periodd = 20.0", "task.periodd"),
+        ("radius = 0.10", 'radius = "big"', "task.radius"),
+        ("alpha = -1.0", "alpha = 1.0", "alpha"),
+        ('model = "constrained"', 'model = "exact"', "compliance.model"),
+        ('frame = "brace"', 'frame = "elbow_pad"', "elbow_pad"),
+        ('type = "circle"', 'type = "spiral"', "task.type"),
+        ("normal = [0.0, 0.0, 1.0]", "normal = [0.0, 0.0, 0.0]", "normal"),
+        ("stiffness = 170.0", "stiffness = -1.0", "robot.stiffness"),
+        ('strategies = ["free_space_min_norm"', 'strategies = ["teleport"', "simulation.strategies"),
+        ("dt = 0.05", "dt = 0", "simulation.dt"),
+        ('model = "paper-robot"', 'model = "kuka"', "robot.model"),
+        ("guess = [0.0,", "guess = [", "start.guess"),
+    ],
+)
+def test_scenario_mistakes_give_one_line_errors_naming_the_key(
+    tmp_path: Path, old: str, new: str, fragment: str
+) -> None:
+    p = tmp_path / "bad.toml"
+    p.write_text(_edit(PAPER_TOML.read_text(), old, new), encoding="utf-8")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    msg = str(info.value)
+    assert fragment in msg and "\n" not in msg
+
+
+def test_radial_beta_needs_a_circle_task() -> None:
+    import tomllib
+
+    data = tomllib.loads(scenario_text())
+    data["task"] = {"type": "line", "start": [1.2, -0.3, -0.1], "end": [1.3, -0.3, -0.1], "duration": 1.0}
+    with pytest.raises(ScenarioError, match="radial"):
+        parse_scenario(data)
+    data["compliance"]["beta_x"] = [1, 0, 0, 0, 0, 0]
+    assert parse_scenario(data).beta_x(0.3).tolist() == [1, 0, 0, 0, 0, 0]
+
+
+def test_missing_file_and_invalid_toml_are_scenario_errors(tmp_path: Path) -> None:
+    with pytest.raises(ScenarioError, match="not found"):
+        load_scenario(tmp_path / "nope.toml")
+    bad = tmp_path / "broken.toml"
+    bad.write_text("[robot\nmodel = 1", encoding="utf-8")
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        load_scenario(bad)
+
+
+def test_brace_can_be_placed_at_a_link_point_and_urdf_paths_are_relative_to_the_file(tmp_path: Path) -> None:
+    from bracekit.models import model_path
+
+    (tmp_path / "robot.urdf").write_text(model_path("paper-robot").read_text(), encoding="utf-8")
+    text = scenario_text()
+    text = _edit(text, 'model = "paper-robot"', 'urdf = "robot.urdf"')
+    text = _edit(text, 'frame = "brace"', 'frame = "pad"\nlink = "link6"\noffset = [0.0, 0.0, 0.05]')
+    p = tmp_path / "custom.toml"
+    p.write_text(text, encoding="utf-8")
+    sc = load_scenario(p)
+    q = sc.guess
+    # the new frame sits where the URDF's own brace frame is (same link, same offset)
+    ref = load_scenario("paper").braced.state(q)
+    assert np.allclose(sc.braced.state(q).b, ref.b, atol=1e-12)
+
+
+def test_region_barrier_weight_needs_a_region(tmp_path: Path) -> None:
+    text = _edit(scenario_text(), "region_radius = 0.15", "")
+    p = tmp_path / "noregion.toml"
+    p.write_text(text, encoding="utf-8")
+    with pytest.raises(ScenarioError, match="region_radius"):
+        load_scenario(p)

@@ -1,0 +1,116 @@
+"""Simulation: tracking with correction, contact kept to 1e-9 m, failures and region exits reported."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from bracekit import (
+    BracedGradientProjection,
+    BracedMinNorm,
+    Circle,
+    ConvergenceError,
+    FreeSpaceMinNorm,
+    InputError,
+    RegionWarning,
+    load_scenario,
+    simulate,
+    solve_start,
+)
+from bracekit.simulate import correct
+
+
+@pytest.fixture(scope="module")
+def setup():
+    sc = load_scenario("paper")
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
+    # the paper's circle at the paper's speed, first tenth of the turn (20 steps of 0.1 s)
+    task = Circle(sc.task.centre, sc.task.radius, sc.task.normal, sc.task.period, sc.task.start_direction, turns=0.1)
+    return sc, start, task
+
+
+def test_solved_start_has_the_tip_on_the_task_and_the_contact_closed(setup) -> None:
+    sc, start, _ = setup
+    brace = sc.braced.brace
+    assert np.linalg.norm(start.e - sc.task.position(0.0)) < 1e-10
+    assert abs(brace.surface.signed_distance(start.b)) < 1e-10
+    assert np.linalg.norm(start.b - brace.surface.point) < brace.region_radius
+    assert np.all(start.q >= sc.robot.lower) and np.all(start.q <= sc.robot.upper)
+
+
+@pytest.mark.parametrize("name", ["braced_min_norm", "braced_gradient_projection"])
+def test_braced_runs_keep_the_bracing_point_on_the_surface_and_the_tip_on_the_task(setup, name: str) -> None:
+    sc, start, task = setup
+    tr = simulate(sc.braced, sc.strategy(name), task, start.q, 0.1, sc.beta_x)
+    assert tr.completed, tr.failure
+    assert tr.steps == 20
+    surface = sc.braced.brace.surface
+    for q, t in zip(tr.q, tr.t, strict=True):
+        st = sc.braced.state(q)
+        assert abs(surface.signed_distance(st.b)) < 1e-9  # recomputed, not the recorded value
+        assert np.linalg.norm(st.e - task.position(t)) < 1e-9
+    assert tr.summary()["max_contact_violation_m"] < 1e-9
+
+
+def test_free_space_run_tracks_the_task_but_leaves_the_surface(setup) -> None:
+    sc, start, task = setup
+    tr = simulate(sc.braced, FreeSpaceMinNorm(), task, start.q, 0.1, sc.beta_x)
+    s = tr.summary()
+    assert tr.completed and s["max_task_error_m"] < 1e-9
+    assert s["max_contact_violation_m"] > 1e-4
+
+
+def test_gradient_projection_lowers_the_objective_compared_with_minimum_norm(setup) -> None:
+    sc, start, task = setup
+    obj = sc.objective()
+    mean_g = {}
+    for strategy in (BracedMinNorm(), BracedGradientProjection(obj)):
+        tr = simulate(sc.braced, strategy, task, start.q, 0.1, sc.beta_x)
+        mean_g[strategy.name] = np.mean([obj.value(sc.braced.state(q)) for q in tr.q[1:]])
+    assert mean_g["braced_gradient_projection"] < mean_g["braced_min_norm"]
+
+
+def test_an_unreachable_task_ends_the_run_with_a_reported_failure(setup) -> None:
+    sc, start, _ = setup
+    far = Circle([3.0, 0.0, 0.0], 0.1, [0, 1, 0], 2.0, [1, 0, 0])
+    tr = simulate(sc.braced, BracedMinNorm(), far, start.q, 0.1, sc.beta_x)
+    assert not tr.completed
+    assert tr.failure and "step 1" in tr.failure
+    assert tr.q.shape[0] == tr.t.shape[0] == 1
+    assert not tr.summary()["completed"]
+
+
+def test_leaving_the_bracing_region_warns_but_does_not_stop_minimum_norm(setup) -> None:
+    sc, start, task = setup
+    small = sc.braced.brace
+    from bracekit import Brace, BracedRobot
+
+    tiny = BracedRobot(sc.robot, Brace(small.frame, small.surface, region_radius=0.02))
+    with pytest.warns(RegionWarning):
+        tr = simulate(tiny, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert tr.completed
+    assert tr.summary()["max_region_radius_m"] > 0.02
+    assert tr.warnings
+
+
+def test_correction_raises_convergence_error_for_an_unreachable_pose(setup) -> None:
+    sc, start, _ = setup
+    with pytest.raises(ConvergenceError):
+        correct(sc.braced, start.q, np.array([5.0, 0.0, 0.0]), start.R_e, None, max_iter=5)
+
+
+def test_simulate_rejects_a_non_positive_time_step(setup) -> None:
+    sc, start, task = setup
+    with pytest.raises(InputError):
+        simulate(sc.braced, BracedMinNorm(), task, start.q, 0.0, sc.beta_x)
+
+
+def test_no_warnings_or_nan_in_a_gradient_projection_run(setup) -> None:
+    sc, start, task = setup
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tr = simulate(sc.braced, sc.strategy("braced_gradient_projection"), task, start.q, 0.1, sc.beta_x)
+    for values in tr.measures.values():
+        assert np.all(np.isfinite(values))

@@ -1,0 +1,69 @@
+"""Tasks: positions, velocities (checked by finite differences) and validation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bracekit import Circle, InputError, Line, Waypoints
+
+
+def _fd_velocity(task, t: float, h: float = 1e-6) -> np.ndarray:
+    return (task.position(t + h) - task.position(t - h)) / (2 * h)
+
+
+def test_circle_velocity_is_the_time_derivative_of_its_position() -> None:
+    c = Circle([1.0, 0.0, 0.5], 0.1, [0, 1, 0], 4.0, [1, 0, 0])
+    for t in np.linspace(0.1, 3.9, 7):
+        assert np.allclose(c.velocity(t), _fd_velocity(c, t), atol=1e-8)
+
+
+def test_circle_stays_at_radius_in_its_plane_and_starts_along_start_direction() -> None:
+    c = Circle([1.0, 0.0, 0.5], 0.2, [0, 0, 2], 3.0, [0, 1, 0.5])
+    assert np.allclose(c.position(0.0), [1.0, 0.2, 0.5])
+    for t in np.linspace(0, 3, 11):
+        rel = c.position(t) - c.centre
+        assert np.isclose(np.linalg.norm(rel), 0.2)
+        assert np.isclose(rel[2], 0.0)
+        assert np.allclose(c.radial(t), rel / 0.2)
+    assert np.allclose(c.position(3.0), c.position(0.0))
+
+
+def test_waypoints_interpolate_linearly_and_velocity_matches_finite_differences() -> None:
+    w = Waypoints([[0, 0, 0], [1, 0, 0], [1, 2, 0]], [0.0, 1.0, 3.0])
+    assert np.allclose(w.position(0.5), [0.5, 0, 0])
+    assert np.allclose(w.position(2.0), [1, 1, 0])
+    assert np.allclose(w.velocity(2.0), _fd_velocity(w, 2.0))
+    assert w.duration == 3.0
+
+
+def test_line_runs_from_start_to_end_at_constant_speed() -> None:
+    line = Line([0, 0, 0], [0.3, 0, 0.4], 2.0)
+    assert np.allclose(line.position(2.0), [0.3, 0, 0.4])
+    assert np.isclose(np.linalg.norm(line.velocity(1.0)), 0.25)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"radius": 0.0},
+        {"period": -1.0},
+        {"normal": [0, 0, 0]},
+        {"start_direction": [0, 1, 0]},
+        {"centre": [0, 0]},
+    ],
+)
+def test_circle_rejects_bad_parameters(kwargs: dict) -> None:
+    base = {"centre": [0, 0, 0], "radius": 0.1, "normal": [0, 1, 0], "period": 1.0, "start_direction": [1, 0, 0]}
+    base.update(kwargs)
+    with pytest.raises(InputError):
+        Circle(**base)
+
+
+def test_waypoints_reject_non_increasing_times_and_single_points() -> None:
+    with pytest.raises(InputError):
+        Waypoints([[0, 0, 0], [1, 0, 0]], [0.0, 0.0])
+    with pytest.raises(InputError):
+        Waypoints([[0, 0, 0]], [0.0])
+    with pytest.raises(InputError):
+        Line([0, 0, 0], [1, 0, 0], 0.0)
