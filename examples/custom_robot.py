@@ -12,7 +12,8 @@ import bracekit as bk
 URDF = """
 <robot name="arm8">
   <link name="base"/>
-  <link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/><link name="l5"/><link name="l6"/><link name="l7"/><link name="l8"/>
+  <link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/>
+  <link name="l5"/><link name="l6"/><link name="l7"/><link name="l8"/>
   <link name="tool"/>
   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0 0 0.3"/>
     <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
@@ -46,7 +47,7 @@ braced = bk.BracedRobot(robot, bk.Brace("pad", bk.Surface(probe.b, [-1, 0, 0]), 
 print(f"n1 = {braced.n1} (chain 1 is not 6 joints: the braced motions of b are the null space of Xᵀ J1)")
 
 e0 = braced.state(q0).e
-task = bk.Line(e0, e0 + [0.0, 0.1, -0.05], duration=2.0)
+task = bk.Line(e0, e0 + np.array([0.0, 0.1, -0.05]), duration=2.0)
 beta_x = lambda t: np.array([1.0, 0, 0, 0, 0, 0])  # noqa: E731 - compliance along the wall normal
 objective = bk.Objective(
     [bk.ComplianceIndex(beta_x(0.0)), bk.ConditionNumber(), bk.RegionBarrier(0.2, probe.b)], [100.0, 0.5, 0.01]
