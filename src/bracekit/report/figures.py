@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from numpy.typing import NDArray
 
 from ..compliance import compliance_ellipsoids, end_effector_compliance, free_space_compliance
@@ -41,6 +42,7 @@ def _scene(ax: plt.Axes, result: RunResult) -> None:
     brace = sc.braced.brace
     r_max = brace.region_radius or 0.15
     reg = _circle(brace.surface.point, brace.surface.normal, r_max)
+    ax.add_collection3d(Poly3DCollection([reg], facecolor="tab:blue", alpha=0.15, edgecolor="none"))
     ax.plot(*reg.T, color="tab:blue", lw=1.5, label=f"bracing region (r_max = {r_max:.2f} m)")
     ts = np.linspace(0.0, sc.task.duration, 200)
     path = np.array([sc.task.position(t) for t in ts])
