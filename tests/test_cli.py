@@ -166,3 +166,21 @@ def test_help_lists_the_commands(capsys) -> None:
     out = capsys.readouterr().out
     for cmd in ("evaluate", "run", "validate", "bench"):
         assert cmd in out
+
+
+def test_validate_json_has_the_required_keys(capsys, tmp_path: Path) -> None:
+    out = tmp_path / "val"
+    code, stdout, _ = _run(["validate", "paper", "--configs", "1", "--json", "--out", str(out)], capsys)
+    assert code == 0
+    data = json.loads(stdout)
+    assert "cases" in data
+    for model in ("constrained", "projection", "free_space"):
+        for key in ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static"):
+            assert isinstance(data[model][key], float)
+    assert data["constrained"]["median_rel_err_mujoco"] < 0.01
+    assert (out / "validation.png").stat().st_size > 0 and (out / "validation.json").is_file()
+
+
+def test_validate_rejects_zero_configurations(capsys) -> None:
+    code, _, err = _run(["validate", "--configs", "0"], capsys)
+    assert code == 2 and "--configs" in err

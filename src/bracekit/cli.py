@@ -237,17 +237,32 @@ def _validate(args: argparse.Namespace) -> int:
     from .report.output import atomic_directory, to_json
     from .scenario import load_scenario
     from .validate import figure_validation, run_validation
+    from .validate.runner import DEFAULT_DIRECTIONS
 
     if args.configs < 1:
         raise InputError(f"--configs must be at least 1, got {args.configs}")
     scenario = load_scenario(args.scenario)
-    report = run_validation(scenario, configs=args.configs)
+    bar = None
+    if not args.json:
+        from tqdm import tqdm
+
+        total = args.configs * len(DEFAULT_DIRECTIONS)
+        bar = tqdm(total=total, desc=f"{scenario.name}: validating", unit="case", file=sys.stderr)
+    try:
+        report = run_validation(scenario, configs=args.configs, progress=None if bar is None else bar.update)
+    finally:
+        if bar is not None:
+            bar.close()
     data = report.to_json()
     if args.out is not None:
         with atomic_directory(args.out) as tmp:
             (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
             figure_validation(report, tmp / "validation.png")
     print(to_json(data) if args.json else report.table_text())
+    counts = report.counts()
+    if counts.get("failed", 0) > 0 or report.model_stats("constrained")["n_cases"] == 0:
+        print(f"bracekit: error: {counts.get('failed', 0)} validation case(s) failed", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -46,7 +46,10 @@ def _load_urdf(source: str | Path) -> pin.Model:
 
 def _as_stiffness(stiffness: float | Sequence[float] | ArrayLike, names: Sequence[str]) -> Array:
     n = len(names)
-    k = np.asarray(stiffness, dtype=float)
+    try:
+        k = np.asarray(stiffness, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"joint stiffness must be numbers in N·m/rad, got {stiffness!r}") from None
     if k.ndim == 0:
         k = np.full(n, float(k))
     k = k.reshape(-1)

@@ -1,0 +1,714 @@
+"""Physical validation of the first-order compliance models (issue 4, ``bracekit validate``).
+
+For a few configurations of a scenario's braced path and a set of small tip wrenches w, the tip deflection
+predicted by each first-order model, Δx_pred = C w, is compared with two independent references:
+
+* MuJoCo (:func:`~bracekit.validate.mujoco_check.mujoco_static_deflection`): spring-jointed chain, unilateral
+  frictionless sphere contact, the contact preloaded with a force P, settled quasi-statically;
+* the nonlinear static equilibrium (:func:`~bracekit.validate.statics.solve_static_equilibrium`) with the
+  same preload and a unilateral contact (``bilateral=False``).
+
+Models: ``constrained`` (C_e with the Lagrange-multiplier C̃1), ``projection`` (C_e with the paper's
+(I − P) C1 (I − P)) and ``free_space`` (J K⁻¹ Jᵀ, the unbraced robot).
+
+Error measure. Δx = [Δp; Δθ] mixes metres and radians, so both deflections are compared in the weighted
+norm ‖Δx‖_L = ‖[Δp; L·Δθ]‖ (m), L = ‖e − b‖ the lever from the brace point to the tip at the configuration
+(a rotation of the tip by Δθ about the brace moves the tip by about L·Δθ). The relative error is
+‖Δx_pred − Δx_ref‖_L / ‖Δx_ref‖_L. Units: wrench [f; m] in N and N·m, deflections in m and rad, world axes.
+
+A case whose contact opens under the load (either reference ends with no contact force) is reported with
+status ``contact_opened`` and kept out of the error statistics: the first-order braced models assume a
+closed contact. A case where MuJoCo or the static solve fails is reported with status ``failed`` and the
+message, and the run goes on. Statistics are ``None`` (never NaN) when no case contributes.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from ..compliance import end_effector_compliance, free_space_compliance
+from ..errors import BracekitError, InputError, NumericalError, RegionWarning
+from ..kinematics import BracedRobot, BracedState
+from ..scenario import Scenario, load_scenario
+from ..simulate import simulate, solve_start
+from .mujoco_check import MujocoValidationError, mujoco_static_deflection
+from .statics import StaticSolveError, frame_jacobian_derivative, solve_static_equilibrium
+
+__all__ = [
+    "DEFAULT_DIRECTIONS",
+    "FORCE_DIRECTIONS",
+    "MODELS",
+    "ValidationReport",
+    "figure_preload",
+    "figure_validation",
+    "preload_study",
+    "run_validation",
+    "validation_configurations",
+]
+
+Array = NDArray[np.float64]
+ModelName = Literal["constrained", "projection", "free_space"]
+
+#: The first-order models compared, in report order.
+MODELS: tuple[ModelName, ...] = ("constrained", "projection", "free_space")
+
+_S3 = 1.0 / np.sqrt(3.0)
+_S2 = 1.0 / np.sqrt(2.0)
+#: Default load directions [f̂; m̂] (world axes): each non-zero part is scaled to ``force`` N / ``moment`` N·m.
+DEFAULT_DIRECTIONS: tuple[tuple[str, tuple[float, ...]], ...] = (
+    ("force +x", (1.0, 0.0, 0.0, 0.0, 0.0, 0.0)),
+    ("force -x", (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)),
+    ("force +y", (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)),
+    ("force -y", (0.0, -1.0, 0.0, 0.0, 0.0, 0.0)),
+    ("force +z", (0.0, 0.0, 1.0, 0.0, 0.0, 0.0)),
+    ("force -z", (0.0, 0.0, -1.0, 0.0, 0.0, 0.0)),
+    ("force (1,1,-1)/√3", (_S3, _S3, -_S3, 0.0, 0.0, 0.0)),
+    ("force (-1,1,-1)/√3", (-_S3, _S3, -_S3, 0.0, 0.0, 0.0)),
+    ("moment +x", (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)),
+    ("moment (0,1,1)/√2", (0.0, 0.0, 0.0, 0.0, _S2, _S2)),
+)
+#: The pure-force directions of :data:`DEFAULT_DIRECTIONS` (used by :func:`preload_study`).
+FORCE_DIRECTIONS = tuple(d for d in DEFAULT_DIRECTIONS if not any(d[1][3:]))
+
+#: MuJoCo settings used by the validation (recorded in the report).
+MUJOCO_SETTINGS: dict[str, Any] = {
+    "contact": "frictionless sphere on a plane, condim 1, solref '0.002 1', solimp '0.9999 0.9999 0.001'",
+    "sphere_radius_m": 1e-4,
+    "integrator": "implicitfast, Newton solver, timestep <= 1 ms, joint damping tau*k_i (heaviest mode critical)",
+    "settle_tol_rad": 1e-11,
+    "gravity": False,
+}
+
+
+# --------------------------------------------------------------------------------------------------
+# Inputs
+# --------------------------------------------------------------------------------------------------
+def _scenario(scenario: Scenario | str | Path) -> Scenario:
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    brace = sc.braced.brace
+    if brace.contact.name != "frictionless_point":
+        raise InputError(
+            f"validation supports the frictionless point contact only (MuJoCo and the static solve model it); "
+            f"scenario '{sc.name}' uses '{brace.contact.name}'"
+        )
+    if brace.environment_stiffness is not None:
+        raise InputError(
+            f"validation assumes a rigid surface; scenario '{sc.name}' sets brace.environment_stiffness: remove it"
+        )
+    return sc
+
+
+def _positive(value: float, name: str, unit: str, *, zero_ok: bool = False) -> float:
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
+    if not ok or value < 0 or (value == 0 and not zero_ok):
+        want = ">= 0" if zero_ok else "> 0"
+        raise InputError(f"{name} must be a finite number {want} {unit}, got {value!r}")
+    return float(value)
+
+
+def _count(n: object, name: str) -> int:
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or int(n) < 1:
+        raise InputError(f"{name} must be a whole number >= 1, got {n!r}")
+    return int(n)
+
+
+def _directions(directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike]) -> list[tuple[str, Array]]:
+    """Normalise load directions to (label, [f̂; m̂]) with unit (or zero) force and moment parts."""
+    out = []
+    if len(directions) == 0:
+        raise InputError("directions must hold at least one load direction [fx, fy, fz, mx, my, mz]")
+    for i, item in enumerate(directions):
+        if isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str):
+            label, vec = item[0], item[1]
+        else:
+            label, vec = f"direction {i}", item
+        v = np.asarray(vec, dtype=float).reshape(-1)
+        if v.size != 6 or not np.all(np.isfinite(v)):
+            raise InputError(f"load direction '{label}' must be 6 finite numbers [fx, fy, fz, mx, my, mz]")
+        nf, nm = np.linalg.norm(v[:3]), np.linalg.norm(v[3:])
+        if nf == 0.0 and nm == 0.0:
+            raise InputError(f"load direction '{label}' is zero")
+        out.append((label, np.concatenate([v[:3] / nf if nf else v[:3], v[3:] / nm if nm else v[3:]])))
+    return out
+
+
+def validation_configurations(scenario: Scenario | str | Path, n: int) -> list[Array]:
+    """n braced configurations (each (n_joints,), rad) of a scenario, contact closed at every one.
+
+    The first is the solved start configuration; the others are evenly spaced samples (in time) of the
+    braced minimum-norm run along the task, ``k·N/n`` for k = 0..n−1 of the N samples (the task's end,
+    which repeats the start of a closed circle, is not taken). Raises InputError for n < 1 and
+    ConvergenceError when the start cannot be solved.
+    """
+    n = _count(n, "the number of configurations")
+    sc = _scenario(scenario)
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
+    if n == 1:
+        return [start.q.copy()]
+    with warnings.catch_warnings():  # leaving the bracing region does not matter for a static check
+        warnings.simplefilter("ignore", RegionWarning)
+        tr = simulate(
+            sc.braced,
+            sc.strategy("braced_min_norm"),
+            sc.task,
+            start.q,
+            sc.dt,
+            sc.beta_x,
+            feedback_gain=sc.feedback_gain,
+        )
+    samples = tr.q.shape[0]
+    if samples < n:
+        raise NumericalError(
+            f"the braced minimum-norm run gave {samples} samples, fewer than the {n} configurations asked for"
+            + (f" ({tr.failure})" if tr.failure else "")
+        )
+    idx = (np.arange(n) * samples) // n
+    return [tr.q[i].copy() for i in idx]
+
+
+# --------------------------------------------------------------------------------------------------
+# One configuration
+# --------------------------------------------------------------------------------------------------
+def _weighted(dx: Array, length: float) -> Array:
+    return np.concatenate([dx[:3], length * dx[3:]])
+
+
+def _rel_err(pred: Array, ref: Array | None, length: float) -> float | None:
+    """‖pred − ref‖_L / ‖ref‖_L with ‖[Δp; Δθ]‖_L = ‖[Δp; L Δθ]‖; None if there is no reference."""
+    if ref is None:
+        return None
+    den = float(np.linalg.norm(_weighted(ref, length)))
+    if not np.isfinite(den) or den <= 1e-300:
+        return None
+    val = float(np.linalg.norm(_weighted(pred - ref, length))) / den
+    return val if np.isfinite(val) else None
+
+
+@dataclass(frozen=True)
+class _Config:
+    """What every case at one configuration shares."""
+
+    state: BracedState
+    compliances: dict[str, Array]
+    length: float
+
+
+def _config(braced: BracedRobot, q: ArrayLike, index: int) -> _Config:
+    st = braced.state(q)
+    gap = braced.brace.surface.signed_distance(st.b)
+    if abs(gap) > 1e-8:
+        raise InputError(
+            f"configuration {index}: the brace point is {gap:.3e} m from the surface; give braced configurations"
+        )
+    comp = {
+        "constrained": end_effector_compliance(st, "constrained"),
+        "projection": end_effector_compliance(st, "projection"),
+        "free_space": free_space_compliance(st),
+    }
+    return _Config(state=st, compliances=comp, length=float(np.linalg.norm(st.e - st.b)))
+
+
+def _references(
+    braced: BracedRobot, cfg: _Config, w: Array, preload: float, max_steps: int
+) -> tuple[dict[str, Any], list[str]]:
+    """Static and MuJoCo deflections of one load case; failures go into the message list."""
+    robot, surface, q = braced.robot, braced.brace.surface, cfg.state.q
+    common = (robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, surface.point, surface.normal, w)
+    out: dict[str, Any] = {"static": None, "mujoco": None}
+    messages = []
+    try:
+        out["static"] = solve_static_equilibrium(*common, bilateral=False, preload=preload)
+    except (StaticSolveError, ValueError, np.linalg.LinAlgError) as exc:
+        messages.append(f"static solve failed: {exc}")
+    try:
+        out["mujoco"] = mujoco_static_deflection(
+            *common, preload=preload, max_steps=max_steps, sphere_radius=MUJOCO_SETTINGS["sphere_radius_m"]
+        )
+    except (MujocoValidationError, ValueError) as exc:
+        messages.append(f"MuJoCo failed: {exc}")
+    return out, messages
+
+
+def _case(braced: BracedRobot, cfg: _Config, index: int, label: str, w: Array, preload: float, max_steps: int) -> dict:
+    refs, messages = _references(braced, cfg, w, preload, max_steps)
+    st, mj = refs["static"], refs["mujoco"]
+    ref = {
+        "static": None if st is None else np.asarray(st.deflection, dtype=float),
+        "mujoco": None if mj is None else np.asarray(mj.deflection, dtype=float),
+    }
+    pred = {m: cfg.compliances[m] @ w for m in MODELS}
+    opened = bool((st is not None and st.contact_opened) or (mj is not None and mj.contact_opened))
+    if messages:
+        status = "failed"
+    elif opened:
+        status = "contact_opened"
+        messages.append(
+            "the contact opened under this load (preload too small for it): the braced first-order models "
+            "assume a closed contact, so this case is not in the statistics"
+        )
+    else:
+        status = "ok"
+    return {
+        "config": index,
+        "label": label,
+        "wrench": w.tolist(),
+        "status": status,
+        "message": "; ".join(messages) if messages else None,
+        "length_scale_m": cfg.length,
+        "deflection": {
+            **{k: (None if v is None else v.tolist()) for k, v in ref.items()},
+            **{m: pred[m].tolist() for m in MODELS},
+        },
+        "rel_err": {m: {k: _rel_err(pred[m], ref[k], cfg.length) for k in ("mujoco", "static")} for m in MODELS},
+        "rel_err_mujoco_vs_static": (
+            _rel_err(ref["mujoco"], ref["static"], cfg.length) if ref["mujoco"] is not None else None
+        ),
+        "contact_force_static": None if st is None else float(st.contact_force),
+        "contact_force_mujoco": None if mj is None else float(mj.contact_force),
+        "opened": opened,
+        "opened_static": None if st is None else bool(st.contact_opened),
+        "opened_mujoco": None if mj is None else bool(mj.contact_opened),
+        "mujoco_steps": None if mj is None else int(mj.steps),
+    }
+
+
+def _failed_config(index: int, labelled: list[tuple[str, Array]], scale: Array, exc: Exception) -> list[dict]:
+    return [
+        {
+            "config": index,
+            "label": label,
+            "wrench": (d * scale).tolist(),
+            "status": "failed",
+            "message": f"configuration {index}: {exc}",
+            "length_scale_m": None,
+            "deflection": {k: None for k in ("mujoco", "static", *MODELS)},
+            "rel_err": {m: {"mujoco": None, "static": None} for m in MODELS},
+            "rel_err_mujoco_vs_static": None,
+            "contact_force_static": None,
+            "contact_force_mujoco": None,
+            "opened": False,
+            "opened_static": None,
+            "opened_mujoco": None,
+            "mujoco_steps": None,
+        }
+        for label, d in labelled
+    ]
+
+
+# --------------------------------------------------------------------------------------------------
+# Report
+# --------------------------------------------------------------------------------------------------
+def _stats(values: list[float | None]) -> tuple[float | None, float | None]:
+    v = [x for x in values if x is not None and np.isfinite(x)]
+    if not v:
+        return None, None
+    return float(np.median(v)), float(np.max(v))
+
+
+def _fmt(x: float | None) -> str:
+    """A relative error as a percentage (3 significant digits), 'n/a' when missing."""
+    return "n/a" if x is None else f"{100.0 * x:.3g} %"
+
+
+@dataclass
+class ValidationReport:
+    """Result of :func:`run_validation`.
+
+    ``cases``: one JSON-able dict per (configuration, load): ``config`` (index), ``label``, ``wrench`` [f; m]
+    (N, N·m, world), ``status`` (``ok`` | ``contact_opened`` | ``failed``), ``message``, ``length_scale_m`` L,
+    ``deflection`` {mujoco, static, constrained, projection, free_space} → [Δp; Δθ] (m, rad) or None,
+    ``rel_err`` {model: {mujoco, static}}, ``rel_err_mujoco_vs_static``, ``contact_force_static`` /
+    ``contact_force_mujoco`` (N), ``opened`` (+ per reference), ``mujoco_steps``.
+    """
+
+    scenario: str
+    configurations: list[list[float]]
+    settings: dict[str, Any]
+    cases: list[dict[str, Any]] = field(default_factory=list)
+
+    def _ok(self) -> list[dict[str, Any]]:
+        return [c for c in self.cases if c["status"] == "ok"]
+
+    def model_stats(self, model: str) -> dict[str, float | int | None]:
+        """Median and max relative error of a model vs MuJoCo and vs the static solve (closed-contact cases)."""
+        ok = self._ok()
+        med_m, max_m = _stats([c["rel_err"][model]["mujoco"] for c in ok])
+        med_s, max_s = _stats([c["rel_err"][model]["static"] for c in ok])
+        return {
+            "median_rel_err_mujoco": med_m,
+            "max_rel_err_mujoco": max_m,
+            "median_rel_err_static": med_s,
+            "max_rel_err_static": max_s,
+            "n_cases": len(ok),
+        }
+
+    def mujoco_vs_static(self) -> dict[str, float | int | None]:
+        """Agreement of the two references on every case where both ran (opened contacts included)."""
+        vals = [c["rel_err_mujoco_vs_static"] for c in self.cases if c["rel_err_mujoco_vs_static"] is not None]
+        med, mx = _stats(vals)
+        return {"median_rel_err": med, "max_rel_err": mx, "n_cases": len(vals)}
+
+    def counts(self) -> dict[str, int]:
+        """Number of cases per status."""
+        return {s: sum(c["status"] == s for c in self.cases) for s in ("ok", "contact_opened", "failed")}
+
+    def to_json(self) -> dict[str, Any]:
+        """One JSON-serialisable dict (no NaN: missing numbers are None)."""
+        return {
+            "scenario": self.scenario,
+            "error_measure": (
+                "relative error ||dx_pred - dx_ref||_L / ||dx_ref||_L with ||[dp; dtheta]||_L = ||[dp; L*dtheta]||, "
+                "L = |e - b| (m) at the configuration; statistics over the cases whose contact stays closed"
+            ),
+            "counts": self.counts(),
+            **{m: self.model_stats(m) for m in MODELS},
+            "mujoco_vs_static": self.mujoco_vs_static(),
+            "settings": self.settings,
+            "configurations": self.configurations,
+            "cases": self.cases,
+        }
+
+    def table_text(self) -> str:
+        """Aligned text table: median and max relative error of each model vs MuJoCo and vs the static solve."""
+        cnt = self.counts()
+        s = self.settings
+        head = [
+            f"Validation of the first-order compliance models, scenario '{self.scenario}'",
+            f"{len(self.configurations)} configuration(s), {len(self.cases)} load case(s): {cnt['ok']} compared, "
+            f"{cnt['contact_opened']} with the contact opened, {cnt['failed']} failed",
+            f"loads: |f| = {s['force_N']:g} N, |m| = {s['moment_Nm']:g} N·m; contact preload P = {s['preload_N']:g} N",
+            "relative error ‖Δx_pred − Δx_ref‖ / ‖Δx_ref‖ with Δx = [Δp; L·Δθ], L = ‖e − b‖ (m)",
+            "",
+        ]
+        cols = ("model", "median vs MuJoCo", "max vs MuJoCo", "median vs static", "max vs static")
+        keys = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
+        rows = [(m, *(_fmt(self.model_stats(m)[k]) for k in keys)) for m in MODELS]
+        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
+        line = "  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(cols))
+        body = ["  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(r)) for r in rows]
+        fails = [f"  config {c['config']}, {c['label']}: {c['message']}" for c in self.cases if c["status"] == "failed"]
+        ms = self.mujoco_vs_static()
+        agree = (
+            f"MuJoCo vs static solve ({ms['n_cases']} cases where both ran): median {_fmt(ms['median_rel_err'])}, "
+            f"max {_fmt(ms['max_rel_err'])}"
+        )
+        tail = ["", "failed cases:", *fails] if fails else []
+        return "\n".join([*head, line, "-" * len(line), *body, "", agree, *tail])
+
+
+def run_validation(
+    scenario: Scenario | str | Path,
+    configs: int | Sequence[ArrayLike] = 3,
+    *,
+    force: float = 0.5,
+    moment: float = 0.05,
+    preload: float = 1.0,
+    directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike] = DEFAULT_DIRECTIONS,
+    max_steps: int = 100_000,
+    progress: Callable[[int], None] | None = None,
+) -> ValidationReport:
+    """Compare the three first-order compliance models with MuJoCo and the nonlinear static solve.
+
+    Args:
+        scenario: a Scenario, a shipped name ('paper') or a TOML path; frictionless point contact, rigid surface.
+        configs: number of configurations (:func:`validation_configurations`) or the configurations
+            themselves (each (n,), rad, brace point on the surface).
+        force: magnitude of the force part of each load, N (> 0).
+        moment: magnitude of the moment part, N·m (> 0).
+        preload: contact force P before loading, N (≥ 0); both references set their springs so that the
+            configuration is the equilibrium under P. A load that pulls more than P off the surface opens it.
+        directions: load directions, (label, [f̂; m̂]) pairs or bare 6-vectors (world axes); each non-zero part
+            is scaled to ``force`` / ``moment``.
+        max_steps: MuJoCo step budget per case.
+        progress: called with 1 after each case (for a progress bar).
+
+    Returns:
+        :class:`ValidationReport`; failed and opened cases are marked in it, never dropped.
+
+    Raises:
+        InputError: bad scenario, configs, loads or directions.
+    """
+    sc = _scenario(scenario)
+    force = _positive(force, "force", "N")
+    moment = _positive(moment, "moment", "N·m")
+    preload = _positive(preload, "preload", "N", zero_ok=True)
+    max_steps = _count(max_steps, "max_steps")
+    labelled = _directions(directions)
+    if isinstance(configs, int | np.integer) and not isinstance(configs, bool):
+        qs = validation_configurations(sc, _count(configs, "configs"))
+    elif isinstance(configs, bool) or isinstance(configs, str) or not isinstance(configs, Sequence | np.ndarray):
+        raise InputError(f"configs must be a whole number >= 1 or a list of configurations, got {configs!r}")
+    else:
+        if len(configs) == 0:
+            raise InputError("configs must hold at least one configuration")
+        try:
+            qs = [sc.robot.check_q(q) for q in configs]
+        except (BracekitError, ValueError, TypeError) as exc:
+            raise InputError(f"bad configuration in configs: {exc}") from exc
+    scale = np.array([force] * 3 + [moment] * 3)
+    report = ValidationReport(
+        scenario=sc.name,
+        configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
+        settings={
+            "force_N": force,
+            "moment_Nm": moment,
+            "preload_N": preload,
+            "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+            "length_scale": "L = |e - b| at each configuration (m)",
+            "static_solve": "Newton on the KKT system, unilateral contact (opens if it would pull), tol 1e-12",
+            "mujoco": {**MUJOCO_SETTINGS, "max_steps": max_steps},
+        },
+    )
+    for i, q in enumerate(qs):
+        try:
+            cfg = _config(sc.braced, q, i)
+        except InputError:
+            raise
+        except (BracekitError, np.linalg.LinAlgError) as exc:
+            report.cases.extend(_failed_config(i, labelled, scale, exc))
+            if progress is not None:
+                progress(len(labelled))
+            continue
+        for label, d in labelled:
+            report.cases.append(_case(sc.braced, cfg, i, label, d * scale, preload, max_steps))
+            if progress is not None:
+                progress(1)
+    return report
+
+
+# --------------------------------------------------------------------------------------------------
+# Preload study
+# --------------------------------------------------------------------------------------------------
+def preloaded_compliance(braced: BracedRobot, q: ArrayLike, preload: float) -> Array:
+    """First-order tip compliance (6×6, world axes) with the preload's geometric stiffness included.
+
+    Linearising K (q − rest) = J_eᵀ w + J_b,vᵀ n̂ λ about the preloaded equilibrium (λ = P) with the
+    contact kept closed gives (K − P ∂(J_b,vᵀ n̂)/∂q) δq − a δλ = J_eᵀ δw, aᵀ δq = 0 (a = J_b,vᵀ n̂): the
+    constrained model with K replaced by the tangent stiffness. At P = 0 it equals the ``constrained`` C_e.
+    """
+    robot, n = braced.robot, braced.robot.n
+    model, data = robot.model, robot.model.createData()
+    qa = robot.check_q(q)
+    pin.computeJointJacobians(model, data, qa)
+    pin.updateFramePlacements(model, data)
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    nhat = braced.brace.surface.normal
+    j_e = pin.getFrameJacobian(model, data, robot.tip_id, lwa)
+    a = pin.getFrameJacobian(model, data, braced.brace_id, lwa)[:3].T @ nhat
+    d_jb = frame_jacobian_derivative(model, data, braced.brace_id)[:3]
+    k_t = np.diag(robot.stiffness) - preload * np.einsum("r,rik->ik", nhat, d_jb)
+    kkt = np.zeros((n + 1, n + 1))
+    kkt[:n, :n] = 0.5 * (k_t + k_t.T)
+    kkt[:n, n] = kkt[n, :n] = -a
+    rhs = np.zeros((n + 1, 6))
+    rhs[:n] = j_e.T
+    dq = np.linalg.solve(kkt, rhs)[:n]
+    c = j_e @ dq
+    return 0.5 * (c + c.T)
+
+
+def preload_study(
+    scenario: Scenario | str | Path,
+    preloads: Sequence[float] = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 50.0),
+    loads: Sequence[float] = (0.05, 0.5, 2.0),
+    *,
+    config: ArrayLike | None = None,
+    directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike] = FORCE_DIRECTIONS,
+    reference: Literal["static", "mujoco"] = "static",
+) -> dict[str, Any]:
+    """Error of the first-order ``constrained`` model vs the preload P (N) and the load magnitude (N).
+
+    Physics: with a preload the contact pushes on b with P n̂ through the configuration-dependent J_b,
+    so the equilibrium K (q − rest) = J_eᵀ w + J_b,vᵀ n̂ λ has the tangent stiffness
+    K_t = K − P ∂(J_b,vᵀ n̂)/∂q: a geometric (conservative-congruence) stiffness −∂(J_bᵀ n̂ P)/∂q that the
+    first-order models, built on K alone, neglect. Its error is first order in w and grows about linearly
+    with P / k (at fixed load); the dead load's own geometric term −∂(J_eᵀ w)/∂q adds an error growing
+    linearly with |w| (at fixed P). ``corrected`` is the constrained model with K_t
+    (:func:`preloaded_compliance`): it removes the preload term and leaves the load term.
+
+    The reference is the nonlinear static solve with a bilateral contact (every (P, load) pair
+    comparable; ``would_open`` counts the cases where a unilateral contact would have opened), or MuJoCo
+    (unilateral; opened cases excluded). Loads are pure forces of magnitude ``loads`` along ``directions``
+    at the start configuration unless ``config`` is given.
+
+    Returns a JSON-able dict; the arrays are indexed [preload][load]: ``median_rel_err``, ``max_rel_err``
+    (constrained), ``median_rel_err_corrected``, ``max_rel_err_corrected``, ``would_open``, ``failed``;
+    errors in the L-weighted norm of :func:`run_validation`, None where no case contributes.
+    """
+    sc = _scenario(scenario)
+    if reference not in ("static", "mujoco"):
+        raise InputError(f"reference must be 'static' or 'mujoco', got {reference!r}")
+    ps = [_positive(p, "preload", "N", zero_ok=True) for p in preloads]
+    fs = [_positive(f, "load", "N") for f in loads]
+    if not ps or not fs:
+        raise InputError("preloads and loads must each hold at least one value")
+    labelled = _directions(directions)
+    q = validation_configurations(sc, 1)[0] if config is None else sc.robot.check_q(config)
+    cfg = _config(sc.braced, q, 0)
+    c_first = cfg.compliances["constrained"]
+    robot, surface = sc.robot, sc.braced.brace.surface
+    shape = (len(ps), len(fs))
+    med, mx = np.full(shape, None, dtype=object), np.full(shape, None, dtype=object)
+    med_c, mx_c = np.full(shape, None, dtype=object), np.full(shape, None, dtype=object)
+    opened, failed = np.zeros(shape, dtype=int), np.zeros(shape, dtype=int)
+    messages: list[str] = []
+    args = (robot.model, q, robot.stiffness, sc.braced.brace_id, robot.tip_id, surface.point, surface.normal)
+    for i, p in enumerate(ps):
+        c_corr = preloaded_compliance(sc.braced, q, p)
+        for j, f in enumerate(fs):
+            errs, errs_c = [], []
+            for label, d in labelled:
+                w = np.concatenate([d[:3] * f, d[3:] * f * cfg.length])  # a moment part: f·L N·m
+                try:
+                    if reference == "static":
+                        rs = solve_static_equilibrium(*args, w, bilateral=True, preload=p)
+                        is_open, dx = rs.contact_force < 0.0, rs.deflection
+                    else:
+                        rm = mujoco_static_deflection(*args, w, preload=p)
+                        is_open, dx = rm.contact_opened, rm.deflection
+                except (StaticSolveError, MujocoValidationError, ValueError, np.linalg.LinAlgError) as exc:
+                    failed[i, j] += 1
+                    messages.append(f"P = {p:g} N, |f| = {f:g} N, {label}: {exc}")
+                    continue
+                opened[i, j] += int(is_open)
+                if is_open and reference == "mujoco":
+                    continue
+                ref = np.asarray(dx, dtype=float)
+                errs.append(_rel_err(c_first @ w, ref, cfg.length))
+                errs_c.append(_rel_err(c_corr @ w, ref, cfg.length))
+            med[i, j], mx[i, j] = _stats(errs)
+            med_c[i, j], mx_c[i, j] = _stats(errs_c)
+    return {
+        "scenario": sc.name,
+        "reference": reference,
+        "contact": "bilateral" if reference == "static" else "unilateral (opened cases excluded)",
+        "config": np.asarray(q, dtype=float).tolist(),
+        "length_scale_m": cfg.length,
+        "preloads_N": ps,
+        "loads_N": fs,
+        "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+        "median_rel_err": med.tolist(),
+        "max_rel_err": mx.tolist(),
+        "median_rel_err_corrected": med_c.tolist(),
+        "max_rel_err_corrected": mx_c.tolist(),
+        "would_open": opened.tolist(),
+        "failed": failed.tolist(),
+        "messages": messages,
+    }
+
+
+# --------------------------------------------------------------------------------------------------
+# Figures
+# --------------------------------------------------------------------------------------------------
+_COLORS = {"constrained": "tab:blue", "projection": "tab:orange", "free_space": "tab:red"}
+_MARKERS = {"constrained": "o", "projection": "s", "free_space": "^"}
+
+
+def figure_validation(report: ValidationReport, path: str | Path) -> Path:
+    """PNG: predicted vs MuJoCo tip-deflection components (Δp in mm, Δθ in mrad) for the three models.
+
+    One point per component of each closed-contact case; on the y = x line the model is exact. The legend
+    gives each model's median relative error vs MuJoCo. Returns the path written.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(path)
+    ok = [c for c in report.cases if c["status"] == "ok" and c["deflection"]["mujoco"] is not None]
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.8))
+    parts = ((slice(0, 3), 1e3, "translation Δp [mm]"), (slice(3, 6), 1e3, "rotation Δθ [mrad]"))
+    for ax, (sl, unit, name) in zip(axes, parts, strict=True):
+        ref = np.array([np.asarray(c["deflection"]["mujoco"])[sl] for c in ok]).reshape(-1) * unit
+        lim = [0.0, 0.0]
+        for m in MODELS:
+            pred = np.array([np.asarray(c["deflection"][m])[sl] for c in ok]).reshape(-1) * unit
+            med = report.model_stats(m)["median_rel_err_mujoco"]
+            ax.scatter(
+                ref,
+                pred,
+                s=16,
+                marker=_MARKERS[m],
+                facecolors="none" if m != "constrained" else _COLORS[m],
+                edgecolors=_COLORS[m],
+                linewidths=0.9,
+                label=f"{m} (median error {_fmt(med)})",
+                zorder=3 if m == "constrained" else 2,
+            )
+            if ref.size:
+                lim = [min(lim[0], ref.min(), pred.min()), max(lim[1], ref.max(), pred.max())]
+        pad = 0.05 * (lim[1] - lim[0] or 1.0)
+        lo, hi = lim[0] - pad, lim[1] + pad
+        ax.plot([lo, hi], [lo, hi], "k-", lw=0.8, label="y = x (exact)", zorder=1)
+        ax.set_xlim(lo, hi)
+        ax.set_ylim(lo, hi)
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.3)
+        ax.set_xlabel(f"MuJoCo {name}")
+        ax.set_ylabel(f"first-order prediction C·w, {name}")
+        ax.set_title(f"tip {name.split(' [')[0]}, components x, y, z")
+    axes[0].legend(fontsize=8, loc="upper left")
+    cnt = report.counts()
+    s = report.settings
+    fig.suptitle(
+        f"Predicted vs simulated tip deflection, scenario '{report.scenario}': {cnt['ok']} cases "
+        f"(|f| = {s['force_N']:g} N, |m| = {s['moment_Nm']:g} N·m, preload {s['preload_N']:g} N; "
+        f"{cnt['contact_opened']} opened, {cnt['failed']} failed, not shown)",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
+
+
+def figure_preload(study: dict[str, Any], path: str | Path) -> Path:
+    """PNG: median relative error of the constrained model vs preload (log–log), one line per load.
+
+    Solid: the first-order ``constrained`` model; dashed: the same with the preload's geometric stiffness
+    (``corrected``). Returns the path written.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(path)
+    ps = np.asarray(study["preloads_N"], dtype=float)
+    fig, ax = plt.subplots(figsize=(6.4, 5.0))
+    colors = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(study["loads_N"])))
+    for j, f in enumerate(study["loads_N"]):
+        lines = (("median_rel_err", "-o", "first-order"), ("median_rel_err_corrected", "--x", "with K_g"))
+        for key, style, what in lines:
+            vals = [row[j] for row in study[key]]
+            keep = [(p, 100.0 * v) for p, v in zip(ps, vals, strict=True) if v is not None and v > 0]
+            if keep:
+                x, y = zip(*keep, strict=True)
+                ax.plot(x, y, style, color=colors[j], ms=4, lw=1.2, label=f"|f| = {f:g} N, {what}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("contact preload P [N]")
+    ax.set_ylabel("median relative tip-deflection error [%]")
+    ref = "nonlinear static solve" if study["reference"] == "static" else "MuJoCo"
+    ax.set_title(
+        f"First-order constrained model vs {ref} ({study['contact']}), scenario '{study['scenario']}'\n"
+        "solid: C_e from K alone; dashed: with the preload's geometric stiffness K_g = −P ∂(J_b,vᵀn̂)/∂q",
+        fontsize=8,
+    )
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.16))
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out

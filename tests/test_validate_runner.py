@@ -1,0 +1,165 @@
+"""Tests of bracekit.validate.runner: the first-order compliance models against MuJoCo and the static solve."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bracekit.compliance import end_effector_compliance
+from bracekit.errors import InputError
+from bracekit.scenario import Scenario, load_scenario
+from bracekit.validate import (
+    ValidationReport,
+    figure_preload,
+    figure_validation,
+    preload_study,
+    preloaded_compliance,
+    run_validation,
+    validation_configurations,
+)
+
+MODELS = ("constrained", "projection", "free_space")
+STAT_KEYS = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
+# a few loads that keep the contact closed under a 1 N preload on the paper scenario
+DIRECTIONS = [
+    ("force +x", [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+    ("force -z", [0.0, 0.0, -1.0, 0.0, 0.0, 0.0]),
+    ("force oblique", [-1.0, 1.0, -1.0, 0.0, 0.0, 0.0]),
+    ("moment", [0.0, 0.0, 0.0, 0.0, 1.0, 1.0]),
+]
+
+
+@pytest.fixture(scope="module")
+def scenario() -> Scenario:
+    return load_scenario("paper")
+
+
+@pytest.fixture(scope="module")
+def configs(scenario: Scenario) -> list[np.ndarray]:
+    return validation_configurations(scenario, 2)
+
+
+@pytest.fixture(scope="module")
+def report(scenario: Scenario, configs: list[np.ndarray]) -> ValidationReport:
+    return run_validation(scenario, configs, force=0.5, moment=0.05, preload=1.0, directions=DIRECTIONS)
+
+
+def _no_nan(obj: object) -> None:
+    json.dumps(obj, allow_nan=False)  # raises ValueError on NaN / inf
+
+
+def test_configurations_are_braced_and_distinct(scenario: Scenario, configs: list[np.ndarray]) -> None:
+    assert len(configs) == 2
+    surface = scenario.braced.brace.surface
+    for q in configs:
+        assert q.shape == (scenario.robot.n,)
+        assert abs(surface.signed_distance(scenario.braced.state(q).b)) < 1e-9
+    assert np.linalg.norm(configs[1] - configs[0]) > 1e-2
+
+
+def test_constrained_agrees_with_both_references(report: ValidationReport) -> None:
+    assert [c["status"] for c in report.cases] == ["ok"] * len(report.cases)
+    assert len(report.cases) == 2 * len(DIRECTIONS)
+    st = report.model_stats("constrained")
+    assert st["median_rel_err_mujoco"] < 0.01
+    assert st["median_rel_err_static"] < 0.01
+    assert st["max_rel_err_static"] < 0.02
+    agree = report.mujoco_vs_static()
+    assert agree["max_rel_err"] < 1e-4  # MuJoCo reproduces the nonlinear statics
+    for c in report.cases:
+        assert c["contact_force_static"] > 0.0 and c["contact_force_mujoco"] > 0.0
+        assert c["mujoco_steps"] > 0 and not c["opened"]
+
+
+def test_projection_and_free_space_are_worse(report: ValidationReport) -> None:
+    con = report.model_stats("constrained")
+    for model in ("projection", "free_space"):
+        other = report.model_stats(model)
+        for key in STAT_KEYS:
+            assert other[key] > 5.0 * con[key], (model, key)
+
+
+def test_json_has_required_keys_and_no_nan(report: ValidationReport) -> None:
+    js = report.to_json()
+    assert isinstance(js["cases"], list) and len(js["cases"]) == len(report.cases)
+    for model in MODELS:
+        for key in STAT_KEYS:
+            assert isinstance(js[model][key], float), (model, key)
+    assert {"mujoco_vs_static", "settings"} <= set(js)
+    _no_nan(js)
+    assert json.loads(json.dumps(js))["constrained"] == js["constrained"]
+    text = report.table_text()
+    assert all(m in text for m in MODELS) and "MuJoCo vs static" in text
+
+
+def test_figure_written(report: ValidationReport, tmp_path: Path) -> None:
+    out = figure_validation(report, tmp_path / "sub" / "validation.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert out.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("bad", [0, -1, 2.5, True, "3", [], None])
+def test_bad_configs(scenario: Scenario, bad: object) -> None:
+    with pytest.raises(InputError):
+        run_validation(scenario, bad)  # type: ignore[arg-type]
+    if isinstance(bad, int) and not isinstance(bad, bool):
+        with pytest.raises(InputError):
+            validation_configurations(scenario, bad)
+
+
+def test_bad_loads_and_unbraced_configuration(scenario: Scenario, configs: list[np.ndarray]) -> None:
+    with pytest.raises(InputError):
+        run_validation(scenario, configs[:1], force=0.0)
+    with pytest.raises(InputError):
+        run_validation(scenario, configs[:1], preload=float("nan"))
+    with pytest.raises(InputError):
+        run_validation(scenario, configs[:1], directions=[[0.0] * 6])
+    with pytest.raises(InputError, match="from the surface"):
+        run_validation(scenario, [configs[0] + 0.05], directions=DIRECTIONS[:1])
+
+
+def test_opened_contact_is_reported_not_compared(scenario: Scenario, configs: list[np.ndarray]) -> None:
+    lift = [("force +z", [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]), DIRECTIONS[1]]
+    rep = run_validation(scenario, configs[:1], preload=0.1, directions=lift)
+    opened, pressed = rep.cases
+    assert opened["status"] == "contact_opened" and opened["opened"] and opened["message"]
+    assert opened["contact_force_static"] == 0.0 and opened["contact_force_mujoco"] == 0.0
+    assert pressed["status"] == "ok"
+    assert rep.model_stats("constrained")["n_cases"] == 1
+    assert rep.counts() == {"ok": 1, "contact_opened": 1, "failed": 0}
+
+
+def test_mujoco_failure_is_a_failed_case(scenario: Scenario, configs: list[np.ndarray]) -> None:
+    rep = run_validation(scenario, configs[:1], directions=DIRECTIONS[:2], max_steps=20)
+    assert [c["status"] for c in rep.cases] == ["failed", "failed"]
+    assert all("MuJoCo" in c["message"] for c in rep.cases)
+    js = rep.to_json()
+    _no_nan(js)
+    assert js["constrained"]["median_rel_err_mujoco"] is None
+    assert "failed cases" in rep.table_text()
+
+
+def test_preloaded_compliance_reduces_to_constrained(scenario: Scenario, configs: list[np.ndarray]) -> None:
+    st = scenario.braced.state(configs[0])
+    c0 = preloaded_compliance(scenario.braced, configs[0], 0.0)
+    np.testing.assert_allclose(c0, end_effector_compliance(st, "constrained"), rtol=1e-9, atol=1e-12)
+
+
+def test_preload_study_error_grows_with_preload(scenario: Scenario, configs: list[np.ndarray], tmp_path: Path) -> None:
+    study = preload_study(
+        scenario, preloads=(0.5, 5.0, 50.0), loads=(0.05,), config=configs[0], directions=DIRECTIONS[:3]
+    )
+    _no_nan(study)
+    first = [row[0] for row in study["median_rel_err"]]
+    worst = [row[0] for row in study["max_rel_err"]]
+    corrected = [row[0] for row in study["max_rel_err_corrected"]]
+    assert first[0] < first[1] < first[2] and worst[0] < worst[1] < worst[2]
+    assert first[2] > 3.0 * first[0]
+    # the preload's geometric stiffness explains the growth: with it the error stays at the load's level
+    assert max(corrected) < 1.05 * min(corrected) and max(corrected) < 0.5 * worst[2]
+    assert study["failed"] == [[0], [0], [0]]
+    out = figure_preload(study, tmp_path / "preload.png")
+    assert out.stat().st_size > 10_000
