@@ -110,3 +110,12 @@ def test_region_barrier_weight_needs_a_region(tmp_path: Path) -> None:
     p.write_text(text, encoding="utf-8")
     with pytest.raises(ScenarioError, match="region_radius"):
         load_scenario(p)
+
+
+def test_a_scenario_without_region_and_without_the_barrier_term_builds_its_objective(tmp_path: Path) -> None:
+    text = _edit(scenario_text(), "region_radius = 0.15", "")
+    text = _edit(text, "d = 0.01", "d = 0.0")
+    p = tmp_path / "noregion.toml"
+    p.write_text(text, encoding="utf-8")
+    sc = load_scenario(p)
+    assert sc.objective().names == ("k", "Ci", "theta_z")

@@ -132,14 +132,13 @@ class Scenario:
         """g of eq:objective with this scenario's weights (β_x at t = 0 unless given)."""
         brace = self.braced.brace
         beta = self.beta_x(0.0) if beta_x is None else beta_x
-        terms = [
-            ConditionNumber(),
-            ComplianceIndex(beta, model or self.compliance_model),
-            BraceAngle(),
-            RegionBarrier(brace.region_radius or np.inf, brace.surface.point),
-        ]
-        weights = [self.weights[k] for k in WEIGHT_KEYS]
-        kept = [(t, w) for t, w in zip(terms, weights, strict=True) if w > 0]
+        makers = {
+            "k": lambda: ConditionNumber(),
+            "Ci": lambda: ComplianceIndex(beta, model or self.compliance_model),
+            "theta_z": lambda: BraceAngle(),
+            "d": lambda: RegionBarrier(brace.region_radius, brace.surface.point),  # needs r_max: checked at parse
+        }
+        kept = [(makers[k](), self.weights[k]) for k in WEIGHT_KEYS if self.weights[k] > 0]
         return Objective([t for t, _ in kept], [w for _, w in kept])
 
     def strategy(
