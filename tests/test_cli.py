@@ -184,3 +184,13 @@ def test_validate_json_has_the_required_keys(capsys, tmp_path: Path) -> None:
 def test_validate_rejects_zero_configurations(capsys) -> None:
     code, _, err = _run(["validate", "--configs", "0"], capsys)
     assert code == 2 and "--configs" in err
+
+
+def test_study_ranks_bracing_points_and_reports_json(capsys) -> None:
+    code, out, _ = _run(["study", "--model", "paper-robot", "--q", Q, "--points-per-link", "1", "--json"], capsys)
+    assert code == 0
+    cands = json.loads(out)["candidates"]
+    assert len(cands) == 10
+    assert [c["Ci_constrained"] for c in cands] == sorted(c["Ci_constrained"] for c in cands)
+    code, out, _ = _run(["study", "--model", "paper-robot", "--q", Q], capsys)
+    assert code == 0 and "best first" in out

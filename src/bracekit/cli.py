@@ -75,6 +75,18 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the normal)")
     ev.add_argument("--json", action="store_true", help="print one JSON object (SI units)")
 
+    st = sub.add_parser("study", help="where to brace: tip compliance for bracing points along the robot")
+    src2 = st.add_mutually_exclusive_group(required=True)
+    src2.add_argument("--urdf", type=Path, help="URDF file of the robot")
+    src2.add_argument("--model", help="a shipped robot: paper-robot or puma560")
+    st.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
+    st.add_argument("--q", required=True, help="joint values in chain order: Q1,...,Qn (rad)")
+    st.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
+    st.add_argument("--normal", default="0,0,1", help="surface normal NX,NY,NZ; the surface passes through each point")
+    st.add_argument("--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the normal)")
+    st.add_argument("--points-per-link", type=int, default=3, help="candidates per link (default 3)")
+    st.add_argument("--json", action="store_true", help="print one JSON object")
+
     run = sub.add_parser("run", help="run a scenario: Table I, Figures 2-4 and the animation")
     run.add_argument("scenario", help="a scenario TOML file or a shipped name (paper)")
     run.add_argument("--out", type=Path, default=Path("bracekit-out"), help="output folder (default bracekit-out)")
@@ -115,6 +127,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _run(args)
         if args.command == "validate":
             return _validate(args)
+        if args.command == "study":
+            return _study(args)
         return _bench(args)
     except InputError as exc:
         print(f"bracekit: error: {exc}", file=sys.stderr)
@@ -125,11 +139,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bracekit: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # e.g. piped into head
+        sys.stderr.close()
+        return 0
 
 
 # --- evaluate ------------------------------------------------------------------------------------
-def _evaluate(args: argparse.Namespace) -> int:
-    from .evaluate import evaluate
+def _load_robot(args: argparse.Namespace) -> tuple[Any, str | None]:
+    """The robot of --model or --urdf/--tip with --stiffness, and the model's own bracing frame."""
     from .models import MODELS, default_brace_frame, load_model
     from .robot import Robot
 
@@ -138,13 +155,17 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.model is not None:
         if args.model not in MODELS:
             raise InputError(f"unknown model '{args.model}'; choose one of {', '.join(MODELS)}")
-        robot = load_model(args.model, stiffness=k, tip=args.tip)
-        brace = args.brace or default_brace_frame(args.model)
-    else:
-        if args.tip is None:
-            raise InputError("--tip is needed with --urdf: name the end-effector frame")
-        robot = Robot.from_urdf(args.urdf, tip=args.tip, stiffness=k)
-        brace = args.brace
+        return load_model(args.model, stiffness=k, tip=args.tip), default_brace_frame(args.model)
+    if args.tip is None:
+        raise InputError("--tip is needed with --urdf: name the end-effector frame")
+    return Robot.from_urdf(args.urdf, tip=args.tip, stiffness=k), None
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from .evaluate import evaluate
+
+    robot, own_brace = _load_robot(args)
+    brace = args.brace or own_brace
     if args.brace_link is not None:
         brace = brace or "brace_point"
         robot = robot.with_point_frame(brace, args.brace_link, _floats(args.brace_offset, "--brace-offset"))
@@ -193,6 +214,37 @@ def _evaluate_text(r: dict[str, Any]) -> str:
         f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
     ]
     return "\n".join(lines)
+
+
+# --- study ---------------------------------------------------------------------------------------
+def _study(args: argparse.Namespace) -> int:
+    from .report.output import to_json
+    from .study import brace_location_study
+
+    robot, _ = _load_robot(args)
+    beta = None if args.beta_x is None else _floats(args.beta_x, "--beta-x")
+    cands = brace_location_study(
+        robot,
+        _floats(args.q, "--q"),
+        normal=_floats(args.normal, "--normal"),
+        beta_x=beta,
+        points_per_link=args.points_per_link,
+    )
+    if args.json:
+        print(to_json({"candidates": [c.__dict__ | {"reduction": c.reduction} for c in cands]}))
+        return 0
+    print("bracing candidates, best first (C_i in mm/N; k of J̃; fraction along the link to the next joint)")
+    head = f"{'link':>10} {'n1':>3} {'frac':>5}  {'point [m]':<26} {'free':>8} {'constr.':>8} {'proj.':>8}"
+    print(head + f" {'less':>7} {'k(J̃)':>8}")
+    for c in cands:
+        k = "singular" if c.k_braced is None else f"{c.k_braced:8.2f}"
+        note = "  (no load: chain 1 cannot push b)" if c.unloaded else ""
+        print(
+            f"{c.link:>10} {c.n1:>3} {c.fraction:5.2f}  {np.round(c.point, 3).tolist()!s:<26} "
+            f"{1e3 * c.Ci_free:8.3f} {1e3 * c.Ci_constrained:8.3f} {1e3 * c.Ci_projection:8.3f} "
+            f"{100 * c.reduction:6.1f}% {k:>8}{note}"
+        )
+    return 0
 
 
 # --- run -----------------------------------------------------------------------------------------

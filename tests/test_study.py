@@ -1,0 +1,50 @@
+"""Bracing-location study: each candidate's compliance equals the KKT equilibrium with a brace at that point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from bracekit import InputError, load_model
+from bracekit.study import brace_location_study
+from bracekit.validate.statics import lagrange_compliance
+
+Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
+
+
+def test_candidates_match_the_kkt_equilibrium_of_a_brace_at_their_point() -> None:
+    robot = load_model("paper-robot")
+    cands = brace_location_study(robot, Q, points_per_link=2)
+    assert len(cands) == 2 * (robot.n - 1)
+    model, data = robot.model, robot.model.createData()
+    pin.forwardKinematics(model, data, Q)
+    pin.computeJointJacobians(model, data, Q)
+    j_e = pin.getFrameJacobian(model, data, robot.tip_id, pin.LOCAL_WORLD_ALIGNED)
+    n_hat = np.array([0.0, 0.0, 1.0])
+    beta = np.concatenate([n_hat, np.zeros(3)])
+    for c in cands:
+        joint = model.frames[model.getFrameId(c.link)].parentJoint
+        # Jacobian of the world point c.point carried by that joint, from the joint's own Jacobian
+        j_joint = pin.getJointJacobian(model, data, joint, pin.WORLD)
+        v_point = j_joint[:3] - np.cross(c.point, j_joint[3:].T).T  # v at the point, world axes
+        a = v_point.T @ n_hat
+        if np.linalg.norm(a) < 1e-9:
+            assert c.unloaded and c.Ci_constrained == pytest.approx(c.Ci_free, rel=1e-9)
+            continue
+        c_true = lagrange_compliance(j_e, robot.stiffness, a[:, None])
+        assert c.Ci_constrained == pytest.approx(np.linalg.norm(beta @ c_true), rel=1e-8)
+        assert c.Ci_constrained <= c.Ci_free * (1 + 1e-12)
+    values = [c.Ci_constrained for c in cands]
+    assert values == sorted(values)
+
+
+def test_bracing_nearer_the_tip_stiffens_the_tip_more_on_the_paper_robot() -> None:
+    cands = brace_location_study(load_model("paper-robot"), Q, points_per_link=1)
+    by_n1 = {c.n1: c.Ci_constrained for c in cands}
+    assert by_n1[10] < by_n1[6] < by_n1[3]
+
+
+def test_study_rejects_zero_points_per_link() -> None:
+    with pytest.raises(InputError):
+        brace_location_study(load_model("paper-robot"), Q, points_per_link=0)
