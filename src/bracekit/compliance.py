@@ -61,7 +61,8 @@ def constraint_gain(state: BracedState, c1: Array | None = None) -> Array:
     k_env = state.braced.brace.environment_stiffness
     if k_env is not None:
         return np.linalg.inv(m + np.eye(m.shape[0]) / k_env)
-    w, v = np.linalg.eigh(m)
+    # one constraint direction (a frictionless point): the eigen-decomposition of a 1×1 matrix, exactly
+    w, v = (m[0], np.ones((1, 1))) if m.shape == (1, 1) else np.linalg.eigh(m)
     scale = max(float(np.trace(c1)), 1e-300)
     good = w > UNLOADED_TOL * scale
     if not np.all(good):

@@ -26,6 +26,15 @@ LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 J1_COND_LIMIT = 1e8
 
 
+def _hessian_buffer(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
+    """Pinocchio's frame kinematic Hessian as its raw memory, flat: element r + 6 i + 6 n k is ∂J[r, i]/∂q_k.
+
+    Pinocchio 4.1.0 returns a (6, n, n) array whose memory is column-major although its strides claim C
+    order (MODEL.md); the memory itself is the column-major tensor. A finite-difference test guards this.
+    """
+    return pin.getFrameKinematicHessian(model, data, frame_id, LWA).ravel(order="C")
+
+
 def frame_hessian(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
     """∂J/∂q of a frame's LOCAL_WORLD_ALIGNED Jacobian, shape (6, n, n): H[:, i, k] = ∂J[:, i]/∂q_k.
 
@@ -33,8 +42,17 @@ def frame_hessian(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
     returns a (6, n, n) array whose memory is column-major although its strides claim C order
     (MODEL.md); the reshape below undoes that, and a finite-difference test guards it.
     """
-    h = pin.getFrameKinematicHessian(model, data, frame_id, LWA)
-    return np.ascontiguousarray(h.ravel(order="C").reshape(h.shape, order="F"))
+    n = model.nv
+    return np.ascontiguousarray(_hessian_buffer(model, data, frame_id).reshape((6, n, n), order="F"))
+
+
+def frame_hessian_rows(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
+    """The same Hessian as an (n, 6n) matrix, no copy: R[k, r + 6 i] = ∂J[r, i]/∂q_k.
+
+    Contractions Σ_{r,i} U[i, r] ∂J[r, i]/∂q_k (U of shape (n, 6)) are then one product ``R @ U.ravel()``.
+    """
+    n = model.nv
+    return _hessian_buffer(model, data, frame_id).reshape(n, 6 * n)
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,26 +123,43 @@ class BracedRobot:
         model, data = self.robot.model, self._data
         pin.computeJointJacobians(model, data, qa)
         pin.updateFramePlacements(model, data)
-        tip, brace = data.oMf[self.robot.tip_id], data.oMf[self.brace_id]
-        j_e = pin.getFrameJacobian(model, data, self.robot.tip_id, LWA).copy()
-        j_b = pin.getFrameJacobian(model, data, self.brace_id, LWA).copy()
+        tip_id = self.robot.tip_id
+        tip, brace = data.oMf[tip_id].homogeneous, data.oMf[self.brace_id].homogeneous  # fresh arrays
+        j_e = pin.getFrameJacobian(model, data, tip_id, LWA)  # fresh arrays too
+        j_b = pin.getFrameJacobian(model, data, self.brace_id, LWA)
         d_je = d_jb = None
         if hessians:
             pin.computeJointKinematicHessians(model, data)
-            d_je = frame_hessian(model, data, self.robot.tip_id)
+            d_je = frame_hessian(model, data, tip_id)
             d_jb = frame_hessian(model, data, self.brace_id)
         return BracedState(
             braced=self,
             q=qa,
-            b=brace.translation.copy(),
-            e=tip.translation.copy(),
-            R_b=brace.rotation.copy(),
-            R_e=tip.rotation.copy(),
+            b=brace[:3, 3],
+            e=tip[:3, 3],
+            R_b=brace[:3, :3],
+            R_e=tip[:3, :3],
             J_e=j_e,
             J_b=j_b,
             dJ_e=d_je,
             dJ_b=d_jb,
         )
+
+    def placements(self, q: ArrayLike) -> tuple[Array, Array, Array, Array]:
+        """b, e (3,), ⁰R_b, ⁰R_e (3×3) at q by forward kinematics alone: the values of ``state(q)``, cheaper."""
+        qa = self.robot.check_q(q)
+        model, data = self.robot.model, self._data
+        pin.forwardKinematics(model, data, qa)
+        pin.updateFramePlacements(model, data)
+        tip, brace = data.oMf[self.robot.tip_id].homogeneous, data.oMf[self.brace_id].homogeneous
+        return brace[:3, 3], tip[:3, 3], brace[:3, :3], tip[:3, :3]
+
+
+def contact_null_space(xt_j1: Array) -> Array:
+    """Orthonormal basis (n1×l') of the null space of Xᵀ J1: the chain-1 motions that keep the contact."""
+    _, s, vt = np.linalg.svd(xt_j1)
+    rank = int(np.sum(s > 1e-10 * max(1.0, s[0] if s.size else 1.0)))
+    return vt[rank:].T.copy()
 
 
 def skeleton(robot: Robot, q: ArrayLike) -> Array:
@@ -234,10 +269,7 @@ class BracedState:
                     "chain 1 cannot realise the bracing motion"
                 )
             return np.linalg.solve(j1, self.H)
-        a = self.X.T @ j1
-        _, s, vt = np.linalg.svd(a)
-        rank = int(np.sum(s > 1e-10 * max(1.0, s[0] if s.size else 1.0)))
-        return vt[rank:].T.copy()
+        return contact_null_space(self.X.T @ j1)
 
     @cached_property
     def A(self) -> Array:

@@ -15,12 +15,12 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._linalg import cross3
 from .compliance import C1 as chain1_compliance
-from .compliance import ComplianceModel, braced_C1, check_model, constraint_gain, end_effector_compliance
+from .compliance import ComplianceModel, _unit6, braced_C1, check_model, constraint_gain, end_effector_compliance
 from .errors import BarrierError, InputError
 from .kinematics import BracedRobot, BracedState
 from .measures import frobenius_condition, region_barrier, theta_z
-from .spatial import unit
 
 Array = NDArray[np.float64]
 
@@ -45,6 +45,12 @@ def _hessians(state: BracedState) -> tuple[Array, Array]:
     return state.dJ_e, state.dJ_b
 
 
+def _contract(d_j: Array, u: Array) -> Array:
+    """Σ_{r,i} u[r, i] ∂J[r, i]/∂q_k (n,) for a Hessian d_j (6, n, n) and coefficients u (6, n)."""
+    n = d_j.shape[2]
+    return u.ravel() @ d_j.reshape(-1, n)
+
+
 @dataclass(frozen=True)
 class ConditionNumber:
     """α1's term: Frobenius condition number k of the free-space J (eq:manip, eq:J)."""
@@ -60,9 +66,8 @@ class ConditionNumber:
         k = frobenius_condition(j)
         m_inv = np.linalg.inv(j @ j.T)
         a, b = float(np.sum(j * j)), float(np.trace(m_inv))
-        da = 2.0 * np.einsum("ri,rik->k", j, d_je)
-        db = -2.0 * np.einsum("ri,rik->k", m_inv @ m_inv @ j, d_je)
-        return (b * da + a * db) / (72.0 * k)
+        # (b da + a db) / (72 k) with da = 2 Σ J ∂J, db = −2 Σ (M⁻¹M⁻¹J) ∂J, M = JJᵀ
+        return _contract(d_je, (2.0 * b) * j - (2.0 * a) * (m_inv @ m_inv @ j)) / (72.0 * k)
 
 
 @dataclass(frozen=True)
@@ -74,7 +79,7 @@ class ComplianceIndex:
     name: str = "Ci"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "beta_x", unit(self.beta_x, "beta_x"))
+        object.__setattr__(self, "beta_x", _unit6(self.beta_x, "beta_x"))
         check_model(self.model)
 
     def value(self, state: BracedState) -> float:
@@ -94,11 +99,13 @@ class ComplianceIndex:
         ci = float(np.linalg.norm(v))
         if ci == 0.0:
             return np.zeros(state.q.size)
-        grad = np.einsum("r,rik,i->k", beta, d_je[:, n1:, :], (j_e2.T @ v) / k2)
-        grad += np.einsum("r,rik,i->k", v, d_je[:, n1:, :], (j_e2.T @ beta) / k2)
+        # chain 2: β ⊗ (J_e2ᵀ v / k2) + v ⊗ (J_e2ᵀ β / k2) against ∂J_e, columns n1…
+        u = np.zeros((6, state.q.size))
+        u[:, n1:] = np.outer(beta, (j_e2.T @ v) / k2) + np.outer(v, (j_e2.T @ beta) / k2)
+        grad = _contract(d_je, u)
         # S_t1 depends on b − e
         b1, v1 = s1.T @ beta, s1.T @ v
-        w = np.cross((c1t @ v1)[3:], beta[:3]) + np.cross((c1t @ b1)[3:], v[:3])
+        w = cross3((c1t @ v1)[3:], beta[:3]) + cross3((c1t @ b1)[3:], v[:3])
         grad += (state.J_b[:3] - state.J_e[:3]).T @ w
         # C̃1 through C1: β̂ᵀ dC1 v̂ with the model's (constant or compliance-weighted) projector
         if self.model == "projection":
@@ -109,8 +116,9 @@ class ComplianceIndex:
             tt = np.eye(6) - x @ constraint_gain(state, c1) @ x.T @ c1  # (I − P_C)ᵀ
             bh, vh = tt @ b1, tt @ v1
         j1, k1 = state.J1, state.K[:n1]
-        grad += np.einsum("r,rik,i->k", bh, d_jb[:, :n1, :], (j1.T @ vh) / k1)
-        grad += np.einsum("r,rik,i->k", vh, d_jb[:, :n1, :], (j1.T @ bh) / k1)
+        u = np.zeros((6, state.q.size))
+        u[:, :n1] = np.outer(bh, (j1.T @ vh) / k1) + np.outer(vh, (j1.T @ bh) / k1)
+        grad += _contract(d_jb, u)
         return grad / ci
 
 
@@ -124,7 +132,7 @@ class BraceAngle:
         return theta_z(state.braced.brace.surface.normal, state.z_b)
 
     def gradient(self, state: BracedState) -> Array:
-        u = np.cross(state.braced.brace.surface.normal, state.z_b)
+        u = cross3(state.braced.brace.surface.normal, state.z_b)
         s = float(np.linalg.norm(u))
         if s < 1e-12:
             return np.zeros(state.q.size)

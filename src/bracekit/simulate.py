@@ -3,6 +3,8 @@
 Each step: tip twist ẋ = feed-forward + pose-error feedback, q̇ from the strategy, an Euler step, then a
 Gauss–Newton correction that puts the tip back on the task pose and, for braced strategies, {b} back on
 the contact (to 1e-12), so neither error accumulates. Measures are recorded at every sample.
+Gradient projection runs through the fused :class:`bracekit.fast.GradientProjectionStep`, which gives the
+strategy's own q̇ to ~1e-13.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from ._linalg import angle_between
 from .compliance import (
     COMPLIANCE_MODELS,
     ComplianceModel,
@@ -26,9 +29,9 @@ from .compliance import (
 )
 from .errors import BracekitError, ConvergenceError, InputError, RegionWarning
 from .kinematics import BracedRobot, BracedState
-from .measures import frobenius_condition, singular_value_measures, theta_z
+from .measures import frobenius_condition, singular_value_measures
 from .objective import ComplianceIndex, Objective
-from .resolution import Strategy
+from .resolution import BracedGradientProjection, Strategy
 from .tasks import Task
 
 Array = NDArray[np.float64]
@@ -134,7 +137,7 @@ def measure(state: BracedState, beta_x: Array, centre: Array, task_error: float,
         "sigma_o_min": sv.sigma_o_min,
         "k": frobenius_condition(state.J_braced),
         "k_free": frobenius_condition(state.J_e),
-        "theta_z": theta_z(surface.normal, state.z_b),
+        "theta_z": angle_between(surface.normal, state.z_b),
         "region_radius": float(np.linalg.norm(state.b - centre)),
         "contact_violation": abs(surface.signed_distance(state.b)),
         "task_error": task_error,
@@ -177,6 +180,11 @@ def simulate(
     anchor = (st.b.copy(), st.R_b.copy()) if strategy.braced else None
     centre = braced.brace.surface.point
     r_max = braced.brace.region_radius
+    fast = None
+    if type(strategy) is BracedGradientProjection:
+        from .fast import GradientProjectionStep
+
+        fast = GradientProjectionStep(braced, strategy)
     ts, qs, rows = [0.0], [st.q.copy()], [measure(st, beta_x(0.0), centre, 0.0, strategy.braced)]
     failure = None
     for i in range(steps):
@@ -184,10 +192,13 @@ def simulate(
         try:
             err = pose_error(st, task.position(t), rotation)
             xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
-            current = _with_beta(strategy, beta_x(t))
-            if strategy.needs_hessians:
-                st = braced.state(st.q, hessians=True)
-            qdot = current.velocity(st, xdot)
+            if fast is not None:  # the fused step: the same q̇ as below, to ~1e-13
+                qdot = fast(st.q, xdot, beta_x(t))
+            else:
+                current = _with_beta(strategy, beta_x(t))
+                if strategy.needs_hessians:
+                    st = braced.state(st.q, hessians=True)
+                qdot = current.velocity(st, xdot)
             st = correct(braced, st.q + qdot * dt, task.position(t_next), rotation, anchor)
             task_err = float(np.linalg.norm(task.position(t_next) - st.e))
             rows.append(measure(st, beta_x(t_next), centre, task_err, strategy.braced))
@@ -244,13 +255,13 @@ def solve_start(
     lo, hi = braced.robot.lower, braced.robot.upper
 
     def residual(q: Array) -> Array:
-        st = braced.state(q)
-        hard = [target - st.e, [surface.signed_distance(st.b)]]
+        b, e, r_b, r_e = braced.placements(q)
+        hard = [target - e, [surface.signed_distance(b)]]
         if rot is not None:
-            hard.append(pin.log3(rot @ st.R_e.T))
+            hard.append(pin.log3(rot @ r_e.T))
         soft = [
-            region_weight * (st.b - surface.point),
-            [theta_weight * theta_z(surface.normal, st.z_b)],
+            region_weight * (b - surface.point),
+            [theta_weight * angle_between(surface.normal, r_b[:, 2])],
             posture_weight * (q - q_guess),
         ]
         return np.concatenate([1e3 * np.concatenate(hard), np.concatenate(soft)])

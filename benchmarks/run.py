@@ -1,0 +1,65 @@
+"""Benchmarks of issue 5 (not part of the test run): ``python benchmarks/run.py [--quick] [--json FILE]``.
+
+Prints the table of :func:`bracekit.bench.run_benchmarks` (the same as ``bracekit bench``): the braced
+gradient-projection step (analytic vs finite differences, fused vs reference path), Pinocchio's floor,
+Robotics Toolbox for Python when it is installed, batch throughput and the ``paper`` scenario's wall time.
+``--profile`` prints where a step and the scenario spend their time (cProfile) instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import json
+import pstats
+import sys
+import warnings
+from pathlib import Path
+
+
+def _profile(top: int) -> None:
+    import numpy as np
+
+    from bracekit.fast import GradientProjectionStep
+    from bracekit.run import run_scenario
+    from bracekit.scenario import load_scenario
+
+    sc = load_scenario("paper")
+    strategy = sc.strategy("braced_gradient_projection")
+    xdot = np.concatenate([sc.task.velocity(0.0), np.zeros(3)])
+    step = GradientProjectionStep(sc.braced, strategy)  # type: ignore[arg-type]
+    names = {"sc": sc, "strategy": strategy, "step": step, "q": sc.guess, "xdot": xdot, "run_scenario": run_scenario}
+    for label, code in (
+        ("reference step x 2000", "for _ in range(2000): strategy.velocity(sc.braced.state(q, hessians=True), xdot)"),
+        ("fused step x 2000", "for _ in range(2000): step(q, xdot)"),
+        ("run_scenario('paper')", "run_scenario(sc)"),
+    ):
+        prof = cProfile.Profile()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            prof.runctx(code, names, {})
+        print(f"=== {label} ===")
+        pstats.Stats(prof, stream=sys.stdout).sort_stats("tottime").print_stats(top)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer rounds and a smaller batch")
+    ap.add_argument("--json", type=Path, help="also write the results as JSON to this file")
+    ap.add_argument("--profile", action="store_true", help="print cProfile tables instead of benchmarking")
+    ap.add_argument("--top", type=int, default=25, help="rows per profile table (default 25)")
+    args = ap.parse_args()
+    if args.profile:
+        _profile(args.top)
+        return 0
+    from bracekit.bench import run_benchmarks
+
+    results = run_benchmarks(quick=args.quick)
+    print(results["table"])
+    if args.json is not None:
+        args.json.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
