@@ -114,3 +114,23 @@ def test_no_warnings_or_nan_in_a_gradient_projection_run(setup) -> None:
         tr = simulate(sc.braced, sc.strategy("braced_gradient_projection"), task, start.q, 0.1, sc.beta_x)
     for values in tr.measures.values():
         assert np.all(np.isfinite(values))
+
+
+def test_a_step_that_jumps_over_the_region_barrier_is_split_and_the_run_stays_inside(setup, monkeypatch) -> None:
+    import importlib
+
+    from bracekit import Brace, BracedGradientProjection, BracedRobot, ComplianceIndex, Objective, RegionBarrier
+
+    sc, start, _ = setup
+    b = sc.braced.brace
+    braced = BracedRobot(sc.robot, Brace(b.frame, b.surface, region_radius=0.05))
+    obj = Objective([ComplianceIndex([1, 0, 0, 0, 0, 0]), RegionBarrier(0.05, b.surface.point)], [100.0, 0.01])
+    task = Circle(sc.task.centre, sc.task.radius, sc.task.normal, 5.0, sc.task.start_direction, turns=0.25)
+    tr = simulate(braced, BracedGradientProjection(obj), task, start.q, 0.1, sc.beta_x)
+    assert tr.completed, tr.failure
+    assert tr.substeps > 0 and any("split" in w for w in tr.warnings)
+    assert tr.summary()["max_region_radius_m"] < 0.05
+    # without splitting, the same run hits the barrier and says so
+    monkeypatch.setattr(importlib.import_module("bracekit.simulate"), "MAX_SUBSTEP_DEPTH", 0)
+    tr0 = simulate(braced, BracedGradientProjection(obj), task, start.q, 0.1, sc.beta_x)
+    assert not tr0.completed and "leaves the region" in tr0.failure

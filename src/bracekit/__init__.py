@@ -5,6 +5,7 @@ Under Bracing Constraints", ICRA 2020, in Python on Pinocchio. Walk the package 
 robot → contact → kinematics → compliance → measures → objective → resolution → simulate → run.
 """
 
+from .batch import BatchEvaluation, BatchEvaluator, evaluate_batch
 from .compliance import (
     C1,
     C2,
@@ -31,6 +32,7 @@ from .errors import (
     SingularityError,
     UnloadedContactWarning,
 )
+from .fast import GradientProjectionStep
 from .kinematics import BracedRobot, BracedState
 from .measures import frobenius_condition, region_barrier, singular_value_measures, theta_z
 from .models import load_model
@@ -48,6 +50,7 @@ from .robot import Robot
 from .run import RunResult, run_scenario
 from .scenario import Scenario, load_scenario
 from .simulate import Trajectory, simulate, solve_start
+from .study import BraceCandidate, brace_location_study
 from .tasks import Circle, Line, Waypoints
 
 __version__ = "0.1.0"
@@ -59,8 +62,11 @@ __all__ = [
     "POINT_WITH_FRICTION",
     "SOFT_FINGER",
     "BarrierError",
+    "BatchEvaluation",
+    "BatchEvaluator",
     "Brace",
     "BraceAngle",
+    "BraceCandidate",
     "BracedGradientProjection",
     "BracedMinNorm",
     "BracedRobot",
@@ -75,6 +81,7 @@ __all__ = [
     "ConvergenceError",
     "FrameNotFoundError",
     "FreeSpaceMinNorm",
+    "GradientProjectionStep",
     "InputError",
     "Line",
     "ModelError",
@@ -91,12 +98,14 @@ __all__ = [
     "Trajectory",
     "UnloadedContactWarning",
     "Waypoints",
+    "brace_location_study",
     "braced_C1",
     "braced_gradient",
     "compliance_ellipsoids",
     "compliance_index",
     "directional_compliance",
     "end_effector_compliance",
+    "evaluate_batch",
     "finite_difference_gradient",
     "free_space_compliance",
     "frobenius_condition",

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._linalg import angle_between
 from .errors import BarrierError, SingularityError
 
 Array = NDArray[np.float64]
@@ -48,8 +49,7 @@ def singular_value_measures(J: ArrayLike) -> SingularValues:
 
 def theta_z(z_t: ArrayLike, z_b: ArrayLike) -> float:
     """θ_z = acos(ẑ_tᵀ ẑ_b) (eq:theta), rad, computed as atan2(‖ẑ_t × ẑ_b‖, ẑ_tᵀ ẑ_b) for accuracy."""
-    a, b = np.asarray(z_t, dtype=float), np.asarray(z_b, dtype=float)
-    return float(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))
+    return angle_between(np.asarray(z_t, dtype=float), np.asarray(z_b, dtype=float))
 
 
 def region_barrier(r: float, r_max: float) -> float:

@@ -2,7 +2,9 @@
 
 Each step: tip twist ẋ = feed-forward + pose-error feedback, q̇ from the strategy, an Euler step, then a
 Gauss–Newton correction that puts the tip back on the task pose and, for braced strategies, {b} back on
-the contact (to 1e-12), so neither error accumulates. Measures are recorded at every sample.
+the contact (to 1e-12), so neither error accumulates. Measures are recorded at every sample. A
+gradient-projection step that would jump over the region barrier (explicit Euler can) is split in halves,
+at most MAX_SUBSTEP_DEPTH times, and counted in ``Trajectory.substeps``.
 Gradient projection runs through the fused :class:`bracekit.fast.GradientProjectionStep`, which gives the
 strategy's own q̇ to ~1e-13.
 """
@@ -27,10 +29,10 @@ from .compliance import (
     end_effector_compliance,
     free_space_compliance,
 )
-from .errors import BracekitError, ConvergenceError, InputError, RegionWarning
+from .errors import BarrierError, BracekitError, ConvergenceError, InputError, RegionWarning
 from .kinematics import BracedRobot, BracedState
 from .measures import frobenius_condition, singular_value_measures
-from .objective import ComplianceIndex, Objective
+from .objective import ComplianceIndex, Objective, RegionBarrier
 from .resolution import BracedGradientProjection, Strategy
 from .tasks import Task
 
@@ -38,6 +40,15 @@ Array = NDArray[np.float64]
 
 #: Residual (m, rad) at which the Gauss–Newton pose/contact correction stops.
 CORRECTION_TOL = 1e-12
+#: A gradient-projection step that jumps out of the bracing region is halved at most this many times.
+MAX_SUBSTEP_DEPTH = 4
+
+
+def _has_region_term(strategy: Strategy) -> bool:
+    objective = getattr(strategy, "objective", None)
+    return objective is not None and any(
+        isinstance(t, RegionBarrier) and w > 0 for t, w in zip(objective.terms, objective.weights, strict=True)
+    )
 
 
 def pose_error(state: BracedState, position: Array, rotation: Array) -> Array:
@@ -92,6 +103,7 @@ class Trajectory:
     completed: bool
     failure: str | None = None
     warnings: list[str] = field(default_factory=list)
+    substeps: int = 0
 
     @property
     def steps(self) -> int:
@@ -120,6 +132,7 @@ class Trajectory:
             "max_contact_violation_m": float(np.max(m["contact_violation"])),
             "max_region_radius_m": float(np.max(m["region_radius"])),
             "steps": self.steps,
+            "substeps": self.substeps,
             "completed": self.completed,
             "failure": self.failure,
         }
@@ -185,21 +198,39 @@ def simulate(
         from .fast import GradientProjectionStep
 
         fast = GradientProjectionStep(braced, strategy)
+    guard = r_max is not None and _has_region_term(strategy)
+    substeps = 0
+
+    def advance(st: BracedState, t: float, h: float, depth: int = 0) -> BracedState:
+        """One Euler step of length h from t, corrected; halved (up to 1/16) if it jumps out of the region."""
+        nonlocal substeps
+        err = pose_error(st, task.position(t), rotation)
+        xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
+        if fast is not None:  # the fused step: the same q̇ as the strategy's, to ~1e-13
+            qdot = fast(st.q, xdot, beta_x(t))
+        else:
+            current = _with_beta(strategy, beta_x(t))
+            if strategy.needs_hessians:
+                st = braced.state(st.q, hessians=True)
+            qdot = current.velocity(st, xdot)
+        new = correct(braced, st.q + qdot * h, task.position(t + h), rotation, anchor)
+        if guard and np.linalg.norm(new.b - centre) >= r_max:  # type: ignore[operator]
+            if depth >= MAX_SUBSTEP_DEPTH:
+                raise BarrierError(
+                    f"the bracing point leaves the region (r = {np.linalg.norm(new.b - centre):.4g} m ≥ r_max) "
+                    f"even with steps of {h:.3g} s; reduce dt or raise the region weight"
+                )
+            substeps += 1
+            mid = advance(st, t, h / 2, depth + 1)
+            return advance(mid, t + h / 2, h / 2, depth + 1)
+        return new
+
     ts, qs, rows = [0.0], [st.q.copy()], [measure(st, beta_x(0.0), centre, 0.0, strategy.braced)]
     failure = None
     for i in range(steps):
         t, t_next = i * dt, (i + 1) * dt
         try:
-            err = pose_error(st, task.position(t), rotation)
-            xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
-            if fast is not None:  # the fused step: the same q̇ as below, to ~1e-13
-                qdot = fast(st.q, xdot, beta_x(t))
-            else:
-                current = _with_beta(strategy, beta_x(t))
-                if strategy.needs_hessians:
-                    st = braced.state(st.q, hessians=True)
-                qdot = current.velocity(st, xdot)
-            st = correct(braced, st.q + qdot * dt, task.position(t_next), rotation, anchor)
+            st = advance(st, t, dt)
             task_err = float(np.linalg.norm(task.position(t_next) - st.e))
             rows.append(measure(st, beta_x(t_next), centre, task_err, strategy.braced))
         except BracekitError as exc:
@@ -211,6 +242,8 @@ def simulate(
             progress(1)
     measures = {key: np.array([r[key] for r in rows]) for key in rows[0]}
     notes = []
+    if substeps:
+        notes.append(f"{strategy.name}: {substeps} step(s) were split to keep the bracing point in the region")
     if r_max is not None and np.max(measures["region_radius"]) >= r_max:
         notes.append(
             f"{strategy.name}: the bracing point left the bracing region "
@@ -226,6 +259,7 @@ def simulate(
         completed=failure is None,
         failure=failure,
         warnings=notes,
+        substeps=substeps,
     )
 
 

@@ -94,8 +94,6 @@ def write_run(
     result: RunResult, out: Path, *, figures: bool = True, progress: Callable[[str], None] | None = None
 ) -> list[Path]:
     """Write summary.json, table.md/.csv, trajectories.npz and (optionally) Figures 2–4 and the GIF."""
-    from . import figures as fig
-
     steps: list[tuple[str, Callable[[Path], None]]] = [
         ("summary.json", lambda p: p.write_text(to_json(result.summary) + "\n", encoding="utf-8")),
         ("summary_all_models.json", lambda p: p.write_text(to_json(result.summaries) + "\n", encoding="utf-8")),
@@ -104,6 +102,8 @@ def write_run(
         ("trajectories.npz", lambda p: save_trajectories(result, p)),
     ]
     if figures:
+        from . import figures as fig  # matplotlib only when figures are asked for
+
         steps += [
             ("fig2_film_strip.png", lambda p: fig.figure_film_strip(result, p)),
             ("fig3_ellipsoids.png", lambda p: fig.figure_ellipsoids(result, p)),
