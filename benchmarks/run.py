@@ -1,8 +1,10 @@
 """Benchmarks of issue 5 (not part of the test run): ``python benchmarks/run.py [--quick] [--json FILE]``.
 
 Prints the table of :func:`bracekit.bench.run_benchmarks` (the same as ``bracekit bench``): the braced
-gradient-projection step (analytic vs finite differences, fused vs reference path), Pinocchio's floor,
-Robotics Toolbox for Python when it is installed, batch throughput and the ``paper`` scenario's wall time.
+gradient-projection step (analytic vs finite differences, fused vs reference path, NumPy and numba backends
+side by side, numba's compilation and cache-load times), Pinocchio's floor, Robotics Toolbox for Python when
+it is installed, batch throughput and the ``paper`` scenario's wall time. The numba rows need
+``pip install bracekit[fast]``; without numba they say "skipped".
 ``--profile`` prints where a step and the scenario spend their time (cProfile) instead.
 """
 
@@ -20,7 +22,7 @@ from pathlib import Path
 def _profile(top: int) -> None:
     import numpy as np
 
-    from bracekit.fast import GradientProjectionStep
+    from bracekit.fast import GradientProjectionStep, numba_available
     from bracekit.run import run_scenario
     from bracekit.scenario import load_scenario
 
@@ -29,11 +31,16 @@ def _profile(top: int) -> None:
     xdot = np.concatenate([sc.task.velocity(0.0), np.zeros(3)])
     step = GradientProjectionStep(sc.braced, strategy)  # type: ignore[arg-type]
     names = {"sc": sc, "strategy": strategy, "step": step, "q": sc.guess, "xdot": xdot, "run_scenario": run_scenario}
-    for label, code in (
+    cases = [
         ("reference step x 2000", "for _ in range(2000): strategy.velocity(sc.braced.state(q, hessians=True), xdot)"),
-        ("fused step x 2000", "for _ in range(2000): step(q, xdot)"),
-        ("run_scenario('paper')", "run_scenario(sc)"),
-    ):
+        ("fused step, NumPy backend x 2000", "for _ in range(2000): step(q, xdot)"),
+    ]
+    if numba_available():
+        names["step_nb"] = GradientProjectionStep(sc.braced, strategy, backend="numba")  # type: ignore[arg-type]
+        names["step_nb"](sc.guess, xdot)  # compile or load the kernel outside the profile
+        cases.append(("fused step, numba backend x 2000", "for _ in range(2000): step_nb(q, xdot)"))
+    cases.append(("run_scenario('paper')", "run_scenario(sc)"))
+    for label, code in cases:
         prof = cProfile.Profile()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

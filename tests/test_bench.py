@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import copy
+import importlib.util
 import json
 import math
 
 import pytest
 
-from bracekit.bench import run_benchmarks
+from bracekit.bench import _table, run_benchmarks
 
 KEYS = (
     "gp_step_analytic_us",
+    "gp_step_analytic_numpy_us",
+    "gp_step_fd_ratio_numpy",
     "gp_step_fd_us",
     "gp_step_fd_ratio",
     "gp_step_fd_reference_us",
@@ -44,3 +48,40 @@ def test_robotics_toolbox_is_optional(results: dict) -> None:
         assert rtb["jacob0_us"] > 0 and rtb["hessian0_us"] > 0
     else:
         assert rtb["reason"]
+
+
+def test_both_backends_side_by_side(results: dict) -> None:
+    numpy_us, numba_us = results["gp_step_analytic_numpy_us"], results["gp_step_analytic_numba_us"]
+    assert results["gp_step_analytic_us"] == min(numpy_us, numba_us if numba_us is not None else math.inf)
+    assert results["gp_step_max_rel_diff_numpy"] < 1e-10
+    if importlib.util.find_spec("numba") is None:
+        assert numba_us is None and results["gp_step_fd_ratio_numba"] is None
+        assert not results["numba"]["available"] and "pip install bracekit[fast]" in results["numba"]["reason"]
+        assert "skipped" in results["table"]
+        return
+    assert isinstance(numba_us, float) and math.isfinite(numba_us) and numba_us > 0
+    assert results["gp_step_max_rel_diff_numba"] < 1e-10  # the numba kernel equals the reference path
+    assert results["numba"]["kernel_used"]
+    assert results["gp_step_fd_ratio_numba"] == pytest.approx(results["gp_step_fd_us"] / numba_us)
+    # a fresh process imports numba and loads the kernel from the disk cache this process filled
+    warm = results["numba"]["warm"]
+    assert warm["ok"] and warm["cache_hits"] == 1 and warm["cache_misses"] == 0, warm
+    assert results["numba_import_and_cache_load_s"] == pytest.approx(
+        results["numba_import_s"] + results["numba_cache_load_s"]
+    )
+    assert results["numba"]["empty_cache"] is None  # the compilation from scratch is measured in full runs only
+    assert "numba backend" in results["table"] and "cache load" in results["table"]
+
+
+def test_table_without_numba(results: dict) -> None:
+    r = copy.deepcopy(results)
+    r["numba"] = {"available": False, "reason": "numba missing", "version": None}
+    r["environment"]["numba"] = None
+    for key in ("gp_step_analytic_numba_us", "gp_step_fd_ratio_numba", "gp_step_max_rel_diff_numba"):
+        r[key] = None
+    for key in ("numba_compile_s", "numba_import_s", "numba_cache_load_s", "numba_import_and_cache_load_s"):
+        r[key] = None
+    table = _table(r)
+    numba_rows = [line for line in table.splitlines() if line.startswith("|") and "numba backend" in line]
+    assert len(numba_rows) == 1 and "skipped" in numba_rows[0] and "bracekit[fast]" in numba_rows[0]
+    assert "NumPy backend" in table and "cache load" not in table

@@ -80,14 +80,3 @@ def _upper(m: int) -> Array:
     if m not in _UPPER:
         _UPPER[m] = np.triu(np.ones((m, m)))
     return _UPPER[m]
-
-
-def lu_solve2(m: Array, b: Array) -> tuple[Array, Array] | None:
-    """(M⁻¹B, M⁻²B) for a small square M by one LU factorisation; None if a pivot is exactly zero."""
-    lp = _lapack()
-    lu, piv, info = lp.dgetrf(m)
-    if info != 0:
-        return None
-    y, info = lp.dgetrs(lu, piv, b)
-    z, info2 = lp.dgetrs(lu, piv, y)
-    return (y, z) if info == 0 and info2 == 0 else None

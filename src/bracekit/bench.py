@@ -3,9 +3,12 @@
 :func:`run_benchmarks` measures, in one process and side by side (interleaved rounds, medians):
 
 * one braced gradient-projection step, joint values in and joint velocities out, with all four terms of
-  eq:objective: the fused :class:`~bracekit.fast.GradientProjectionStep` with the analytic gradient and with
-  the paper's central differences (same code, only the gradient differs), and the reference path
-  (``BracedGradientProjection.velocity`` on ``braced.state(q)``) both ways;
+  eq:objective: the fused :class:`~bracekit.fast.GradientProjectionStep` with the analytic gradient on both
+  backends (NumPy, and numba when it is installed) and with the paper's central differences (same code,
+  only the gradient differs), and the reference path (``BracedGradientProjection.velocity`` on
+  ``braced.state(q)``) both ways;
+* the numba backend's one-off costs, each in a fresh process: compiling the kernel with an empty cache
+  (full runs only) and importing numba plus loading the compiled kernel from its disk cache;
 * Pinocchio's own FK + Jacobian + kinematic Hessian of the tip frame: the floor of anything that calls it;
 * Robotics Toolbox for Python's ``jacob0`` / ``hessian0`` on the same URDF chain, when it is installed;
 * batch evaluation (:mod:`bracekit.batch`) of C_e in both models, C_i and k, against the single-configuration
@@ -17,6 +20,7 @@ Timings depend on the machine and its load; the ratios are the robust part. No t
 
 from __future__ import annotations
 
+import json
 import os
 import platform
 import subprocess
@@ -33,7 +37,7 @@ import pinocchio as pin
 
 from .batch import BatchEvaluator
 from .compliance import COMPLIANCE_MODELS, compliance_index, end_effector_compliance
-from .errors import BracekitError
+from .errors import BracekitError, InputError
 from .fast import GradientProjectionStep
 from .kinematics import LWA, BracedRobot
 from .measures import frobenius_condition
@@ -120,6 +124,70 @@ def _pinocchio_floor(braced: BracedRobot, q: np.ndarray, calls: int, rounds: int
 
     t = _interleaved({"one": (one, calls), "two": (two, calls), "jac": (jac, calls)}, rounds)
     return {"tip": t["one"], "both": t["two"], "jacobian": t["jac"]}
+
+
+_NUMBA_COLD = """
+import json, sys, time
+import numpy as np
+from bracekit.fast import GradientProjectionStep
+from bracekit.scenario import load_scenario
+sc = load_scenario("paper")
+strategy = sc.strategy("braced_gradient_projection")
+q, xdot = np.array(json.loads(sys.argv[1])), np.array(json.loads(sys.argv[2]))
+t0 = time.perf_counter()
+step = GradientProjectionStep(sc.braced, strategy, backend="numba")
+t1 = time.perf_counter()
+step(q, xdot)
+t2 = time.perf_counter()
+st = step._kernel.stats
+print(json.dumps({"import_s": t1 - t0, "first_call_s": t2 - t1, "cache_hits": sum(st.cache_hits.values()),
+                  "cache_misses": sum(st.cache_misses.values())}))
+"""
+
+
+def _numba_backend(braced: BracedRobot, strategy: Any, q: np.ndarray, xdot: np.ndarray) -> dict[str, Any]:
+    """The numba-backed step of this process ("step", None without numba) and its first call's cost."""
+    t0 = time.perf_counter()
+    try:
+        step = GradientProjectionStep(braced, strategy, backend="numba")
+    except InputError as exc:
+        return {"step": None, "available": False, "reason": str(exc), "version": None}
+    t1 = time.perf_counter()
+    step(q, xdot)
+    t2 = time.perf_counter()
+    stats = step._kernel.stats
+    import numba
+
+    return {
+        "step": step,
+        "available": True,
+        "version": numba.__version__,
+        "kernel_used": step.uses_kernel,
+        "import_s": t1 - t0,  # ~0 if numba was already imported in this process
+        "first_call_s": t2 - t1,
+        "first_call_compiled": sum(stats.cache_misses.values()) > 0,
+        "cache_dir": stats.cache_path,
+    }
+
+
+def _numba_cold(q: np.ndarray, xdot: np.ndarray, empty_cache: bool) -> dict[str, Any]:
+    """A fresh process: import numba and the kernels, then the first numba step (cache load or compilation).
+
+    ``empty_cache`` points numba at a new cache directory (NUMBA_CACHE_DIR), so the kernel compiles from
+    scratch without touching the real cache; otherwise the usual cache is used (warm after this process's
+    own first call).
+    """
+    with tempfile.TemporaryDirectory(prefix="bracekit-numba-") as tmp:
+        env = dict(os.environ)
+        if empty_cache:
+            env["NUMBA_CACHE_DIR"] = tmp
+        cmd = [sys.executable, "-c", _NUMBA_COLD, json.dumps(q.tolist()), json.dumps(xdot.tolist())]
+        t = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
+        wall = time.perf_counter() - t
+    if proc.returncode != 0:
+        return {"ok": False, "reason": (proc.stderr.strip().splitlines() or ["?"])[-1]}
+    return {"ok": True, "process_wall_s": wall, **json.loads(proc.stdout.strip().splitlines()[-1])}
 
 
 def _rtb(braced: BracedRobot, q: np.ndarray, calls: int, rounds: int) -> dict[str, Any]:
@@ -221,10 +289,16 @@ def _batch(braced: BracedRobot, beta: np.ndarray, size: int, rounds: int) -> dic
 def run_benchmarks(quick: bool = False) -> dict[str, Any]:
     """Measure the hot paths on the paper's robot; a JSON-serialisable dict with a "table" string.
 
-    Keys (SI, medians): ``gp_step_analytic_us``, ``gp_step_fd_us`` (the same fused step with central
-    differences), ``gp_step_fd_reference_us`` and ``gp_step_analytic_reference_us`` (the reference path),
-    their ratios, ``pinocchio_floor_us``, ``batch_configs_per_s``, ``scenario_wall_s`` and more.
-    ``quick`` takes fewer rounds and a smaller batch (a few seconds plus one scenario run).
+    Keys (SI, medians): ``gp_step_analytic_us`` (the faster backend, named by ``gp_step_analytic_backend``),
+    ``gp_step_analytic_numpy_us`` and ``gp_step_analytic_numba_us`` (None without numba), ``gp_step_fd_us``
+    (the same fused step with central differences), ``gp_step_fd_reference_us`` and
+    ``gp_step_analytic_reference_us`` (the reference path), their ratios (``gp_step_fd_ratio`` against the
+    faster backend, ``gp_step_fd_ratio_numpy`` / ``_numba`` against each), ``numba_compile_s`` (the kernel's
+    compilation, in a fresh process with an empty cache; None in a quick run unless this process compiled),
+    ``numba_import_s`` + ``numba_cache_load_s`` = ``numba_import_and_cache_load_s`` (what every new process
+    pays), ``pinocchio_floor_us``, ``batch_configs_per_s``, ``scenario_wall_s`` and more.
+    ``quick`` takes fewer rounds and a smaller batch (a few seconds plus one scenario run, and one short
+    process for numba's cache load when numba is installed).
     """
     rounds = 3 if quick else 15
     wall0 = time.perf_counter()
@@ -238,9 +312,11 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         g: sc.strategy("braced_gradient_projection", gradient=g)  # type: ignore[arg-type]
         for g in ("analytic", "finite-difference")
     }
-    fast = GradientProjectionStep(braced, strategies["analytic"])  # type: ignore[arg-type]
+    fast = GradientProjectionStep(braced, strategies["analytic"], backend="numpy")  # type: ignore[arg-type]
     fast_fd = GradientProjectionStep(braced, strategies["finite-difference"])  # type: ignore[arg-type]
     ref, ref_fd = strategies["analytic"], strategies["finite-difference"]
+    numba = _numba_backend(braced, strategies["analytic"], q, xdot)  # type: ignore[arg-type]
+    fast_nb = numba.pop("step")
 
     def ref_step() -> np.ndarray:
         return ref.velocity(braced.state(q, hessians=True), xdot)
@@ -248,7 +324,9 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
     def ref_fd_step() -> np.ndarray:
         return ref_fd.velocity(braced.state(q), xdot)
 
-    step_diff = float(np.max(np.abs(fast(q, xdot) - ref_step())) / np.max(np.abs(ref_step())))
+    ref_q = ref_step()
+    step_diff = float(np.max(np.abs(fast(q, xdot) - ref_q)) / np.max(np.abs(ref_q)))
+    nb_diff = None if fast_nb is None else float(np.max(np.abs(fast_nb(q, xdot) - ref_q)) / np.max(np.abs(ref_q)))
     n_fast = 60 if quick else 400
     tiny = np.ones(6)
 
@@ -256,17 +334,21 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         for _ in range(20):
             tiny * 2.0
 
-    t = _interleaved(
-        {
-            "ops20": (twenty_ops, n_fast),
-            "fast": (lambda: fast(q, xdot), n_fast),
-            "fast_fd": (lambda: fast_fd(q, xdot), max(2, n_fast // 20)),
-            "ref": (ref_step, max(2, n_fast // 8)),
-            "ref_fd": (ref_fd_step, max(1, n_fast // 80)),
-        },
-        rounds,
-    )
+    cases = {
+        "ops20": (twenty_ops, n_fast),
+        "fast": (lambda: fast(q, xdot), n_fast),
+        "fast_fd": (lambda: fast_fd(q, xdot), max(2, n_fast // 20)),
+        "ref": (ref_step, max(2, n_fast // 8)),
+        "ref_fd": (ref_fd_step, max(1, n_fast // 80)),
+    }
+    if fast_nb is not None:
+        cases["fast_nb"] = (lambda: fast_nb(q, xdot), n_fast)
+    t = _interleaved(cases, rounds)
     op = t["ops20"] / 20.0
+    best = min(t["fast"], t.get("fast_nb", np.inf))
+    if fast_nb is not None:  # one-off costs, each in a fresh process
+        numba["warm"] = _numba_cold(q, xdot, empty_cache=False)
+        numba["empty_cache"] = None if quick else _numba_cold(q, xdot, empty_cache=True)
     floor = _pinocchio_floor(braced, q, 100 if quick else 1000, rounds)
     rtb = _rtb(braced, q, 20 if quick else 200, rounds)
     batch = _batch(braced, beta, 20_000 if quick else 200_000, 2 if quick else 5)
@@ -280,19 +362,37 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
             run_scenario(sc, both_models=False)
             one_model_s = time.perf_counter() - t0
 
+    nb_us = 1e6 * t["fast_nb"] if "fast_nb" in t else None
+    warm, cold = numba.get("warm") or {}, numba.get("empty_cache") or {}
     res: dict[str, Any] = {
-        "gp_step_analytic_us": 1e6 * t["fast"],
+        "gp_step_analytic_us": 1e6 * best,
+        "gp_step_analytic_backend": "numba" if "fast_nb" in t and t["fast_nb"] < t["fast"] else "numpy",
+        "gp_step_analytic_numpy_us": 1e6 * t["fast"],
+        "gp_step_analytic_numba_us": nb_us,
         "gp_step_fd_us": 1e6 * t["fast_fd"],
-        "gp_step_fd_ratio": t["fast_fd"] / t["fast"],
+        "gp_step_fd_ratio": t["fast_fd"] / best,
+        "gp_step_fd_ratio_numpy": t["fast_fd"] / t["fast"],
+        "gp_step_fd_ratio_numba": t["fast_fd"] / t["fast_nb"] if "fast_nb" in t else None,
         "gp_step_analytic_reference_us": 1e6 * t["ref"],
         "gp_step_fd_reference_us": 1e6 * t["ref_fd"],
-        "gp_step_fd_reference_ratio": t["ref_fd"] / t["fast"],
-        "gp_step_max_rel_diff": step_diff,
+        "gp_step_fd_reference_ratio": t["ref_fd"] / best,
+        "gp_step_max_rel_diff": step_diff if nb_diff is None else max(step_diff, nb_diff),
+        "gp_step_max_rel_diff_numpy": step_diff,
+        "gp_step_max_rel_diff_numba": nb_diff,
+        "numba": numba,
+        "numba_first_call_s": numba.get("first_call_s"),
+        "numba_compile_s": cold.get("first_call_s")
+        if cold.get("cache_misses")
+        else (numba["first_call_s"] if numba.get("first_call_compiled") else None),
+        "numba_import_s": warm.get("import_s"),
+        "numba_cache_load_s": warm.get("first_call_s") if warm.get("cache_hits") else None,
+        "numba_import_and_cache_load_s": warm["import_s"] + warm["first_call_s"] if warm.get("cache_hits") else None,
         "pinocchio_floor_us": 1e6 * floor["tip"],
         "pinocchio_two_frames_us": 1e6 * floor["both"],
         "pinocchio_jacobian_us": 1e6 * floor["jacobian"],
         "numpy_op_us": 1e6 * op,
-        "gp_step_analytic_in_numpy_ops": t["fast"] / op,
+        "gp_step_analytic_in_numpy_ops": best / op,
+        "gp_step_analytic_numpy_in_numpy_ops": t["fast"] / op,
         "rtb": rtb,
         "batch_configs_per_s": batch["configs_per_s"],
         "batch": batch,
@@ -304,6 +404,7 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
             "python": platform.python_version(),
             "numpy": np.__version__,
             "pinocchio": pin.__version__,
+            "numba": numba.get("version"),
             "cpus": os.cpu_count(),
             "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
             "machine": platform.machine(),
@@ -311,7 +412,8 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         "benchmark_wall_s": time.perf_counter() - wall0,
     }
     res["targets_met"] = {
-        f"gp step ≤ {TARGET_STEP_US:g} µs": res["gp_step_analytic_us"] <= TARGET_STEP_US,
+        f"gp step ≤ {TARGET_STEP_US:g} µs ({res['gp_step_analytic_backend']} backend)": res["gp_step_analytic_us"]
+        <= TARGET_STEP_US,
         f"gp step ≥ {TARGET_STEP_RATIO:g}× faster than the same fused step with FD": res["gp_step_fd_ratio"]
         >= TARGET_STEP_RATIO,
         f"gp step ≥ {TARGET_STEP_RATIO:g}× faster than the reference FD step": res["gp_step_fd_reference_ratio"]
@@ -328,33 +430,63 @@ def _table(r: dict[str, Any]) -> str:
     load = env["load_average"]
     head = (
         f"bracekit bench: the paper's robot (11 joints, brace after joint 6), "
-        f"Python {env['python']}, NumPy {env['numpy']}, Pinocchio {env['pinocchio']}, {env['cpus']} CPUs"
+        f"Python {env['python']}, NumPy {env['numpy']}, Pinocchio {env['pinocchio']}"
+        + (f", numba {env['numba']}" if env["numba"] else "")
+        + f", {env['cpus']} CPUs"
         + (f", load {load[0]:.2f}" if load else "")
         + ("; quick run" if r["quick"] else "")
         + "; medians, measured side by side in one process"
     )
-    rows = [
+    nb = r["numba"]
+    np_us, nb_us = r["gp_step_analytic_numpy_us"], r["gp_step_analytic_numba_us"]
+    rows = []
+    if nb_us is not None:
+        rows.append(
+            (
+                "GP step, analytic ∇g (fused, numba backend)",
+                f"{nb_us:.1f} µs",
+                f"target ≤ 100 µs; numba {nb['version']}; max rel. diff {r['gp_step_max_rel_diff_numba']:.1e}",
+            )
+        )
+    rows.append(
         (
-            "GP step, analytic ∇g (fused GradientProjectionStep)",
-            f"{r['gp_step_analytic_us']:.1f} µs",
-            "target ≤ 100 µs",
-        ),
-        (
-            "GP step, central-difference ∇g (same fused step)",
-            f"{r['gp_step_fd_us']:.0f} µs",
-            f"{r['gp_step_fd_ratio']:.1f}× the analytic step",
-        ),
-        (
-            "GP step, central-difference ∇g (reference path)",
-            f"{r['gp_step_fd_reference_us']:.0f} µs",
-            f"{r['gp_step_fd_reference_ratio']:.1f}× the analytic step",
-        ),
+            "GP step, analytic ∇g (fused, NumPy backend)",
+            f"{np_us:.1f} µs",
+            ("target ≤ 100 µs; " if nb_us is None else f"{np_us / nb_us:.1f}× the numba step; ")
+            + f"max rel. diff {r['gp_step_max_rel_diff_numpy']:.1e}",
+        )
+    )
+    if nb_us is None:
+        rows.append(("GP step, analytic ∇g (fused, numba backend)", "skipped", "numba not installed (bracekit[fast])"))
+    fd_vs = f"{r['gp_step_fd_ratio_numpy']:.1f}× the NumPy step"
+    ref_vs = f"{r['gp_step_fd_reference_us'] / np_us:.1f}× the NumPy step"
+    if nb_us is not None:
+        fd_vs = f"{r['gp_step_fd_ratio_numba']:.0f}× the numba step, " + fd_vs
+        ref_vs = f"{r['gp_step_fd_reference_us'] / nb_us:.0f}× the numba step, " + ref_vs
+    rows += [
+        ("GP step, central-difference ∇g (same fused step)", f"{r['gp_step_fd_us']:.0f} µs", fd_vs),
+        ("GP step, central-difference ∇g (reference path)", f"{r['gp_step_fd_reference_us']:.0f} µs", ref_vs),
         (
             "GP step, analytic ∇g (reference path)",
             f"{r['gp_step_analytic_reference_us']:.0f} µs",
-            f"{r['gp_step_analytic_reference_us'] / r['gp_step_analytic_us']:.1f}× the fused step; "
-            f"max rel. diff {r['gp_step_max_rel_diff']:.1e}",
+            f"{r['gp_step_analytic_reference_us'] / np_us:.1f}× the NumPy step",
         ),
+    ]
+    if nb_us is not None:
+        if r["numba_compile_s"] is not None:
+            where = "a fresh process, empty cache" if nb.get("empty_cache") else "this process (cache was empty)"
+            rows.append(
+                ("numba kernel: compilation", f"{r['numba_compile_s']:.1f} s", f"once, then cached on disk; {where}")
+            )
+        if r["numba_import_and_cache_load_s"] is not None:
+            rows.append(
+                (
+                    "numba: import + kernel cache load",
+                    f"{r['numba_import_and_cache_load_s']:.2f} s",
+                    f"every new process; import {r['numba_import_s']:.2f} s + load {r['numba_cache_load_s']:.2f} s",
+                )
+            )
+    rows += [
         ("Pinocchio FK + J + Hessian, tip frame (floor)", f"{r['pinocchio_floor_us']:.1f} µs", "pinocchio only"),
         (
             "Pinocchio FK + J + Hessian, tip and brace frames",
@@ -365,7 +497,8 @@ def _table(r: dict[str, Any]) -> str:
         (
             "One tiny NumPy operation (6-vector × 2)",
             f"{1e3 * r['numpy_op_us']:.0f} ns",
-            f"machine speed now; the fused step costs {r['gp_step_analytic_in_numpy_ops']:.0f} of them",
+            f"machine speed now; the fused step costs {r['gp_step_analytic_in_numpy_ops']:.0f} of them"
+            + (f" ({r['gp_step_analytic_numpy_in_numpy_ops']:.0f} with NumPy)" if nb_us is not None else ""),
         ),
     ]
     rtb = r["rtb"]

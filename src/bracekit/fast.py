@@ -19,20 +19,30 @@ bound the condition numbers (cond(M) ≤ ‖M‖_F ‖M⁻¹‖_F), and where a 
 environment under the constrained model, the step is the reference path itself, so errors
 (SingularityError, BarrierError), warnings and results stay the reference's. An objective term other than
 the four of eq:objective is evaluated by its own ``gradient``/``value`` on a BracedState.
+
+Two backends compute the same step: ``"numpy"`` (the default; no compilation, what :mod:`bracekit.simulate`
+uses) and ``"numba"`` (``pip install bracekit[fast]``), which hands everything after Pinocchio's pass to one
+compiled kernel (:mod:`bracekit._numba_step`, cached on disk after the first compilation) with the same
+shortcuts and certificates. Where the kernel does not apply (n1 ≠ 6, finite differences, a term other than
+the four, a compliant environment with the constrained model) or declines (a certificate fails, an unloaded
+contact, {b} outside its region), the numba backend runs the NumPy code, so errors and warnings are the same.
+``backend="auto"`` is numba when it can be imported, else NumPy.
 """
 
 from __future__ import annotations
 
+import importlib
 import math
 import warnings
 from dataclasses import replace
-from typing import Any
+from types import ModuleType
+from typing import Any, Literal
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ._linalg import angle_between, inverse, lu_solve2, row_basis
+from ._linalg import angle_between, inverse, row_basis
 from .compliance import UNLOADED_TOL, _unit6
 from .errors import BarrierError, InputError, UnloadedContactWarning
 from .kinematics import LWA, BracedRobot, contact_null_space, frame_hessian_rows
@@ -46,6 +56,30 @@ Array = NDArray[np.float64]
 #: the reference path (whose singularity thresholds are 1e8, 1e9 and 1e12). The shortcuts lose about
 #: cond · 1e-16 relative accuracy (cond(J_e)² · 1e-16 for k's gradient, as the reference's own (JJᵀ)⁻¹ does).
 CERTIFIED_COND = 1e3
+
+Backend = Literal["numpy", "numba", "auto"]
+#: The values of ``GradientProjectionStep(..., backend=...)``.
+BACKENDS: tuple[str, ...] = ("numpy", "numba", "auto")
+
+
+def numba_kernels() -> ModuleType:
+    """The numba kernels (:mod:`bracekit._numba_step`), imported on first use; InputError without numba."""
+    try:
+        return importlib.import_module(f"{__package__}._numba_step")
+    except ImportError as exc:
+        raise InputError(
+            f"backend='numba' needs numba, which cannot be imported here ({exc}); install it with "
+            "`pip install bracekit[fast]` (or `pip install 'numba>=0.60'`), or use backend='numpy'"
+        ) from exc
+
+
+def numba_available() -> bool:
+    """Whether the numba backend can be used (numba importable); imports it if so."""
+    try:
+        numba_kernels()
+    except InputError:
+        return False
+    return True
 
 
 class _FallbackError(Exception):
@@ -61,13 +95,22 @@ class GradientProjectionStep:
             ``gradient="finite-difference"`` the gradient is the paper's central difference of g, each
             g evaluated by the same fused code.
 
+        backend: ``"numpy"`` (default: no compilation), ``"numba"`` (the compiled kernel; InputError if numba
+            is not installed) or ``"auto"`` (numba if it can be imported, else NumPy). Both give the
+            reference's q̇ to ~1e-13; the first numba step of a process loads the kernel from numba's disk
+            cache, or compiles it (seconds) when there is no cache yet.
+
     Call it as ``step(q, xdot)``, or ``step(q, xdot, beta_x)`` to replace the β_x of the compliance-index
     terms (a task with a time-varying direction). It owns its Pinocchio data: one instance per thread.
+    ``backend`` is then the backend in use; ``uses_kernel`` says whether the numba kernel computes the step
+    (False for the NumPy backend and where the kernel does not apply; see the module docstring).
     """
 
-    def __init__(self, braced: BracedRobot, strategy: BracedGradientProjection) -> None:
+    def __init__(self, braced: BracedRobot, strategy: BracedGradientProjection, backend: Backend = "numpy") -> None:
         if not isinstance(strategy, BracedGradientProjection):
             raise InputError("GradientProjectionStep needs a BracedGradientProjection strategy")
+        if backend not in BACKENDS:
+            raise InputError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS)}")
         self.braced = braced
         self.strategy = strategy
         robot = braced.robot
@@ -89,6 +132,46 @@ class GradientProjectionStep:
         self._fd = strategy.gradient == "finite-difference"
         self._alpha = float(strategy.alpha)
         self._cert2 = CERTIFIED_COND**2
+        kernels = None
+        if backend == "numba":
+            kernels = numba_kernels()
+        elif backend == "auto":
+            try:
+                kernels = numba_kernels()
+            except InputError:
+                kernels = None
+        self.backend: str = "numpy" if kernels is None else "numba"
+        self._kernel = None if kernels is None else self._numba_setup(kernels)
+        self.uses_kernel: bool = self._kernel is not None
+
+    def _numba_setup(self, kernels: ModuleType) -> Any:
+        """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs)."""
+        standard = (ConditionNumber, ComplianceIndex, BraceAngle, RegionBarrier)
+        if self._fd or self._n1 != 6 or any(type(t) not in standard for t, _ in self._terms):
+            return None
+        if self._k_env is not None and any(
+            type(t) is ComplianceIndex and t.model != "projection" for t, _ in self._terms
+        ):
+            return None
+        ci = [
+            [*t.beta_x.tolist(), w, float(t.model == "projection")]
+            for t, w in self._terms
+            if type(t) is ComplianceIndex
+        ]
+        reg = [[*t.centre.tolist(), float(t.r_max), w] for t, w in self._terms if type(t) is RegionBarrier]
+        w_k = sum(w for t, w in self._terms if type(t) is ConditionNumber)
+        w_theta = sum(w for t, w in self._terms if type(t) is BraceAngle)
+        self._ci = np.array(ci, dtype=float).reshape(-1, 8)
+        self._nb_const = (
+            np.ascontiguousarray(self._H, dtype=float),
+            np.ascontiguousarray(self._X, dtype=float),
+            np.ascontiguousarray(self._t, dtype=float),
+            np.ascontiguousarray(self._kinv, dtype=float),
+        )
+        self._reg = np.array(reg, dtype=float).reshape(-1, 5)
+        self._nb_normal = np.ascontiguousarray(self._normal, dtype=float)
+        self._par = np.array([self._alpha, self._cert2, UNLOADED_TOL, w_k, w_theta])
+        return kernels.gp_step
 
     # --- public API --------------------------------------------------------------------------------
     def __call__(self, q: ArrayLike, xdot: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
@@ -97,6 +180,10 @@ class GradientProjectionStep:
         xd = np.asarray(xdot, dtype=float)
         if xd.shape != (6,):
             raise InputError(f"the tip twist ẋ must have 6 components [v; ω], got shape {xd.shape}")
+        if self._kernel is not None:
+            out = self._numba_step(qa, xd, beta_x)
+            if out is not None:
+                return out
         terms = self._with_beta(beta_x)
         try:
             return self._step(qa, xd, terms)
@@ -159,6 +246,27 @@ class GradientProjectionStep:
         s1[0, 4], s1[0, 5], s1[1, 3], s1[1, 5], s1[2, 3], s1[2, 4] = -dz, dy, dz, -dx, -dy, dx
         return s1
 
+    def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
+        """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
+        ci = self._ci
+        if beta_x is not None and ci.shape[0]:
+            ci = ci.copy()
+            ci[:, :6] = _unit6(beta_x, "beta_x")  # as ComplianceIndex(beta_x): same InputError
+        if not (xd.flags.c_contiguous and xd.flags.writeable):  # one compiled signature
+            xd = xd.copy()
+        model, data = self._model, self._data
+        pin.computeJointJacobians(model, data, qa)
+        pin.updateFramePlacements(model, data)
+        je = pin.getFrameJacobian(model, data, self._tip, LWA)
+        jb = pin.getFrameJacobian(model, data, self._bid, LWA)
+        omf = data.oMf
+        mb, me = omf[self._bid].homogeneous, omf[self._tip].homogeneous
+        pin.computeJointKinematicHessians(model, data)
+        he, hb = frame_hessian_rows(model, data, self._tip), frame_hessian_rows(model, data, self._bid)
+        h, x, t, kinv = self._nb_const
+        status, out = self._kernel(je, jb, he, hb, mb, me, xd, h, x, t, kinv, ci, self._reg, self._nb_normal, self._par)
+        return out if status == 0 else None
+
     def _chain1(self, jb: Array) -> Array:
         """dq1/db̃ (n1×l): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as BracedState)."""
         j1 = jb[:, : self._n1]
@@ -193,15 +301,19 @@ class GradientProjectionStep:
     def _frobenius(self, je: Array) -> tuple[float, float, Array]:
         """tr(JJᵀ), tr((JJᵀ)⁻¹) and (JJᵀ)⁻² J of eq:manip, certified far from singular (else the reference).
 
-        With Y = (JJᵀ)⁻¹ J, tr((JJᵀ)⁻¹) = ‖J⁺‖²_F = ‖Y‖²_F since J⁺ = Jᵀ(JJᵀ)⁻¹.
+        With Y = (JJᵀ)⁻¹ J, tr((JJᵀ)⁻¹) = ‖J⁺‖²_F = ‖Y‖²_F since J⁺ = Jᵀ(JJᵀ)⁻¹. (JJᵀ)⁻¹ is formed
+        (getrf + getri) and applied by products, not by getrs: SciPy's OpenBLAS runs getrs' triangular
+        solves with several right-hand sides on its thread pool, which stalls for milliseconds (a scheduler
+        tick) whenever every core is busy.
         """
-        yz = lu_solve2(je.dot(je.T), je)
-        if yz is None:
+        inv = inverse(je.dot(je.T))
+        if inv is None:
             raise _FallbackError
-        a, bb = float(np.vdot(je, je)), float(np.vdot(yz[0], yz[0]))
+        y = inv.dot(je)
+        a, bb = float(np.vdot(je, je)), float(np.vdot(y, y))
         if not a * bb < self._cert2:  # a·bb = 36 k² ≥ cond(J)²; also nan
             raise _FallbackError
-        return a, bb, yz[1]
+        return a, bb, inv.dot(y)
 
     def _compliance(self, term: ComplianceIndex, je: Array, jb: Array, s1: Array) -> tuple[Array, Array, Array]:
         """S_t1 T, T J1 and Ĵ = [S_t1 T J1, J_e2] (6×n) with C̃1 = T C1 Tᵀ, so that C_e = Ĵ K⁻¹ Ĵᵀ (eq:Ce).
