@@ -109,6 +109,27 @@ def test_bad_input_gives_one_line_error_and_exit_code_2(capsys, args: list[str],
     assert len(lines) == 1 and lines[0].startswith("bracekit: error:") and fragment in lines[0]
 
 
+def test_brace_link_works_with_a_shipped_model_and_negative_offsets(capsys) -> None:
+    code, out, err = _run(
+        [
+            "evaluate",
+            "--model",
+            "paper-robot",
+            "--q",
+            Q,
+            "--brace-link",
+            "link3",
+            "--brace-offset",
+            "-0.1,0,0",
+            "--json",
+        ],
+        capsys,
+    )
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["n1"] == 3 and data["brace_frame"] == "brace_point"
+
+
 def test_malformed_urdf_is_a_one_line_error(capsys, tmp_path: Path) -> None:
     bad = tmp_path / "bad.urdf"
     bad.write_text("<robot name='x'><link name='a'/><joint name='j' type='revolute'></robot>")
@@ -190,7 +211,7 @@ def test_study_ranks_bracing_points_and_reports_json(capsys) -> None:
     code, out, _ = _run(["study", "--model", "paper-robot", "--q", Q, "--points-per-link", "1", "--json"], capsys)
     assert code == 0
     cands = json.loads(out)["candidates"]
-    assert len(cands) == 10
+    assert 8 <= len(cands) <= 10
     assert [c["Ci_constrained"] for c in cands] == sorted(c["Ci_constrained"] for c in cands)
     code, out, _ = _run(["study", "--model", "paper-robot", "--q", Q], capsys)
     assert code == 0 and "best first" in out

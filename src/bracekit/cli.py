@@ -15,7 +15,7 @@ import numpy as np
 from . import __version__
 from .errors import BracekitError, InputError
 
-LIST_OPTIONS = ("--q", "--stiffness", "--normal", "--beta-x", "--point")
+LIST_OPTIONS = ("--q", "--stiffness", "--normal", "--beta-x", "--brace-offset")
 
 
 def _floats(text: str, what: str) -> np.ndarray:
@@ -63,7 +63,9 @@ def build_parser() -> argparse.ArgumentParser:
     src.add_argument("--urdf", type=Path, help="URDF file of the robot")
     src.add_argument("--model", help="a shipped robot: paper-robot or puma560")
     ev.add_argument("--brace", help="bracing frame {b} (a frame of the model; default: the model's own)")
-    ev.add_argument("--brace-link", help="place {b} on this link instead, at --brace-offset")
+    ev.add_argument(
+        "--brace-link", help="place {b} on this link instead, at --brace-offset (named --brace or brace_point)"
+    )
     ev.add_argument("--brace-offset", default="0,0,0", help="offset of {b} in the link frame, m (with --brace-link)")
     ev.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
     ev.add_argument("--q", required=True, help="joint values in chain order, base to tip: Q1,...,Qn (rad)")
@@ -167,7 +169,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     robot, own_brace = _load_robot(args)
     brace = args.brace or own_brace
     if args.brace_link is not None:
-        brace = brace or "brace_point"
+        brace = args.brace or "brace_point"
         robot = robot.with_point_frame(brace, args.brace_link, _floats(args.brace_offset, "--brace-offset"))
     if brace is None:
         raise InputError("name the bracing frame with --brace FRAME (or --brace-link LINK --brace-offset X,Y,Z)")
@@ -181,6 +183,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     else:
         print(_evaluate_text(report))
     return 0
+
+
+def _pct(x: float | None) -> str:
+    return "–" if x is None else f"{100 * x:.1f} %"
 
 
 def _evaluate_text(r: dict[str, Any]) -> str:
@@ -208,8 +214,8 @@ def _evaluate_text(r: dict[str, Any]) -> str:
         "",
         f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
         f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
-        f"({100 * r['Ci_reduction_constrained']:.1f} % less), braced projection {1e3 * r['Ci_projection']:.4f} mm/N "
-        f"({100 * r['Ci_reduction_projection']:.1f} % less)",
+        f"({_pct(r['Ci_reduction_constrained'])} less), braced projection {1e3 * r['Ci_projection']:.4f} mm/N "
+        f"({_pct(r['Ci_reduction_projection'])} less)",
         f"  largest translational compliance: free {1e3 * r['max_translational_free']:.4f} mm/N → braced "
         f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
     ]
@@ -242,7 +248,7 @@ def _study(args: argparse.Namespace) -> int:
         print(
             f"{c.link:>10} {c.n1:>3} {c.fraction:5.2f}  {np.round(c.point, 3).tolist()!s:<26} "
             f"{1e3 * c.Ci_free:8.3f} {1e3 * c.Ci_constrained:8.3f} {1e3 * c.Ci_projection:8.3f} "
-            f"{100 * c.reduction:6.1f}% {k:>8}{note}"
+            f"{_pct(c.reduction):>7} {k:>8}{note}"
         )
     return 0
 

@@ -29,6 +29,11 @@ def _ellipsoids(c: np.ndarray) -> dict[str, Any]:
     }
 
 
+def _reduction(braced: float, free: float) -> float | None:
+    """1 − braced/free, or None when the free compliance along β_x is (numerically) zero."""
+    return None if free <= 1e-15 else 1.0 - braced / free
+
+
 def evaluate(
     robot: Robot,
     brace_frame: str,
@@ -92,8 +97,8 @@ def evaluate(
         "Ci_free": ci["free"],
         "Ci_constrained": ci["constrained"],
         "Ci_projection": ci["projection"],
-        "Ci_reduction_constrained": 1.0 - ci["constrained"] / ci["free"],
-        "Ci_reduction_projection": 1.0 - ci["projection"] / ci["free"],
+        "Ci_reduction_constrained": _reduction(ci["constrained"], ci["free"]),
+        "Ci_reduction_projection": _reduction(ci["projection"], ci["free"]),
         "max_translational_free": float(np.linalg.eigvalsh(c_free[:3, :3])[-1]),
         "max_translational_constrained": float(np.linalg.eigvalsh(c_con[:3, :3])[-1]),
         "ellipsoid_free": _ellipsoids(c_free),

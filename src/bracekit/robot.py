@@ -6,7 +6,10 @@ The model is what does not change during a run; everything computed at a configu
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+import sys
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,13 +21,36 @@ from .errors import FrameNotFoundError, InputError, ModelError
 
 Array = NDArray[np.float64]
 
+#: Accepted joint stiffnesses, N·m/rad (N/m for prismatic joints).
+STIFFNESS_RANGE = (1e-6, 1e12)
+
+
+@contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Silence the C++ parser's own stderr lines (bracekit reports one line of its own)."""
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):  # no real file descriptor (e.g. captured)
+        yield
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), fd)
+            yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
+
 
 def _load_urdf(source: str | Path) -> pin.Model:
     text = str(source)
     is_xml = isinstance(source, str) and text.lstrip().startswith("<")
     if is_xml:
         try:
-            return pin.buildModelFromXML(text)
+            with _quiet_stderr():
+                return pin.buildModelFromXML(text)
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with multi-line text
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise ModelError(f"cannot parse the URDF string: {first}; check that it is valid URDF XML") from exc
@@ -38,7 +64,8 @@ def _load_urdf(source: str | Path) -> pin.Model:
     if "<robot" not in head:
         raise ModelError(f"{path} is not a URDF file (no <robot> element); give a valid URDF file")
     try:
-        return pin.buildModelFromUrdf(str(path))
+        with _quiet_stderr():
+            return pin.buildModelFromUrdf(str(path))
     except Exception as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ModelError(f"cannot parse the URDF file {path}: {first}") from exc
@@ -58,6 +85,11 @@ def _as_stiffness(stiffness: float | Sequence[float] | ArrayLike, names: Sequenc
     for name, value in zip(names, k, strict=True):
         if not np.isfinite(value) or value <= 0.0:
             raise InputError(f"joint stiffness of '{name}' must be a positive number in N·m/rad, got {value}")
+        if not STIFFNESS_RANGE[0] <= value <= STIFFNESS_RANGE[1]:
+            raise InputError(
+                f"joint stiffness of '{name}' is {value:g}; give a value between {STIFFNESS_RANGE[0]:g} and "
+                f"{STIFFNESS_RANGE[1]:g} N·m/rad (outside it the compliance under- or overflows)"
+            )
     return k
 
 

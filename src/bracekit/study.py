@@ -23,6 +23,9 @@ from .robot import Robot
 
 Array = NDArray[np.float64]
 
+#: Upper bound on the candidates per link (each costs a model copy and one evaluation).
+MAX_POINTS_PER_LINK = 50
+
 
 @dataclass(frozen=True)
 class BraceCandidate:
@@ -44,9 +47,9 @@ class BraceCandidate:
     unloaded: bool
 
     @property
-    def reduction(self) -> float:
-        """1 − C_i(constrained) / C_i(free)."""
-        return 1.0 - self.Ci_constrained / self.Ci_free
+    def reduction(self) -> float | None:
+        """1 − C_i(constrained) / C_i(free); None when the free compliance along β_x is zero."""
+        return None if self.Ci_free <= 1e-15 else 1.0 - self.Ci_constrained / self.Ci_free
 
 
 def brace_location_study(
@@ -58,11 +61,17 @@ def brace_location_study(
     points_per_link: int = 3,
     contact: str = "frictionless_point",
 ) -> list[BraceCandidate]:
-    """Candidates on every link that has at least one joint between it and the tip, best (lowest C_i) first."""
-    if points_per_link < 1:
-        raise InputError(f"points_per_link must be at least 1, got {points_per_link}")
+    """Candidates on every link that has at least one joint between it and the tip, best (lowest C_i) first.
+
+    Candidates that coincide with one already listed (same point, same chain split) are dropped.
+    """
+    if not 1 <= points_per_link <= MAX_POINTS_PER_LINK:
+        raise InputError(f"points_per_link must be between 1 and {MAX_POINTS_PER_LINK}, got {points_per_link}")
     qa = robot.check_q(q)
     model = robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, qa)
+    pin.updateFramePlacements(model, data)
     n_hat = np.asarray(normal, dtype=float)
     beta = np.concatenate([n_hat / np.linalg.norm(n_hat), np.zeros(3)]) if beta_x is None else np.asarray(beta_x)
     out: list[BraceCandidate] = []
@@ -74,9 +83,10 @@ def brace_location_study(
             0.5 if points_per_link == 1 else 0.0
         ):
             name = f"_candidate_{j}_{f:.3f}"
+            b = data.oMi[j].act(f * nxt)  # the candidate point in world coordinates
+            if any(c.n1 == j and np.linalg.norm(c.point - b) < 1e-9 for c in out):
+                continue
             r = robot.with_point_frame(name, link, f * nxt)
-            probe = BracedRobot(r, Brace(name, Surface(np.zeros(3), n_hat)))
-            b = probe.state(qa).b
             braced = BracedRobot(r, Brace(name, Surface(b, n_hat), Contact(contact)))
             st = braced.state(qa)
             with warnings.catch_warnings(record=True) as caught:
