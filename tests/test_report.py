@@ -81,3 +81,21 @@ def test_table_holds_the_paper_rows_and_ours_for_both_models(short_run) -> None:
     assert PAPER_TABLE_I["braced_gradient_projection"]["k_mean"] == 4.33
     ours = short_run.summaries["projection"]["strategies"]["braced_min_norm"]["Ci_mean"]
     assert any(line.startswith("bracekit,projection,braced_min_norm,") and str(ours) in line for line in lines)
+
+
+def test_a_rerun_without_figures_removes_the_previous_runs_figures(short_run, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    write_run(short_run, out)
+    assert (out / "fig2_film_strip.png").exists()
+    (out / "notes.txt").write_text("mine")
+    write_run(short_run, out, figures=False)
+    assert not (out / "fig2_film_strip.png").exists() and not (out / "animation.gif").exists()
+    assert (out / "summary.json").exists() and (out / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("bad", ["", "."])
+def test_the_current_folder_is_not_an_output_folder(short_run, bad: str) -> None:
+    from bracekit import InputError
+
+    with pytest.raises(InputError):
+        write_run(short_run, Path(bad) if bad else bad)  # type: ignore[arg-type]

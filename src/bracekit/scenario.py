@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -36,6 +36,8 @@ from .tasks import Circle, Line, Task, Waypoints
 Array = NDArray[np.float64]
 STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
 WEIGHT_KEYS = ("k", "Ci", "theta_z", "d")
+#: Most steps a scenario may ask for per strategy.
+MAX_STEPS = 100_000
 
 
 def shipped_scenarios() -> dict[str, Path]:
@@ -53,7 +55,7 @@ class _Table:
         unknown = sorted(set(data) - set(allowed))
         if unknown:
             where = f"[{path}]" if path else "the top level"
-            keys = ', '.join(allowed)
+            keys = ", ".join(allowed)
             raise ScenarioError(f"unknown key '{_join(path, unknown[0])}'; allowed keys in {where}: {keys}")
         self.data, self.path = data, path
 
@@ -121,7 +123,6 @@ class Scenario:
     feedback_gain: float = 1.0
     description: str = ""
     source: Path | None = None
-    start_rotation: Array | None = field(default=None)
 
     @property
     def robot(self) -> Robot:
@@ -250,6 +251,17 @@ def parse_scenario(
     gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
     sim = top.table("simulation", ("dt", "strategies", "feedback_gain"), {})
     dt = sim.number("dt", 0.05, positive=True)
+    if dt > task.duration:
+        raise ScenarioError(
+            f"'simulation.dt' = {dt} s is longer than the task ({task.duration:g} s); give a smaller dt"
+        )
+    if task.duration / dt > MAX_STEPS:
+        raise ScenarioError(
+            f"'simulation.dt' = {dt} s gives {task.duration / dt:.0f} steps (more than {MAX_STEPS}); give a larger dt"
+        )
+    feedback_gain = sim.number("feedback_gain", 1.0)
+    if feedback_gain < 0:
+        raise ScenarioError(f"'simulation.feedback_gain' must be ≥ 0 (1/s), got {feedback_gain}")
     strategies = sim.raw("strategies", list(STRATEGIES))
     if not isinstance(strategies, list) or not strategies or any(s not in STRATEGIES for s in strategies):
         raise ScenarioError(f"'simulation.strategies' must be a list drawn from: {', '.join(STRATEGIES)}")
@@ -267,7 +279,7 @@ def parse_scenario(
         gradient=gradient,  # type: ignore[arg-type]
         dt=dt,
         strategies=tuple(strategies),
-        feedback_gain=sim.number("feedback_gain", 1.0),
+        feedback_gain=feedback_gain,
         source=source,
     )
 

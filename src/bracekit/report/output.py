@@ -20,8 +20,10 @@ from .table import table_csv, table_markdown
 if TYPE_CHECKING:
     from ..run import RunResult
 
+#: Every file `write_run` may write; a re-run into the same folder removes the ones it does not rewrite.
 FILES = (
     "summary.json",
+    "summary_all_models.json",
     "table.md",
     "table.csv",
     "trajectories.npz",
@@ -53,8 +55,14 @@ def to_json(data: Any) -> str:
 
 
 @contextmanager
-def atomic_directory(out: Path) -> Iterator[Path]:
-    """Yield a temporary folder; on success its files replace those in `out`, on error nothing is left."""
+def atomic_directory(out: Path, owned: tuple[str, ...] = ()) -> Iterator[Path]:
+    """Yield a temporary folder; on success its files replace those in `out`, on error nothing is left.
+
+    Files named in `owned` that the new run did not write are removed from `out`, so a folder never mixes
+    two runs' outputs.
+    """
+    if str(out).strip() in ("", "."):
+        raise InputError("the output folder must be a named folder (e.g. --out bracekit-out), not '' or '.'")
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"output path {out} exists and is not a folder; give a folder path with --out")
@@ -69,6 +77,10 @@ def atomic_directory(out: Path) -> Iterator[Path]:
         if not out.exists():
             os.replace(tmp, out)
             return
+        new = {item.name for item in tmp.iterdir()}
+        for name in owned:
+            if name not in new and (out / name).is_file():
+                (out / name).unlink()
         for item in tmp.iterdir():
             os.replace(item, out / item.name)
         tmp.rmdir()
@@ -110,7 +122,7 @@ def write_run(
             ("fig4_measures.png", lambda p: fig.figure_measures(result, p)),
             ("animation.gif", lambda p: fig.animate(result, p)),
         ]
-    with atomic_directory(out) as tmp:
+    with atomic_directory(out, owned=FILES) as tmp:
         for name, write in steps:
             if progress is not None:
                 progress(name)
