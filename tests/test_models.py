@@ -130,10 +130,10 @@ def test_puma_joint_limits_match_corke(path: Path) -> None:
     np.testing.assert_allclose(model.upperPositionLimit[:6], limits[:, 1], atol=1e-12)
 
 
-def test_hebi_joint_limits_are_plus_minus_pi(paper: pin.Model) -> None:
-    """HEBI joints 7-11 are limited to +-pi."""
-    np.testing.assert_allclose(paper.lowerPositionLimit[6:], -np.pi, atol=1e-12)
-    np.testing.assert_allclose(paper.upperPositionLimit[6:], np.pi, atol=1e-12)
+def test_hebi_joint_limits_are_plus_minus_two_pi(paper: pin.Model) -> None:
+    """HEBI joints 7-11 (multi-turn modules) are limited to +-2 pi."""
+    np.testing.assert_allclose(paper.lowerPositionLimit[6:], -2 * np.pi, atol=1e-12)
+    np.testing.assert_allclose(paper.upperPositionLimit[6:], 2 * np.pi, atol=1e-12)
 
 
 def test_puma_flange_at_qn_matches_corke_fkine(puma: pin.Model) -> None:

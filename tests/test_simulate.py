@@ -134,3 +134,33 @@ def test_a_step_that_jumps_over_the_region_barrier_is_split_and_the_run_stays_in
     monkeypatch.setattr(importlib.import_module("bracekit.simulate"), "MAX_SUBSTEP_DEPTH", 0)
     tr0 = simulate(braced, BracedGradientProjection(obj), task, start.q, 0.1, sc.beta_x)
     assert not tr0.completed and "leaves the region" in tr0.failure
+
+
+def test_runs_report_joint_limits_and_surface_penetration(setup) -> None:
+    from bracekit import Brace, BracedRobot, JointLimitWarning, Surface
+
+    sc, start, task = setup
+    tr = simulate(sc.braced, FreeSpaceMinNorm(), task, start.q, 0.1, sc.beta_x)
+    s = tr.summary()
+    surface = sc.braced.brace.surface
+    recomputed = min(surface.signed_distance(sc.braced.state(q).b) for q in tr.q)
+    assert s["min_surface_distance_m"] == pytest.approx(recomputed)
+    assert s["max_joint_limit_violation_rad"] == 0.0
+    # a robot whose limits sit just around the start: the run exceeds them and says so
+    model = sc.robot.model
+    import pinocchio as pin
+
+    tight = pin.Model(model)
+    tight.lowerPositionLimit = start.q - 1e-3
+    tight.upperPositionLimit = start.q + 1e-3
+    robot = bk_robot(tight, sc)
+    braced = BracedRobot(robot, Brace(sc.braced.brace.frame, Surface(surface.point, surface.normal)))
+    with pytest.warns(JointLimitWarning):
+        tr2 = simulate(braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert tr2.summary()["max_joint_limit_violation_rad"] > 0
+
+
+def bk_robot(model, sc):
+    from bracekit import Robot
+
+    return Robot(model=model, tip=sc.robot.tip, stiffness=sc.robot.stiffness)

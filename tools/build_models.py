@@ -39,8 +39,9 @@ HEBI arm of the paper robot (paper_robot.urdf only)
   H2. X8-16: output frame = input frame translated 0.0451 m along input z;
       the revolute joint sits at the output frame, axis +z. Housing mass
       0.5 kg with the centre of mass and inertia of HEBI's hebi_description
-      X8 model. Joint limits +-pi (the module turns without limit; +-pi keeps
-      the joint revolute and q unambiguous), effort 38 Nm (peak), velocity
+      X8 model. Joint limits +-2 pi (the module turns without limit; a
+      finite range keeps the joint revolute, and two turns keep a path from
+      being stopped by an artificial limit at +-pi), effort 38 Nm (peak), velocity
       1.571 rad/s (hebi_description value for the X8-16).
   H3. Tube link (extension L, twist tau): output = translation
       (L, -0.0175 sin tau, 0.0175 (1 + cos tau)) then Rx(tau).
@@ -154,7 +155,7 @@ X8_INERTIA = (
 )
 X8_EFFORT = 38.0
 X8_VELOCITY = 1.571
-HEBI_LIMIT = PI
+HEBI_LIMIT = 2.0 * PI
 TUBE_EXTENSION = 0.325
 TUBE_TWIST = PI
 TUBE_EDGE = 0.0175

@@ -61,3 +61,7 @@ class UnloadedContactWarning(BracekitWarning):
 
 class RegionWarning(BracekitWarning):
     """The bracing point left the bracing region during a run whose strategy does not guard it."""
+
+
+class JointLimitWarning(BracekitWarning):
+    """A run took a joint beyond its URDF limits (the kinematic simulation does not enforce them)."""

@@ -29,7 +29,15 @@ from .compliance import (
     end_effector_compliance,
     free_space_compliance,
 )
-from .errors import BarrierError, BracekitError, ConvergenceError, InputError, RegionWarning
+from .errors import (
+    BarrierError,
+    BracekitError,
+    ConvergenceError,
+    InputError,
+    JointLimitWarning,
+    RegionWarning,
+    UnloadedContactWarning,
+)
 from .kinematics import BracedRobot, BracedState
 from .measures import frobenius_condition, singular_value_measures
 from .objective import ComplianceIndex, Objective, RegionBarrier
@@ -40,6 +48,8 @@ Array = NDArray[np.float64]
 
 #: Residual (m, rad) at which the Gauss–Newton pose/contact correction stops.
 CORRECTION_TOL = 1e-12
+#: A correction whose residual stops falling (round-off) is accepted below this (m, rad).
+ACCEPT_TOL = 1e-10
 #: A gradient-projection step that jumps out of the bracing region is halved at most this many times.
 MAX_SUBSTEP_DEPTH = 4
 
@@ -74,7 +84,12 @@ def correct(
     tol: float = CORRECTION_TOL,
     max_iter: int = 20,
 ) -> BracedState:
-    """Minimum-norm Gauss–Newton: the state nearest q with the tip at the pose (and {b} on the contact)."""
+    """Minimum-norm Gauss–Newton: the state nearest q with the tip at the pose (and {b} on the contact).
+
+    Stops at a residual below `tol`, or when it stops falling below ACCEPT_TOL (round-off); raises
+    ConvergenceError otherwise.
+    """
+    previous = np.inf
     for _ in range(max_iter):
         st = braced.state(q)
         res = pose_error(st, position, rotation)
@@ -82,12 +97,14 @@ def correct(
         if anchor is not None:
             res = np.concatenate([res, -contact_residual(st, *anchor)])
             rows = np.vstack([rows, st.X.T @ st.J_b])
-        if np.max(np.abs(res)) < tol:
+        size = float(np.max(np.abs(res)))
+        if size < tol or (size < ACCEPT_TOL and size > 0.5 * previous):
             return st
+        previous = size
         q = q + rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
     raise ConvergenceError(
         f"the pose/contact correction did not converge in {max_iter} iterations "
-        f"(residual {np.max(np.abs(res)):.2e}); reduce the time step or move away from singularities"
+        f"(residual {size:.2e}); reduce the time step or move away from singularities"
     )
 
 
@@ -131,6 +148,8 @@ class Trajectory:
             "max_task_error_m": float(np.max(m["task_error"])),
             "max_contact_violation_m": float(np.max(m["contact_violation"])),
             "max_region_radius_m": float(np.max(m["region_radius"])),
+            "min_surface_distance_m": float(np.min(m["surface_distance"])),
+            "max_joint_limit_violation_rad": float(np.max(m["joint_limit_violation"])),
             "steps": self.steps,
             "substeps": self.substeps,
             "completed": self.completed,
@@ -139,8 +158,9 @@ class Trajectory:
 
 
 def measure(state: BracedState, beta_x: Array, centre: Array, task_error: float, braced: bool) -> dict[str, float]:
-    """The measures recorded at a sample (C_i in all models, J̃ singular values, k, θ_z, r)."""
+    """The measures recorded at a sample (C_i in all models, J̃ singular values, k, θ_z, r, limits)."""
     sv = singular_value_measures(state.J_braced)
+    lower, upper = state.braced.robot.lower, state.braced.robot.upper
     surface = state.braced.brace.surface
     out = {
         "Ci_free": compliance_index(free_space_compliance(state), beta_x),
@@ -153,6 +173,8 @@ def measure(state: BracedState, beta_x: Array, centre: Array, task_error: float,
         "theta_z": angle_between(surface.normal, state.z_b),
         "region_radius": float(np.linalg.norm(state.b - centre)),
         "contact_violation": abs(surface.signed_distance(state.b)),
+        "surface_distance": surface.signed_distance(state.b),
+        "joint_limit_violation": float(np.max(np.maximum(0.0, np.maximum(lower - state.q, state.q - upper)))),
         "task_error": task_error,
     }
     for model in COMPLIANCE_MODELS:
@@ -188,6 +210,7 @@ def simulate(
     if not (np.isfinite(dt) and dt > 0):
         raise InputError(f"time step dt must be a positive number of seconds, got {dt}")
     steps = max(1, round(task.duration / dt))
+    dt = task.duration / steps  # the last sample lands on the task's end
     st = braced.state(q0)
     rotation = task.rotation if task.rotation is not None else st.R_e.copy()
     anchor = (st.b.copy(), st.R_b.copy()) if strategy.braced else None
@@ -227,21 +250,41 @@ def simulate(
 
     ts, qs, rows = [0.0], [st.q.copy()], [measure(st, beta_x(0.0), centre, 0.0, strategy.braced)]
     failure = None
-    for i in range(steps):
-        t, t_next = i * dt, (i + 1) * dt
-        try:
-            st = advance(st, t, dt)
-            task_err = float(np.linalg.norm(task.position(t_next) - st.e))
-            rows.append(measure(st, beta_x(t_next), centre, task_err, strategy.braced))
-        except BracekitError as exc:
-            failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
-            break
-        ts.append(t_next)
-        qs.append(st.q.copy())
-        if progress is not None:
-            progress(1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnloadedContactWarning)
+        for i in range(steps):
+            t, t_next = i * dt, (i + 1) * dt
+            try:
+                st = advance(st, t, dt)
+                task_err = float(np.linalg.norm(task.position(t_next) - st.e))
+                rows.append(measure(st, beta_x(t_next), centre, task_err, strategy.braced))
+            except BracekitError as exc:
+                failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
+                break
+            ts.append(t_next)
+            qs.append(st.q.copy())
+            if progress is not None:
+                progress(1)
     measures = {key: np.array([r[key] for r in rows]) for key in rows[0]}
     notes = []
+    unloaded = [w for w in caught if issubclass(w.category, UnloadedContactWarning)]
+    if unloaded:
+        notes.append(f"{strategy.name}: at {len(unloaded)} evaluation(s) {unloaded[0].message}")
+        warnings.warn(notes[-1], UnloadedContactWarning, stacklevel=2)
+    for w in caught:  # pass on anything else unchanged
+        if not issubclass(w.category, UnloadedContactWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    limit = float(np.max(measures["joint_limit_violation"]))
+    if limit > 0:
+        notes.append(f"{strategy.name}: joint limits exceeded by up to {limit:.3g} rad (limits are not enforced)")
+        warnings.warn(notes[-1], JointLimitWarning, stacklevel=2)
+    inside = measures["region_radius"] < (r_max if r_max is not None else np.inf)
+    depth = float(np.min(measures["surface_distance"], initial=0.0, where=inside))
+    if depth < -1e-6:
+        notes.append(
+            f"{strategy.name}: the bracing point passes {-depth:.3g} m below the bracing surface inside the region "
+            "(this run ignores the surface)"
+        )
     if substeps:
         notes.append(f"{strategy.name}: {substeps} step(s) were split to keep the bracing point in the region")
     if r_max is not None and np.max(measures["region_radius"]) >= r_max:
@@ -288,26 +331,48 @@ def solve_start(
     surface = braced.brace.surface
     lo, hi = braced.robot.lower, braced.robot.upper
 
+    x_t, y_t = surface.frame[:, 0], surface.frame[:, 1]
+
     def residual(q: Array) -> Array:
-        b, e, r_b, r_e = braced.placements(q)
-        hard = [target - e, [surface.signed_distance(b)]]
+        st = braced.state(q)
+        hard = [target - st.e, [surface.signed_distance(st.b)]]
         if rot is not None:
-            hard.append(pin.log3(rot @ r_e.T))
+            hard.append(pin.log3(rot @ st.R_e.T))
+        # ẑ_b's tangential components: ≈ θ_z for small angles and smooth at 0, unlike θ_z itself
         soft = [
-            region_weight * (b - surface.point),
-            [theta_weight * angle_between(surface.normal, r_b[:, 2])],
+            region_weight * (st.b - surface.point),
+            theta_weight * np.array([x_t @ st.z_b, y_t @ st.z_b]),
             posture_weight * (q - q_guess),
         ]
         return np.concatenate([1e3 * np.concatenate(hard), np.concatenate(soft)])
 
+    def jacobian(q: Array) -> Array:
+        st = braced.state(q)
+        hard = [-st.J_e[:3], surface.normal @ st.J_b[:3]]
+        if rot is not None:
+            hard.append(-st.J_e[3:])  # first-order (exact at the solution)
+        soft = [
+            region_weight * st.J_b[:3],
+            theta_weight * np.vstack([np.cross(st.z_b, x_t) @ st.J_b[3:], np.cross(st.z_b, y_t) @ st.J_b[3:]]),
+            posture_weight * np.eye(q.size),
+        ]
+        return np.vstack([1e3 * np.vstack(hard), np.vstack(soft)])
+
     x0 = np.clip(q_guess, lo + 1e-6, hi - 1e-6)
-    sol = least_squares(residual, x0, bounds=(lo, hi), xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000)
+    sol = least_squares(residual, x0, jac=jacobian, bounds=(lo, hi), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=500)
+    if sol.status <= 0:
+        raise ConvergenceError(f"the start configuration solve did not converge ({sol.message}); try another guess")
     st = braced.state(sol.x)
     rotation_target = rot if rot is not None else st.R_e
-    anchor_rot = st.R_b
     # the plane point under b: an anchor on the surface
     anchor_point = st.b - surface.normal * surface.signed_distance(st.b)
-    st = correct(braced, st.q, target, rotation_target, (anchor_point, anchor_rot))
+    try:
+        st = correct(braced, st.q, target, rotation_target, (anchor_point, st.R_b))
+    except ConvergenceError:
+        raise ConvergenceError(
+            f"no start configuration puts the tip at {np.round(target, 4).tolist()} m with the brace closed "
+            f"(closest: {np.linalg.norm(target - st.e):.3g} m away); move the task or the surface, or change the guess"
+        ) from None
     r_max = braced.brace.region_radius
     r = float(np.linalg.norm(st.b - surface.point))
     if r_max is not None and r >= r_max:
