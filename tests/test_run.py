@@ -87,3 +87,20 @@ def test_finite_difference_gradient_run_matches_the_analytic_run(short_scenario_
     sa = a.summary["strategies"]["braced_gradient_projection"]
     sf = f.summary["strategies"]["braced_gradient_projection"]
     assert sa["Ci_mean"] == pytest.approx(sf["Ci_mean"], rel=1e-3)
+
+
+def test_paper_run_reproduces_the_readme_table(paper_run) -> None:
+    """Golden values of the README's Table I (constrained and projection), to 0.5 %: a regression guard."""
+    readme = {
+        "constrained": {
+            "free_space_min_norm": (0.01651, 10.09),
+            "braced_min_norm": (0.00793, 6.40),
+            "braced_gradient_projection": (0.00659, 5.47),
+        },
+        "projection": {"braced_min_norm": (0.01128, 6.40), "braced_gradient_projection": (0.00946, 5.57)},
+    }
+    for model, rows in readme.items():
+        s = paper_run.summaries[model]["strategies"]
+        for name, (ci_mean, k_mean) in rows.items():
+            assert s[name]["Ci_mean"] == pytest.approx(ci_mean, rel=5e-3), (model, name)
+            assert s[name]["k_mean"] == pytest.approx(k_mean, rel=5e-3), (model, name)

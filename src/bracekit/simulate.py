@@ -32,6 +32,7 @@ from .compliance import (
 from .errors import (
     BarrierError,
     BracekitError,
+    BracekitWarning,
     ConvergenceError,
     InputError,
     JointLimitWarning,
@@ -48,6 +49,8 @@ Array = NDArray[np.float64]
 
 #: Residual (m, rad) at which the Gauss–Newton pose/contact correction stops.
 CORRECTION_TOL = 1e-12
+#: Evaluations the start solve may take.
+START_MAX_NFEV = 2000
 #: A correction whose residual stops falling (round-off) is accepted below this (m, rad).
 ACCEPT_TOL = 1e-10
 #: A gradient-projection step that jumps out of the bracing region is halved at most this many times.
@@ -359,9 +362,16 @@ def solve_start(
         return np.vstack([1e3 * np.vstack(hard), np.vstack(soft)])
 
     x0 = np.clip(q_guess, lo + 1e-6, hi - 1e-6)
-    sol = least_squares(residual, x0, jac=jacobian, bounds=(lo, hi), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=500)
+    sol = least_squares(
+        residual, x0, jac=jacobian, bounds=(lo, hi), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=START_MAX_NFEV
+    )
     if sol.status <= 0:
-        raise ConvergenceError(f"the start configuration solve did not converge ({sol.message}); try another guess")
+        warnings.warn(
+            f"the start solve stopped after {sol.nfev} evaluations before its soft terms (r, θ_z, distance to the "
+            "guess) converged; the start meets the task and the contact but is not their optimum: give a closer guess",
+            BracekitWarning,
+            stacklevel=2,
+        )
     st = braced.state(sol.x)
     rotation_target = rot if rot is not None else st.R_e
     # the plane point under b: an anchor on the surface
