@@ -21,7 +21,5 @@ constrained = bk.compliance_index(bk.end_effector_compliance(state, "constrained
 projection = bk.compliance_index(bk.end_effector_compliance(state, "projection"), beta_z)
 print(f"chain 1: {braced.n1} joints, chain 2: {braced.n2} joints; tool at {np.round(state.e, 3)} m")
 print(f"vertical compliance index C_i: free {1e3 * free:.2f} mm/N")
-print(
-    f"  braced: {1e3 * constrained:.2f} mm/N (constrained, exact), {1e3 * projection:.2f} mm/N (paper's projection)"
-)
+print(f"  braced: {1e3 * constrained:.2f} mm/N (constrained, exact), {1e3 * projection:.2f} mm/N (paper's projection)")
 print(f"k of J = {bk.frobenius_condition(state.J):.2f}, k of J̃ = {bk.frobenius_condition(state.J_braced):.2f}")

@@ -19,6 +19,7 @@ from bracekit import (
     BracedRobot,
     Contact,
     InputError,
+    NumericalError,
     Robot,
     SingularityError,
     Surface,
@@ -180,6 +181,19 @@ def test_batch_reports_singular_configurations_like_frobenius_condition() -> Non
     for i in (0, 1, 2, 3, 5):
         assert res.k[i] == pytest.approx(frobenius_condition(braced.state(Q[i]).J_e), rel=TOL)
     assert "singular" in str(err.value)
+
+
+@pytest.mark.parametrize("model", ["constrained", "projection"])
+def test_batch_raises_numerical_error_when_the_compliance_overflows(model: str) -> None:
+    robot = Robot.from_urdf(random_chain_urdf(8, seed=6, brace_link=4), tip="tip")
+    object.__setattr__(robot, "stiffness", np.full(robot.n, 1e-320))  # 1/K overflows (range check bypassed)
+    braced = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), (0.0, 0.0, 1.0))))
+    Q = np.random.default_rng(1).uniform(-2, 2, size=(4, robot.n))
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("error", UnloadedContactWarning)
+        for errors in ("raise", "nan"):
+            with pytest.raises(NumericalError, match="configuration 0"):
+                evaluate_batch(braced, Q, np.r_[1.0, 0, 0, 0, 0, 0], models=(model,), errors=errors)
 
 
 def test_batch_warns_once_when_the_contact_is_unloaded() -> None:

@@ -25,12 +25,14 @@ from bracekit.compliance import (
     check_model,
     compliance_ellipsoids,
     compliance_index,
+    constraint_gain,
     directional_compliance,
     end_effector_compliance,
     free_space_compliance,
+    loaded_gain,
 )
 from bracekit.contact import FRICTIONLESS_POINT, POINT_WITH_FRICTION, SOFT_FINGER, Brace, Contact, Surface
-from bracekit.errors import InputError, UnloadedContactWarning
+from bracekit.errors import InputError, NumericalError, UnloadedContactWarning
 from bracekit.kinematics import BracedRobot
 from bracekit.models import load_model, model_path
 from bracekit.robot import Robot
@@ -390,6 +392,50 @@ def test_friction_contact_on_a_two_joint_chain_1_locks_it_and_warns() -> None:
         ce = end_effector_compliance(c.state)
     je2 = c.J_e[:, 2:]
     assert rel(ce, je2 @ np.diag(1.0 / c.K[2:]) @ je2.T) < 1e-9  # only chain 2 deflects
+
+
+def test_an_overflowing_compliance_raises_numerical_error_and_is_never_reported_as_no_load() -> None:
+    c = paper_case()
+    # stiffnesses so small that 1/K overflows (Robot's range check bypassed on purpose): C1 is inf/nan
+    object.__setattr__(c.braced.robot, "stiffness", np.full(c.braced.n, 1e-320))
+    state = c.braced.state(c.q)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("error", UnloadedContactWarning)  # NaN must not pass for "no load"
+        for fn in (constraint_gain, end_effector_compliance, free_space_compliance):
+            with pytest.raises(NumericalError, match="not finite"):
+                fn(state)
+        with pytest.raises(NumericalError, match="not finite"):
+            end_effector_compliance(state, "projection")
+    e_x = np.r_[1.0, 0, 0, 0, 0, 0]
+    with np.errstate(all="ignore"):
+        with pytest.raises(NumericalError):
+            compliance_index(np.full((6, 6), 1e300), e_x)  # ‖β_xᵀ C_e‖ overflows
+        with pytest.raises(NumericalError):
+            directional_compliance(np.full((6, 6), np.nan), e_x, e_x)
+
+
+def test_loaded_gain_of_a_stack_equals_each_matrix_and_counts_the_unloaded_directions() -> None:
+    rng = np.random.default_rng(8)
+    a = rng.normal(size=(5, 3, 3))
+    m = a @ a.transpose(0, 2, 1)
+    w, v = np.linalg.eigh(m[2])
+    m[2] -= w[0] * np.outer(v[:, 0], v[:, 0])  # rank 2: one direction carries no load
+    trace = np.trace(m, axis1=1, axis2=2)
+    g, unloaded = loaded_gain(m, trace)
+    assert unloaded.tolist() == [0, 0, 1, 0, 0]
+    for i in range(5):
+        g_i, u_i = loaded_gain(m[i], trace[i])
+        np.testing.assert_allclose(g[i], g_i, rtol=1e-12, atol=1e-12)
+        assert int(u_i) == unloaded[i]
+        if not u_i:
+            np.testing.assert_allclose(g_i @ m[i], np.eye(3), atol=1e-9)
+    np.testing.assert_allclose(g[2] @ m[2] @ g[2], g[2], atol=1e-9)  # the pseudo-inverse on the loaded part
+    g1, u1 = loaded_gain(m[:, :1, :1], trace)  # one direction: exactly 1/m
+    assert np.array_equal(g1[:, 0, 0], 1.0 / m[:, 0, 0]) and not u1.any()
+    g_env, _ = loaded_gain(m, trace, k_env=50.0)
+    np.testing.assert_allclose(g_env, np.linalg.inv(m + np.eye(3) / 50.0), rtol=1e-12)
+    with pytest.raises(NumericalError):
+        loaded_gain(np.full((1, 1), np.nan), 1.0)
 
 
 def test_generic_contact_emits_no_unloaded_warning() -> None:

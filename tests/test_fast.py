@@ -26,12 +26,14 @@ from bracekit import (
     ConditionNumber,
     Contact,
     InputError,
+    NumericalError,
     Objective,
     RegionBarrier,
     Robot,
     SingularityError,
     Surface,
     UnloadedContactWarning,
+    load_model,
     load_scenario,
 )
 from bracekit._linalg import angle_between, cross3, inverse
@@ -239,6 +241,25 @@ def test_fused_step_warns_like_the_reference_when_the_contact_is_unloaded() -> N
     with pytest.warns(UnloadedContactWarning):
         got = step(q, xdot)
     _assert_same(ref, got)
+
+
+@pytest.mark.parametrize("model", ["constrained", "projection"])
+def test_fused_step_raises_numerical_error_like_the_reference_when_the_compliance_overflows(paper, model) -> None:
+    sc, qs = paper
+    robot = load_model("paper-robot")
+    object.__setattr__(robot, "stiffness", np.full(robot.n, 1e-320))  # 1/K overflows (range check bypassed)
+    braced = BracedRobot(robot, sc.braced.brace)
+    strategy = BracedGradientProjection(_objective(braced, model, np.r_[1.0, 0, 0, 0, 0, 0], r_max=50.0))
+    xdot = np.array([0.0, 0.0, 0.01, 0.0, 0.0, 0.0])
+    backends = ["numpy", "numba"] if numba_available() else ["numpy"]
+    with np.errstate(all="ignore"):
+        ref = _outcome(lambda: strategy.velocity(braced.state(qs[0], hessians=True), xdot))
+        assert ref[0] == "NumericalError"
+        for backend in backends:
+            step = GradientProjectionStep(braced, strategy, backend=backend)
+            assert _outcome(lambda s=step: s(qs[0], xdot)) == ref
+            with pytest.raises(NumericalError):
+                step.value(qs[0])
 
 
 def test_cross3_and_theta_z_are_bit_for_bit_numpys() -> None:

@@ -12,10 +12,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from bracekit import kinematics
 from bracekit.contact import Brace, Surface
-from bracekit.errors import ContactError, FrameNotFoundError, InputError, SingularityError
+from bracekit.errors import ContactError, FrameNotFoundError, InputError, NumericalError, SingularityError
+from bracekit.fast import GradientProjectionStep
 from bracekit.kinematics import BracedRobot, skeleton
 from bracekit.models import load_model, model_path
+from bracekit.objective import BraceAngle, ConditionNumber, Objective
+from bracekit.resolution import BracedGradientProjection
 from bracekit.robot import Robot
 from conftest import branched_chain_urdf, pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
@@ -289,6 +293,33 @@ def test_kinematic_hessians_equal_finite_differences_of_the_jacobians(case: str)
     # the guard is sensitive to the memory layout: the swapped index order differs by far more than atol
     assert np.max(np.abs(fd_e - fd_e.transpose(0, 2, 1))) > 1e-2
     assert np.max(np.abs(fd_b - fd_b.transpose(0, 2, 1))) > 1e-2
+
+
+def test_a_misread_hessian_layout_raises_and_the_layout_is_checked_once_per_frame(monkeypatch) -> None:
+    real = pin.getFrameKinematicHessian
+
+    def c_order(model, data, frame_id, rf):
+        """What a Pinocchio whose strides matched its memory would return: the true tensor in C order."""
+        h = real(model, data, frame_id, rf)
+        return np.ascontiguousarray(h.ravel(order="C").reshape(h.shape, order="F"))
+
+    q = np.random.default_rng(0).uniform(-2.0, 2.0, 7)
+    monkeypatch.setattr(pin, "getFrameKinematicHessian", c_order)
+    braced, _ = braced_chain(7, seed=61, brace_link=4)  # fresh models: their Hessians are not checked yet
+    with pytest.raises(NumericalError, match="memory layout"):
+        braced.state(q, hessians=True)
+    braced, _ = braced_chain(7, seed=61, brace_link=4)
+    strategy = BracedGradientProjection(Objective([ConditionNumber(), BraceAngle()], [1.0, 1.0]))
+    with pytest.raises(NumericalError, match="memory layout"):
+        GradientProjectionStep(braced, strategy)(q, np.zeros(6))
+    monkeypatch.setattr(pin, "getFrameKinematicHessian", real)
+    calls: list[int] = []
+    check = kinematics.check_hessian_layout
+    monkeypatch.setattr(kinematics, "check_hessian_layout", lambda m, f: (calls.append(f), check(m, f)))
+    braced, _ = braced_chain(7, seed=61, brace_link=4)
+    for _ in range(3):
+        braced.state(q, hessians=True)
+    assert sorted(calls) == sorted([braced.robot.tip_id, braced.brace_id])
 
 
 # ---------------------------------------------------------------------------------------------- PUMA facts

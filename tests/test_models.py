@@ -32,9 +32,7 @@ PUMA_LIMITS_DEG = [
     (-266, 266),
 ]
 # "Wrist down, arm forward" example pose: pad on a table, HEBI arm above it.
-WRIST_DOWN_Q = np.array(
-    [0.0, 0.1924, -2.594, 0.0, -0.74, -3.1416, 0.2, -3.0734, 1.9224, 0.2834, 0.3]
-)
+WRIST_DOWN_Q = np.array([0.0, 0.1924, -2.594, 0.0, -0.74, -3.1416, 0.2, -3.0734, 1.9224, 0.2834, 0.3])
 N_RANDOM = 25
 
 
@@ -93,9 +91,7 @@ def frame_placement(model: pin.Model, q: np.ndarray, name: str) -> pin.SE3:
 def frame_jacobian(model: pin.Model, q: np.ndarray, name: str) -> np.ndarray:
     """Geometric Jacobian of a frame (LOCAL_WORLD_ALIGNED, 6 x nv)."""
     data = pin.Data(model)
-    return pin.computeFrameJacobian(
-        model, data, q, model.getFrameId(name), pin.LOCAL_WORLD_ALIGNED
-    )
+    return pin.computeFrameJacobian(model, data, q, model.getFrameId(name), pin.LOCAL_WORLD_ALIGNED)
 
 
 def smallest_singular_value(matrix: np.ndarray) -> float:
@@ -103,9 +99,7 @@ def smallest_singular_value(matrix: np.ndarray) -> float:
     return float(np.linalg.svd(matrix, compute_uv=False).min())
 
 
-@pytest.mark.parametrize(
-    ("path", "nq"), [(PUMA_URDF, 6), (PAPER_URDF, 11)], ids=["puma560", "paper_robot"]
-)
+@pytest.mark.parametrize(("path", "nq"), [(PUMA_URDF, 6), (PAPER_URDF, 11)], ids=["puma560", "paper_robot"])
 def test_models_parse_with_only_revolute_joints(path: Path, nq: int) -> None:
     """Both files parse with nq == nv and revolute (not continuous) joints."""
     model = pin.buildModelFromUrdf(str(path))
@@ -119,9 +113,7 @@ def test_models_parse_with_only_revolute_joints(path: Path, nq: int) -> None:
     assert np.all(np.isfinite(model.upperPositionLimit))
 
 
-@pytest.mark.parametrize(
-    "path", [PUMA_URDF, PAPER_URDF], ids=["puma560", "paper_robot"]
-)
+@pytest.mark.parametrize("path", [PUMA_URDF, PAPER_URDF], ids=["puma560", "paper_robot"])
 def test_puma_joint_limits_match_corke(path: Path) -> None:
     """Joints 1-6 carry Corke's PUMA 560 limits."""
     model = pin.buildModelFromUrdf(str(path))
@@ -167,21 +159,15 @@ def test_puma_flange_matches_standard_dh_product_at_random_q(puma: pin.Model) ->
                     [0.0, 0.0, 0.0, 1.0],
                 ]
             )
-        np.testing.assert_allclose(
-            frame_placement(puma, q, "flange").homogeneous, expected, atol=1e-12
-        )
+        np.testing.assert_allclose(frame_placement(puma, q, "flange").homogeneous, expected, atol=1e-12)
 
 
-def test_paper_robot_first_six_joints_reproduce_puma(
-    puma: pin.Model, paper: pin.Model
-) -> None:
+def test_paper_robot_first_six_joints_reproduce_puma(puma: pin.Model, paper: pin.Model) -> None:
     """Joints 1-6 of the paper robot are exactly the PUMA 560."""
     for q in random_configurations(paper, N_RANDOM, seed=2):
         on_paper = frame_placement(paper, q, "flange")
         on_puma = frame_placement(puma, q[:6], "flange")
-        np.testing.assert_allclose(
-            on_paper.translation, on_puma.translation, atol=1e-12
-        )
+        np.testing.assert_allclose(on_paper.translation, on_puma.translation, atol=1e-12)
         np.testing.assert_allclose(on_paper.rotation, on_puma.rotation, atol=1e-12)
 
 
@@ -236,9 +222,7 @@ def test_brace_z_axis_is_minus_flange_z_axis(paper: pin.Model) -> None:
     for q in random_configurations(paper, N_RANDOM, seed=7):
         brace = frame_placement(paper, q, "brace")
         flange = frame_placement(paper, q, "flange")
-        np.testing.assert_allclose(
-            brace.rotation[:, 2], -flange.rotation[:, 2], atol=1e-12
-        )
+        np.testing.assert_allclose(brace.rotation[:, 2], -flange.rotation[:, 2], atol=1e-12)
 
 
 def test_brace_is_on_joint6_axis_beyond_the_flange(paper: pin.Model) -> None:
@@ -253,12 +237,8 @@ def test_brace_is_on_joint6_axis_beyond_the_flange(paper: pin.Model) -> None:
 
 def test_brace_frame_moves_with_link6_only(paper: pin.Model) -> None:
     """The brace frame hangs on joint 6 (chain split 6 + 5), tool on joint 11."""
-    assert paper.frames[paper.getFrameId("brace")].parentJoint == paper.getJointId(
-        "joint6"
-    )
-    assert paper.frames[paper.getFrameId("tool")].parentJoint == paper.getJointId(
-        "joint11"
-    )
+    assert paper.frames[paper.getFrameId("brace")].parentJoint == paper.getJointId("joint6")
+    assert paper.frames[paper.getFrameId("tool")].parentJoint == paper.getJointId("joint11")
 
 
 def test_wrist_down_example_pose_braces_pad_on_a_table(paper: pin.Model) -> None:

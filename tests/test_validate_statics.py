@@ -67,9 +67,7 @@ def closed_form(J: np.ndarray, k: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 
 def solve(arm: dict, wrench: np.ndarray, **kw: object):
-    return solve_static_equilibrium(
-        arm["model"], Q0, K, arm["b"], arm["e"], arm["point"], NORMAL, wrench, **kw
-    )
+    return solve_static_equilibrium(arm["model"], Q0, K, arm["b"], arm["e"], arm["point"], NORMAL, wrench, **kw)
 
 
 def rel(x: np.ndarray, ref: np.ndarray) -> float:

@@ -14,7 +14,8 @@ matrices:
 * C2 part: S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ, since S_t2 J2 = J_e[:, n1:] (eq:J2, eq:twists);
 * ``projection``: S_t1 C̃1 S_t1ᵀ = Ĵ1 K1⁻¹ Ĵ1ᵀ with Ĵ1 = S_t1 (I − P) J1 (eq:C1wave_detail, eq:Ce);
 * ``constrained``: C̃1 = C1 − C1 X G Xᵀ C1, G = (Xᵀ C1 X [+ I/k_env])⁻¹ (MODEL.md), unloaded directions
-  dropped with an UnloadedContactWarning as in ``compliance.constraint_gain``;
+  dropped by ``compliance.loaded_gain`` as in ``compliance.constraint_gain`` and counted in one UnloadedContactWarning;
+* a compliance that is not finite (overflow) raises NumericalError naming the configuration;
 * k = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) from a batched inverse of JJᵀ, with the reference's SVD for any
   configuration whose condition number is not certified below 10³ (so singular ones raise, or give NaN
   when ``errors="nan"``).
@@ -22,7 +23,6 @@ matrices:
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -30,8 +30,8 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from .compliance import COMPLIANCE_MODELS, UNLOADED_TOL, ComplianceModel, check_model
-from .errors import InputError, SingularityError, UnloadedContactWarning
+from .compliance import COMPLIANCE_MODELS, ComplianceModel, check_finite, check_model, loaded_gain, warn_unloaded
+from .errors import InputError, SingularityError
 from .kinematics import LWA, BracedRobot
 from .measures import frobenius_condition
 from .robot import Robot
@@ -44,15 +44,6 @@ CHUNK = 2048
 
 #: Condition numbers up to which k is taken from the batched inverse; beyond it, from the SVD.
 CERTIFIED_COND = 1e3
-
-
-def _skew_batch(v: Array) -> Array:
-    """[v]× for a stack of 3-vectors (..., 3) → (..., 3, 3)."""
-    out = np.zeros((*v.shape[:-1], 3, 3))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
 
 
 def _frame_with_z(axis: Array) -> Array:
@@ -283,7 +274,8 @@ class BatchEvaluator:
             beta_x: unit twist of the compliance index, (6,) for all rows or (N, 6) one per row.
             models: compliance models to evaluate.
             errors: ``"raise"`` (SingularityError naming the first singular configuration, as
-                frobenius_condition does) or ``"nan"`` (k is NaN there).
+                frobenius_condition does) or ``"nan"`` (k is NaN there). A compliance that is not finite
+                raises NumericalError in either case.
             k_braced: also compute k of J̃.
             chunk: configurations evaluated together.
         """
@@ -304,26 +296,21 @@ class BatchEvaluator:
             fr = self.kinematics.frames(q[sl])
             je, jb = fr.jacobian[0], fr.jacobian[1]
             d = fr.position[1] - fr.position[0]  # b − e
-            out, jt, bad = self._compliance(je, jb, d, mods, k_braced)
+            out, jt, bad = self._compliance(je, jb, d, mods, k_braced, s)
             unloaded += bad
             for m in mods:
-                c_e[m][sl] = out[m]
+                c_e[m][sl] = _check_rows(out[m], s, f"C_e ({m})")
                 v = np.einsum("ni,nij->nj", beta[sl], out[m])
-                ci[m][sl] = np.sqrt(np.einsum("ni,ni->n", v, v))
+                ci[m][sl] = _check_rows(np.sqrt(np.einsum("ni,ni->n", v, v)), s, f"C_i ({m})")
             k[sl] = _frobenius(je, errors, s)
             if kb is not None:
                 kb[sl] = _frobenius(jt, errors, s)
         if unloaded:
-            warnings.warn(
-                f"the contact carries no load from chain 1 at {unloaded} of {N} configurations (Xᵀ C1 X is "
-                "singular): chain 1 cannot push {b} there, so the brace does not stiffen it",
-                UnloadedContactWarning,
-                stacklevel=2,
-            )
+            warn_unloaded(unloaded, configurations=N, stacklevel=2)
         return BatchEvaluation(C_e=c_e, Ci=ci, k=k, k_braced=kb, models=mods)
 
     def _compliance(
-        self, je: Array, jb: Array, d: Array, models: tuple[str, ...], k_braced: bool
+        self, je: Array, jb: Array, d: Array, models: tuple[str, ...], k_braced: bool, offset: int
     ) -> tuple[dict[str, Array], Array | None, int]:
         n1 = self._n1
         j1 = np.ascontiguousarray(jb[:, :, :n1])
@@ -339,39 +326,20 @@ class BatchEvaluator:
         for m in models:
             if m == "projection":
                 ce = _gram(jh1, self._k1inv) + c2
-            else:
-                c1t, bad = self._constrained(j1)
-                s1 = np.broadcast_to(np.eye(6), (je.shape[0], 6, 6)).copy()
-                s1[:, :3, 3:] = _skew_batch(d)
-                ce = s1 @ c1t @ s1.transpose(0, 2, 1) + c2
+            else:  # S_t1 C̃1 S_t1ᵀ = (S_t1 (S_t1 C̃1)ᵀ)ᵀ
+                c1t, bad = self._constrained(j1, offset)
+                ce = _shift(_shift(c1t, d).transpose(0, 2, 1), d).transpose(0, 2, 1) + c2
             out[m] = 0.5 * (ce + ce.transpose(0, 2, 1))
         return out, jt, bad
 
-    def _constrained(self, j1: Array) -> tuple[Array, int]:
+    def _constrained(self, j1: Array, offset: int) -> tuple[Array, int]:
         """C̃1 = C1 − C1 X G Xᵀ C1 per configuration (compliance.braced_C1), and the unloaded count."""
         x = self._X
-        c1 = _gram(j1, self._k1inv)
+        c1 = _check_rows(_gram(j1, self._k1inv), offset, "C1")
         cx = c1 @ x  # (N, 6, m)
-        m = x.T @ cx  # (N, m, m)
-        bad = 0
-        if self._k_env is not None:
-            g = np.linalg.inv(m + np.eye(m.shape[-1]) / self._k_env)
-        else:
-            scale = np.maximum(np.trace(c1, axis1=1, axis2=2), 1e-300)
-            tol = UNLOADED_TOL * scale
-            if m.shape[-1] == 1:
-                w = m[:, 0, 0]
-                good = w > tol
-                g = np.where(good, 1.0 / np.where(good, w, 1.0), 0.0)[:, None, None]
-                bad = int(np.sum(~good))
-            else:
-                w, v = np.linalg.eigh(m)
-                good = w > tol[:, None]
-                bad = int(np.sum(~np.all(good, axis=1)))
-                winv = np.where(good, 1.0 / np.where(good, w, 1.0), 0.0)
-                g = (v * winv[:, None, :]) @ v.transpose(0, 2, 1)
+        g, unloaded = loaded_gain(x.T @ cx, np.trace(c1, axis1=1, axis2=2), self._k_env)
         out = c1 - cx @ g @ cx.transpose(0, 2, 1)
-        return 0.5 * (out + out.transpose(0, 2, 1)), bad
+        return 0.5 * (out + out.transpose(0, 2, 1)), int(np.count_nonzero(unloaded))
 
 
 def _betas(beta_x: ArrayLike, N: int) -> Array:
@@ -389,6 +357,15 @@ def _betas(beta_x: ArrayLike, N: int) -> Array:
     return b / norms[:, None]
 
 
+def _check_rows(a: Array, offset: int, what: str) -> Array:
+    """a (one row per configuration) if finite; else NumericalError naming the first configuration that is not."""
+    finite = np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)
+    if not finite.all():
+        i = int(np.argmin(finite))
+        check_finite(a[i], f"{what} at configuration {offset + i}")
+    return a
+
+
 def _gram(j: Array, kinv: Array) -> Array:
     """J K⁻¹ Jᵀ for a stack of Jacobians (N, 6, m)."""
     return (j * kinv) @ np.ascontiguousarray(j.transpose(0, 2, 1))
@@ -396,8 +373,12 @@ def _gram(j: Array, kinv: Array) -> Array:
 
 def _shift(j: Array, d: Array) -> Array:
     """S_t1 J for a stack (N, 6, m): moves the twists' reference point by d = b − e (eq:twists)."""
-    out = j.copy()
-    out[:, :3] += np.cross(d[:, None, :], j[:, 3:].transpose(0, 2, 1)).transpose(0, 2, 1)
+    out = j.copy()  # rows v += d × ω, written out (np.cross's operations, without its overhead)
+    w0, w1, w2 = j[:, 3], j[:, 4], j[:, 5]
+    dx, dy, dz = d[:, 0, None], d[:, 1, None], d[:, 2, None]
+    out[:, 0] += dy * w2 - dz * w1
+    out[:, 1] += dz * w0 - dx * w2
+    out[:, 2] += dx * w1 - dy * w0
     return out
 
 

@@ -11,20 +11,22 @@ m/N, m/(N·m) = 1/N, rad/N and rad/(N·m). Two models of the bracing-consistent 
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InputError, UnloadedContactWarning
+from .errors import InputError, NumericalError, UnloadedContactWarning
 from .kinematics import BracedState
 from .spatial import unit
 
 Array = NDArray[np.float64]
 ComplianceModel = Literal["constrained", "projection"]
 COMPLIANCE_MODELS: tuple[str, ...] = ("constrained", "projection")
+_T = TypeVar("_T")
 
 #: Relative eigenvalue of Xᵀ C1 X below which the contact carries no load in that direction.
 UNLOADED_TOL = 1e-10
@@ -49,31 +51,59 @@ def C2(state: BracedState) -> Array:
     return (j2 / state.K[state.n1 :]) @ j2.T
 
 
+def check_finite(a: _T, what: str) -> _T:
+    """`a` itself if every entry is finite; NumericalError naming `what` otherwise (no silent NaN or inf)."""
+    if not (math.isfinite(a) if isinstance(a, float) else np.isfinite(a).all()):
+        raise NumericalError(
+            f"{what} is not finite: the compliance overflows (joint stiffnesses too small for 1/K or lengths too large)"
+        )
+    return a
+
+
+def warn_unloaded(count: int, configurations: int | None = None, stacklevel: int = 2) -> None:
+    """The UnloadedContactWarning: `count` constraint directions, or `count` of `configurations`, carry no load."""
+    where = (
+        f"along {count} constraint direction(s)"
+        if configurations is None
+        else f"at {count} of {configurations} configurations"
+    )
+    warnings.warn(
+        f"the contact carries no load from chain 1 {where} (Xᵀ C1 X is singular): "
+        "chain 1 cannot push {b} there, so the brace does not stiffen it",
+        UnloadedContactWarning,
+        stacklevel=stacklevel + 1,
+    )
+
+
+def loaded_gain(m: Array, trace_c1: ArrayLike, k_env: float | None = None) -> tuple[Array, Array]:
+    """G = (Xᵀ C1 X + I/k_env)⁻¹ and the number of unloaded directions, for one m = Xᵀ C1 X or a stack (N, c, c).
+
+    With a rigid environment (k_env None) G is the inverse over the loaded directions only: eigenvalues of m
+    at or below UNLOADED_TOL · tr(C1) (`trace_c1`: a number, or one per matrix) are dropped and counted.
+    The count has m's stack shape (an integer for one m). Raises NumericalError if m or tr(C1) is not finite.
+    """
+    check_finite(m, "Xᵀ C1 X")
+    check_finite(trace_c1, "tr(C1)")
+    if k_env is not None:
+        return np.linalg.inv(m + np.eye(m.shape[-1]) / k_env), np.zeros(m.shape[:-2], dtype=int)
+    # one constraint direction (a frictionless point): m is its own eigenvalue, exactly
+    w, v = (m[..., 0], np.ones(m.shape)) if m.shape[-1] == 1 else np.linalg.eigh(m)
+    good = w > UNLOADED_TOL * np.maximum(trace_c1, 1e-300)[..., None]
+    return (v / np.where(good, w, np.inf)[..., None, :]) @ np.swapaxes(v, -1, -2), np.sum(~good, axis=-1)
+
+
 def constraint_gain(state: BracedState, c1: Array | None = None) -> Array:
     """G = (Xᵀ C1 X + I/k_env)⁻¹ ((6−l)×(6−l)), the contact's stiffness seen through chain 1.
 
     Directions in which chain 1 cannot move {b} (Xᵀ C1 X singular, rigid environment) carry no load:
-    they are dropped (pseudo-inverse) and an UnloadedContactWarning says so.
+    they are dropped (pseudo-inverse) and an UnloadedContactWarning says so. NumericalError if C1 is not finite.
     """
     c1 = C1(state) if c1 is None else c1
     x = state.X
-    m = x.T @ c1 @ x
-    k_env = state.braced.brace.environment_stiffness
-    if k_env is not None:
-        return np.linalg.inv(m + np.eye(m.shape[0]) / k_env)
-    # one constraint direction (a frictionless point): the eigen-decomposition of a 1×1 matrix, exactly
-    w, v = (m[0], np.ones((1, 1))) if m.shape == (1, 1) else np.linalg.eigh(m)
-    scale = max(float(np.trace(c1)), 1e-300)
-    good = w > UNLOADED_TOL * scale
-    if not np.all(good):
-        warnings.warn(
-            f"the contact carries no load from chain 1 along {int(np.sum(~good))} constraint direction(s) "
-            "(Xᵀ C1 X is singular): chain 1 cannot push {b} there, so the brace does not stiffen it",
-            UnloadedContactWarning,
-            stacklevel=3,
-        )
-    vg = v[:, good]
-    return (vg / w[good]) @ vg.T
+    g, unloaded = loaded_gain(x.T @ c1 @ x, np.trace(c1), state.braced.brace.environment_stiffness)
+    if unloaded:
+        warn_unloaded(int(unloaded), stacklevel=3)
+    return g
 
 
 def braced_C1(state: BracedState, model: ComplianceModel = "constrained") -> Array:
@@ -99,24 +129,24 @@ def end_effector_compliance(state: BracedState, model: ComplianceModel = "constr
     """
     s1, s2 = state.S_t1, state.S_t2
     out = s1 @ braced_C1(state, model) @ s1.T + s2 @ C2(state) @ s2.T
-    return 0.5 * (out + out.T)
+    return check_finite(0.5 * (out + out.T), "C_e")
 
 
 def free_space_compliance(state: BracedState) -> Array:
     """Compliance of the unbraced robot at e: J K⁻¹ Jᵀ (6×6), world axes."""
     j = state.J_e
-    return (j / state.K) @ j.T
+    return check_finite((j / state.K) @ j.T, "the free-space compliance J K⁻¹ Jᵀ")
 
 
 def directional_compliance(c_e: Array, beta_x: ArrayLike, beta_w: ArrayLike) -> float:
     """C_βx = β_xᵀ C_e β_w (eq:directional_compliance_result); β_x a unit twist, β_w a unit wrench."""
     bx, bw = _unit6(beta_x, "beta_x"), _unit6(beta_w, "beta_w")
-    return float(bx @ c_e @ bw)
+    return float(check_finite(bx @ c_e @ bw, "the directional compliance"))
 
 
 def compliance_index(c_e: Array, beta_x: ArrayLike) -> float:
     """C_i = ‖β_xᵀ C_e‖₂ (eq:compliance_index): the largest deflection along β_x per unit wrench."""
-    return float(np.linalg.norm(_unit6(beta_x, "beta_x") @ c_e))
+    return float(check_finite(np.linalg.norm(_unit6(beta_x, "beta_x") @ c_e), "the compliance index"))
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import importlib
 import math
-import warnings
 from dataclasses import replace
 from types import ModuleType
 from typing import Any, Literal
@@ -42,13 +41,14 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ._linalg import angle_between, inverse, row_basis
-from .compliance import UNLOADED_TOL, _unit6
-from .errors import BarrierError, InputError, UnloadedContactWarning
+from ._linalg import angle_between, cross3_list, inverse, row_basis
+from .compliance import UNLOADED_TOL, _unit6, check_finite, loaded_gain, warn_unloaded
+from .errors import BarrierError, InputError
 from .kinematics import LWA, BracedRobot, contact_null_space, frame_hessian_rows
 from .measures import region_barrier
-from .objective import BraceAngle, ComplianceIndex, ConditionNumber, Objective, RegionBarrier
+from .objective import BraceAngle, ComplianceIndex, ConditionNumber, Objective, RegionBarrier, central_difference
 from .resolution import BracedGradientProjection
+from .spatial import twist_shift
 
 Array = NDArray[np.float64]
 
@@ -127,8 +127,8 @@ class GradientProjectionStep:
         self._normal = braced.brace.surface.normal
         self._nl = self._normal.tolist()
         obj = strategy.objective
-        self._terms = [(t, float(w)) for t, w in zip(obj.terms, obj.weights, strict=True) if w]
-        self._has_ci = any(isinstance(t, ComplianceIndex) for t, _ in self._terms)
+        kept = [(t, float(w)) for t, w in zip(obj.terms, obj.weights, strict=True) if w]
+        self._objective = Objective([t for t, _ in kept], [w for _, w in kept])  # the terms of non-zero weight
         self._fd = strategy.gradient == "finite-difference"
         self._alpha = float(strategy.alpha)
         self._cert2 = CERTIFIED_COND**2
@@ -147,20 +147,15 @@ class GradientProjectionStep:
     def _numba_setup(self, kernels: ModuleType) -> Any:
         """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs)."""
         standard = (ConditionNumber, ComplianceIndex, BraceAngle, RegionBarrier)
-        if self._fd or self._n1 != 6 or any(type(t) not in standard for t, _ in self._terms):
+        terms = list(_terms(self._objective))
+        if self._fd or self._n1 != 6 or any(type(t) not in standard for t, _ in terms):
             return None
-        if self._k_env is not None and any(
-            type(t) is ComplianceIndex and t.model != "projection" for t, _ in self._terms
-        ):
+        if self._k_env is not None and any(type(t) is ComplianceIndex and t.model != "projection" for t, _ in terms):
             return None
-        ci = [
-            [*t.beta_x.tolist(), w, float(t.model == "projection")]
-            for t, w in self._terms
-            if type(t) is ComplianceIndex
-        ]
-        reg = [[*t.centre.tolist(), float(t.r_max), w] for t, w in self._terms if type(t) is RegionBarrier]
-        w_k = sum(w for t, w in self._terms if type(t) is ConditionNumber)
-        w_theta = sum(w for t, w in self._terms if type(t) is BraceAngle)
+        ci = [[*t.beta_x.tolist(), w, float(t.model == "projection")] for t, w in terms if type(t) is ComplianceIndex]
+        reg = [[*t.centre.tolist(), float(t.r_max), w] for t, w in terms if type(t) is RegionBarrier]
+        w_k = sum(w for t, w in terms if type(t) is ConditionNumber)
+        w_theta = sum(w for t, w in terms if type(t) is BraceAngle)
         self._ci = np.array(ci, dtype=float).reshape(-1, 8)
         self._nb_const = (
             np.ascontiguousarray(self._H, dtype=float),
@@ -184,33 +179,33 @@ class GradientProjectionStep:
             out = self._numba_step(qa, xd, beta_x)
             if out is not None:
                 return out
-        terms = self._with_beta(beta_x)
+        obj = self._with_beta(beta_x)
         try:
-            return self._step(qa, xd, terms)
+            return self._step(qa, xd, obj)
         except _FallbackError:
-            strategy = replace(self.strategy, objective=_objective(terms))
+            strategy = replace(self.strategy, objective=obj)
             return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
 
     def gradient(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
         """∂g/∂q (n,) at q in the strategy's gradient mode, as ``BracedGradientProjection.dg_dq``."""
         qa = self._check_q(q)
-        terms = self._with_beta(beta_x)
+        obj = self._with_beta(beta_x)
         try:
             if self._fd:
-                return self._fd_gradient(qa, terms)
-            return self._dg_dq(qa, self._kinematics(qa, True), terms)
+                return self._fd_gradient(qa, obj)
+            return self._dg_dq(qa, self._kinematics(qa, True), obj)
         except _FallbackError:
-            strategy = replace(self.strategy, objective=_objective(terms))
+            strategy = replace(self.strategy, objective=obj)
             return strategy.dg_dq(self.braced.state(qa, hessians=strategy.needs_hessians))
 
     def value(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> float:
         """g at q (eq:objective), as ``Objective.value``."""
         qa = self._check_q(q)
-        terms = self._with_beta(beta_x)
+        obj = self._with_beta(beta_x)
         try:
-            return self._value(qa, terms)
+            return self._value(qa, obj)
         except _FallbackError:
-            return _objective(terms).value(self.braced.state(qa))
+            return obj.value(self.braced.state(qa))
 
     # --- internals ---------------------------------------------------------------------------------
     def _check_q(self, q: ArrayLike) -> Array:
@@ -218,33 +213,21 @@ class GradientProjectionStep:
             return q
         return self.braced.robot.check_q(q)
 
-    def _with_beta(self, beta_x: ArrayLike | None) -> list[tuple[Any, float]]:
-        if beta_x is None or not self._has_ci:
-            return self._terms
-        beta = _unit6(beta_x, "beta_x")
-        return [(replace(t, beta_x=beta) if isinstance(t, ComplianceIndex) else t, w) for t, w in self._terms]
+    def _with_beta(self, beta_x: ArrayLike | None) -> Objective:
+        return self._objective if beta_x is None else self._objective.with_beta_x(beta_x)
 
     def _kinematics(self, qa: Array, hessians: bool) -> tuple[Any, ...]:
-        """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4 lists), Hessian rows (n×6n)."""
+        """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows (n×6n) if asked."""
         model, data = self._model, self._data
         pin.computeJointJacobians(model, data, qa)
         pin.updateFramePlacements(model, data)
         je = pin.getFrameJacobian(model, data, self._tip, LWA)
         jb = pin.getFrameJacobian(model, data, self._bid, LWA)
-        omf = data.oMf
-        mb = omf[self._bid].homogeneous.tolist()
-        me = omf[self._tip].homogeneous.tolist()
+        mb, me = data.oMf[self._bid].homogeneous, data.oMf[self._tip].homogeneous
         if not hessians:
             return je, jb, mb, me, None, None
         pin.computeJointKinematicHessians(model, data)
         return je, jb, mb, me, frame_hessian_rows(model, data, self._tip), frame_hessian_rows(model, data, self._bid)
-
-    def _shift(self, mb: list[list[float]], me: list[list[float]]) -> Array:
-        """S_t1 = [[I, [b − e]×], [0, I]] (eq:twists)."""
-        dx, dy, dz = mb[0][3] - me[0][3], mb[1][3] - me[1][3], mb[2][3] - me[2][3]
-        s1 = self._eye.copy()
-        s1[0, 4], s1[0, 5], s1[1, 3], s1[1, 5], s1[2, 3], s1[2, 4] = -dz, dy, dz, -dx, -dy, dx
-        return s1
 
     def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
         """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
@@ -254,18 +237,10 @@ class GradientProjectionStep:
             ci[:, :6] = _unit6(beta_x, "beta_x")  # as ComplianceIndex(beta_x): same InputError
         if not (xd.flags.c_contiguous and xd.flags.writeable):  # one compiled signature
             xd = xd.copy()
-        model, data = self._model, self._data
-        pin.computeJointJacobians(model, data, qa)
-        pin.updateFramePlacements(model, data)
-        je = pin.getFrameJacobian(model, data, self._tip, LWA)
-        jb = pin.getFrameJacobian(model, data, self._bid, LWA)
-        omf = data.oMf
-        mb, me = omf[self._bid].homogeneous, omf[self._tip].homogeneous
-        pin.computeJointKinematicHessians(model, data)
-        he, hb = frame_hessian_rows(model, data, self._tip), frame_hessian_rows(model, data, self._bid)
+        je, jb, mb, me, he, hb = self._kinematics(qa, True)
         h, x, t, kinv = self._nb_const
         status, out = self._kernel(je, jb, he, hb, mb, me, xd, h, x, t, kinv, ci, self._reg, self._nb_normal, self._par)
-        return out if status == 0 else None
+        return out if status == 0 and math.isfinite(out.sum()) else None  # else the NumPy code (raises or warns)
 
     def _chain1(self, jb: Array) -> Array:
         """dq1/db̃ (n1×l): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as BracedState)."""
@@ -277,11 +252,11 @@ class GradientProjectionStep:
             return inv.dot(self._H)
         return contact_null_space(self._X.T @ j1)
 
-    def _step(self, qa: Array, xd: Array, terms: list[tuple[Any, float]]) -> Array:
+    def _step(self, qa: Array, xd: Array, obj: Objective) -> Array:
         kin = self._kinematics(qa, not self._fd)
         je, jb, mb, me = kin[:4]
         n1 = self._n1
-        s1 = self._shift(mb, me)
+        s1 = twist_shift(mb[:3, 3], me[:3, 3])
         g1 = self._chain1(jb)
         l_ = g1.shape[1]
         # A = [S_t1 J1 dq1/db̃, S_t2 J2] (eq:braced_kin): S_t1 H when n1 = 6, and S_t2 J2 = J_e[:, n1:]
@@ -292,7 +267,7 @@ class GradientProjectionStep:
         if qr is None or not float(np.vdot(a, a)) * float(np.vdot(qr[1], qr[1])) < self._cert2:
             raise _FallbackError  # ‖A‖_F ‖R⁻¹‖_F ≥ cond(A)
         q, rinv = qr
-        dg = self._fd_gradient(qa, terms) if self._fd else self._dg_dq(qa, kin, terms, s1)
+        dg = self._fd_gradient(qa, obj) if self._fd else self._dg_dq(qa, kin, obj, s1)
         grad = np.concatenate((g1.T.dot(dg[:n1]), dg[n1:]))  # eq:grad_g
         # A⁺ẋ + (I − A⁺A) α∇g with A⁺ = Q R⁻ᵀ, A⁺A = Q Qᵀ  (eq:grad_proj)
         y = q.dot(rinv.T.dot(xd)) + self._alpha * (grad - q.dot(q.T.dot(grad)))
@@ -333,29 +308,18 @@ class GradientProjectionStep:
             x = self._X
             cx = j1k.dot(j1.T.dot(x))  # C1 X
             m = x.T.dot(cx)
-            if m.shape == (1, 1) and m[0, 0] > UNLOADED_TOL * float(np.vdot(j1k, j1)):  # one loaded direction
+            trace_c1 = float(np.vdot(j1k, j1))
+            if m.shape == (1, 1) and m[0, 0] > UNLOADED_TOL * trace_c1:  # one loaded direction: G = 1/m
                 t = self._eye - np.multiply.outer(cx[:, 0] / m[0, 0], x[:, 0])
-            else:
-                t = self._eye - cx.dot(self._gain(m, float(np.vdot(j1k, j1)))).dot(x.T)
+            else:  # as compliance.constraint_gain
+                g, unloaded = loaded_gain(m, trace_c1)
+                if unloaded:
+                    warn_unloaded(int(unloaded), stacklevel=4)
+                t = self._eye - cx.dot(g).dot(x.T)
         s1t = s1.dot(t)
         return s1t, t.dot(j1), np.concatenate((s1t.dot(j1), je[:, n1:]), axis=1)
 
-    def _gain(self, m: Array, trace_c1: float) -> Array:
-        """G = (Xᵀ C1 X)⁻¹ with unloaded directions dropped, as compliance.constraint_gain (rigid contact)."""
-        tol = UNLOADED_TOL * max(trace_c1, 1e-300)
-        w, v = (m[0], np.ones((1, 1))) if m.shape == (1, 1) else np.linalg.eigh(m)
-        good = w > tol
-        if not np.all(good):
-            warnings.warn(
-                f"the contact carries no load from chain 1 along {int(np.sum(~good))} constraint direction(s) "
-                "(Xᵀ C1 X is singular): chain 1 cannot push {b} there, so the brace does not stiffen it",
-                UnloadedContactWarning,
-                stacklevel=5,
-            )
-        vg = v[:, good]
-        return (vg / w[good]).dot(vg.T)
-
-    def _dg_dq(self, qa: Array, kin: tuple[Any, ...], terms: list[tuple[Any, float]], s1: Array | None = None) -> Array:
+    def _dg_dq(self, qa: Array, kin: tuple[Any, ...], obj: Objective, s1: Array | None = None) -> Array:
         """∂g/∂q (n,), analytic: the gradients of objective.py, contracted once per Hessian.
 
         Each term adds coefficients U[r, i] of ∂J_e[r, i]/∂q_k (``ue``) or ∂J_b[r, i]/∂q_k (``ub``, i < n1) and
@@ -363,12 +327,11 @@ class GradientProjectionStep:
         """
         je, jb, mb, me, he, hb = kin
         n, n1 = self._n, self._n1
-        if s1 is None:
-            s1 = self._shift(mb, me)
+        (_, _, zb0, b0), (_, _, zb1, b1), (_, _, zb2, b2) = mb[:3].tolist()
         ue = ub = None
         y = [0.0] * 9
         extra = None
-        for term, weight in terms:
+        for term, weight in _terms(obj):
             kind = type(term)
             if kind is ConditionNumber:  # ConditionNumber.gradient: (b da + a db) / (72 k)
                 a, bb, m2j = self._frobenius(je)
@@ -377,11 +340,13 @@ class GradientProjectionStep:
                 ue = part if ue is None else ue + part
             elif kind is ComplianceIndex:  # ComplianceIndex.gradient
                 beta = term.beta_x
+                if s1 is None:
+                    s1 = twist_shift(mb[:3, 3], me[:3, 3])
                 s1t, tj1, jh = self._compliance(term, je, jb, s1)
                 kinv = self._kinv
                 uk = beta.dot(jh) * kinv
                 v = jh.dot(uk)  # C_e β
-                ci = math.sqrt(float(v.dot(v)))
+                ci = check_finite(math.sqrt(float(v.dot(v))), "the compliance index")
                 if ci == 0.0:
                     continue
                 wu = np.array((v.dot(jh) * kinv, uk)) * (weight / ci)
@@ -395,19 +360,20 @@ class GradientProjectionStep:
                 ub = part if ub is None else ub + part
                 # S_t1 depends on b − e: (J_b[:3] − J_e[:3])ᵀ ((C̃1 S_t1ᵀ v)_ω × β_v + (C̃1 S_t1ᵀ β)_ω × v_v)
                 cv, cb = wu[:, :n1].dot(tj1[3:].T).tolist()
-                w1, w2 = _cross(cv, beta.tolist()), _cross(cb, v.tolist())
+                w1, w2 = cross3_list(cv, beta.tolist()), cross3_list(cb, v.tolist())
                 for i in range(3):
                     wi = w1[i] + w2[i]
                     y[i] += wi
                     y[6 + i] -= wi
             elif kind is BraceAngle:  # BraceAngle.gradient
-                u = _cross(self._nl, [mb[0][2], mb[1][2], mb[2][2]])
+                u = cross3_list(self._nl, (zb0, zb1, zb2))
                 s = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
                 if s >= 1e-12:
                     for i in range(3):
                         y[3 + i] += weight * u[i] / s
             elif kind is RegionBarrier:  # RegionBarrier.gradient
-                rel = [mb[i][3] - term.centre[i] for i in range(3)]
+                c0, c1, c2 = term.centre.tolist()
+                rel = (b0 - c0, b1 - c1, b2 - c2)
                 r2 = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]
                 rm2 = term.r_max**2
                 if r2 >= rm2:
@@ -427,28 +393,27 @@ class GradientProjectionStep:
             grad += hb[:, : 6 * n1].dot(ub.T.ravel())
         return grad if extra is None else grad + extra
 
-    def _value(self, qa: Array, terms: list[tuple[Any, float]]) -> float:
+    def _value(self, qa: Array, obj: Objective) -> float:
         """g at q (eq:objective), term by term as Objective.value."""
         je, jb, mb, me, _, _ = self._kinematics(qa, False)
         s1 = None
         total = 0.0
         state = None
-        for term, weight in terms:
+        for term, weight in _terms(obj):
             kind = type(term)
             if kind is ConditionNumber:
                 a, bb, _ = self._frobenius(je)
                 value = float(np.sqrt(a * bb) / 6.0)
             elif kind is ComplianceIndex:
                 if s1 is None:
-                    s1 = self._shift(mb, me)
+                    s1 = twist_shift(mb[:3, 3], me[:3, 3])
                 jh = self._compliance(term, je, jb, s1)[2]
                 v = jh.dot(jh.T.dot(term.beta_x) * self._kinv)
-                value = float(np.sqrt(v.dot(v)))
+                value = check_finite(float(np.sqrt(v.dot(v))), "the compliance index")
             elif kind is BraceAngle:
-                value = angle_between(self._normal, np.array([mb[0][2], mb[1][2], mb[2][2]]))
+                value = angle_between(self._normal, mb[:3, 2])
             elif kind is RegionBarrier:
-                b = np.array([mb[0][3], mb[1][3], mb[2][3]])
-                value = region_barrier(float(np.linalg.norm(b - term.centre)), term.r_max)
+                value = region_barrier(float(np.linalg.norm(mb[:3, 3] - term.centre)), term.r_max)
             else:
                 if state is None:
                     state = self.braced.state(qa)
@@ -456,23 +421,11 @@ class GradientProjectionStep:
             total += weight * value
         return total
 
-    def _fd_gradient(self, qa: Array, terms: list[tuple[Any, float]]) -> Array:
-        """Central differences of g with δq = the strategy's fd_step (objective.finite_difference_gradient)."""
-        step = self.strategy.fd_step
-        out = np.empty(self._n)
-        for i in range(self._n):
-            dq = np.zeros(self._n)
-            dq[i] = step
-            out[i] = (self._value(qa + dq, terms) - self._value(qa - dq, terms)) / (2.0 * step)
-        return out
+    def _fd_gradient(self, qa: Array, obj: Objective) -> Array:
+        """Central differences of g with δq = the strategy's fd_step (objective.central_difference)."""
+        return central_difference(lambda x: self._value(x, obj), qa, self.strategy.fd_step)
 
 
-def _cross(a: list[float], b: list[float]) -> list[float]:
-    """a × b for the first three floats of two lists."""
-    a0, a1, a2 = a[0], a[1], a[2]
-    b0, b1, b2 = b[0], b[1], b[2]
-    return [a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]
-
-
-def _objective(terms: list[tuple[Any, float]]) -> Objective:
-    return Objective([t for t, _ in terms], [w for _, w in terms])
+def _terms(obj: Objective) -> zip[tuple[Any, float]]:
+    """(term, weight) pairs of an objective."""
+    return zip(obj.terms, obj.weights, strict=True)

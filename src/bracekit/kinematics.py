@@ -7,6 +7,7 @@ LOCAL_WORLD_ALIGNED frame Jacobian is the paper's J (reference point = frame ori
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -15,7 +16,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from .contact import Brace
-from .errors import ContactError, SingularityError
+from .errors import ContactError, NumericalError, SingularityError
 from .robot import Robot
 from .spatial import twist_rotate, twist_shift
 
@@ -26,13 +27,58 @@ LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 J1_COND_LIMIT = 1e8
 
 
+#: id(model) → (weak reference to the model, frames whose Hessian layout has been checked).
+_LAYOUT_CHECKED: dict[int, tuple[weakref.ref[pin.Model], set[int]]] = {}
+
+
 def _hessian_buffer(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
     """Pinocchio's frame kinematic Hessian as its raw memory, flat: element r + 6 i + 6 n k is ∂J[r, i]/∂q_k.
 
     Pinocchio 4.1.0 returns a (6, n, n) array whose memory is column-major although its strides claim C
-    order (MODEL.md); the memory itself is the column-major tensor. A finite-difference test guards this.
+    order (MODEL.md); the memory itself is the column-major tensor. The first call for a frame of a model
+    checks this against finite differences (:func:`check_hessian_layout`).
     """
+    entry = _LAYOUT_CHECKED.get(id(model))
+    if entry is None or entry[0]() is not model or frame_id not in entry[1]:
+        check_hessian_layout(model, frame_id)
+        if entry is None or entry[0]() is not model:  # (a WeakKeyDictionary lookup costs microseconds)
+            key = id(model)
+            entry = _LAYOUT_CHECKED[key] = (weakref.ref(model, lambda _: _LAYOUT_CHECKED.pop(key, None)), set())
+        entry[1].add(frame_id)
+    return _raw_hessian(model, data, frame_id)
+
+
+def _raw_hessian(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
     return pin.getFrameKinematicHessian(model, data, frame_id, LWA).ravel(order="C")
+
+
+def check_hessian_layout(model: pin.Model, frame_id: int, step: float = 1e-6) -> None:
+    """NumericalError unless :func:`frame_hessian` equals central differences of the frame's Jacobian.
+
+    Evaluated at a fixed generic configuration with its own data, so it does not disturb the caller's.
+    Guards the memory layout of Pinocchio's kinematic Hessian that bracekit reads (MODEL.md): another layout
+    would make every analytic gradient wrong without any other symptom.
+    """
+    n = model.nv
+    data = model.createData()
+    q = pin.integrate(model, pin.neutral(model), np.random.default_rng(0).uniform(-1.0, 1.0, n))
+    pin.computeJointJacobians(model, data, q)
+    pin.computeJointKinematicHessians(model, data)
+    ours = _raw_hessian(model, data, frame_id).reshape((6, n, n), order="F")  # as frame_hessian reads it
+    fd = np.empty((6, n, n))
+    for k in range(n):
+        dq = np.zeros(n)
+        dq[k] = step
+        plus = pin.computeFrameJacobian(model, data, pin.integrate(model, q, dq), frame_id, LWA)
+        minus = pin.computeFrameJacobian(model, data, pin.integrate(model, q, -dq), frame_id, LWA)
+        fd[:, :, k] = (plus - minus) / (2.0 * step)
+    err = float(np.max(np.abs(ours - fd), initial=0.0))
+    if not err <= 1e-6 * (1.0 + float(np.max(np.abs(fd), initial=0.0))):
+        raise NumericalError(
+            f"Pinocchio {pin.__version__}'s kinematic Hessian of frame '{model.frames[frame_id].name}' differs from "
+            f"finite differences of its Jacobian by {err:.3g}: its memory layout is not Pinocchio 4.1.0's, which "
+            "bracekit reads (MODEL.md), so analytic gradients would be wrong; use gradient='finite-difference'"
+        )
 
 
 def frame_hessian(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
@@ -40,7 +86,7 @@ def frame_hessian(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
 
     Needs ``computeJointJacobians`` and ``computeJointKinematicHessians`` at q first. Pinocchio 4.1.0
     returns a (6, n, n) array whose memory is column-major although its strides claim C order
-    (MODEL.md); the reshape below undoes that, and a finite-difference test guards it.
+    (MODEL.md); the reshape below undoes that, and :func:`check_hessian_layout` guards it at run time.
     """
     n = model.nv
     return np.ascontiguousarray(_hessian_buffer(model, data, frame_id).reshape((6, n, n), order="F"))

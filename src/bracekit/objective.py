@@ -2,14 +2,14 @@
 
 Each term maps a :class:`BracedState` to a value and to ∂/∂q (n,), exact through Pinocchio's kinematic
 Hessians (the state must be computed with ``hessians=True``). :func:`finite_difference_gradient` is the
-paper's reference (central differences, δq = 1e-5 rad). :func:`braced_gradient` maps ∂g/∂q to
-∇g = [(∂g/∂q1) dq1/db̃, ∂g/∂q2]ᵀ (eq:grad_g).
+paper's reference (central differences, δq = 1e-5 rad; :func:`central_difference`). :func:`braced_gradient`
+maps ∂g/∂q to ∇g = [(∂g/∂q1) dq1/db̃, ∂g/∂q2]ᵀ (eq:grad_g).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -17,7 +17,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._linalg import cross3
 from .compliance import C1 as chain1_compliance
-from .compliance import ComplianceModel, _unit6, braced_C1, check_model, constraint_gain, end_effector_compliance
+from .compliance import (
+    ComplianceModel,
+    _unit6,
+    braced_C1,
+    check_finite,
+    check_model,
+    constraint_gain,
+    end_effector_compliance,
+)
 from .errors import BarrierError, InputError
 from .kinematics import BracedRobot, BracedState
 from .measures import frobenius_condition, region_barrier, theta_z
@@ -96,7 +104,7 @@ class ComplianceIndex:
         j_e2 = state.J_e[:, n1:]
         k2 = state.K[n1:]
         v = beta @ (s1 @ c1t @ s1.T + (j_e2 / k2) @ j_e2.T)
-        ci = float(np.linalg.norm(v))
+        ci = float(check_finite(np.linalg.norm(v), "the compliance index"))
         if ci == 0.0:
             return np.zeros(state.q.size)
         # chain 2: β ⊗ (J_e2ᵀ v / k2) + v ⊗ (J_e2ᵀ β / k2) against ∂J_e, columns n1…
@@ -191,6 +199,13 @@ class Objective:
         """Each term's value (unweighted)."""
         return {t.name: t.value(state) for t in self.terms}
 
+    def with_beta_x(self, beta_x: ArrayLike) -> Objective:
+        """The objective with β_x of every compliance-index term replaced (itself if it has none)."""
+        if not any(isinstance(t, ComplianceIndex) for t in self.terms):
+            return self
+        terms = [replace(t, beta_x=beta_x) if isinstance(t, ComplianceIndex) else t for t in self.terms]
+        return Objective(terms, self.weights)
+
     def gradient(self, state: BracedState) -> Array:
         """∂g/∂q (n,), analytic."""
         out = np.zeros(state.q.size)
@@ -200,17 +215,21 @@ class Objective:
         return out
 
 
+def central_difference(fn: Callable[[Array], float], q: Array, step: float = 1e-5) -> Array:
+    """(fn(q + δ e_i) − fn(q − δ e_i)) / (2δ) for each joint i, δ = step (rad): the paper's ∂g/∂q."""
+    out = np.empty(q.size)
+    for i in range(q.size):
+        dq = np.zeros(q.size)
+        dq[i] = step
+        out[i] = (fn(q + dq) - fn(q - dq)) / (2.0 * step)
+    return out
+
+
 def finite_difference_gradient(
     braced: BracedRobot, fn: Callable[[BracedState], float], q: ArrayLike, step: float = 1e-5
 ) -> Array:
     """Central differences of fn over q, δq = step (rad); the paper's ∂g/∂q."""
-    qa = braced.robot.check_q(q)
-    out = np.empty(qa.size)
-    for i in range(qa.size):
-        dq = np.zeros(qa.size)
-        dq[i] = step
-        out[i] = (fn(braced.state(qa + dq)) - fn(braced.state(qa - dq))) / (2.0 * step)
-    return out
+    return central_difference(lambda x: fn(braced.state(x)), braced.robot.check_q(q), step)
 
 
 def braced_gradient(state: BracedState, dg_dq: ArrayLike) -> Array:

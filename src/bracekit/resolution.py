@@ -7,7 +7,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal, Protocol
 
 import numpy as np
@@ -55,6 +55,15 @@ class FreeSpaceMinNorm:
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
         return pinv_checked(state.J_e, "the Jacobian J") @ np.asarray(xdot, dtype=float)
+
+
+def with_beta_x(strategy: Strategy, beta_x: ArrayLike) -> Strategy:
+    """The strategy with the β_x of its objective's compliance-index terms replaced (itself if it has none)."""
+    objective = getattr(strategy, "objective", None)
+    if objective is None:
+        return strategy
+    new = objective.with_beta_x(beta_x)
+    return strategy if new is objective else replace(strategy, objective=new)  # type: ignore[type-var]
 
 
 def braced_to_joint(state: BracedState, y: Array) -> Array:

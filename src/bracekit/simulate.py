@@ -11,7 +11,6 @@ strategy's own q̇ to ~1e-13.
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -41,8 +40,8 @@ from .errors import (
 )
 from .kinematics import BracedRobot, BracedState
 from .measures import frobenius_condition, singular_value_measures
-from .objective import ComplianceIndex, Objective, RegionBarrier
-from .resolution import BracedGradientProjection, Strategy
+from .objective import RegionBarrier
+from .resolution import BracedGradientProjection, Strategy, with_beta_x
 from .tasks import Task
 
 Array = NDArray[np.float64]
@@ -185,14 +184,6 @@ def measure(state: BracedState, beta_x: Array, centre: Array, task_error: float,
     return out
 
 
-def _with_beta(strategy: Strategy, beta_x: Array) -> Strategy:
-    objective = getattr(strategy, "objective", None)
-    if objective is None or not any(isinstance(t, ComplianceIndex) for t in objective.terms):
-        return strategy
-    terms = [dataclasses.replace(t, beta_x=beta_x) if isinstance(t, ComplianceIndex) else t for t in objective.terms]
-    return dataclasses.replace(strategy, objective=Objective(terms, objective.weights))  # type: ignore[type-var]
-
-
 def simulate(
     braced: BracedRobot,
     strategy: Strategy,
@@ -235,7 +226,7 @@ def simulate(
         if fast is not None:  # the fused step: the same q̇ as the strategy's, to ~1e-13
             qdot = fast(st.q, xdot, beta_x(t))
         else:
-            current = _with_beta(strategy, beta_x(t))
+            current = with_beta_x(strategy, beta_x(t))
             if strategy.needs_hessians:
                 st = braced.state(st.q, hessians=True)
             qdot = current.velocity(st, xdot)

@@ -9,11 +9,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
+_EYE6 = np.eye(6)
 
 
 def skew(a: ArrayLike) -> Array:
     """[a]×, the 3×3 cross-product matrix of a 3-vector (eq:skew_sym): skew(a) @ x == a × x."""
-    x, y, z = np.asarray(a, dtype=float).reshape(3)
+    x, y, z = np.asarray(a, dtype=float).reshape(3).tolist()
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
@@ -22,8 +23,8 @@ def twist_shift(b: ArrayLike, e: ArrayLike) -> Array:
 
     S_t1 = [[I, [b − e]×], [0, I]], so v_e = v_b + ω × (e − b).
     """
-    s = np.eye(6)
-    s[:3, 3:] = skew(np.asarray(b, dtype=float) - np.asarray(e, dtype=float))
+    s = _EYE6.copy()
+    s[:3, 3:] = skew(np.subtract(b, e, dtype=float))
     return s
 
 
