@@ -1,4 +1,4 @@
-"""Benchmarks of issue 5 (not part of the test run): ``python benchmarks/run.py [--quick] [--json FILE]``.
+"""Benchmarks of bracekit (not part of the test run): ``python benchmarks/run.py [--quick] [--json FILE]``.
 
 Prints the table of :func:`bracekit.bench.run_benchmarks` (the same as ``bracekit bench``): the braced
 gradient-projection step (analytic vs finite differences, fused vs reference path, NumPy and numba backends
@@ -22,9 +22,9 @@ from pathlib import Path
 def _profile(top: int) -> None:
     import numpy as np
 
-    from bracekit.fast import GradientProjectionStep, numba_available
-    from bracekit.run import run_scenario
-    from bracekit.scenario import load_scenario
+    from bracekit.resolution.fused import GradientProjectionStep, numba_available
+    from bracekit.simulation.run import run_scenario
+    from bracekit.simulation.scenario import load_scenario
 
     sc = load_scenario("paper")
     strategy = sc.strategy("braced_gradient_projection")
@@ -59,7 +59,7 @@ def main() -> int:
     if args.profile:
         _profile(args.top)
         return 0
-    from bracekit.bench import run_benchmarks
+    from bench import run_benchmarks
 
     results = run_benchmarks(quick=args.quick)
     print(results["table"])

@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 
 import bracekit as bk
+from bracekit.errors import RegionWarning
 
 URDF = """
 <robot name="arm8">
@@ -54,7 +55,7 @@ objective = bk.Objective(
 )
 for strategy in (bk.FreeSpaceMinNorm(), bk.BracedMinNorm(), bk.BracedGradientProjection(objective, alpha=-1.0)):
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", bk.RegionWarning)
+        warnings.simplefilter("ignore", RegionWarning)
         tr = bk.simulate(braced, strategy, task, q0, 0.05, beta_x)
     s = tr.summary()
     print(

@@ -121,7 +121,7 @@ def random_unit(rng: np.random.Generator, size: int = 3) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-PAPER_TOML = Path(__file__).resolve().parents[1] / "src" / "bracekit" / "scenarios" / "paper.toml"
+PAPER_TOML = Path(__file__).resolve().parents[1] / "src" / "bracekit" / "simulation" / "scenarios" / "paper.toml"
 
 
 def scenario_text(**task: float) -> str:

@@ -17,20 +17,19 @@ import pytest
 from bracekit import (
     Brace,
     BracedRobot,
-    Contact,
     InputError,
     NumericalError,
     Robot,
-    SingularityError,
     Surface,
-    UnloadedContactWarning,
     compliance_index,
     end_effector_compliance,
     frobenius_condition,
     load_model,
     load_scenario,
 )
-from bracekit.batch import BatchEvaluator, ChainKinematics, evaluate_batch
+from bracekit.compliance.batch import BatchEvaluator, ChainKinematics, evaluate_batch
+from bracekit.contact import contact_type
+from bracekit.errors import SingularityError, UnloadedContactWarning
 from conftest import random_chain_urdf
 
 TOL = 1e-12
@@ -154,7 +153,7 @@ def test_batch_takes_one_beta_per_configuration_and_any_chunk_size(paper) -> Non
 def test_batch_equals_the_single_path_on_random_chains_and_contacts(contact: str) -> None:
     robot = Robot.from_urdf(random_chain_urdf(9, seed=5, brace_link=5), tip="tip", stiffness=np.linspace(80, 200, 9))
     rng = np.random.default_rng(3)
-    braced = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), rng.normal(size=3)), Contact(contact)))
+    braced = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), rng.normal(size=3)), contact_type(contact)))
     Q = rng.uniform(-3, 3, size=(25, robot.n))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UnloadedContactWarning)

@@ -8,8 +8,7 @@ import json
 import math
 
 import pytest
-
-from bracekit.bench import _table, run_benchmarks
+from bench import _table, run_benchmarks
 
 KEYS = (
     "gp_step_analytic_us",

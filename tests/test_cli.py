@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bracekit.cli import main
+from bracekit.cli.main import main
 
 Q = "0,0.194,-2.598,0,-0.737,-2.498,-1.898,3.142,2.106,2.438,0.867"
 QNEG = "-0.1,0.194,-2.598,0,-0.737,-2.498,-1.898,3.142,2.106,2.438,0.867"
@@ -59,7 +59,7 @@ def test_evaluate_text_summary_for_a_person(capsys) -> None:
 
 
 def test_evaluate_with_a_urdf_and_a_brace_at_a_link_point(capsys, tmp_path: Path) -> None:
-    from bracekit.models import model_path
+    from bracekit.model.shipped import model_path
 
     code, out, _ = _run(
         [
@@ -138,11 +138,11 @@ def test_malformed_urdf_is_a_one_line_error(capsys, tmp_path: Path) -> None:
 
 
 def test_usage_errors_exit_2_without_traceback() -> None:
-    proc = subprocess.run([sys.executable, "-m", "bracekit.cli", "evaluate", "--q"], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-m", "bracekit", "evaluate", "--q"], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     proc = subprocess.run(
-        [sys.executable, "-m", "bracekit.cli", "run", "no-such-scenario", "--out", "x"], capture_output=True, text=True
+        [sys.executable, "-m", "bracekit", "run", "no-such-scenario", "--out", "x"], capture_output=True, text=True
     )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1

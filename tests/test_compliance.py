@@ -18,7 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bracekit.compliance import (
+from bracekit.compliance.first_order import (
     C1,
     C2,
     braced_C1,
@@ -31,11 +31,11 @@ from bracekit.compliance import (
     free_space_compliance,
     loaded_gain,
 )
-from bracekit.contact import FRICTIONLESS_POINT, POINT_WITH_FRICTION, SOFT_FINGER, Brace, Contact, Surface
+from bracekit.contact import FRICTIONLESS_POINT, POINT_WITH_FRICTION, SOFT_FINGER, Brace, ContactType, Surface
 from bracekit.errors import InputError, NumericalError, UnloadedContactWarning
 from bracekit.kinematics import BracedRobot
-from bracekit.models import load_model, model_path
-from bracekit.robot import Robot
+from bracekit.model.robot import Robot
+from bracekit.model.shipped import load_model, model_path
 from bracekit.validate.statics import lagrange_compliance, solve_static_equilibrium
 from conftest import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
@@ -58,7 +58,7 @@ class Case:
         q: np.ndarray,
         normal: np.ndarray,
         stiffness: np.ndarray,
-        contact: Contact = FRICTIONLESS_POINT,
+        contact: ContactType = FRICTIONLESS_POINT,
         env: float | None = None,
     ) -> None:
         if urdf is None:  # the paper robot
@@ -99,7 +99,7 @@ class Case:
         return (self.J_e / self.K) @ self.J_e.T
 
 
-def random_case(n: int, seed: int, link: int, contact: Contact = FRICTIONLESS_POINT, env: float | None = None) -> Case:
+def random_case(n: int, seed: int, link: int, contact: ContactType = FRICTIONLESS_POINT, env: float | None = None) -> Case:
     rng = np.random.default_rng(seed + 7)
     return Case(
         random_chain_urdf(n, seed=seed, brace_link=link),
@@ -190,7 +190,7 @@ def test_constrained_compliance_equals_the_kkt_equilibrium_on_the_paper_robot() 
 
 @pytest.mark.parametrize("contact", [POINT_WITH_FRICTION, SOFT_FINGER], ids=["friction", "soft-finger"])
 @pytest.mark.parametrize("link", [5, 7])
-def test_constrained_compliance_of_friction_contacts_equals_the_kkt_equilibrium(contact: Contact, link: int) -> None:
+def test_constrained_compliance_of_friction_contacts_equals_the_kkt_equilibrium(contact: ContactType, link: int) -> None:
     c = random_case(9, seed=60 + link, link=link, contact=contact)
     with warnings.catch_warnings():
         warnings.simplefilter("error", UnloadedContactWarning)

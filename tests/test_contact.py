@@ -19,8 +19,9 @@ from bracekit.contact import (
     POINT_WITH_FRICTION,
     SOFT_FINGER,
     Brace,
-    Contact,
+    ContactType,
     Surface,
+    contact_type,
 )
 from bracekit.errors import ContactError, InputError
 
@@ -53,7 +54,7 @@ def salisbury_wrenches(contact: str, x: np.ndarray, y: np.ndarray, z: np.ndarray
 @SETTINGS
 @given(normal=VEC3, tangent=VEC3)
 def test_contact_bases_are_reciprocal_complete_and_unit(
-    contact: Contact, normal: np.ndarray, tangent: np.ndarray
+    contact: ContactType, normal: np.ndarray, tangent: np.ndarray
 ) -> None:
     assume(np.linalg.norm(normal) > 1e-3)
     n = normal / np.linalg.norm(normal)
@@ -73,10 +74,10 @@ def test_constraint_wrenches_span_salisburys_transmitted_wrenches(contact: str) 
     rng = np.random.default_rng(2)
     surface = Surface(point=rng.normal(size=3), normal=rng.normal(size=3), tangent=rng.normal(size=3))
     x, y, z = surface.frame.T
-    X = Contact(contact).X(surface.frame)
+    X = contact_type(contact).X(surface.frame)
     np.testing.assert_allclose(span_projector(X), span_projector(salisbury_wrenches(contact, x, y, z)), atol=1e-12)
     # H is the orthogonal complement (allowable twists do no work against any transmitted wrench)
-    H = Contact(contact).H(surface.frame)
+    H = contact_type(contact).H(surface.frame)
     np.testing.assert_allclose(span_projector(H) + span_projector(X), np.eye(6), atol=1e-12)
 
 
@@ -140,10 +141,13 @@ def test_signed_distance_is_positive_on_the_normal_side() -> None:
 
 @pytest.mark.parametrize(
     "normal",
-    [[0.0, 0.0, 0.0], [np.nan, 0.0, 1.0], [0.0, np.inf, 1.0], [0.0, 0.0, 1e-15]],
-    ids=["zero", "nan", "inf", "tiny"],
+    [[0.0, 0.0, 0.0], [np.nan, 0.0, 1.0], [0.0, np.inf, 1.0], [0.0, 0.0, 1e-320], "up", None],
+    ids=["zero", "nan", "inf", "subnormal-only-direction-kept", "text", "none"],
 )
-def test_zero_or_non_finite_normal_is_a_contact_error(normal: list[float]) -> None:
+def test_zero_or_non_finite_normal_is_a_contact_error(normal) -> None:
+    if normal == [0.0, 0.0, 1e-320]:  # a direction at any scale is a direction
+        np.testing.assert_array_equal(Surface(point=[0.0, 0.0, 0.0], normal=normal).normal, [0.0, 0.0, 1.0])
+        return
     with pytest.raises(ContactError) as info:
         Surface(point=[0.0, 0.0, 0.0], normal=normal)
     assert "\n" not in str(info.value)
@@ -152,6 +156,7 @@ def test_zero_or_non_finite_normal_is_a_contact_error(normal: list[float]) -> No
 
 @pytest.mark.parametrize("tangent", [[0.0, 0.0, 2.0], [0.0, 0.0, -1.0], [0.0, 0.0, 0.0]], ids=["par", "anti", "zero"])
 def test_tangent_parallel_to_the_normal_is_a_contact_error(tangent: list[float]) -> None:
+    """A tangent along the normal (or zero) cannot fix x̂_t."""
     with pytest.raises(ContactError, match="parallel"):
         Surface(point=[0.0, 0.0, 0.0], normal=[0.0, 0.0, 1.0], tangent=tangent)
 
@@ -169,7 +174,7 @@ def test_bad_surface_point_normal_size_or_tangent_are_contact_errors() -> None:
 
 def test_unknown_contact_type_is_a_contact_error_listing_the_known_ones() -> None:
     with pytest.raises(ContactError) as info:
-        Contact("glue")
+        contact_type("glue")
     assert all(name in str(info.value) for name in CONTACT_TYPES)
 
 
@@ -194,3 +199,11 @@ def test_valid_brace_keeps_its_radius_and_stiffness() -> None:
     brace = Brace("b", surface, region_radius=0.2, environment_stiffness=1e6)
     assert brace.region_radius == 0.2 and brace.environment_stiffness == 1e6
     assert Brace("b", surface).environment_stiffness is None
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-15, 1.0, 1e15, 1e300])
+def test_surface_normal_and_tangent_normalise_at_any_scale(scale: float) -> None:
+    s = Surface(point=[0.0, 0.0, 0.0], normal=[0.0, scale, scale], tangent=[scale, 0.0, 0.0])
+    np.testing.assert_allclose(s.normal, [0.0, 1.0 / np.sqrt(2.0), 1.0 / np.sqrt(2.0)], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(s.tangent, [1.0, 0.0, 0.0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(s.frame.T @ s.frame, np.eye(3), atol=1e-15)

@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 
 from bracekit import load_model
-from bracekit.evaluate import evaluate
+from bracekit.studies.evaluate import evaluate
 
 Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
 

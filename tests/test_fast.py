@@ -17,28 +17,26 @@ import numpy as np
 import pytest
 
 from bracekit import (
-    BarrierError,
     Brace,
     BraceAngle,
     BracedGradientProjection,
     BracedRobot,
     ComplianceIndex,
     ConditionNumber,
-    Contact,
     InputError,
     NumericalError,
     Objective,
     RegionBarrier,
     Robot,
-    SingularityError,
     Surface,
-    UnloadedContactWarning,
     load_model,
     load_scenario,
 )
 from bracekit._linalg import angle_between, cross3, inverse
-from bracekit.fast import GradientProjectionStep, numba_available
-from bracekit.measures import theta_z
+from bracekit.compliance.measures import theta_z
+from bracekit.contact import contact_type
+from bracekit.errors import BarrierError, SingularityError, UnloadedContactWarning
+from bracekit.resolution.fused import GradientProjectionStep, numba_available
 from conftest import random_chain_urdf
 
 RTOL = 1e-10  # observed ≈ 1e-13 on the paper's robot
@@ -127,7 +125,7 @@ def test_fused_step_equals_the_reference_on_random_chains_and_contacts(contact: 
     n, brace_link = (9, 5) if seed == 1 else (11, 7)
     robot = Robot.from_urdf(random_chain_urdf(n, seed=seed, brace_link=brace_link), tip="tip", stiffness=150.0)
     rng = np.random.default_rng(seed)
-    braced0 = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), rng.normal(size=3)), Contact(contact)))
+    braced0 = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), rng.normal(size=3)), contact_type(contact)))
     for model in ("constrained", "projection"):
         beta = rng.normal(size=6)
         strategy = BracedGradientProjection(_objective(braced0, model, beta, r_max=50.0), alpha=-0.5)
@@ -329,7 +327,7 @@ def test_numba_backend_equals_the_reference_and_the_numpy_backend(paper, model: 
 
 def test_numba_backend_replaces_beta_x_and_keeps_one_compiled_signature(paper) -> None:
     pytest.importorskip("numba")
-    from bracekit import _numba_step
+    from bracekit.resolution import _numba_step
 
     sc, qs = paper
     braced = sc.braced
@@ -357,7 +355,7 @@ def test_numba_backend_with_other_contacts_on_the_paper_robot(paper, contact: st
     # three and four constraint directions: G = (Xᵀ C1 X)⁻¹ of the constrained model by Cholesky
     pytest.importorskip("numba")
     sc, qs = paper
-    braced = BracedRobot(sc.robot, dataclasses.replace(sc.braced.brace, contact=Contact(contact)))
+    braced = BracedRobot(sc.robot, dataclasses.replace(sc.braced.brace, contact=contact_type(contact)))
     rng = np.random.default_rng(2)
     for model in ("constrained", "projection"):
         strategy = BracedGradientProjection(_objective(braced, model, rng.normal(size=6)), alpha=-0.5)
@@ -442,7 +440,7 @@ def test_numba_backend_raises_and_warns_what_the_reference_does(paper) -> None:
 def test_numba_kernel_declines_an_unloaded_contact() -> None:
     # with n1 = 6 and a well-conditioned J1 only extreme stiffnesses unload the contact: feed the kernel
     # J1 = I and a joint 3 (the one that moves {b} along the normal) 1e12 times stiffer than the others
-    numba_step = pytest.importorskip("bracekit._numba_step")
+    numba_step = pytest.importorskip("bracekit.resolution._numba_step")
     rng = np.random.default_rng(0)
     n = 8
     je, jb = rng.normal(size=(6, n)), np.zeros((6, n))
@@ -474,7 +472,7 @@ def test_backend_choice_and_numba_missing(paper, monkeypatch) -> None:
     assert (default.backend, default.uses_kernel) == ("numpy", False)
     # numba not installed: "numba" is a clear InputError, "auto" is NumPy
     monkeypatch.setitem(sys.modules, "numba", None)
-    monkeypatch.delitem(sys.modules, "bracekit._numba_step", raising=False)
+    monkeypatch.delitem(sys.modules, "bracekit.resolution._numba_step", raising=False)
     with pytest.raises(InputError, match=r"pip install bracekit\[fast\]"):
         GradientProjectionStep(sc.braced, strategy, backend="numba")
     auto = GradientProjectionStep(sc.braced, strategy, backend="auto")

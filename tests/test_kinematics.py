@@ -12,15 +12,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bracekit import kinematics
 from bracekit.contact import Brace, Surface
 from bracekit.errors import ContactError, FrameNotFoundError, InputError, NumericalError, SingularityError
-from bracekit.fast import GradientProjectionStep
 from bracekit.kinematics import BracedRobot, skeleton
-from bracekit.models import load_model, model_path
+from bracekit.kinematics import hessian as kinematics
+from bracekit.model.robot import Robot
+from bracekit.model.shipped import load_model, model_path
 from bracekit.objective import BraceAngle, ConditionNumber, Objective
-from bracekit.resolution import BracedGradientProjection
-from bracekit.robot import Robot
+from bracekit.resolution.fused import GradientProjectionStep
+from bracekit.resolution.strategies import BracedGradientProjection
 from conftest import branched_chain_urdf, pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
 SETTINGS = settings(max_examples=25, deadline=None)

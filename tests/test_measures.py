@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from bracekit.compliance.measures import frobenius_condition, region_barrier, singular_value_measures, theta_z
 from bracekit.errors import BarrierError, SingularityError
-from bracekit.measures import frobenius_condition, region_barrier, singular_value_measures, theta_z
 
 SETTINGS = settings(max_examples=40, deadline=None)
 

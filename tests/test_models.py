@@ -14,7 +14,7 @@ import pinocchio as pin
 import pytest
 
 REPO = Path(__file__).parents[1]
-MODELS = REPO / "src/bracekit/models"
+MODELS = REPO / "src/bracekit/model/urdf"
 GENERATOR = REPO / "tools" / "build_models.py"
 PUMA_URDF = MODELS / "puma560.urdf"
 PAPER_URDF = MODELS / "paper_robot.urdf"

@@ -21,7 +21,8 @@ from hypothesis import strategies as st
 from bracekit.contact import Brace, Surface
 from bracekit.errors import BarrierError, InputError, UnloadedContactWarning
 from bracekit.kinematics import BracedRobot
-from bracekit.models import load_model, model_path
+from bracekit.model.robot import Robot
+from bracekit.model.shipped import load_model, model_path
 from bracekit.objective import (
     BraceAngle,
     ComplianceIndex,
@@ -31,7 +32,6 @@ from bracekit.objective import (
     braced_gradient,
     finite_difference_gradient,
 )
-from bracekit.robot import Robot
 from bracekit.validate.statics import lagrange_compliance
 from conftest import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 

@@ -20,12 +20,12 @@ from bracekit import (
     FreeSpaceMinNorm,
     InputError,
     Robot,
-    SingularityError,
     Surface,
     load_model,
     load_scenario,
 )
-from bracekit.models import model_path
+from bracekit.errors import SingularityError
+from bracekit.model.shipped import model_path
 from bracekit.objective import (
     BraceAngle,
     ComplianceIndex,
@@ -34,7 +34,7 @@ from bracekit.objective import (
     RegionBarrier,
     braced_gradient,
 )
-from bracekit.resolution import with_beta_x
+from bracekit.resolution.strategies import with_beta_x
 from conftest import random_chain_urdf, random_unit
 
 Q0 = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])

@@ -13,8 +13,8 @@ import pinocchio as pin
 import pytest
 
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
-from bracekit.models import model_path
-from bracekit.robot import Robot
+from bracekit.model.robot import Robot
+from bracekit.model.shipped import model_path
 from conftest import branched_chain_urdf, pin_frame_placement, random_chain_urdf
 
 PUMA = model_path("puma560")

@@ -7,7 +7,8 @@ import warnings
 import numpy as np
 import pytest
 
-from bracekit import RegionWarning, load_scenario, run_scenario
+from bracekit import load_scenario, run_scenario
+from bracekit.errors import RegionWarning
 
 
 @pytest.fixture(scope="module")

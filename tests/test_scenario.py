@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bracekit import Circle, ScenarioError, load_scenario
-from bracekit.scenario import parse_scenario, shipped_scenarios
+from bracekit import Circle, load_scenario
+from bracekit.errors import ScenarioError
+from bracekit.simulation.scenario import parse_scenario, shipped_scenarios
 from conftest import PAPER_TOML, scenario_text
 
 
@@ -93,7 +94,7 @@ def test_missing_file_and_invalid_toml_are_scenario_errors(tmp_path: Path) -> No
 
 
 def test_brace_can_be_placed_at_a_link_point_and_urdf_paths_are_relative_to_the_file(tmp_path: Path) -> None:
-    from bracekit.models import model_path
+    from bracekit.model.shipped import model_path
 
     (tmp_path / "robot.urdf").write_text(model_path("paper-robot").read_text(), encoding="utf-8")
     text = scenario_text()

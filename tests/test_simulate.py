@@ -11,15 +11,14 @@ from bracekit import (
     BracedGradientProjection,
     BracedMinNorm,
     Circle,
-    ConvergenceError,
     FreeSpaceMinNorm,
     InputError,
-    RegionWarning,
     load_scenario,
     simulate,
     solve_start,
 )
-from bracekit.simulate import correct
+from bracekit.errors import ConvergenceError, RegionWarning
+from bracekit.simulation.simulate import correct
 
 
 @pytest.fixture(scope="module")
@@ -131,13 +130,14 @@ def test_a_step_that_jumps_over_the_region_barrier_is_split_and_the_run_stays_in
     assert tr.substeps > 0 and any("split" in w for w in tr.warnings)
     assert tr.summary()["max_region_radius_m"] < 0.05
     # without splitting, the same run hits the barrier and says so
-    monkeypatch.setattr(importlib.import_module("bracekit.simulate"), "MAX_SUBSTEP_DEPTH", 0)
+    monkeypatch.setattr(importlib.import_module("bracekit.simulation.simulate"), "MAX_SUBSTEP_DEPTH", 0)
     tr0 = simulate(braced, BracedGradientProjection(obj), task, start.q, 0.1, sc.beta_x)
     assert not tr0.completed and "leaves the region" in tr0.failure
 
 
 def test_runs_report_joint_limits_and_surface_penetration(setup) -> None:
-    from bracekit import Brace, BracedRobot, JointLimitWarning, Surface
+    from bracekit import Brace, BracedRobot, Surface
+    from bracekit.errors import JointLimitWarning
 
     sc, start, task = setup
     tr = simulate(sc.braced, FreeSpaceMinNorm(), task, start.q, 0.1, sc.beta_x)

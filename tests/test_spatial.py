@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from bracekit.errors import InputError
 from bracekit.spatial import skew, twist_rotate, twist_shift, unit, wrench_map
 
 FINITE = st.floats(-10.0, 10.0, allow_nan=False, allow_infinity=False)
@@ -147,10 +148,23 @@ def test_unit_normalises_a_vector() -> None:
 
 @pytest.mark.parametrize(
     "bad",
-    [[0.0, 0.0, 0.0], [np.nan, 1.0, 0.0], [np.inf, 0.0, 0.0], [1e-14, 0.0, 0.0]],
-    ids=["zero", "nan", "inf", "tiny"],
+    [[0.0, 0.0, 0.0], [np.nan, 1.0, 0.0], [np.inf, 0.0, 0.0], ["a", 0.0, 0.0]],
+    ids=["zero", "nan", "inf", "text"],
 )
-def test_unit_rejects_zero_or_non_finite_vectors_naming_what(bad: list[float]) -> None:
-    with pytest.raises(ValueError, match="surface normal") as info:
+def test_unit_rejects_zero_or_non_finite_vectors_naming_what(bad: list) -> None:
+    with pytest.raises(InputError, match="surface normal") as info:
         unit(bad, "surface normal")
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("scale", [1e-320, 1e-300, 1e-14, 1.0, 1e200, 1e300, 1e308])
+def test_unit_is_exact_at_any_scale(scale: float) -> None:
+    """‖v‖ of 1e300-size components overflows and of 1e-300 underflows; the unit vector must not."""
+    out = unit([3.0 * scale, 0.0, -4.0 * scale] if scale < 1e300 else [scale, 0.0, -scale])
+    want = np.array([0.6, 0.0, -0.8]) if scale < 1e300 else np.array([1.0, 0.0, -1.0]) / np.sqrt(2.0)
+    if scale == 1e-320:  # subnormal inputs keep only a few digits
+        want = np.array([3e-320, 0.0, -4e-320]) / np.linalg.norm(np.array([3.0, 0.0, -4.0])) / 1e-320
+        np.testing.assert_allclose(out, want, atol=1e-3)
+    else:
+        np.testing.assert_allclose(out, want, rtol=0, atol=2e-16)
+    assert abs(np.linalg.norm(out) - 1.0) < 1e-15

@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from bracekit import InputError, load_model
-from bracekit.study import brace_location_study
+from bracekit.studies.brace_location import brace_location_study
 from bracekit.validate.statics import lagrange_compliance
 
 Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])

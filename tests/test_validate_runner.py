@@ -8,15 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bracekit.compliance import end_effector_compliance
+from bracekit.compliance import preloaded_compliance
+from bracekit.compliance.first_order import end_effector_compliance
 from bracekit.errors import InputError
-from bracekit.scenario import Scenario, load_scenario
+from bracekit.report.validation_figures import figure_preload, figure_validation
+from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.validate import (
     ValidationReport,
-    figure_preload,
-    figure_validation,
     preload_study,
-    preloaded_compliance,
     run_validation,
     validation_configurations,
 )

@@ -2,7 +2,7 @@
 
 Usage: ``python tools/build_models.py [--out DIR]``
 
-Writes ``puma560.urdf`` and ``paper_robot.urdf`` into ``src/bracekit/models``
+Writes ``puma560.urdf`` and ``paper_robot.urdf`` into ``src/bracekit/model/urdf``
 (or DIR). Output is deterministic, so the committed files can be checked by
 regenerating them. Only numpy and the standard library are used.
 
@@ -106,7 +106,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_OUT = REPO / "src" / "bracekit" / "models"
+DEFAULT_OUT = REPO / "src" / "bracekit" / "model" / "urdf"
 
 PI = math.pi
 
@@ -562,7 +562,7 @@ def main(argv: list[str] | None = None) -> None:
         "--out",
         type=Path,
         default=DEFAULT_OUT,
-        help="output directory (default: src/bracekit/models)",
+        help="output directory (default: src/bracekit/model/urdf)",
     )
     parser.add_argument("--quiet", action="store_true", help="do not print the assumptions")
     args = parser.parse_args(argv)

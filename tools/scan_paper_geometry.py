@@ -20,8 +20,8 @@ import warnings
 
 import numpy as np
 
-from bracekit.run import run_scenario
-from bracekit.scenario import parse_scenario, shipped_scenarios
+from bracekit.simulation.run import run_scenario
+from bracekit.simulation.scenario import parse_scenario, shipped_scenarios
 
 
 def main() -> None:

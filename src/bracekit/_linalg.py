@@ -30,12 +30,12 @@ def _lapack() -> Any:
 
 
 def cross3(a: Array, b: Array) -> Array:
-    """a × b of two 3-vectors; the same floating-point operations as ``np.cross``, at a tenth of its cost."""
+    """A × b of two 3-vectors; the same floating-point operations as ``np.cross``, at a tenth of its cost."""
     return np.array(cross3_list(a.tolist(), b.tolist()))
 
 
 def cross3_list(a: Sequence[float], b: Sequence[float]) -> list[float]:
-    """a × b of the first three entries of two sequences of floats, as a list: cross3 without arrays."""
+    """A × b of the first three entries of two sequences of floats, as a list: cross3 without arrays."""
     a0, a1, a2 = a[0], a[1], a[2]
     b0, b1, b2 = b[0], b[1], b[2]
     return [a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]

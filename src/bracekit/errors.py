@@ -1,8 +1,9 @@
-"""Typed exceptions and warnings of bracekit.
+"""Typed exceptions and warnings of bracekit: every exception the library raises derives from BracekitError.
 
-Every error a user can cause derives from :class:`InputError`; the command line maps it to exit code 2.
-Numerical trouble (singularities, non-convergence, barriers at their limit) has its own types so callers
-can tell a bad input from a hard configuration.
+Every error a user can cause derives from :class:`InputError` (also a ValueError); the command line maps it
+to exit code 2. Numerical trouble (singularities, non-convergence, barriers at their limit, failed physics
+checks) derives from :class:`NumericalError` (exit code 1), so callers can tell a bad input from a hard
+configuration.
 """
 
 from __future__ import annotations
@@ -49,6 +50,18 @@ class BarrierError(NumericalError):
 
 class ConvergenceError(NumericalError):
     """An iterative solve (pose correction, static equilibrium, start configuration) did not converge."""
+
+
+class StaticSolveError(ConvergenceError):
+    """The nonlinear static equilibrium cannot be computed (no convergence, singular KKT system, unloaded contact)."""
+
+
+class MujocoValidationError(NumericalError):
+    """A MuJoCo check could not produce a trustworthy result (instability, no settling, a rejected model)."""
+
+
+class MissingDependencyError(InputError):
+    """An optional dependency is not installed; the message names the extra to install."""
 
 
 class BracekitWarning(UserWarning):

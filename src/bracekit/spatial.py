@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit.errors import InputError
+
 Array = NDArray[np.float64]
 _EYE6 = np.eye(6)
 
@@ -38,14 +40,21 @@ def twist_rotate(rotation: ArrayLike) -> Array:
 
 
 def wrench_map(twist_map: ArrayLike) -> Array:
-    """The wrench map dual to a twist map: S_w = S_tᵀ (MODEL.md erratum; keeps C_e symmetric)."""
+    """The wrench map dual to a twist map: S_w = S_tᵀ (erratum of eq:Ce in docs/model.md; keeps C_e symmetric)."""
     return np.asarray(twist_map, dtype=float).T.copy()
 
 
-def unit(v: ArrayLike, what: str = "vector") -> Array:
-    """v / ‖v‖ as floats; raises ValueError with `what` in the message if v is zero or not finite."""
-    a = np.asarray(v, dtype=float).reshape(-1)
-    n = float(np.linalg.norm(a))
-    if not np.all(np.isfinite(a)) or n < 1e-12:
-        raise ValueError(f"{what} must be a finite, non-zero vector, got {a.tolist()}")
-    return a / n
+def unit(v: ArrayLike, what: str = "vector", error: type[InputError] = InputError) -> Array:
+    """V / ‖v‖ as floats, safe for any scale (1e-300 or 1e300 components).
+
+    Raises `error` (an InputError) naming `what` if v is zero, not finite or not numbers.
+    """
+    try:
+        a = np.asarray(v, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise error(f"{what} must be numbers, got {v!r}") from None
+    big = float(np.max(np.abs(a), initial=0.0))
+    if not np.all(np.isfinite(a)) or big == 0.0:
+        raise error(f"{what} must be a finite, non-zero vector, got {a.tolist()}")
+    scaled = a / big  # the largest component is ±1: the norm neither overflows nor underflows
+    return scaled / float(np.linalg.norm(scaled))

@@ -3,7 +3,7 @@
 No physics here: everything is read from a :class:`bracekit.run.RunResult`.
 """
 
-from .output import write_run
-from .table import PAPER_TABLE_I, table_rows
+from bracekit.report.output import write_run
+from bracekit.report.table import PAPER_TABLE_I, table_rows
 
 __all__ = ["PAPER_TABLE_I", "table_rows", "write_run"]

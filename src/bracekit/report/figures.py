@@ -14,13 +14,13 @@ from matplotlib import animation
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from numpy.typing import NDArray
 
-from ..compliance import compliance_ellipsoids, end_effector_compliance, free_space_compliance
-from ..kinematics import skeleton
-from .table import STRATEGY_LABELS
+from bracekit.compliance.first_order import compliance_ellipsoids, end_effector_compliance, free_space_compliance
+from bracekit.kinematics import skeleton
+from bracekit.report.table import STRATEGY_LABELS
 
 if TYPE_CHECKING:
-    from ..run import RunResult
-    from ..simulate import Trajectory
+    from bracekit.simulation.run import RunResult
+    from bracekit.simulation.simulate import Trajectory
 
 Array = NDArray[np.float64]
 COLORS = {"free_space_min_norm": "tab:red", "braced_min_norm": "tab:blue", "braced_gradient_projection": "tab:green"}

@@ -14,11 +14,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import InputError
-from .table import table_csv, table_markdown
+from bracekit.errors import InputError
+from bracekit.report.table import table_csv, table_markdown
 
 if TYPE_CHECKING:
-    from ..run import RunResult
+    from bracekit.simulation.run import RunResult
 
 #: Every file `write_run` may write; a re-run into the same folder removes the ones it does not rewrite.
 FILES = (
@@ -114,7 +114,7 @@ def write_run(
         ("trajectories.npz", lambda p: save_trajectories(result, p)),
     ]
     if figures:
-        from . import figures as fig  # matplotlib only when figures are asked for
+        from bracekit.report import figures as fig  # matplotlib only when figures are asked for
 
         steps += [
             ("fig2_film_strip.png", lambda p: fig.figure_film_strip(result, p)),

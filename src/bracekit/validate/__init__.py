@@ -1,23 +1,21 @@
-"""Physics references for validating the compliance models: first-order Lagrange compliance,
-nonlinear static equilibrium (Pinocchio), a MuJoCo simulation of the braced chain, and the validation
-runner that compares the first-order models with both (``bracekit validate``)."""
+"""Physics references for the compliance models: the first-order Lagrange (KKT) compliance, the nonlinear static
+equilibrium (Pinocchio), a MuJoCo model of the braced chain, and the runner that compares the first-order models
+with both (``bracekit validate``). Needs MuJoCo: ``pip install bracekit[validate]``.
+"""
 
-from .mujoco_check import (
+from bracekit.validate.mujoco_check import (
     MujocoResult,
     MujocoValidationError,
     build_mujoco_model,
     mujoco_static_deflection,
 )
-from .runner import (
+from bracekit.validate.runner import (
     ValidationReport,
-    figure_preload,
-    figure_validation,
     preload_study,
-    preloaded_compliance,
     run_validation,
     validation_configurations,
 )
-from .statics import (
+from bracekit.validate.statics import (
     StaticResult,
     StaticSolveError,
     frame_jacobian_derivative,
@@ -33,14 +31,11 @@ __all__ = [
     "StaticSolveError",
     "ValidationReport",
     "build_mujoco_model",
-    "figure_preload",
-    "figure_validation",
     "frame_jacobian_derivative",
     "lagrange_compliance",
     "mujoco_static_deflection",
     "preload_rest_configuration",
     "preload_study",
-    "preloaded_compliance",
     "run_validation",
     "solve_static_equilibrium",
     "validation_configurations",

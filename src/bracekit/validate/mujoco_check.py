@@ -32,7 +32,8 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from .statics import _check_model, _unit, preload_rest_configuration
+from bracekit.errors import InputError, MujocoValidationError
+from bracekit.validate.statics import _check_model, _unit, preload_rest_configuration
 
 __all__ = ["MujocoResult", "MujocoValidationError", "build_mujoco_model", "mujoco_static_deflection"]
 
@@ -48,8 +49,6 @@ _SOLIMP = "0.9999 0.9999 0.001"  # maximal impedance from zero penetration on (M
 _CHUNK = 10  # steps between updates of the tip-wrench application point and settling checks
 
 
-class MujocoValidationError(RuntimeError):
-    """The MuJoCo check failed: unstable simulation, no settling within the step budget, bad setup."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,7 +247,7 @@ def build_mujoco_model(
         timestep: s; default min(1 ms, τ/20).
 
     Raises:
-        ValueError: unsupported joints, bad shapes, or a brace/tip frame fixed to the world.
+        InputError: unsupported joints, bad shapes, or a brace/tip frame fixed to the world.
     """
     _check_model(model)
     n = model.nv
@@ -257,18 +256,18 @@ def build_mujoco_model(
     nhat = _unit(surface_normal, "surface_normal")
     s = np.asarray(surface_point, dtype=float).reshape(3)
     if q0.size != n or K.size != n:
-        raise ValueError(f"q0 and stiffness must have shape ({n},), got {q0.shape} and {K.shape}")
+        raise InputError(f"q0 and stiffness must have shape ({n},), got {q0.shape} and {K.shape}")
     if not np.all(np.isfinite(K)) or np.any(K <= 0.0):
-        raise ValueError("joint stiffnesses must be finite and > 0")
+        raise InputError("joint stiffnesses must be finite and > 0")
     if not (np.isfinite(sphere_radius) and sphere_radius > 0.0):
-        raise ValueError("sphere_radius must be > 0 m")
+        raise InputError("sphere_radius must be > 0 m")
     if not (np.isfinite(preload) and preload >= 0.0):
-        raise ValueError(f"preload must be a finite force >= 0 N, got {preload}")
+        raise InputError(f"preload must be a finite force >= 0 N, got {preload}")
     for fid in (brace_frame_id, tip_frame_id):
         if not 0 <= fid < model.nframes:
-            raise ValueError(f"frame id {fid} out of range (model has {model.nframes} frames)")
+            raise InputError(f"frame id {fid} out of range (model has {model.nframes} frames)")
         if model.frames[fid].parentJoint == 0:
-            raise ValueError(f"frame {model.frames[fid].name!r} is fixed to the world; it must move with a joint")
+            raise InputError(f"frame {model.frames[fid].name!r} is fixed to the world; it must move with a joint")
 
     rest = preload_rest_configuration(model, q0, K, brace_frame_id, nhat, preload) if preload > 0 else q0
     args = (model, q0, K, rest, brace_frame_id, tip_frame_id, s, nhat, sphere_radius, gravity)
@@ -277,7 +276,7 @@ def build_mujoco_model(
     if timestep is None:
         timestep = min(_MAX_TIMESTEP, damping_time / 20.0)
     if not (damping_time > 0.0 and timestep > 0.0):
-        raise ValueError("damping_time and timestep must be > 0 s")
+        raise InputError("damping_time and timestep must be > 0 s")
     return _mjcf(*args, damping_time, timestep)
 
 
@@ -386,13 +385,13 @@ def mujoco_static_deflection(
     Raises:
         MujocoValidationError: unstable simulation (MuJoCo warnings or non-finite state), no settling within
             ``max_steps``, a model MuJoCo rejects, or no contact under a positive preload.
-        ValueError: bad inputs.
+        InputError: bad inputs.
     """
     w = np.asarray(wrench, dtype=float).reshape(-1)
     if w.size != 6 or not np.all(np.isfinite(w)):
-        raise ValueError(f"wrench must be a finite (6,) vector, got shape {w.shape}")
+        raise InputError(f"wrench must be a finite (6,) vector, got shape {w.shape}")
     if max_steps < 1:
-        raise ValueError("max_steps must be >= 1")
+        raise InputError("max_steps must be >= 1")
     q0 = np.asarray(q0, dtype=float).reshape(-1)
     K = np.asarray(stiffness, dtype=float).reshape(-1)
     nhat = _unit(surface_normal, "surface_normal")

@@ -1,4 +1,4 @@
-"""Physical validation of the first-order compliance models (issue 4, ``bracekit validate``).
+"""Physical validation of the first-order compliance models (``bracekit validate``): orchestration only.
 
 For a few configurations of a scenario's braced path and a set of small tip wrenches w, the tip deflection
 predicted by each first-order model, Δx_pred = C w, is compared with two independent references:
@@ -31,24 +31,29 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ..compliance import end_effector_compliance, free_space_compliance
-from ..errors import BracekitError, InputError, NumericalError, RegionWarning
-from ..kinematics import BracedRobot, BracedState
-from ..scenario import Scenario, load_scenario
-from ..simulate import simulate, solve_start
-from .mujoco_check import MujocoValidationError, mujoco_static_deflection
-from .statics import StaticSolveError, frame_jacobian_derivative, solve_static_equilibrium
+from bracekit.compliance.first_order import end_effector_compliance, free_space_compliance
+from bracekit.compliance.preloaded import preloaded_compliance
+from bracekit.errors import (
+    BracekitError,
+    InputError,
+    MujocoValidationError,
+    NumericalError,
+    RegionWarning,
+    StaticSolveError,
+)
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.simulation.scenario import Scenario, load_scenario
+from bracekit.simulation.simulate import simulate, solve_start
+from bracekit.validate.mujoco_check import mujoco_static_deflection
+from bracekit.validate.statics import solve_static_equilibrium
 
 __all__ = [
     "DEFAULT_DIRECTIONS",
     "FORCE_DIRECTIONS",
     "MODELS",
     "ValidationReport",
-    "figure_preload",
-    "figure_validation",
     "preload_study",
     "run_validation",
     "validation_configurations",
@@ -141,7 +146,7 @@ def _directions(directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike
 
 
 def validation_configurations(scenario: Scenario | str | Path, n: int) -> list[Array]:
-    """n braced configurations (each (n_joints,), rad) of a scenario, contact closed at every one.
+    """N braced configurations (each (n_joints,), rad) of a scenario, contact closed at every one.
 
     The first is the solved start configuration; the others are evenly spaced samples (in time) of the
     braced minimum-norm run along the task, ``k·N/n`` for k = 0..n−1 of the N samples (the task's end,
@@ -313,7 +318,7 @@ def _stats(values: list[float | None]) -> tuple[float | None, float | None]:
     return float(np.median(v)), float(np.max(v))
 
 
-def _fmt(x: float | None) -> str:
+def fmt_rel(x: float | None) -> str:
     """A relative error as a percentage (3 significant digits), 'n/a' when missing."""
     return "n/a" if x is None else f"{100.0 * x:.3g} %"
 
@@ -390,15 +395,15 @@ class ValidationReport:
         ]
         cols = ("model", "median vs MuJoCo", "max vs MuJoCo", "median vs static", "max vs static")
         keys = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
-        rows = [(m, *(_fmt(self.model_stats(m)[k]) for k in keys)) for m in MODELS]
+        rows = [(m, *(fmt_rel(self.model_stats(m)[k]) for k in keys)) for m in MODELS]
         widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
         line = "  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(cols))
         body = ["  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(r)) for r in rows]
         fails = [f"  config {c['config']}, {c['label']}: {c['message']}" for c in self.cases if c["status"] == "failed"]
         ms = self.mujoco_vs_static()
         agree = (
-            f"MuJoCo vs static solve ({ms['n_cases']} cases where both ran): median {_fmt(ms['median_rel_err'])}, "
-            f"max {_fmt(ms['max_rel_err'])}"
+            f"MuJoCo vs static solve ({ms['n_cases']} cases where both ran): median {fmt_rel(ms['median_rel_err'])}, "
+            f"max {fmt_rel(ms['max_rel_err'])}"
         )
         tail = ["", "failed cases:", *fails] if fails else []
         return "\n".join([*head, line, "-" * len(line), *body, "", agree, *tail])
@@ -487,34 +492,6 @@ def run_validation(
 # --------------------------------------------------------------------------------------------------
 # Preload study
 # --------------------------------------------------------------------------------------------------
-def preloaded_compliance(braced: BracedRobot, q: ArrayLike, preload: float) -> Array:
-    """First-order tip compliance (6×6, world axes) with the preload's geometric stiffness included.
-
-    Linearising K (q − rest) = J_eᵀ w + J_b,vᵀ n̂ λ about the preloaded equilibrium (λ = P) with the
-    contact kept closed gives (K − P ∂(J_b,vᵀ n̂)/∂q) δq − a δλ = J_eᵀ δw, aᵀ δq = 0 (a = J_b,vᵀ n̂): the
-    constrained model with K replaced by the tangent stiffness. At P = 0 it equals the ``constrained`` C_e.
-    """
-    robot, n = braced.robot, braced.robot.n
-    model, data = robot.model, robot.model.createData()
-    qa = robot.check_q(q)
-    pin.computeJointJacobians(model, data, qa)
-    pin.updateFramePlacements(model, data)
-    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-    nhat = braced.brace.surface.normal
-    j_e = pin.getFrameJacobian(model, data, robot.tip_id, lwa)
-    a = pin.getFrameJacobian(model, data, braced.brace_id, lwa)[:3].T @ nhat
-    d_jb = frame_jacobian_derivative(model, data, braced.brace_id)[:3]
-    k_t = np.diag(robot.stiffness) - preload * np.einsum("r,rik->ik", nhat, d_jb)
-    kkt = np.zeros((n + 1, n + 1))
-    kkt[:n, :n] = 0.5 * (k_t + k_t.T)
-    kkt[:n, n] = kkt[n, :n] = -a
-    rhs = np.zeros((n + 1, 6))
-    rhs[:n] = j_e.T
-    dq = np.linalg.solve(kkt, rhs)[:n]
-    c = j_e @ dq
-    return 0.5 * (c + c.T)
-
-
 def preload_study(
     scenario: Scenario | str | Path,
     preloads: Sequence[float] = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 50.0),
@@ -532,7 +509,7 @@ def preload_study(
     first-order models, built on K alone, neglect. Its error is first order in w and grows about linearly
     with P / k (at fixed load); the dead load's own geometric term −∂(J_eᵀ w)/∂q adds an error growing
     linearly with |w| (at fixed P). ``corrected`` is the constrained model with K_t
-    (:func:`preloaded_compliance`): it removes the preload term and leaves the load term.
+    (:func:`bracekit.compliance.preloaded_compliance`): it removes the preload term and leaves the load term.
 
     The reference is the nonlinear static solve with a bilateral contact (every (P, load) pair
     comparable; ``would_open`` counts the cases where a unilateral contact would have opened), or MuJoCo
@@ -603,112 +580,3 @@ def preload_study(
         "failed": failed.tolist(),
         "messages": messages,
     }
-
-
-# --------------------------------------------------------------------------------------------------
-# Figures
-# --------------------------------------------------------------------------------------------------
-_COLORS = {"constrained": "tab:blue", "projection": "tab:orange", "free_space": "tab:red"}
-_MARKERS = {"constrained": "o", "projection": "s", "free_space": "^"}
-
-
-def figure_validation(report: ValidationReport, path: str | Path) -> Path:
-    """PNG: predicted vs MuJoCo tip-deflection components (Δp in mm, Δθ in mrad) for the three models.
-
-    One point per component of each closed-contact case; on the y = x line the model is exact. The legend
-    gives each model's median relative error vs MuJoCo. Returns the path written.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = Path(path)
-    ok = [c for c in report.cases if c["status"] == "ok" and c["deflection"]["mujoco"] is not None]
-    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.8))
-    parts = ((slice(0, 3), 1e3, "translation Δp [mm]"), (slice(3, 6), 1e3, "rotation Δθ [mrad]"))
-    for ax, (sl, unit, name) in zip(axes, parts, strict=True):
-        ref = np.array([np.asarray(c["deflection"]["mujoco"])[sl] for c in ok]).reshape(-1) * unit
-        lim = [0.0, 0.0]
-        for m in MODELS:
-            pred = np.array([np.asarray(c["deflection"][m])[sl] for c in ok]).reshape(-1) * unit
-            med = report.model_stats(m)["median_rel_err_mujoco"]
-            ax.scatter(
-                ref,
-                pred,
-                s=16,
-                marker=_MARKERS[m],
-                facecolors="none" if m != "constrained" else _COLORS[m],
-                edgecolors=_COLORS[m],
-                linewidths=0.9,
-                label=f"{m} (median error {_fmt(med)})",
-                zorder=3 if m == "constrained" else 2,
-            )
-            if ref.size:
-                lim = [min(lim[0], ref.min(), pred.min()), max(lim[1], ref.max(), pred.max())]
-        pad = 0.05 * (lim[1] - lim[0] or 1.0)
-        lo, hi = lim[0] - pad, lim[1] + pad
-        ax.plot([lo, hi], [lo, hi], "k-", lw=0.8, label="y = x (exact)", zorder=1)
-        ax.set_xlim(lo, hi)
-        ax.set_ylim(lo, hi)
-        ax.set_aspect("equal")
-        ax.grid(alpha=0.3)
-        ax.set_xlabel(f"MuJoCo {name}")
-        ax.set_ylabel(f"first-order prediction C·w, {name}")
-        ax.set_title(f"tip {name.split(' [')[0]}, components x, y, z")
-    axes[0].legend(fontsize=8, loc="upper left")
-    cnt = report.counts()
-    s = report.settings
-    fig.suptitle(
-        f"Predicted vs simulated tip deflection, scenario '{report.scenario}': {cnt['ok']} cases "
-        f"(|f| = {s['force_N']:g} N, |m| = {s['moment_Nm']:g} N·m, preload {s['preload_N']:g} N; "
-        f"{cnt['contact_opened']} opened, {cnt['failed']} failed, not shown)",
-        fontsize=10,
-    )
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
-
-
-def figure_preload(study: dict[str, Any], path: str | Path) -> Path:
-    """PNG: median relative error of the constrained model vs preload (log–log), one line per load.
-
-    Solid: the first-order ``constrained`` model; dashed: the same with the preload's geometric stiffness
-    (``corrected``). Returns the path written.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = Path(path)
-    ps = np.asarray(study["preloads_N"], dtype=float)
-    fig, ax = plt.subplots(figsize=(6.4, 5.0))
-    colors = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(study["loads_N"])))
-    for j, f in enumerate(study["loads_N"]):
-        lines = (("median_rel_err", "-o", "first-order"), ("median_rel_err_corrected", "--x", "with K_g"))
-        for key, style, what in lines:
-            vals = [row[j] for row in study[key]]
-            keep = [(p, 100.0 * v) for p, v in zip(ps, vals, strict=True) if v is not None and v > 0]
-            if keep:
-                x, y = zip(*keep, strict=True)
-                ax.plot(x, y, style, color=colors[j], ms=4, lw=1.2, label=f"|f| = {f:g} N, {what}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("contact preload P [N]")
-    ax.set_ylabel("median relative tip-deflection error [%]")
-    ref = "nonlinear static solve" if study["reference"] == "static" else "MuJoCo"
-    ax.set_title(
-        f"First-order constrained model vs {ref} ({study['contact']}), scenario '{study['scenario']}'\n"
-        "solid: C_e from K alone; dashed: with the preload's geometric stiffness K_g = −P ∂(J_b,vᵀn̂)/∂q",
-        fontsize=8,
-    )
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.16))
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from bracekit.errors import InputError, StaticSolveError
+
 __all__ = [
     "StaticResult",
     "StaticSolveError",
@@ -33,8 +35,6 @@ __all__ = [
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
-class StaticSolveError(RuntimeError):
-    """The static equilibrium cannot be computed (no convergence, singular KKT system, unloaded contact)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +79,7 @@ def lagrange_compliance(J: np.ndarray, K: np.ndarray, a: np.ndarray) -> np.ndarr
         (6, 6) compliance C (m/N, m/(N·m), rad/N, rad/(N·m) blocks), Δx = C w.
 
     Raises:
-        ValueError: bad shapes or non-positive stiffness.
+        InputError: bad shapes or non-positive stiffness.
         StaticSolveError: the constraints are (near) dependent or carry no load (aᵀK⁻¹a singular).
     """
     J = np.asarray(J, dtype=float)
@@ -89,11 +89,11 @@ def lagrange_compliance(J: np.ndarray, K: np.ndarray, a: np.ndarray) -> np.ndarr
         a = a[:, None]
     n = K.size
     if J.shape != (6, n):
-        raise ValueError(f"J must have shape (6, {n}), got {J.shape}")
+        raise InputError(f"J must have shape (6, {n}), got {J.shape}")
     if a.ndim != 2 or a.shape[0] != n:
-        raise ValueError(f"a must have shape ({n}, m), got {a.shape}")
+        raise InputError(f"a must have shape ({n}, m), got {a.shape}")
     if not np.all(np.isfinite(K)) or np.any(K <= 0.0):
-        raise ValueError("joint stiffnesses must be finite and > 0")
+        raise InputError("joint stiffnesses must be finite and > 0")
     m = a.shape[1]
     # Guard: the weighted constraint matrix K^-1/2 a must have full column rank, else the multiplier
     # is undetermined (the contact carries no load); never return NaN silently.
@@ -119,16 +119,16 @@ def lagrange_compliance(J: np.ndarray, K: np.ndarray, a: np.ndarray) -> np.ndarr
 # --------------------------------------------------------------------------------------------------
 def _check_model(model: pin.Model) -> None:
     if model.nq != model.nv:
-        raise ValueError(f"model must have nq == nv (1-DoF revolute joints), got nq={model.nq}, nv={model.nv}")
+        raise InputError(f"model must have nq == nv (1-DoF revolute joints), got nq={model.nq}, nv={model.nv}")
     for jid in range(1, model.njoints):
         jm = model.joints[jid]
         if jm.nq != 1 or jm.nv != 1:
-            raise ValueError(f"joint {model.names[jid]!r} ({jm.shortname()}) is not a 1-DoF joint")
+            raise InputError(f"joint {model.names[jid]!r} ({jm.shortname()}) is not a 1-DoF joint")
         jd = jm.createData()
         jm.calc(jd, np.zeros(1))
         S = np.asarray(jd.S).reshape(6)
         if np.linalg.norm(S[:3]) > 1e-12 or abs(np.linalg.norm(S[3:]) - 1.0) > 1e-9:
-            raise ValueError(f"joint {model.names[jid]!r} ({jm.shortname()}) is not a revolute joint")
+            raise InputError(f"joint {model.names[jid]!r} ({jm.shortname()}) is not a revolute joint")
 
 
 def _kinematics(model: pin.Model, data: pin.Data, q: np.ndarray) -> None:
@@ -191,9 +191,9 @@ def _unit(v: np.ndarray, name: str) -> np.ndarray:
     v = np.asarray(v, dtype=float).reshape(3)
     nrm = np.linalg.norm(v)
     if not np.isfinite(nrm) or nrm < 1e-12:
-        raise ValueError(f"{name} must be a finite non-zero 3-vector")
+        raise InputError(f"{name} must be a finite non-zero 3-vector")
     if abs(nrm - 1.0) > 1e-6:
-        raise ValueError(f"{name} must be a unit vector (norm {nrm:.6g})")
+        raise InputError(f"{name} must be a unit vector (norm {nrm:.6g})")
     return v / nrm
 
 
@@ -336,7 +336,7 @@ def solve_static_equilibrium(
         :class:`StaticResult` (deflection relative to q0).
 
     Raises:
-        ValueError: bad inputs (shapes, non-revolute joints, b not on the plane at q0, negative preload).
+        InputError: bad inputs (shapes, non-revolute joints, b not on the plane at q0, negative preload).
         StaticSolveError: no convergence within ``max_iter``, a singular KKT system (the contact carries
             no load from the chain), or an opened contact whose free solution would penetrate the plane.
     """
@@ -348,22 +348,22 @@ def solve_static_equilibrium(
     s = np.asarray(surface_point, dtype=float).reshape(3)
     nhat = _unit(surface_normal, "surface_normal")
     if q0.size != n or K.size != n:
-        raise ValueError(f"q0 and stiffness must have shape ({n},), got {q0.shape} and {K.shape}")
+        raise InputError(f"q0 and stiffness must have shape ({n},), got {q0.shape} and {K.shape}")
     if w.size != 6:
-        raise ValueError(f"wrench must have shape (6,), got {w.shape}")
+        raise InputError(f"wrench must have shape (6,), got {w.shape}")
     if not np.all(np.isfinite(K)) or np.any(K <= 0.0):
-        raise ValueError("joint stiffnesses must be finite and > 0")
+        raise InputError("joint stiffnesses must be finite and > 0")
     if not (np.isfinite(preload) and preload >= 0.0):
-        raise ValueError(f"preload must be a finite force >= 0 N, got {preload}")
+        raise InputError(f"preload must be a finite force >= 0 N, got {preload}")
     for fid in (brace_frame_id, tip_frame_id):
         if not 0 <= fid < model.nframes:
-            raise ValueError(f"frame id {fid} out of range (model has {model.nframes} frames)")
+            raise InputError(f"frame id {fid} out of range (model has {model.nframes} frames)")
 
     data = model.createData()
     _kinematics(model, data, q0)
     gap0 = float(nhat @ (data.oMf[brace_frame_id].translation - s))
     if abs(gap0) > 1e-8:
-        raise ValueError(f"brace point is not on the surface at q0 (gap {gap0:.3e} m)")
+        raise InputError(f"brace point is not on the surface at q0 (gap {gap0:.3e} m)")
     Jb0 = pin.getFrameJacobian(model, data, brace_frame_id, _LWA)[:3, :]
     a0 = Jb0.T @ nhat
     Je0 = pin.getFrameJacobian(model, data, tip_frame_id, _LWA)

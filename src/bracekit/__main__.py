@@ -1,0 +1,7 @@
+"""``python -m bracekit``: the command line."""
+
+import sys
+
+from bracekit.cli import main
+
+sys.exit(main())

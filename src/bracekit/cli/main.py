@@ -1,0 +1,367 @@
+"""The command line: a thin layer over the public API. Input errors exit with 2, numerical ones with 1."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bracekit._version import __version__
+from bracekit.errors import BracekitError, InputError, MissingDependencyError
+
+LIST_OPTIONS = ("--q", "--stiffness", "--normal", "--beta-x", "--brace-offset")
+
+
+def _floats(text: str, what: str) -> np.ndarray:
+    parts = [p for p in text.replace(" ", "").split(",") if p != ""]
+    if not parts:
+        raise InputError(f"{what} is empty; give comma-separated numbers, e.g. {what} 0.1,-0.2")
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        raise InputError(f"{what} must be comma-separated numbers, got '{text}'") from None
+    if not np.all(np.isfinite(values)):
+        raise InputError(f"{what} must be finite numbers, got '{text}'")
+    return values
+
+
+def _join_negative(argv: Sequence[str]) -> list[str]:
+    """Let `--q -0.5,1.2` work: argparse would take '-0.5,1.2' for an option."""
+    out: list[str] = []
+    it = iter(range(len(argv)))
+    for i in it:
+        tok = argv[i]
+        if tok in LIST_OPTIONS and i + 1 < len(argv) and argv[i + 1].startswith("-") and len(argv[i + 1]) > 1:
+            nxt = argv[i + 1]
+            if nxt[1].isdigit() or nxt[1] == ".":
+                out.append(f"{tok}={nxt}")
+                next(it, None)
+                continue
+        out.append(tok)
+    return out
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> Any:  # one line, exit 2
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of `bracekit`."""
+    p = _Parser(prog="bracekit", description="Braced serial robots: kinematics, compliance, redundancy resolution.")
+    p.add_argument("--version", action="version", version=f"bracekit {__version__}")
+    sub = p.add_subparsers(dest="command", parser_class=_Parser, metavar="COMMAND")
+
+    ev = sub.add_parser("evaluate", help="the braced model at one configuration")
+    src = ev.add_mutually_exclusive_group(required=True)
+    src.add_argument("--urdf", type=Path, help="URDF file of the robot")
+    src.add_argument("--model", help="a shipped robot: paper-robot or puma560")
+    ev.add_argument("--brace", help="bracing frame {b} (a frame of the model; default: the model's own)")
+    ev.add_argument(
+        "--brace-link", help="place {b} on this link instead, at --brace-offset (named --brace or brace_point)"
+    )
+    ev.add_argument("--brace-offset", default="0,0,0", help="offset of {b} in the link frame, m (with --brace-link)")
+    ev.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
+    ev.add_argument("--q", required=True, help="joint values in chain order, base to tip: Q1,...,Qn (rad)")
+    ev.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
+    ev.add_argument("--normal", default="0,0,1", help="surface normal NX,NY,NZ (world), the surface passes through b")
+    ev.add_argument(
+        "--contact", default="frictionless_point", help="frictionless_point | point_with_friction | soft_finger"
+    )
+    ev.add_argument("--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the normal)")
+    ev.add_argument("--json", action="store_true", help="print one JSON object (SI units)")
+
+    st = sub.add_parser("study", help="where to brace: tip compliance for bracing points along the robot")
+    src2 = st.add_mutually_exclusive_group(required=True)
+    src2.add_argument("--urdf", type=Path, help="URDF file of the robot")
+    src2.add_argument("--model", help="a shipped robot: paper-robot or puma560")
+    st.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
+    st.add_argument("--q", required=True, help="joint values in chain order: Q1,...,Qn (rad)")
+    st.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
+    st.add_argument("--normal", default="0,0,1", help="surface normal NX,NY,NZ; the surface passes through each point")
+    st.add_argument("--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the normal)")
+    st.add_argument("--points-per-link", type=int, default=3, help="candidates per link (default 3)")
+    st.add_argument("--json", action="store_true", help="print one JSON object")
+
+    run = sub.add_parser("run", help="run a scenario: Table I, Figures 2-4 and the animation")
+    run.add_argument("scenario", help="a scenario TOML file or a shipped name (paper)")
+    run.add_argument("--out", type=Path, default=Path("bracekit-out"), help="output folder (default bracekit-out)")
+    run.add_argument("--gradient", choices=("analytic", "finite-difference"), help="how ∇g is computed")
+    run.add_argument("--compliance-model", choices=("constrained", "projection"), help="model of summary.json")
+    run.add_argument("--no-figures", action="store_true", help="write the table, summary and trajectories only")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    va = sub.add_parser("validate", help="check the compliance models against MuJoCo and a nonlinear static solve")
+    va.add_argument("scenario", nargs="?", default="paper", help="scenario file or shipped name (default paper)")
+    va.add_argument("--configs", type=int, default=3, help="number of configurations along the path (default 3)")
+    va.add_argument("--json", action="store_true", help="print one JSON object")
+    va.add_argument("--out", type=Path, help="also write validation.json and validation.png into this folder")
+
+    be = sub.add_parser("bench", help="measure the speed of the hot paths")
+    be.add_argument("--json", action="store_true", help="print one JSON object")
+    be.add_argument("--quick", action="store_true", help="fewer repetitions")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `bracekit` console script; returns the exit code."""
+    args_list = _join_negative(list(sys.argv[1:] if argv is None else argv))
+    parser = build_parser()
+    args = parser.parse_args(args_list)
+    if args.command is None:
+        parser.print_help()
+        return 2
+
+    def show(message: Any, category: type[Warning], *_: Any, **__: Any) -> None:
+        print(f"bracekit: warning: {message}", file=sys.stderr)
+
+    saved = warnings.showwarning
+    warnings.showwarning = show  # type: ignore[assignment]
+    try:
+        return _dispatch(args)
+    except InputError as exc:
+        print(f"bracekit: error: {exc}", file=sys.stderr)
+        return 2
+    except BracekitError as exc:
+        print(f"bracekit: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("bracekit: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # e.g. piped into head
+        sys.stderr.close()
+        return 0
+    finally:
+        warnings.showwarning = saved
+
+
+def _dispatch(args: argparse.Namespace) -> int:
+    commands = {"evaluate": _evaluate, "run": _run, "validate": _validate, "study": _study, "bench": _bench}
+    return commands[args.command](args)
+
+
+def _needs(module: str, extra: str, what: str) -> None:
+    """MissingDependencyError unless `module` can be imported (an optional extra of bracekit)."""
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        raise MissingDependencyError(f"{what} needs {module}, which is not installed: pip install 'bracekit[{extra}]'")
+
+
+# --- evaluate ------------------------------------------------------------------------------------
+def _load_robot(args: argparse.Namespace) -> tuple[Any, str | None]:
+    """The robot of --model or --urdf/--tip with --stiffness, and the model's own bracing frame."""
+    from bracekit.model.robot import Robot
+    from bracekit.model.shipped import MODELS, default_brace_frame, load_model
+
+    stiffness = _floats(args.stiffness, "--stiffness")
+    k: float | np.ndarray = float(stiffness[0]) if stiffness.size == 1 else stiffness
+    if args.model is not None:
+        if args.model not in MODELS:
+            raise InputError(f"unknown model '{args.model}'; choose one of {', '.join(MODELS)}")
+        return load_model(args.model, stiffness=k, tip=args.tip), default_brace_frame(args.model)
+    if args.tip is None:
+        raise InputError("--tip is needed with --urdf: name the end-effector frame")
+    return Robot.from_urdf(args.urdf, tip=args.tip, stiffness=k), None
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from bracekit.studies.evaluate import evaluate
+
+    robot, own_brace = _load_robot(args)
+    brace = args.brace or own_brace
+    if args.brace_link is not None:
+        brace = args.brace or "brace_point"
+        robot = robot.with_point_frame(brace, args.brace_link, _floats(args.brace_offset, "--brace-offset"))
+    if brace is None:
+        raise InputError("name the bracing frame with --brace FRAME (or --brace-link LINK --brace-offset X,Y,Z)")
+    q = _floats(args.q, "--q")
+    beta = None if args.beta_x is None else _floats(args.beta_x, "--beta-x")
+    report = evaluate(robot, brace, q, normal=_floats(args.normal, "--normal"), contact=args.contact, beta_x=beta)
+    if args.json:
+        from bracekit.report.output import to_json
+
+        print(to_json(report))
+    else:
+        print(_evaluate_text(report))
+    return 0
+
+
+def _pct(x: float | None) -> str:
+    return "–" if x is None else f"{100 * x:.1f} %"
+
+
+def _evaluate_text(r: dict[str, Any]) -> str:
+    lines = [
+        f"robot: {r['n']} joints, chain 1 = {r['n1']} (base → {{b}} '{r['brace_frame']}'), chain 2 = {r['n2']} "
+        f"(→ tip '{r['tip_frame']}'); contact {r['contact']}",
+        f"b = {np.round(r['b'], 4).tolist()} m, e = {np.round(r['e'], 4).tolist()} m, "
+        f"θ_z = {np.degrees(r['theta_z']):.2f}°",
+        f"k (free-space J) = {r['k']:.3f}, k (braced J̃) = {r['k_braced']:.3f}",
+        "",
+        "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
+    ]
+    for label, key in (
+        ("free space", "ellipsoid_free"),
+        ("braced, constrained", "ellipsoid_constrained"),
+        ("braced, projection", "ellipsoid_projection"),
+    ):
+        ell = r[key]["translational"]
+        axes = ", ".join(
+            f"{1e3 * s:.3f} along {np.round(a, 3).tolist()}"
+            for s, a in zip(ell["semi_axes"], np.array(ell["axes"]).T, strict=True)
+        )
+        lines.append(f"  {label:<20} {axes}")
+    lines += [
+        "",
+        f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
+        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
+        f"({_pct(r['Ci_reduction_constrained'])} less), braced projection {1e3 * r['Ci_projection']:.4f} mm/N "
+        f"({_pct(r['Ci_reduction_projection'])} less)",
+        f"  largest translational compliance: free {1e3 * r['max_translational_free']:.4f} mm/N → braced "
+        f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
+    ]
+    return "\n".join(lines)
+
+
+# --- study ---------------------------------------------------------------------------------------
+def _study(args: argparse.Namespace) -> int:
+    from bracekit.report.output import to_json
+    from bracekit.studies.brace_location import brace_location_study
+
+    robot, _ = _load_robot(args)
+    beta = None if args.beta_x is None else _floats(args.beta_x, "--beta-x")
+    cands = brace_location_study(
+        robot,
+        _floats(args.q, "--q"),
+        normal=_floats(args.normal, "--normal"),
+        beta_x=beta,
+        points_per_link=args.points_per_link,
+    )
+    if args.json:
+        print(to_json({"candidates": [c.__dict__ | {"reduction": c.reduction} for c in cands]}))
+        return 0
+    print("bracing candidates, best first (C_i in mm/N; k of J̃; fraction along the link to the next joint)")
+    head = f"{'link':>10} {'n1':>3} {'frac':>5}  {'point [m]':<26} {'free':>8} {'constr.':>8} {'proj.':>8}"
+    print(head + f" {'less':>7} {'k(J̃)':>8}")
+    for c in cands:
+        k = "singular" if c.k_braced is None else f"{c.k_braced:8.2f}"
+        note = "  (no load: chain 1 cannot push b)" if c.unloaded else ""
+        print(
+            f"{c.link:>10} {c.n1:>3} {c.fraction:5.2f}  {np.round(c.point, 3).tolist()!s:<26} "
+            f"{1e3 * c.Ci_free:8.3f} {1e3 * c.Ci_constrained:8.3f} {1e3 * c.Ci_projection:8.3f} "
+            f"{_pct(c.reduction):>7} {k:>8}{note}"
+        )
+    return 0
+
+
+# --- run -----------------------------------------------------------------------------------------
+def _run(args: argparse.Namespace) -> int:
+    from bracekit.report import write_run
+    from bracekit.report.table import table_markdown
+    from bracekit.simulation.run import run_scenario, total_steps
+    from bracekit.simulation.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    bar = None
+    if not args.quiet:
+        from tqdm import tqdm
+
+        bar = tqdm(total=total_steps(scenario), desc=f"{scenario.name}: simulating", unit="step", file=sys.stderr)
+    try:
+        result = run_scenario(
+            scenario,
+            gradient=args.gradient,
+            compliance_model=args.compliance_model,
+            progress=None if bar is None else bar.update,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    written = write_run(
+        result,
+        args.out,
+        figures=not args.no_figures,
+        progress=None if args.quiet else (lambda name: print(f"writing {name}", file=sys.stderr)),
+    )
+    print(table_markdown(result.summaries, scenario.name))
+    for name, s in result.summary["strategies"].items():
+        if not s["completed"]:
+            print(f"bracekit: warning: {name} did not complete: {s['failure']}", file=sys.stderr)
+    print(f"wrote {len(written)} files to {args.out}/: " + ", ".join(p.name for p in written))
+    return 0 if result.completed else 1
+
+
+# --- validate ------------------------------------------------------------------------------------
+def _validate(args: argparse.Namespace) -> int:
+    from bracekit.report.output import atomic_directory, to_json
+    from bracekit.simulation.scenario import load_scenario
+
+    _needs("mujoco", "validate", "bracekit validate")
+    _needs("matplotlib", "viz", "bracekit validate")
+    from bracekit.report.validation_figures import figure_validation
+    from bracekit.validate import run_validation
+    from bracekit.validate.runner import DEFAULT_DIRECTIONS
+
+    if args.configs < 1:
+        raise InputError(f"--configs must be at least 1, got {args.configs}")
+    scenario = load_scenario(args.scenario)
+    bar = None
+    if not args.json:
+        from tqdm import tqdm
+
+        total = args.configs * len(DEFAULT_DIRECTIONS)
+        bar = tqdm(total=total, desc=f"{scenario.name}: validating", unit="case", file=sys.stderr)
+    try:
+        report = run_validation(scenario, configs=args.configs, progress=None if bar is None else bar.update)
+    finally:
+        if bar is not None:
+            bar.close()
+    data = report.to_json()
+    if args.out is not None:
+        with atomic_directory(args.out) as tmp:
+            (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
+            figure_validation(report, tmp / "validation.png")
+    print(to_json(data) if args.json else report.table_text())
+    counts = report.counts()
+    if counts.get("failed", 0) > 0 or report.model_stats("constrained")["n_cases"] == 0:
+        print(f"bracekit: error: {counts.get('failed', 0)} validation case(s) failed", file=sys.stderr)
+        return 1
+    return 0
+
+
+# --- bench ---------------------------------------------------------------------------------------
+def _bench(args: argparse.Namespace) -> int:
+    results = _bench_module().run_benchmarks(quick=args.quick)
+    print(json.dumps(results, indent=2) if args.json else results.get("table", ""))
+    return 0
+
+
+def _bench_module() -> Any:
+    """benchmarks/bench.py of the repository bracekit was installed from (the timing code is not installed)."""
+    import importlib.util
+
+    here = Path(__file__).resolve()
+    for root in here.parents:
+        path = root / "benchmarks" / "bench.py"
+        if path.is_file() and (root / "pyproject.toml").is_file():
+            spec = importlib.util.spec_from_file_location("bracekit_benchmarks", path)
+            if spec is None or spec.loader is None:
+                break
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+            return module
+    raise InputError(
+        "bracekit bench runs the repository's benchmarks/ folder, which an installed package does not carry: "
+        "install bracekit from a clone (pip install -e .) and run it there"
+    )
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

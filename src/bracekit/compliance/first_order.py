@@ -1,0 +1,186 @@
+"""Compliance of the braced robot (Section IV): C1, C2, C̃1, C_e, directional compliance, ellipsoids.
+
+All compliances map a wrench [f; m] (N, N·m) to a small twist/deflection [Δp; Δθ] (m, rad): units
+m/N, m/(N·m) = 1/N, rad/N and rad/(N·m). Two models of the bracing-consistent compliance of chain 1:
+
+* ``"projection"``: the paper's C̃1 = (I − P) C1 (I − P) (eq:C1wave_detail).
+* ``"constrained"`` (default): the exact first-order static equilibrium with the contact as a bilateral
+  constraint, C̃1 = C1 − C1 X (Xᵀ C1 X)⁻¹ Xᵀ C1 (MODEL.md). With a finite environment stiffness k_env the
+  inverse becomes (Xᵀ C1 X + I / k_env)⁻¹.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Literal, TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit.errors import InputError, NumericalError, UnloadedContactWarning
+from bracekit.kinematics import BracedState
+from bracekit.spatial import unit
+from bracekit.tolerances import UNLOADED_TOL
+
+Array = NDArray[np.float64]
+ComplianceModel = Literal["constrained", "projection"]
+COMPLIANCE_MODELS: tuple[str, ...] = ("constrained", "projection")
+_T = TypeVar("_T")
+
+
+
+def check_model(model: str) -> ComplianceModel:
+    """Validate a compliance-model name."""
+    if model not in COMPLIANCE_MODELS:
+        raise InputError(f"unknown compliance model '{model}'; choose one of {', '.join(COMPLIANCE_MODELS)}")
+    return model  # type: ignore[return-value]
+
+
+def C1(state: BracedState) -> Array:
+    """Free compliance of chain 1 at b, world axes: J1 K1⁻¹ J1ᵀ (6×6), eq:C1_def."""
+    j1 = state.J1
+    return (j1 / state.K[: state.n1]) @ j1.T
+
+
+def C2(state: BracedState) -> Array:
+    """Compliance of chain 2 at e, {b}'s axes: J2 K2⁻¹ J2ᵀ (6×6), eq:C2_def."""
+    j2 = state.J2
+    return (j2 / state.K[state.n1 :]) @ j2.T
+
+
+def check_finite(a: _T, what: str) -> _T:
+    """`a` itself if every entry is finite; NumericalError naming `what` otherwise (no silent NaN or inf)."""
+    if not (math.isfinite(a) if isinstance(a, float) else np.isfinite(a).all()):
+        raise NumericalError(
+            f"{what} is not finite: the compliance overflows (joint stiffnesses too small for 1/K or lengths too large)"
+        )
+    return a
+
+
+def warn_unloaded(count: int, configurations: int | None = None, stacklevel: int = 2) -> None:
+    """The UnloadedContactWarning: `count` constraint directions, or `count` of `configurations`, carry no load."""
+    where = (
+        f"along {count} constraint direction(s)"
+        if configurations is None
+        else f"at {count} of {configurations} configurations"
+    )
+    warnings.warn(
+        f"the contact carries no load from chain 1 {where} (Xᵀ C1 X is singular): "
+        "chain 1 cannot push {b} there, so the brace does not stiffen it",
+        UnloadedContactWarning,
+        stacklevel=stacklevel + 1,
+    )
+
+
+def loaded_gain(m: Array, trace_c1: ArrayLike, k_env: float | None = None) -> tuple[Array, Array]:
+    """G = (Xᵀ C1 X + I/k_env)⁻¹ and the number of unloaded directions, for one m = Xᵀ C1 X or a stack (N, c, c).
+
+    With a rigid environment (k_env None) G is the inverse over the loaded directions only: eigenvalues of m
+    at or below UNLOADED_TOL · tr(C1) (`trace_c1`: a number, or one per matrix) are dropped and counted.
+    The count has m's stack shape (an integer for one m). Raises NumericalError if m or tr(C1) is not finite.
+    """
+    check_finite(m, "Xᵀ C1 X")
+    check_finite(trace_c1, "tr(C1)")
+    if k_env is not None:
+        return np.linalg.inv(m + np.eye(m.shape[-1]) / k_env), np.zeros(m.shape[:-2], dtype=int)
+    # one constraint direction (a frictionless point): m is its own eigenvalue, exactly
+    w, v = (m[..., 0], np.ones(m.shape)) if m.shape[-1] == 1 else np.linalg.eigh(m)
+    good = w > UNLOADED_TOL * np.maximum(trace_c1, 1e-300)[..., None]
+    return (v / np.where(good, w, np.inf)[..., None, :]) @ np.swapaxes(v, -1, -2), np.sum(~good, axis=-1)
+
+
+def constraint_gain(state: BracedState, c1: Array | None = None) -> Array:
+    """G = (Xᵀ C1 X + I/k_env)⁻¹ ((6−l)×(6−l)), the contact's stiffness seen through chain 1.
+
+    Directions in which chain 1 cannot move {b} (Xᵀ C1 X singular, rigid environment) carry no load:
+    they are dropped (pseudo-inverse) and an UnloadedContactWarning says so. NumericalError if C1 is not finite.
+    """
+    c1 = C1(state) if c1 is None else c1
+    x = state.X
+    g, unloaded = loaded_gain(x.T @ c1 @ x, np.trace(c1), state.braced.brace.environment_stiffness)
+    if unloaded:
+        warn_unloaded(int(unloaded), stacklevel=3)
+    return g
+
+
+def braced_C1(state: BracedState, model: ComplianceModel = "constrained") -> Array:
+    """Bracing-consistent compliance C̃1 of chain 1 at b, world axes (6×6).
+
+    ``projection``: (I − P) C1 (I − P), eq:C1wave_detail. ``constrained``: C1 − C1 X G Xᵀ C1 with
+    G = (Xᵀ C1 X)⁻¹ (MODEL.md; the Lagrange-multiplier equilibrium).
+    """
+    model = check_model(model)
+    c1 = C1(state)
+    if model == "projection":
+        t = np.eye(6) - state.P
+        return t @ c1 @ t
+    cx = c1 @ state.X
+    out = c1 - cx @ constraint_gain(state, c1) @ cx.T
+    return 0.5 * (out + out.T)
+
+
+def end_effector_compliance(state: BracedState, model: ComplianceModel = "constrained") -> Array:
+    """C_e = S_t1 C̃1 S_w1 + S_t2 C2 S_w2 (6×6), eq:Ce, with the dual wrench maps S_w = S_tᵀ (erratum).
+
+    Maps a tip wrench [f; m] at e (world axes) to the tip deflection [Δp; Δθ] (world axes).
+    """
+    s1, s2 = state.S_t1, state.S_t2
+    out = s1 @ braced_C1(state, model) @ s1.T + s2 @ C2(state) @ s2.T
+    return check_finite(0.5 * (out + out.T), "C_e")
+
+
+def free_space_compliance(state: BracedState) -> Array:
+    """Compliance of the unbraced robot at e: J K⁻¹ Jᵀ (6×6), world axes."""
+    j = state.J_e
+    return check_finite((j / state.K) @ j.T, "the free-space compliance J K⁻¹ Jᵀ")
+
+
+def directional_compliance(c_e: Array, beta_x: ArrayLike, beta_w: ArrayLike) -> float:
+    """C_βx = β_xᵀ C_e β_w (eq:directional_compliance_result); β_x a unit twist, β_w a unit wrench."""
+    bx, bw = unit6(beta_x, "beta_x"), unit6(beta_w, "beta_w")
+    return float(check_finite(bx @ c_e @ bw, "the directional compliance"))
+
+
+def compliance_index(c_e: Array, beta_x: ArrayLike) -> float:
+    """C_i = ‖β_xᵀ C_e‖₂ (eq:compliance_index): the largest deflection along β_x per unit wrench."""
+    return float(check_finite(np.linalg.norm(unit6(beta_x, "beta_x") @ c_e), "the compliance index"))
+
+
+@dataclass(frozen=True)
+class Ellipsoid:
+    """Principal axes of a 3×3 compliance block: ``axes[:, i]`` (unit, world) has ``semi_axes[i]``.
+
+    semi_axes are the block's eigenvalues, ascending: deflection per unit load along each axis.
+    """
+
+    semi_axes: Array
+    axes: Array
+
+
+@dataclass(frozen=True)
+class ComplianceEllipsoids:
+    """Translational (m/N) and rotational (rad/(N·m)) compliance ellipsoids of C_e."""
+
+    translational: Ellipsoid
+    rotational: Ellipsoid
+
+
+def compliance_ellipsoids(c_e: Array) -> ComplianceEllipsoids:
+    """Eigen-decomposition of the translational and rotational diagonal blocks of C_e."""
+    out = []
+    for block in (c_e[:3, :3], c_e[3:, 3:]):
+        w, v = np.linalg.eigh(0.5 * (block + block.T))
+        out.append(Ellipsoid(semi_axes=np.clip(w, 0.0, None), axes=v))
+    return ComplianceEllipsoids(translational=out[0], rotational=out[1])
+
+
+def unit6(v: ArrayLike, what: str) -> Array:
+    a = np.asarray(v, dtype=float).reshape(-1)
+    if a.size != 6:
+        raise InputError(f"{what} must have 6 components [v; ω], got {a.size}")
+    try:
+        return unit(a, what)
+    except ValueError as exc:
+        raise InputError(str(exc)) from exc

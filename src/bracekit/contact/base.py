@@ -1,0 +1,74 @@
+"""Contact types (Salisbury's models): each gives H, the allowable twists of {b}, and X, the constraint wrenches.
+
+H (6×l) and X (6×(6−l)) are expressed at b in world axes and built from the tangent frame {t} of the surface,
+whose columns are x̂_t, ŷ_t and ẑ_t = n̂ (eq:constraint). They are reciprocal: Hᵀ X = 0. A contact type owns all
+its maths in its own file and registers its TOML/CLI name with :func:`register`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.errors import ContactError
+
+Array = NDArray[np.float64]
+
+
+def columns(*cols: tuple[Array, Array]) -> Array:
+    """A 6×k matrix whose column j is [cols[j][0]; cols[j][1]] (linear part, then angular part)."""
+    return np.array([np.concatenate(c) for c in cols]).T
+
+
+class ContactType(ABC):
+    """A contact type: which twists of {b} the contact allows (H) and which wrenches it transmits (X).
+
+    Subclasses set ``name`` (the TOML and CLI name) and ``l`` (the number of allowable twist directions) and
+    implement :meth:`H` and :meth:`X` for a tangent frame (3×3, columns x̂_t, ŷ_t, ẑ_t = n̂, world axes).
+    Instances carry no state: two instances of one type are equal.
+    """
+
+    name: ClassVar[str]
+    l: ClassVar[int]
+
+    @abstractmethod
+    def H(self, frame: Array) -> Array:
+        """Allowable twists of {b} (6×l), world axes, eq:constraint."""
+
+    @abstractmethod
+    def X(self, frame: Array) -> Array:
+        """Constraint wrenches (6×(6−l)), world axes, reciprocal to H: Hᵀ X = 0."""
+
+    def __eq__(self, other: object) -> bool:
+        return type(self) is type(other)
+
+    def __hash__(self) -> int:
+        return hash(type(self))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+#: name → contact type, filled by :func:`register` (the names of the TOML key ``brace.contact`` and of ``--contact``).
+REGISTRY: dict[str, type[ContactType]] = {}
+
+
+def register(cls: type[ContactType]) -> type[ContactType]:
+    """Class decorator: make a contact type available by its ``name``."""
+    if cls.name in REGISTRY:
+        raise ContactError(f"contact type '{cls.name}' is registered twice")
+    REGISTRY[cls.name] = cls
+    return cls
+
+
+def contact_type(name: str | ContactType) -> ContactType:
+    """The contact type called `name` (an instance is returned as is); ContactError names the choices."""
+    if isinstance(name, ContactType):
+        return name
+    cls = REGISTRY.get(name) if isinstance(name, str) else None
+    if cls is None:
+        raise ContactError(f"unknown contact type {name!r}; choose one of {', '.join(REGISTRY)}")
+    return cls()

@@ -1,0 +1,63 @@
+"""The brace: a frame {b} of the robot touching a surface through a contact type (eq:constraint)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.contact.base import ContactType, contact_type
+from bracekit.contact.frictionless_point import FRICTIONLESS_POINT
+from bracekit.contact.surface import Surface
+from bracekit.errors import ContactError
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class Brace:
+    """A bracing contact: frame {b} of the robot touching `surface` through `contact`.
+
+    Attributes:
+        frame: name of the bracing frame {b} (a frame of the robot; add one at a link point with
+            ``Robot.with_point_frame``).
+        surface: the bracing plane.
+        contact: contact type (default: the paper's frictionless point contact).
+        region_radius: r_max of the circular bracing region centred at ``surface.point`` (m), or None.
+        environment_stiffness: stiffness of the environment along each constraint direction (N/m, or
+            N·m/rad for constraint moments); None means rigid (the paper's assumption).
+    """
+
+    frame: str
+    surface: Surface
+    contact: ContactType | str = FRICTIONLESS_POINT
+    region_radius: float | None = None
+    environment_stiffness: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.frame, str) or not self.frame:
+            raise ContactError(f"the brace frame must be a frame name (a non-empty string), got {self.frame!r}")
+        if not isinstance(self.surface, Surface):
+            raise ContactError(f"the brace surface must be a bracekit Surface, got {type(self.surface).__name__}")
+        object.__setattr__(self, "contact", contact_type(self.contact))
+        for key in ("region_radius", "environment_stiffness"):
+            value = getattr(self, key)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int | float | np.floating)):
+                raise ContactError(f"{key} must be a number or None, got {value!r}")
+        if self.region_radius is not None and not (np.isfinite(self.region_radius) and self.region_radius > 0):
+            raise ContactError(f"bracing region radius must be a positive length (m), got {self.region_radius}")
+        if self.environment_stiffness is not None and not (
+            np.isfinite(self.environment_stiffness) and self.environment_stiffness > 0
+        ):
+            raise ContactError(
+                f"environment stiffness must be positive (N/m) or omitted for rigid, got {self.environment_stiffness}"
+            )
+
+    def H(self) -> Array:
+        """H of eq:constraint for this brace (6×l)."""
+        return self.contact.H(self.surface.frame)
+
+    def X(self) -> Array:
+        """Constraint wrench basis X (6×(6−l)), Hᵀ X = 0."""
+        return self.contact.X(self.surface.frame)

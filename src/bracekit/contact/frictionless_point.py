@@ -1,0 +1,26 @@
+"""The paper's frictionless point contact: {b} slides on the plane and turns freely (eq:H_point, l = 5)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bracekit.contact.base import Array, ContactType, columns, register
+
+
+@register
+class FrictionlessPoint(ContactType):
+    """H = [[x̂_t, ŷ_t, 0, 0, 0], [0, 0, x̂_t, ŷ_t, ẑ_t]] (eq:H_point); X = [n̂; 0], the normal force."""
+
+    name = "frictionless_point"
+    l = 5
+
+    def H(self, frame: Array) -> Array:
+        x, y, z = frame[:, 0], frame[:, 1], frame[:, 2]
+        zero = np.zeros(3)
+        return columns((x, zero), (y, zero), (zero, x), (zero, y), (zero, z))
+
+    def X(self, frame: Array) -> Array:
+        return columns((frame[:, 2], np.zeros(3)))
+
+
+FRICTIONLESS_POINT = FrictionlessPoint()

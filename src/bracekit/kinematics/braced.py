@@ -1,0 +1,253 @@
+"""Braced kinematics at a configuration (Section III): J1, J2, S_t1, S_t2, A, J, J̃ and Hessians.
+
+:class:`BracedRobot` is the model (robot + brace, where the chain splits); :class:`BracedState` is
+everything one Pinocchio evaluation gives at q. Jacobians are geometric, twists [v; ω]; Pinocchio's
+LOCAL_WORLD_ALIGNED frame Jacobian is the paper's J (reference point = frame origin, world axes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit.contact import Brace
+from bracekit.errors import ContactError, SingularityError
+from bracekit.kinematics.hessian import LWA, frame_hessian
+from bracekit.model.robot import Robot
+from bracekit.spatial import twist_rotate, twist_shift
+from bracekit.tolerances import J1_COND_LIMIT, NULL_SPACE_RTOL
+
+Array = NDArray[np.float64]
+
+
+
+@dataclass(frozen=True, eq=False)
+class BracedRobot:
+    """A robot with one bracing contact: splits the chain at {b} into chain 1 (n1) and chain 2 (n2).
+
+    Chain 1 is every joint that moves {b}; chain 2 the joints from {b} to {e}. The brace's surface and
+    contact are fixed, so H, X and the projector P are constants of the model.
+    """
+
+    robot: Robot
+    brace: Brace
+    brace_id: int = field(init=False)
+    n1: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        name = self.brace.frame
+        if name in self.robot.off_chain:
+            raise ContactError(
+                f"brace frame '{name}' is not on the chain from the base to the tip '{self.robot.tip}'; "
+                "brace a frame of a link between them"
+            )
+        fid = self.robot.frame_id(name)
+        last = self.robot.frame_joint(name)
+        if last < 0:
+            raise ContactError(f"brace frame '{name}' is fixed to the base: no joint moves it; brace a moving link")
+        if last >= self.robot.n - 1:
+            raise ContactError(
+                f"brace frame '{name}' is on the last link: no joint lies between {{b}} and the tip; "
+                "brace a link nearer the base"
+            )
+        object.__setattr__(self, "brace_id", fid)
+        object.__setattr__(self, "n1", last + 1)
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return self.robot.n
+
+    @property
+    def n2(self) -> int:
+        """Number of joints of chain 2, from {b} to {e}."""
+        return self.robot.n - self.n1
+
+    @cached_property
+    def H(self) -> Array:
+        """Allowable twists of {b} (6×l), eq:constraint."""
+        return self.brace.H()
+
+    @cached_property
+    def X(self) -> Array:
+        """Constraint wrench basis (6×(6−l)), Hᵀ X = 0."""
+        return self.brace.X()
+
+    @cached_property
+    def P(self) -> Array:
+        """The paper's projector onto the constraint directions, P = X (XᵀX)⁻¹ Xᵀ (6×6)."""
+        x = self.X
+        return x @ np.linalg.solve(x.T @ x, x.T)
+
+    @cached_property
+    def _data(self) -> pin.Data:
+        return self.robot.model.createData()
+
+    def state(self, q: ArrayLike, *, hessians: bool = False) -> BracedState:
+        """Evaluate the kinematics at q (n,) with one Pinocchio pass; Hessians only when asked."""
+        qa = self.robot.check_q(q)
+        model, data = self.robot.model, self._data
+        pin.computeJointJacobians(model, data, qa)
+        pin.updateFramePlacements(model, data)
+        tip_id = self.robot.tip_id
+        tip, brace = data.oMf[tip_id].homogeneous, data.oMf[self.brace_id].homogeneous  # fresh arrays
+        j_e = pin.getFrameJacobian(model, data, tip_id, LWA)  # fresh arrays too
+        j_b = pin.getFrameJacobian(model, data, self.brace_id, LWA)
+        d_je = d_jb = None
+        if hessians:
+            pin.computeJointKinematicHessians(model, data)
+            d_je = frame_hessian(model, data, tip_id)
+            d_jb = frame_hessian(model, data, self.brace_id)
+        return BracedState(
+            braced=self,
+            q=qa,
+            b=brace[:3, 3],
+            e=tip[:3, 3],
+            R_b=brace[:3, :3],
+            R_e=tip[:3, :3],
+            J_e=j_e,
+            J_b=j_b,
+            dJ_e=d_je,
+            dJ_b=d_jb,
+        )
+
+    def placements(self, q: ArrayLike) -> tuple[Array, Array, Array, Array]:
+        """b, e (3,), ⁰R_b, ⁰R_e (3×3) at q by forward kinematics alone: the values of ``state(q)``, cheaper."""
+        qa = self.robot.check_q(q)
+        model, data = self.robot.model, self._data
+        pin.forwardKinematics(model, data, qa)
+        pin.updateFramePlacements(model, data)
+        tip, brace = data.oMf[self.robot.tip_id].homogeneous, data.oMf[self.brace_id].homogeneous
+        return brace[:3, 3], tip[:3, 3], brace[:3, :3], tip[:3, :3]
+
+
+def contact_null_space(xt_j1: Array) -> Array:
+    """Orthonormal basis (n1×l') of the null space of Xᵀ J1: the chain-1 motions that keep the contact."""
+    _, s, vt = np.linalg.svd(xt_j1)
+    rank = int(np.sum(s > NULL_SPACE_RTOL * max(1.0, s[0] if s.size else 1.0)))
+    return vt[rank:].T.copy()
+
+
+def skeleton(robot: Robot, q: ArrayLike) -> Array:
+    """Points of the robot for drawing (k×3, m, world): base, each joint origin, then the tip."""
+    qa = robot.check_q(q)
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, qa)
+    pin.updateFramePlacements(robot.model, data)
+    pts = [np.zeros(3)] + [data.oMi[j].translation.copy() for j in range(1, robot.model.njoints)]
+    pts.append(data.oMf[robot.tip_id].translation.copy())
+    return np.array(pts)
+
+
+@dataclass(frozen=True, eq=False)
+class BracedState:
+    """The braced robot at a configuration q. Positions in m, world frame; Jacobians 6×·, [v; ω].
+
+    Attributes:
+        q: joint values (n,).
+        b, e: positions of {b} and {e} (3,).
+        R_b, R_e: orientations ⁰R_b, ⁰R_e (3×3).
+        J_e: geometric Jacobian of the whole robot at e, world axes (6×n).
+        J_b: geometric Jacobian at b, world axes (6×n); its chain-2 columns are zero.
+        dJ_e, dJ_b: their derivatives (6, n, n), [:, i, k] = ∂J[:, i]/∂q_k, if asked for.
+    """
+
+    braced: BracedRobot
+    q: Array
+    b: Array
+    e: Array
+    R_b: Array
+    R_e: Array
+    J_e: Array
+    J_b: Array
+    dJ_e: Array | None = None
+    dJ_b: Array | None = None
+
+    @property
+    def n1(self) -> int:
+        """Joints of chain 1."""
+        return self.braced.n1
+
+    @property
+    def K(self) -> Array:
+        """Joint stiffnesses (n,), N·m/rad."""
+        return self.braced.robot.stiffness
+
+    @property
+    def H(self) -> Array:
+        """Allowable twists of {b} (6×l), eq:constraint / eq:H_point."""
+        return self.braced.H
+
+    @property
+    def X(self) -> Array:
+        """Constraint wrenches (6×(6−l))."""
+        return self.braced.X
+
+    @property
+    def P(self) -> Array:
+        """X (XᵀX)⁻¹ Xᵀ (6×6)."""
+        return self.braced.P
+
+    @cached_property
+    def J1(self) -> Array:
+        """Twist of b per q̇1, at b, world axes (6×n1), eq:J1."""
+        return self.J_b[:, : self.n1].copy()
+
+    @cached_property
+    def J2(self) -> Array:
+        """Twist of e relative to {b} per q̇2, at e, in {b}'s axes (6×n2), eq:J2."""
+        return twist_rotate(self.R_b.T) @ self.J_e[:, self.n1 :]
+
+    @cached_property
+    def S_t1(self) -> Array:
+        """[[I, [b − e]×], [0, I]] (6×6), eq:twists."""
+        return twist_shift(self.b, self.e)
+
+    @cached_property
+    def S_t2(self) -> Array:
+        """diag(⁰R_b, ⁰R_b) (6×6), eq:twists."""
+        return twist_rotate(self.R_b)
+
+    @cached_property
+    def J(self) -> Array:
+        """Free-space Jacobian [S_t1 J1, S_t2 J2] (6×n), eq:J; equals J_e."""
+        return np.hstack([self.S_t1 @ self.J1, self.S_t2 @ self.J2])
+
+    @cached_property
+    def J_braced(self) -> Array:
+        """J̃ = [S_t1 (I − P) J1, S_t2 J2] (6×n), eq:J_wave."""
+        return np.hstack([self.S_t1 @ (np.eye(6) - self.P) @ self.J1, self.S_t2 @ self.J2])
+
+    @cached_property
+    def chain1_map(self) -> Array:
+        """dq1/db̃ (n1×l'): joint velocities of chain 1 per coordinate of the braced motion of {b}.
+
+        With n1 = 6 this is J1⁻¹ H (eq:q1, eq:dq_dh2). Otherwise it is an orthonormal basis of the null
+        space of Xᵀ J1 (the chain-1 motions that keep the contact), so any n1 works.
+        Raises SingularityError when J1 (n1 = 6) is singular.
+        """
+        j1 = self.J1
+        if self.n1 == 6:
+            s = np.linalg.svd(j1, compute_uv=False)
+            if s[-1] <= s[0] / J1_COND_LIMIT:
+                raise SingularityError(
+                    f"J1 is singular at this configuration (cond = {s[0] / max(s[-1], 1e-300):.3g}); "
+                    "chain 1 cannot realise the bracing motion"
+                )
+            return np.linalg.solve(j1, self.H)
+        return contact_null_space(self.X.T @ j1)
+
+    @cached_property
+    def A(self) -> Array:
+        """Braced Jacobian [S_t1 H, S_t2 J2] (6×(l+n2)), eq:braced_kin (S_t1 J1 G with G = chain1_map)."""
+        first = self.S_t1 @ self.H if self.n1 == 6 else self.S_t1 @ self.J1 @ self.chain1_map
+        return np.hstack([first, self.S_t2 @ self.J2])
+
+    @cached_property
+    def z_b(self) -> Array:
+        """ẑ_b, world axes (3,)."""
+        return self.R_b[:, 2].copy()

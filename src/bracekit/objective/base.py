@@ -1,0 +1,170 @@
+"""The objective g of the braced gradient projection (eq:objective): the term base class and the weighted sum.
+
+Each term (one file each in this package) maps a :class:`BracedState` to a value and to ∂/∂q (n,), exact
+through Pinocchio's kinematic Hessians (the state must be computed with ``hessians=True``). A term may also
+give the fused step of :mod:`bracekit.resolution.fused` its value and gradient coefficients from one Pinocchio
+pass (:meth:`Term.fused_value`, :meth:`Term.fused_gradient`) and the numba kernel its parameters
+(:meth:`Term.numba_params`); a term without them makes those paths use its reference ``value``/``gradient``.
+:func:`finite_difference_gradient` is the paper's reference (central differences, δq = 1e-5 rad);
+:func:`braced_gradient` maps ∂g/∂q to ∇g = [(∂g/∂q1) dq1/db̃, ∂g/∂q2]ᵀ (eq:grad_g).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit.errors import InputError
+from bracekit.kinematics import BracedRobot, BracedState
+
+if TYPE_CHECKING:
+    from bracekit.objective.fused import FusedGradient, FusedKinematics
+
+Array = NDArray[np.float64]
+
+
+class Term:
+    """A scalar measure of the braced robot with its exact gradient (subclass it; one file per term).
+
+    Subclasses implement :meth:`value` and :meth:`gradient`; they may implement the fused methods. ``key``
+    is the name of the term's weight in a scenario's ``[gradient_projection.weights]`` table. An objective also
+    accepts any object with ``name``, ``value(state)`` and ``gradient(state)``; the fused paths then use those.
+    """
+
+    name: str = "term"
+    key: ClassVar[str] = ""
+
+    def value(self, state: BracedState) -> float:
+        """The measure at the state."""
+        raise NotImplementedError
+
+    def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,); needs the state's Hessians."""
+        raise NotImplementedError
+
+    def with_beta_x(self, beta_x: ArrayLike) -> Term:
+        """The term with its task direction β_x replaced (itself when it has none)."""
+        return self
+
+    def fused_value(self, kin: FusedKinematics) -> float | None:
+        """The value from the fused step's kinematics, or None to use :meth:`value` on a BracedState."""
+        return None
+
+    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to `out` as Hessian coefficients; False to use :meth:`gradient` instead."""
+        return False
+
+    def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]] | None:
+        """(kind, parameters) of the numba kernel's compiled copy of this term, or None if it has none."""
+        return None
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> Term:
+        """The term as a scenario configures it."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class TermContext:
+    """What a scenario gives a term: the braced robot, β_x (6,) and the compliance model."""
+
+    braced: BracedRobot
+    beta_x: Array
+    compliance_model: str
+
+
+#: weight key → term class, filled by :func:`register_term` (the keys of ``[gradient_projection.weights]``).
+TERMS: dict[str, type[Term]] = {}
+
+
+def register_term(cls: type[Term]) -> type[Term]:
+    """Class decorator: make a term available to scenarios under its ``key``."""
+    if not cls.key or cls.key in TERMS:
+        raise InputError(f"objective term {cls.__name__} needs a unique weight key, got {cls.key!r}")
+    TERMS[cls.key] = cls
+    return cls
+
+
+def hessians(state: BracedState) -> tuple[Array, Array]:
+    """(∂J_e/∂q, ∂J_b/∂q) of the state; InputError if it was computed without Hessians."""
+    if state.dJ_e is None or state.dJ_b is None:
+        raise InputError("analytic gradients need the kinematic Hessians: compute the state with hessians=True")
+    return state.dJ_e, state.dJ_b
+
+
+def contract(d_j: Array, u: Array) -> Array:
+    """Σ_{r,i} u[r, i] ∂J[r, i]/∂q_k (n,) for a Hessian d_j (6, n, n) and coefficients u (6, n)."""
+    n = d_j.shape[2]
+    return u.ravel() @ d_j.reshape(-1, n)
+
+
+@dataclass(frozen=True)
+class Objective:
+    """g = Σ α_i term_i (eq:objective): any terms, any non-negative weights."""
+
+    terms: Sequence[Term]
+    weights: Sequence[float]
+    names: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        if len(self.terms) != len(self.weights):
+            raise InputError("an objective needs one weight per term")
+        for t, w in zip(self.terms, self.weights, strict=True):
+            if not (callable(getattr(t, "value", None)) and callable(getattr(t, "gradient", None))):
+                raise InputError(f"an objective term needs value() and gradient() (a bracekit Term), got {t!r}")
+            if isinstance(w, bool) or not isinstance(w, int | float | np.floating) or not np.isfinite(w) or w < 0:
+                raise InputError(f"the weight of term '{t.name}' must be a non-negative number, got {w!r}")
+        object.__setattr__(self, "names", tuple(getattr(t, "name", type(t).__name__) for t in self.terms))
+
+    def value(self, state: BracedState) -> float:
+        """G at the state."""
+        return float(sum(w * t.value(state) for t, w in zip(self.terms, self.weights, strict=True) if w))
+
+    def values(self, state: BracedState) -> dict[str, float]:
+        """Each term's value (unweighted)."""
+        return {t.name: t.value(state) for t in self.terms}
+
+    def with_beta_x(self, beta_x: ArrayLike) -> Objective:
+        """The objective with β_x of every term that has one replaced (itself if none has)."""
+        terms = [t.with_beta_x(beta_x) if isinstance(t, Term) else t for t in self.terms]
+        if all(a is b for a, b in zip(terms, self.terms, strict=True)):
+            return self
+        return Objective(terms, self.weights)
+
+    def gradient(self, state: BracedState) -> Array:
+        """∂g/∂q (n,), analytic."""
+        out = np.zeros(state.q.size)
+        for t, w in zip(self.terms, self.weights, strict=True):
+            if w:
+                out += w * t.gradient(state)
+        return out
+
+
+def central_difference(fn: Callable[[Array], float], q: Array, step: float = 1e-5) -> Array:
+    """(fn(q + δ e_i) − fn(q − δ e_i)) / (2δ) for each joint i, δ = step (rad): the paper's ∂g/∂q."""
+    out = np.empty(q.size)
+    for i in range(q.size):
+        dq = np.zeros(q.size)
+        dq[i] = step
+        out[i] = (fn(q + dq) - fn(q - dq)) / (2.0 * step)
+    return out
+
+
+def finite_difference_gradient(
+    braced: BracedRobot, fn: Callable[[BracedState], float], q: ArrayLike, step: float = 1e-5
+) -> Array:
+    """Central differences of fn over q, δq = step (rad); the paper's ∂g/∂q."""
+    return central_difference(lambda x: fn(braced.state(x)), braced.robot.check_q(q), step)
+
+
+def braced_gradient(state: BracedState, dg_dq: ArrayLike) -> Array:
+    """∇g over [b̃; q2] from ∂g/∂q (eq:grad_g): [(∂g/∂q1) dq1/db̃, ∂g/∂q2]ᵀ, shape (l + n2,)."""
+    g = np.asarray(dg_dq, dtype=float)
+    n1 = state.n1
+    return np.concatenate([state.chain1_map.T @ g[:n1], g[n1:]])
+
+

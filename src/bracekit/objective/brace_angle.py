@@ -1,0 +1,51 @@
+"""α3's term: θ_z = acos(ẑ_tᵀ ẑ_b) (eq:theta), the angle between the surface normal and the pad axis, rad."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from bracekit._linalg import angle_between, cross3, cross3_list
+from bracekit.compliance.measures import theta_z
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.objective.base import Array, Term, TermContext, register_term
+from bracekit.objective.fused import FusedGradient, FusedKinematics
+
+
+@register_term
+@dataclass(frozen=True)
+class BraceAngle(Term):
+    """θ_z (eq:theta), rad. Its gradient is 0 where θ_z = 0 (a cone point)."""
+
+    name: str = "theta_z"
+    key = "theta_z"
+
+    def value(self, state: BracedState) -> float:
+        return theta_z(state.braced.brace.surface.normal, state.z_b)
+
+    def gradient(self, state: BracedState) -> Array:
+        u = cross3(state.braced.brace.surface.normal, state.z_b)
+        s = float(np.linalg.norm(u))
+        if s < 1e-12:
+            return np.zeros(state.q.size)
+        return state.J_b[3:].T @ (u / s)
+
+    def fused_value(self, kin: FusedKinematics) -> float:
+        return angle_between(np.asarray(kin.normal), kin.mb[:3, 2])
+
+    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        u = cross3_list(kin.normal, kin.mb[:3, 2].tolist())
+        s = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+        if s >= 1e-12:
+            for i in range(3):
+                out.y[3 + i] += weight * u[i] / s
+        return True
+
+    def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]]:
+        return "theta_z", [weight]
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> BraceAngle:
+        return cls()

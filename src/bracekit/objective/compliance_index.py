@@ -1,0 +1,122 @@
+"""α2's term: the compliance index C_i = ‖β_xᵀ C_e‖ (eq:compliance_index) along a unit twist β_x."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from bracekit._linalg import cross3, cross3_list
+from bracekit.compliance.first_order import (
+    C1,
+    ComplianceModel,
+    braced_C1,
+    check_finite,
+    check_model,
+    constraint_gain,
+    end_effector_compliance,
+    unit6,
+)
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.objective.base import Array, Term, TermContext, contract, hessians, register_term
+from bracekit.objective.fused import FusedGradient, FusedKinematics
+
+
+@register_term
+@dataclass(frozen=True)
+class ComplianceIndex(Term):
+    """C_i = ‖β_xᵀ C_e‖ (eq:compliance_index) for a fixed unit twist β_x (6,) and a compliance model; m/N."""
+
+    beta_x: Array
+    model: ComplianceModel = "constrained"
+    name: str = "Ci"
+    key = "Ci"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "beta_x", unit6(self.beta_x, "beta_x"))
+        check_model(self.model)
+
+    def with_beta_x(self, beta_x: ArrayLike) -> ComplianceIndex:
+        return replace(self, beta_x=beta_x)
+
+    def value(self, state: BracedState) -> float:
+        return float(np.linalg.norm(self.beta_x @ end_effector_compliance(state, self.model)))
+
+    def gradient(self, state: BracedState) -> Array:
+        d_je, d_jb = hessians(state)
+        n1 = state.n1
+        beta = self.beta_x
+        c1 = C1(state)
+        c1t = braced_C1(state, self.model)
+        s1 = state.S_t1
+        # chain 2: S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ with J_e2 = S_t2 J2 = J_e[:, n1:]
+        j_e2 = state.J_e[:, n1:]
+        k2 = state.K[n1:]
+        v = beta @ (s1 @ c1t @ s1.T + (j_e2 / k2) @ j_e2.T)
+        ci = float(check_finite(np.linalg.norm(v), "the compliance index"))
+        if ci == 0.0:
+            return np.zeros(state.q.size)
+        # chain 2: β ⊗ (J_e2ᵀ v / k2) + v ⊗ (J_e2ᵀ β / k2) against ∂J_e, columns n1…
+        u = np.zeros((6, state.q.size))
+        u[:, n1:] = np.outer(beta, (j_e2.T @ v) / k2) + np.outer(v, (j_e2.T @ beta) / k2)
+        grad = contract(d_je, u)
+        # S_t1 depends on b − e
+        b1, v1 = s1.T @ beta, s1.T @ v
+        w = cross3((c1t @ v1)[3:], beta[:3]) + cross3((c1t @ b1)[3:], v[:3])
+        grad += (state.J_b[:3] - state.J_e[:3]).T @ w
+        # C̃1 through C1: β̂ᵀ dC1 v̂ with the model's (constant or compliance-weighted) projector
+        if self.model == "projection":
+            t = np.eye(6) - state.P
+            bh, vh = t @ b1, t @ v1
+        else:
+            x = state.X
+            tt = np.eye(6) - x @ constraint_gain(state, c1) @ x.T @ c1  # (I − P_C)ᵀ
+            bh, vh = tt @ b1, tt @ v1
+        j1, k1 = state.J1, state.K[:n1]
+        u = np.zeros((6, state.q.size))
+        u[:, :n1] = np.outer(bh, (j1.T @ vh) / k1) + np.outer(vh, (j1.T @ bh) / k1)
+        grad += contract(d_jb, u)
+        return grad / ci
+
+    def fused_value(self, kin: FusedKinematics) -> float:
+        jh = kin.compliance(self.model)[2]
+        v = jh.dot(jh.T.dot(self.beta_x) * kin.kinv)
+        return check_finite(float(np.sqrt(v.dot(v))), "the compliance index")
+
+    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        beta = self.beta_x
+        n1 = kin.n1
+        s1t, tj1, jh = kin.compliance(self.model)
+        kinv = kin.kinv
+        uk = beta.dot(jh) * kinv
+        v = jh.dot(uk)  # C_e β
+        ci = check_finite(math.sqrt(float(v.dot(v))), "the compliance index")
+        if ci == 0.0:
+            return True
+        wu = np.array((v.dot(jh) * kinv, uk)) * (weight / ci)
+        # β ⊗ (J_e2ᵀ v / k2) + v ⊗ (J_e2ᵀ β / k2) on chain 2 (∂J_e); on chain 1 the same with
+        # [b̂ v̂] = Tᵀ S_t1ᵀ [β v] against ∂J_b
+        pb = np.array((beta, v)).T.dot(wu)
+        ue = np.zeros((6, kin.n))
+        ue[:, n1:] += pb[:, n1:]
+        out.add_ue(ue)
+        out.add_ub(s1t.T.dot(pb[:, :n1]))
+        # S_t1 depends on b − e: (J_b[:3] − J_e[:3])ᵀ ((C̃1 S_t1ᵀ v)_ω × β_v + (C̃1 S_t1ᵀ β)_ω × v_v)
+        cv, cb = wu[:, :n1].dot(tj1[3:].T).tolist()
+        w1, w2 = cross3_list(cv, beta.tolist()), cross3_list(cb, v.tolist())
+        for i in range(3):
+            wi = w1[i] + w2[i]
+            out.y[i] += wi
+            out.y[6 + i] -= wi
+        return True
+
+    def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]] | None:
+        if braced.brace.environment_stiffness is not None and self.model != "projection":
+            return None  # the kernel's T C1 Tᵀ form needs a rigid environment
+        return "Ci", [*self.beta_x.tolist(), weight, float(self.model == "projection")]
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> ComplianceIndex:
+        return cls(context.beta_x, context.compliance_model)  # type: ignore[arg-type]

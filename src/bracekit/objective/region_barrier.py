@@ -1,0 +1,77 @@
+"""α4's term: the bracing-region barrier d = r_max² / (r_max² − r²), r = ‖p_b − p_t‖ (after eq:theta)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from bracekit.compliance.measures import region_barrier
+from bracekit.errors import BarrierError, InputError
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.objective.base import Array, Term, TermContext, register_term
+from bracekit.objective.fused import FusedGradient, FusedKinematics
+
+
+@register_term
+@dataclass(frozen=True)
+class RegionBarrier(Term):
+    """d of a circular region of radius r_max (m) about `centre` (3,); BarrierError at r ≥ r_max."""
+
+    r_max: float
+    centre: Array
+    name: str = "d"
+    key = "d"
+
+    def __post_init__(self) -> None:
+        r = self.r_max
+        if isinstance(r, bool) or not isinstance(r, int | float | np.floating) or not (np.isfinite(r) and r > 0):
+            raise InputError(f"r_max must be a positive length (m), got {r!r}")
+        try:
+            centre = np.asarray(self.centre, dtype=float).reshape(3)
+        except (TypeError, ValueError):
+            raise InputError(f"the region centre must be 3 numbers (m), got {self.centre!r}") from None
+        if not np.all(np.isfinite(centre)):
+            raise InputError(f"the region centre must be finite, got {centre.tolist()}")
+        object.__setattr__(self, "centre", centre)
+
+    def radius(self, state: BracedState) -> float:
+        """r, m."""
+        return float(np.linalg.norm(state.b - self.centre))
+
+    def value(self, state: BracedState) -> float:
+        return region_barrier(self.radius(state), self.r_max)
+
+    def gradient(self, state: BracedState) -> Array:
+        rel = state.b - self.centre
+        r2 = float(rel @ rel)
+        if r2 >= self.r_max**2:
+            raise BarrierError(f"the bracing point is outside the bracing region (r = {np.sqrt(r2):.4g} m)")
+        return (self.r_max**2 / (self.r_max**2 - r2) ** 2) * 2.0 * (state.J_b[:3].T @ rel)
+
+    def fused_value(self, kin: FusedKinematics) -> float:
+        return region_barrier(float(np.linalg.norm(kin.mb[:3, 3] - self.centre)), self.r_max)
+
+    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        c0, c1, c2 = self.centre.tolist()
+        b0, b1, b2 = kin.mb[:3, 3].tolist()
+        rel = (b0 - c0, b1 - c1, b2 - c2)
+        r2 = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]
+        rm2 = self.r_max**2
+        if r2 >= rm2:
+            raise BarrierError(f"the bracing point is outside the bracing region (r = {math.sqrt(r2):.4g} m)")
+        c = weight * 2.0 * rm2 / (rm2 - r2) ** 2
+        for i in range(3):
+            out.y[i] += c * rel[i]
+        return True
+
+    def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]]:
+        return "d", [*self.centre.tolist(), float(self.r_max), weight]
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> RegionBarrier:
+        brace = context.braced.brace
+        if brace.region_radius is None:
+            raise InputError("the region barrier d needs the brace's region_radius (r_max, m)")
+        return cls(brace.region_radius, brace.surface.point)

@@ -1,0 +1,29 @@
+"""Redundancy resolution (Section V): the strategies, and the fused steps that accelerate gradient projection.
+
+``strategies``: the reference :class:`FreeSpaceMinNorm`, :class:`BracedMinNorm` and
+:class:`BracedGradientProjection`. ``fused``: :class:`GradientProjectionStep`, the same gradient-projection step
+fused into one call (NumPy, or the numba kernel of ``_numba_step``), tested equal to the reference.
+"""
+
+from bracekit.resolution.fused import GradientProjectionStep, numba_available
+from bracekit.resolution.strategies import (
+    GRADIENT_MODES,
+    BracedGradientProjection,
+    BracedMinNorm,
+    FreeSpaceMinNorm,
+    GradientMode,
+    Strategy,
+    with_beta_x,
+)
+
+__all__ = [
+    "GRADIENT_MODES",
+    "BracedGradientProjection",
+    "BracedMinNorm",
+    "FreeSpaceMinNorm",
+    "GradientMode",
+    "GradientProjectionStep",
+    "Strategy",
+    "numba_available",
+    "with_beta_x",
+]

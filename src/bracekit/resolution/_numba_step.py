@@ -1,0 +1,464 @@
+"""numba kernel of the fused braced gradient-projection step (internal; ``pip install bracekit[fast]``).
+
+:class:`bracekit.fast.GradientProjectionStep` with ``backend="numba"`` imports this module on first use.
+Pinocchio still computes the placements, Jacobians and kinematic Hessians; :func:`gp_step` does all the
+linear algebra of eq:grad_proj after them in one compiled call, with the formulas, shortcuts and
+certificates of the NumPy backend (``bracekit/fast.py``):
+
+* dq1/db̃ = J1⁻¹ H (eq:q1) by LU with partial pivoting, certified by ‖J1‖²_F ‖J1⁻¹‖²_F < CERTIFIED_COND²;
+* A⁺ = Q R⁻ᵀ and A⁺A = Q Qᵀ from a Householder QR Aᵀ = QR (eq:braced_kin), certified by
+  ‖A‖²_F ‖R⁻¹‖²_F < CERTIFIED_COND² (the NumPy backend's bound, the same quantity);
+* ∂g/∂q of the four terms of eq:objective (k, C_i in either compliance model, θ_z, d) contracted with the
+  Hessians once per frame, C_e = Ĵ K⁻¹ Ĵᵀ applied to vectors (eq:Ce).
+
+The kernel never raises or warns: where a shortcut is not certified, the contact is (nearly) unloaded or
+the bracing point is outside its region, it returns a non-zero status and the caller takes the NumPy
+backend's path, which raises, warns or falls back to the reference exactly as without numba.
+Every function is compiled on first call and cached on disk (``cache=True``): later processes load it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: Status codes of :func:`gp_step`.
+OK, NOT_CERTIFIED, UNLOADED, BARRIER = 0, 1, 2, 3
+
+_JIT = {"cache": True, "error_model": "numpy", "nogil": True}
+
+
+@njit(**_JIT)
+def _lu(m):  # pragma: no cover - compiled
+    """LU with partial pivoting of a square matrix, in a copy: (lu, piv, ok); ok is False on a zero pivot."""
+    n = m.shape[0]
+    lu = m.copy()
+    piv = np.arange(n)
+    for k in range(n):
+        p, big = k, abs(lu[k, k])
+        for i in range(k + 1, n):
+            if abs(lu[i, k]) > big:
+                p, big = i, abs(lu[i, k])
+        if not big > 0.0:  # also nan
+            return lu, piv, False
+        if p != k:
+            for j in range(n):
+                lu[k, j], lu[p, j] = lu[p, j], lu[k, j]
+            piv[k], piv[p] = piv[p], piv[k]
+        d = lu[k, k]
+        for i in range(k + 1, n):
+            f = lu[i, k] / d
+            lu[i, k] = f
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    lu[i, j] -= f * lu[k, j]
+    return lu, piv, True
+
+
+@njit(**_JIT)
+def _lu_solve(lu, piv, b):  # pragma: no cover - compiled
+    """M⁻¹ B for the LU factors of M and a matrix B (n×p)."""
+    n, p = b.shape
+    x = np.empty((n, p))
+    for i in range(n):
+        for c in range(p):
+            x[i, c] = b[piv[i], c]
+    for c in range(p):
+        for i in range(n):
+            s = x[i, c]
+            for j in range(i):
+                s -= lu[i, j] * x[j, c]
+            x[i, c] = s
+        for i in range(n - 1, -1, -1):
+            s = x[i, c]
+            for j in range(i + 1, n):
+                s -= lu[i, j] * x[j, c]
+            x[i, c] = s / lu[i, i]
+    return x
+
+
+@njit(**_JIT)
+def _mm(a, b):  # pragma: no cover - compiled
+    """A B of small matrices (plain loops: no BLAS call, any layout)."""
+    m, p = a.shape
+    c = np.zeros((m, b.shape[1]))
+    for i in range(m):
+        for k in range(p):
+            f = a[i, k]
+            for j in range(b.shape[1]):
+                c[i, j] += f * b[k, j]
+    return c
+
+
+@njit(**_JIT)
+def _frobenius2(m):  # pragma: no cover - compiled
+    s = 0.0
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            s += m[i, j] * m[i, j]
+    return s
+
+
+@njit(**_JIT)
+def _row_basis(at):  # pragma: no cover - compiled
+    """Householder QR of Aᵀ (k×m, k ≥ m): (Q (k×m) orthonormal, R⁻¹ (m×m) upper, ok)."""
+    k, m = at.shape
+    r = at.copy()
+    vs = np.zeros((m, k))
+    for j in range(m):
+        norm = 0.0
+        for i in range(j, k):
+            norm += r[i, j] * r[i, j]
+        norm = math.sqrt(norm)
+        if not norm > 0.0:
+            return r, r, False
+        alpha = -norm if r[j, j] >= 0.0 else norm
+        vn = 0.0
+        for i in range(j, k):
+            vs[j, i] = r[i, j]
+        vs[j, j] -= alpha
+        for i in range(j, k):
+            vn += vs[j, i] * vs[j, i]
+        if vn > 0.0:
+            for c in range(j, m):
+                s = 0.0
+                for i in range(j, k):
+                    s += vs[j, i] * r[i, c]
+                s *= 2.0 / vn
+                for i in range(j, k):
+                    r[i, c] -= s * vs[j, i]
+            for i in range(j, k):
+                vs[j, i] /= math.sqrt(vn)  # unit: H_j = I − 2 v vᵀ
+        r[j, j] = alpha
+        for i in range(j + 1, k):
+            r[i, j] = 0.0
+    # Q = H_0 … H_{m−1} [I; 0]
+    q = np.zeros((k, m))
+    for i in range(m):
+        q[i, i] = 1.0
+    for j in range(m - 1, -1, -1):
+        for c in range(m):
+            s = 0.0
+            for i in range(j, k):
+                s += vs[j, i] * q[i, c]
+            s *= 2.0
+            for i in range(j, k):
+                q[i, c] -= s * vs[j, i]
+    # R⁻¹ by back substitution
+    rinv = np.zeros((m, m))
+    for c in range(m):
+        rinv[c, c] = 1.0 / r[c, c]
+        for i in range(c - 1, -1, -1):
+            s = 0.0
+            for j in range(i + 1, c + 1):
+                s += r[i, j] * rinv[j, c]
+            rinv[i, c] = -s / r[i, i]
+    return q, rinv, True
+
+
+@njit(**_JIT)
+def _spd_inverse(m, shift):  # pragma: no cover - compiled
+    """(M⁻¹, ok) of a symmetric M by Cholesky; ok only if M − shift·I is positive definite too, i.e. every
+    eigenvalue of M exceeds `shift` (tested by a second Cholesky, no eigen-decomposition).
+    """
+    c = m.shape[0]
+    for attempt in range(2):
+        lo = np.zeros((c, c))
+        for j in range(c):
+            s = m[j, j] - (shift if attempt == 0 else 0.0)
+            for p in range(j):
+                s -= lo[j, p] * lo[j, p]
+            if not s > 0.0:
+                return lo, False
+            lo[j, j] = math.sqrt(s)
+            for i in range(j + 1, c):
+                t = m[i, j]
+                for p in range(j):
+                    t -= lo[i, p] * lo[j, p]
+                lo[i, j] = t / lo[j, j]
+    # M⁻¹ = L⁻ᵀ L⁻¹
+    li = np.zeros((c, c))
+    for col in range(c):
+        li[col, col] = 1.0 / lo[col, col]
+        for i in range(col + 1, c):
+            s = 0.0
+            for p in range(col, i):
+                s -= lo[i, p] * li[p, col]
+            li[i, col] = s / lo[i, i]
+    g = np.zeros((c, c))
+    for i in range(c):
+        for j in range(c):
+            s = 0.0
+            for p in range(max(i, j), c):
+                s += li[p, i] * li[p, j]
+            g[i, j] = s
+    return g, True
+
+
+@njit(**_JIT)
+def gp_step(je, jb, he, hb, mb, me, xd, h, x, t_proj, kinv, ci, reg, normal, par):  # pragma: no cover - compiled
+    """(status, q̇) of one braced gradient-projection step (eq:grad_proj) with n1 = 6 and the analytic ∇g.
+
+    Args:
+        je, jb: the frame Jacobians of {e} and {b} (6×n, world axes, LOCAL_WORLD_ALIGNED).
+        he, hb: their kinematic Hessians as (n, 6n) rows, ``he[k, r + 6 i] = ∂J_e[r, i]/∂q_k``.
+        mb, me: ⁰M_b and ⁰M_e (4×4).
+        xd: the tip twist ẋ (6,).
+        h, x: H (6×l) and X (6×(6−l)) of the contact; t_proj = I − P (6×6).
+        kinv: 1/K (n,).
+        ci: one row per compliance-index term: β_x (6), weight, 1.0 for the projection model else 0.0.
+        reg: one row per region-barrier term: centre (3), r_max, weight.
+        normal: the surface normal n̂ (3,).
+        par: [α, CERTIFIED_COND², UNLOADED_TOL, weight of k, weight of θ_z].
+    """
+    n = je.shape[1]
+    n1 = 6
+    n2 = n - n1
+    l_ = h.shape[1]
+    kk = l_ + n2
+    out = np.zeros(n)
+    alpha, cert2, unloaded_tol, w_k, w_theta = par[0], par[1], par[2], par[3], par[4]
+    if kk < 6:
+        return NOT_CERTIFIED, out
+    d0, d1, d2 = mb[0, 3] - me[0, 3], mb[1, 3] - me[1, 3], mb[2, 3] - me[2, 3]
+    # S_t1 = [[I, [b − e]×], [0, I]] (eq:twists)
+    s1 = np.eye(6)
+    s1[0, 4], s1[0, 5], s1[1, 3], s1[1, 5], s1[2, 3], s1[2, 4] = -d2, d1, d2, -d0, -d1, d0
+    j1 = np.empty((6, 6))
+    for r in range(6):
+        for i in range(6):
+            j1[r, i] = jb[r, i]
+    # dq1/db̃ = J1⁻¹ H (eq:q1)
+    lu, piv, ok = _lu(j1)
+    if not ok:
+        return NOT_CERTIFIED, out
+    j1inv = _lu_solve(lu, piv, np.eye(6))
+    if not _frobenius2(j1) * _frobenius2(j1inv) < cert2:
+        return NOT_CERTIFIED, out
+    g1 = _mm(j1inv, h)
+    # Aᵀ = [S_t1 H, J_e[:, n1:]]ᵀ (eq:braced_kin) and its QR
+    at = np.empty((kk, 6))
+    for c in range(l_):
+        for r in range(6):
+            s = 0.0
+            for p in range(6):
+                s += s1[r, p] * h[p, c]
+            at[c, r] = s
+    for c in range(n2):
+        for r in range(6):
+            at[l_ + c, r] = je[r, n1 + c]
+    q, rinv, ok = _row_basis(at)
+    if not ok or not _frobenius2(at) * _frobenius2(rinv) < cert2:
+        return NOT_CERTIFIED, out
+
+    # --- ∂g/∂q: coefficients ue (of ∂J_e), ub (of ∂J_b, chain 1) and y (grad += J_bᵀ y[:6] + J_e[:3]ᵀ y[6:])
+    ue = np.zeros((6, n))
+    ub = np.zeros((6, n1))
+    y = np.zeros(9)
+    if w_k != 0.0:  # ConditionNumber.gradient: (b da + a db) / (72 k)
+        mm = np.empty((6, 6))
+        for r in range(6):
+            for c in range(6):
+                s = 0.0
+                for i in range(n):
+                    s += je[r, i] * je[c, i]
+                mm[r, c] = s
+        lu, piv, ok = _lu(mm)
+        if not ok:
+            return NOT_CERTIFIED, out
+        yy = _lu_solve(lu, piv, je)
+        zz = _lu_solve(lu, piv, yy)
+        a = _frobenius2(je)
+        bb = _frobenius2(yy)
+        if not a * bb < cert2:
+            return NOT_CERTIFIED, out
+        cst = w_k / (6.0 * math.sqrt(a * bb))
+        for r in range(6):
+            for i in range(n):
+                ue[r, i] += je[r, i] * (cst * bb) - zz[r, i] * (cst * a)
+    if ci.shape[0] > 0:  # ComplianceIndex.gradient
+        t_con = np.zeros((6, 6))
+        constrained_done = False
+        for term in range(ci.shape[0]):
+            weight = ci[term, 6]
+            if ci[term, 7] != 0.0:
+                t = t_proj
+            else:
+                if not constrained_done:  # T = I − C1 X G Xᵀ, G = (Xᵀ C1 X)⁻¹
+                    nc = x.shape[1]
+                    cx = np.zeros((6, nc))
+                    tr = 0.0
+                    for r in range(6):
+                        for i in range(n1):
+                            tr += jb[r, i] * jb[r, i] * kinv[i]
+                    for c in range(nc):
+                        jx = np.zeros(n1)
+                        for i in range(n1):
+                            s = 0.0
+                            for r in range(6):
+                                s += jb[r, i] * x[r, c]
+                            jx[i] = s * kinv[i]
+                        for r in range(6):
+                            s = 0.0
+                            for i in range(n1):
+                                s += jb[r, i] * jx[i]
+                            cx[r, c] = s
+                    m = np.zeros((nc, nc))
+                    for c1 in range(nc):
+                        for c2 in range(nc):
+                            s = 0.0
+                            for r in range(6):
+                                s += x[r, c1] * cx[r, c2]
+                            m[c1, c2] = s
+                    # loaded with a margin: every eigenvalue of m above 2 · UNLOADED_TOL · tr(C1)
+                    g, ok = _spd_inverse(m, 2.0 * unloaded_tol * max(tr, 1e-300))
+                    if not ok:
+                        return UNLOADED, out
+                    cg = _mm(cx, g)
+                    for r in range(6):
+                        for c in range(6):
+                            s = 0.0
+                            for p in range(nc):
+                                s += cg[r, p] * x[c, p]
+                            t_con[r, c] = (1.0 if r == c else 0.0) - s
+                    constrained_done = True
+                t = t_con
+            s1t = _mm(s1, t)
+            tj1 = _mm(t, j1)
+            jh = np.empty((6, n))  # Ĵ = [S_t1 T J1, J_e2]
+            for r in range(6):
+                for i in range(n1):
+                    s = 0.0
+                    for p in range(6):
+                        s += s1t[r, p] * j1[p, i]
+                    jh[r, i] = s
+                for i in range(n1, n):
+                    jh[r, i] = je[r, i]
+            uk = np.empty(n)
+            for i in range(n):
+                s = 0.0
+                for r in range(6):
+                    s += ci[term, r] * jh[r, i]
+                uk[i] = s * kinv[i]
+            v = np.zeros(6)  # C_e β
+            for r in range(6):
+                s = 0.0
+                for i in range(n):
+                    s += jh[r, i] * uk[i]
+                v[r] = s
+            cval = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3] + v[4] * v[4] + v[5] * v[5])
+            if cval == 0.0:
+                continue
+            f = weight / cval
+            wu0 = np.empty(n)
+            wu1 = np.empty(n)
+            for i in range(n):
+                s = 0.0
+                for r in range(6):
+                    s += v[r] * jh[r, i]
+                wu0[i] = s * kinv[i] * f
+                wu1[i] = uk[i] * f
+            # β ⊗ wu0 + v ⊗ wu1: chain 2 against ∂J_e, chain 1 through (S_t1 T)ᵀ against ∂J_b
+            for r in range(6):
+                for i in range(n1, n):
+                    ue[r, i] += ci[term, r] * wu0[i] + v[r] * wu1[i]
+            pb1 = np.empty((6, n1))
+            for r in range(6):
+                for i in range(n1):
+                    pb1[r, i] = ci[term, r] * wu0[i] + v[r] * wu1[i]
+            for r in range(6):
+                for i in range(n1):
+                    s = 0.0
+                    for p in range(6):
+                        s += s1t[p, r] * pb1[p, i]
+                    ub[r, i] += s
+            # S_t1 depends on b − e: (J_b[:3] − J_e[:3])ᵀ ((C̃1 S_t1ᵀ v)_ω × β_v + (C̃1 S_t1ᵀ β)_ω × v_v)
+            cv = np.zeros(3)
+            cb = np.zeros(3)
+            for r in range(3):
+                s0 = 0.0
+                s1_ = 0.0
+                for i in range(n1):
+                    s0 += wu0[i] * tj1[3 + r, i]
+                    s1_ += wu1[i] * tj1[3 + r, i]
+                cv[r] = s0
+                cb[r] = s1_
+            b0, b1, b2 = ci[term, 0], ci[term, 1], ci[term, 2]
+            w0 = cv[1] * b2 - cv[2] * b1 + cb[1] * v[2] - cb[2] * v[1]
+            w1 = cv[2] * b0 - cv[0] * b2 + cb[2] * v[0] - cb[0] * v[2]
+            w2 = cv[0] * b1 - cv[1] * b0 + cb[0] * v[1] - cb[1] * v[0]
+            y[0] += w0
+            y[1] += w1
+            y[2] += w2
+            y[6] -= w0
+            y[7] -= w1
+            y[8] -= w2
+    if w_theta != 0.0:  # BraceAngle.gradient: J_b[3:]ᵀ (n̂ × ẑ_b) / ‖n̂ × ẑ_b‖
+        z0, z1, z2 = mb[0, 2], mb[1, 2], mb[2, 2]
+        u0 = normal[1] * z2 - normal[2] * z1
+        u1 = normal[2] * z0 - normal[0] * z2
+        u2 = normal[0] * z1 - normal[1] * z0
+        s = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        if s >= 1e-12:
+            y[3] += w_theta * u0 / s
+            y[4] += w_theta * u1 / s
+            y[5] += w_theta * u2 / s
+    for term in range(reg.shape[0]):  # RegionBarrier.gradient
+        rel0, rel1, rel2 = mb[0, 3] - reg[term, 0], mb[1, 3] - reg[term, 1], mb[2, 3] - reg[term, 2]
+        r2 = rel0 * rel0 + rel1 * rel1 + rel2 * rel2
+        rm2 = reg[term, 3] * reg[term, 3]
+        if not r2 < rm2:
+            return BARRIER, out
+        c = reg[term, 4] * 2.0 * rm2 / (rm2 - r2) ** 2
+        y[0] += c * rel0
+        y[1] += c * rel1
+        y[2] += c * rel2
+    dg = np.zeros(n)
+    for k in range(n):
+        s = 0.0
+        for r in range(6):
+            s += jb[r, k] * y[r]
+        for r in range(3):
+            s += je[r, k] * y[6 + r]
+        for i in range(n):  # Σ_{r,i} ue[r, i] ∂J_e[r, i]/∂q_k
+            for r in range(6):
+                s += he[k, r + 6 * i] * ue[r, i]
+        for i in range(n1):
+            for r in range(6):
+                s += hb[k, r + 6 * i] * ub[r, i]
+        dg[k] = s
+
+    # --- ∇g = [(dq1/db̃)ᵀ ∂g/∂q1; ∂g/∂q2] (eq:grad_g) and A⁺ẋ + (I − A⁺A) α ∇g (eq:grad_proj)
+    grad = np.empty(kk)
+    for c in range(l_):
+        s = 0.0
+        for i in range(n1):
+            s += g1[i, c] * dg[i]
+        grad[c] = s
+    for c in range(n2):
+        grad[l_ + c] = dg[n1 + c]
+    z = np.zeros(6)  # R⁻ᵀ ẋ − α Qᵀ ∇g
+    for c in range(6):
+        s = 0.0
+        for r in range(6):
+            s += rinv[r, c] * xd[r]
+        s2 = 0.0
+        for i in range(kk):
+            s2 += q[i, c] * grad[i]
+        z[c] = s - alpha * s2
+    yv = np.empty(kk)
+    for i in range(kk):
+        s = 0.0
+        for c in range(6):
+            s += q[i, c] * z[c]
+        yv[i] = s + alpha * grad[i]
+    for i in range(n1):  # q̇1 = dq1/db̃ ḃ (eq:q1)
+        s = 0.0
+        for c in range(l_):
+            s += g1[i, c] * yv[c]
+        out[i] = s
+    for c in range(n2):
+        out[n1 + c] = yv[l_ + c]
+    return OK, out

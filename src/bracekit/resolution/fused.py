@@ -1,0 +1,334 @@
+"""A fused braced gradient-projection step for control loops: joint values in, joint velocities out.
+
+:class:`GradientProjectionStep` computes the same q̇ as the reference path
+``BracedGradientProjection.velocity(braced.state(q, hessians=True), xdot)`` (eq:grad_proj with ∇g of
+eq:grad_g), in one call and without the reference's intermediate objects:
+
+* one Pinocchio pass: placements, the frame Jacobians of {e} and {b} and their kinematic Hessians;
+* ∂g/∂q of the terms of eq:objective as one contraction per Hessian: every term adds its coefficients to a
+  (6, n) matrix U, and Σ_{r,i} U[r, i] ∂J[r, i]/∂q_k is a single (n × 6n) matrix–vector product
+  (:func:`bracekit.kinematics.frame_hessian_rows`);
+* C_e = Ĵ K⁻¹ Ĵᵀ with Ĵ = [S_t1 T J1, S_t2 J2] (eq:Ce; T = I − P for the projection model, I − P_C for the
+  constrained one) applied to vectors, never forming the 6×6 compliances;
+* eq:grad_proj with A⁺ = Q R⁻ᵀ and A⁺A = Q Qᵀ from a QR factorisation Aᵀ = QR of the full-row-rank A
+  (eq:braced_kin; no SVD), and J1⁻¹ by LU (eq:q1).
+
+The shortcuts are used only where they are certified to agree with the reference: the explicit inverses
+bound the condition numbers (cond(M) ≤ ‖M‖_F ‖M⁻¹‖_F), and where a bound reaches :data:`CERTIFIED_COND`
+(far below the reference's singularity thresholds), where A has more rows than columns, or with a compliant
+environment under the constrained model, the step is the reference path itself, so errors
+(SingularityError, BarrierError), warnings and results stay the reference's. Every objective term gives its
+own value and gradient coefficients (:meth:`bracekit.objective.Term.fused_gradient`); a term without them is
+evaluated by its own ``gradient``/``value`` on a BracedState.
+
+Two backends compute the same step: ``"numpy"`` (the default; no compilation, what :mod:`bracekit.simulate`
+uses) and ``"numba"`` (``pip install bracekit[fast]``), which hands everything after Pinocchio's pass to one
+compiled kernel (:mod:`bracekit.resolution._numba_step`, cached on disk after the first compilation) with the
+same shortcuts and certificates; the kernel holds compiled copies of the terms that give
+:meth:`~bracekit.objective.Term.numba_params`. Where the kernel does not apply (n1 ≠ 6, finite differences, a
+term without numba parameters) or declines (a certificate fails, an unloaded
+contact, {b} outside its region), the numba backend runs the NumPy code, so errors and warnings are the same.
+``backend="auto"`` is numba when it can be imported, else NumPy.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from dataclasses import replace
+from types import ModuleType
+from typing import Any, Literal
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit._linalg import inverse, row_basis
+from bracekit.compliance.first_order import unit6
+from bracekit.errors import InputError
+from bracekit.kinematics import LWA, BracedRobot, contact_null_space, frame_hessian_rows
+from bracekit.objective import Objective, central_difference
+from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
+from bracekit.resolution.strategies import BracedGradientProjection
+from bracekit.spatial import twist_shift
+from bracekit.tolerances import CERTIFIED_COND, UNLOADED_TOL
+
+Array = NDArray[np.float64]
+
+
+Backend = Literal["numpy", "numba", "auto"]
+#: The values of ``GradientProjectionStep(..., backend=...)``.
+BACKENDS: tuple[str, ...] = ("numpy", "numba", "auto")
+#: The term kinds the numba kernel holds a compiled copy of (:meth:`bracekit.objective.Term.numba_params`).
+KERNEL_TERMS: tuple[str, ...] = ("k", "Ci", "theta_z", "d")
+
+
+def numba_kernels() -> ModuleType:
+    """The numba kernels (:mod:`bracekit._numba_step`), imported on first use; InputError without numba."""
+    try:
+        return importlib.import_module("bracekit.resolution._numba_step")
+    except ImportError as exc:
+        raise InputError(
+            f"backend='numba' needs numba, which cannot be imported here ({exc}); install it with "
+            "`pip install bracekit[fast]` (or `pip install 'numba>=0.60'`), or use backend='numpy'"
+        ) from exc
+
+
+def numba_available() -> bool:
+    """Whether the numba backend can be used (numba importable); imports it if so."""
+    try:
+        numba_kernels()
+    except InputError:
+        return False
+    return True
+
+
+class GradientProjectionStep:
+    """q̇ = [dq1/db̃ · ḃ; q̇2] with [ḃ; q̇2] = A⁺ẋ + (I − A⁺A) α ∇g (eq:grad_proj), fused.
+
+    Args:
+        braced: the braced robot.
+        strategy: the gradient-projection strategy (objective, α, gradient mode, δq). With
+            ``gradient="finite-difference"`` the gradient is the paper's central difference of g, each
+            g evaluated by the same fused code.
+
+        backend: ``"numpy"`` (default: no compilation), ``"numba"`` (the compiled kernel; InputError if numba
+            is not installed) or ``"auto"`` (numba if it can be imported, else NumPy). Both give the
+            reference's q̇ to ~1e-13; the first numba step of a process loads the kernel from numba's disk
+            cache, or compiles it (seconds) when there is no cache yet.
+
+    Call it as ``step(q, xdot)``, or ``step(q, xdot, beta_x)`` to replace the β_x of the compliance-index
+    terms (a task with a time-varying direction). It owns its Pinocchio data: one instance per thread.
+    ``backend`` is then the backend in use; ``uses_kernel`` says whether the numba kernel computes the step
+    (False for the NumPy backend and where the kernel does not apply; see the module docstring).
+    """
+
+    def __init__(self, braced: BracedRobot, strategy: BracedGradientProjection, backend: Backend = "numpy") -> None:
+        if not isinstance(strategy, BracedGradientProjection):
+            raise InputError("GradientProjectionStep needs a BracedGradientProjection strategy")
+        if backend not in BACKENDS:
+            raise InputError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS)}")
+        self.braced = braced
+        self.strategy = strategy
+        robot = braced.robot
+        self._model = robot.model
+        self._data = robot.model.createData()
+        self._tip, self._bid = robot.tip_id, braced.brace_id
+        self._n, self._n1 = braced.n, braced.n1
+        self._k1inv = 1.0 / robot.stiffness[: braced.n1]
+        self._kinv = 1.0 / robot.stiffness
+        self._H, self._X = braced.H, braced.X
+        self._t = np.eye(6) - braced.P
+        self._eye = np.eye(6)
+        self._k_env = braced.brace.environment_stiffness
+        self._normal = braced.brace.surface.normal
+        self._nl = self._normal.tolist()
+        obj = strategy.objective
+        kept = [(t, float(w)) for t, w in zip(obj.terms, obj.weights, strict=True) if w]
+        self._objective = Objective([t for t, _ in kept], [w for _, w in kept])  # the terms of non-zero weight
+        self._fd = strategy.gradient == "finite-difference"
+        self._alpha = float(strategy.alpha)
+        self._cert2 = CERTIFIED_COND**2
+        kernels = None
+        if backend == "numba":
+            kernels = numba_kernels()
+        elif backend == "auto":
+            try:
+                kernels = numba_kernels()
+            except InputError:
+                kernels = None
+        self.backend: str = "numpy" if kernels is None else "numba"
+        self._kernel = None if kernels is None else self._numba_setup(kernels)
+        self.uses_kernel: bool = self._kernel is not None
+
+    def _numba_setup(self, kernels: ModuleType) -> Any:
+        """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs)."""
+        if self._fd or self._n1 != 6:
+            return None
+        params = [_call(t, "numba_params", None, self.braced, w) for t, w in _terms(self._objective)]
+        if any(p is None or p[0] not in KERNEL_TERMS for p in params):
+            return None
+        rows: dict[str, list[list[float]]] = {kind: [] for kind in KERNEL_TERMS}
+        for kind, row in params:  # type: ignore[misc]
+            rows[kind].append(row)
+        self._ci = np.array(rows["Ci"], dtype=float).reshape(-1, 8)
+        self._nb_const = (
+            np.ascontiguousarray(self._H, dtype=float),
+            np.ascontiguousarray(self._X, dtype=float),
+            np.ascontiguousarray(self._t, dtype=float),
+            np.ascontiguousarray(self._kinv, dtype=float),
+        )
+        self._reg = np.array(rows["d"], dtype=float).reshape(-1, 5)
+        self._nb_normal = np.ascontiguousarray(self._normal, dtype=float)
+        w_k = sum(r[0] for r in rows["k"])
+        w_theta = sum(r[0] for r in rows["theta_z"])
+        self._par = np.array([self._alpha, self._cert2, UNLOADED_TOL, w_k, w_theta])
+        return kernels.gp_step
+
+    # --- public API --------------------------------------------------------------------------------
+    def __call__(self, q: ArrayLike, xdot: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
+        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) and descend g, at q (n,)."""
+        qa = self._check_q(q)
+        xd = np.asarray(xdot, dtype=float)
+        if xd.shape != (6,):
+            raise InputError(f"the tip twist ẋ must have 6 components [v; ω], got shape {xd.shape}")
+        if self._kernel is not None:
+            out = self._numba_step(qa, xd, beta_x)
+            if out is not None:
+                return out
+        obj = self._with_beta(beta_x)
+        try:
+            return self._step(qa, xd, obj)
+        except NotCertified:
+            strategy = replace(self.strategy, objective=obj)
+            return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
+
+    def gradient(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
+        """∂g/∂q (n,) at q in the strategy's gradient mode, as ``BracedGradientProjection.dg_dq``."""
+        qa = self._check_q(q)
+        obj = self._with_beta(beta_x)
+        try:
+            if self._fd:
+                return self._fd_gradient(qa, obj)
+            return self._dg_dq(qa, self._kinematics(qa, True), obj)
+        except NotCertified:
+            strategy = replace(self.strategy, objective=obj)
+            return strategy.dg_dq(self.braced.state(qa, hessians=strategy.needs_hessians))
+
+    def value(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> float:
+        """G at q (eq:objective), as ``Objective.value``."""
+        qa = self._check_q(q)
+        obj = self._with_beta(beta_x)
+        try:
+            return self._value(qa, obj)
+        except NotCertified:
+            return obj.value(self.braced.state(qa))
+
+    # --- internals ---------------------------------------------------------------------------------
+    def _check_q(self, q: ArrayLike) -> Array:
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._n,) and math.isfinite(q.sum()):
+            return q
+        return self.braced.robot.check_q(q)
+
+    def _with_beta(self, beta_x: ArrayLike | None) -> Objective:
+        return self._objective if beta_x is None else self._objective.with_beta_x(beta_x)
+
+    def _kinematics(self, qa: Array, hessians: bool) -> tuple[Any, ...]:
+        """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows (n×6n) if asked."""
+        model, data = self._model, self._data
+        pin.computeJointJacobians(model, data, qa)
+        pin.updateFramePlacements(model, data)
+        je = pin.getFrameJacobian(model, data, self._tip, LWA)
+        jb = pin.getFrameJacobian(model, data, self._bid, LWA)
+        mb, me = data.oMf[self._bid].homogeneous, data.oMf[self._tip].homogeneous
+        if not hessians:
+            return je, jb, mb, me, None, None
+        pin.computeJointKinematicHessians(model, data)
+        return je, jb, mb, me, frame_hessian_rows(model, data, self._tip), frame_hessian_rows(model, data, self._bid)
+
+    def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
+        """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
+        ci = self._ci
+        if beta_x is not None and ci.shape[0]:
+            ci = ci.copy()
+            ci[:, :6] = unit6(beta_x, "beta_x")  # as ComplianceIndex(beta_x): same InputError
+        if not (xd.flags.c_contiguous and xd.flags.writeable):  # one compiled signature
+            xd = xd.copy()
+        je, jb, mb, me, he, hb = self._kinematics(qa, True)
+        h, x, t, kinv = self._nb_const
+        status, out = self._kernel(je, jb, he, hb, mb, me, xd, h, x, t, kinv, ci, self._reg, self._nb_normal, self._par)
+        return out if status == 0 and math.isfinite(out.sum()) else None  # else the NumPy code (raises or warns)
+
+    def _chain1(self, jb: Array) -> Array:
+        """dq1/db̃ (n1×l): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as BracedState)."""
+        j1 = jb[:, : self._n1]
+        if self._n1 == 6:
+            inv = inverse(j1)
+            if inv is None or not float(np.vdot(j1, j1)) * float(np.vdot(inv, inv)) < self._cert2:
+                raise NotCertified  # ‖J1‖²_F ‖J1⁻¹‖²_F ≥ cond(J1)²
+            return inv.dot(self._H)
+        return contact_null_space(self._X.T @ j1)
+
+    def _step(self, qa: Array, xd: Array, obj: Objective) -> Array:
+        kin = self._kinematics(qa, not self._fd)
+        je, jb, mb, me = kin[:4]
+        n1 = self._n1
+        s1 = twist_shift(mb[:3, 3], me[:3, 3])
+        g1 = self._chain1(jb)
+        l_ = g1.shape[1]
+        # A = [S_t1 J1 dq1/db̃, S_t2 J2] (eq:braced_kin): S_t1 H when n1 = 6, and S_t2 J2 = J_e[:, n1:]
+        a = np.concatenate((s1.dot(self._H if n1 == 6 else jb[:, :n1].dot(g1)), je[:, n1:]), axis=1)
+        if a.shape[0] > a.shape[1]:  # fewer braced coordinates than twist components: no null space
+            raise NotCertified
+        qr = row_basis(a)  # Aᵀ = Q R
+        if qr is None or not float(np.vdot(a, a)) * float(np.vdot(qr[1], qr[1])) < self._cert2:
+            raise NotCertified  # ‖A‖_F ‖R⁻¹‖_F ≥ cond(A)
+        q, rinv = qr
+        dg = self._fd_gradient(qa, obj) if self._fd else self._dg_dq(qa, kin, obj, s1)
+        grad = np.concatenate((g1.T.dot(dg[:n1]), dg[n1:]))  # eq:grad_g
+        # A⁺ẋ + (I − A⁺A) α∇g with A⁺ = Q R⁻ᵀ, A⁺A = Q Qᵀ  (eq:grad_proj)
+        y = q.dot(rinv.T.dot(xd)) + self._alpha * (grad - q.dot(q.T.dot(grad)))
+        return np.concatenate((g1.dot(y[:l_]), y[l_:]))  # eq:q1
+
+    def _fused_kinematics(self, kin: tuple[Any, ...], s1: Array | None = None) -> FusedKinematics:
+        je, jb, mb, me = kin[:4]
+        return FusedKinematics(
+            je=je,
+            jb=jb,
+            mb=mb,
+            me=me,
+            n=self._n,
+            n1=self._n1,
+            kinv=self._kinv,
+            k1inv=self._k1inv,
+            X=self._X,
+            t_proj=self._t,
+            k_env=self._k_env,
+            normal=self._nl,
+            cert2=self._cert2,
+            _s1=s1,
+        )
+
+    def _dg_dq(self, qa: Array, kin: tuple[Any, ...], obj: Objective, s1: Array | None = None) -> Array:
+        """∂g/∂q (n,), analytic: each term's fused coefficients, contracted once per Hessian.
+
+        A term without fused coefficients adds its own ``gradient`` on a BracedState (computed once).
+        """
+        fk = self._fused_kinematics(kin, s1)
+        out = FusedGradient(self._n, self._n1)
+        state = None
+        for term, weight in _terms(obj):
+            if not _call(term, "fused_gradient", False, fk, weight, out):
+                if state is None:
+                    state = self.braced.state(qa, hessians=True)
+                out.add_extra(weight * term.gradient(state))
+        return out.total(fk, kin[4], kin[5])
+
+    def _value(self, qa: Array, obj: Objective) -> float:
+        """G at q (eq:objective), term by term as Objective.value."""
+        fk = self._fused_kinematics(self._kinematics(qa, False))
+        total = 0.0
+        state = None
+        for term, weight in _terms(obj):
+            value = _call(term, "fused_value", None, fk)
+            if value is None:
+                if state is None:
+                    state = self.braced.state(qa)
+                value = term.value(state)
+            total += weight * value
+        return total
+
+    def _fd_gradient(self, qa: Array, obj: Objective) -> Array:
+        """Central differences of g with δq = the strategy's fd_step (objective.central_difference)."""
+        return central_difference(lambda x: self._value(x, obj), qa, self.strategy.fd_step)
+
+
+def _terms(obj: Objective) -> zip[tuple[Any, float]]:
+    """(term, weight) pairs of an objective."""
+    return zip(obj.terms, obj.weights, strict=True)
+
+
+def _call(term: Any, method: str, default: Any, *args: Any) -> Any:
+    """term.method(*args), or `default` for a term without it (a user's object that is not a Term)."""
+    fn = getattr(term, method, None)
+    return default if fn is None else fn(*args)

@@ -1,0 +1,120 @@
+"""Redundancy resolution (Section V): joint velocities q̇ (n,) for a desired tip twist ẋ (6,).
+
+* :class:`FreeSpaceMinNorm`: q̇ = J⁺ ẋ, the unbraced robot.
+* :class:`BracedMinNorm`: [ḃ; q̇2] = A⁺ ẋ (eq:general_inv with η = 0), q̇1 = J1⁻¹ H ḃ (eq:q1).
+* :class:`BracedGradientProjection`: [ḃ; q̇2] = A⁺ ẋ + (I − A⁺A) α ∇g (eq:grad_proj), α < 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Literal, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit.errors import InputError, SingularityError
+from bracekit.kinematics import BracedState
+from bracekit.objective import Objective, braced_gradient, finite_difference_gradient
+from bracekit.tolerances import STEP_SINGULAR_RATIO
+
+Array = NDArray[np.float64]
+GradientMode = Literal["analytic", "finite-difference"]
+GRADIENT_MODES: tuple[str, ...] = ("analytic", "finite-difference")
+
+
+
+def pinv_checked(m: Array, what: str) -> Array:
+    """Moore–Penrose pseudo-inverse of a full-row-rank matrix; SingularityError near rank loss."""
+    u, s, vt = np.linalg.svd(m, full_matrices=False)
+    if s[-1] <= STEP_SINGULAR_RATIO * s[0]:
+        raise SingularityError(f"{what} is singular (σ_min/σ_max = {s[-1] / max(s[0], 1e-300):.2e})")
+    return (vt.T / s) @ u.T
+
+
+class Strategy(Protocol):
+    """A redundancy-resolution strategy."""
+
+    name: str
+    braced: bool
+    needs_hessians: bool
+
+    def velocity(self, state: BracedState, xdot: Array) -> Array:
+        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,)."""
+        ...
+
+
+@dataclass(frozen=True)
+class FreeSpaceMinNorm:
+    """q̇ = J⁺ ẋ: the robot ignores the brace."""
+
+    name: str = "free_space_min_norm"
+    braced: bool = False
+    needs_hessians: bool = False
+
+    def velocity(self, state: BracedState, xdot: Array) -> Array:
+        return pinv_checked(state.J_e, "the Jacobian J") @ np.asarray(xdot, dtype=float)
+
+
+def with_beta_x(strategy: Strategy, beta_x: ArrayLike) -> Strategy:
+    """The strategy with the β_x of its objective's compliance-index terms replaced (itself if it has none)."""
+    objective = getattr(strategy, "objective", None)
+    if objective is None:
+        return strategy
+    new = objective.with_beta_x(beta_x)
+    return strategy if new is objective else replace(strategy, objective=new)  # type: ignore[type-var]
+
+
+def braced_to_joint(state: BracedState, y: Array) -> Array:
+    """[ḃ; q̇2] → q̇ = [dq1/db̃ · ḃ; q̇2] (eq:q1)."""
+    l_ = state.chain1_map.shape[1]
+    return np.concatenate([state.chain1_map @ y[:l_], y[l_:]])
+
+
+@dataclass(frozen=True)
+class BracedMinNorm:
+    """[ḃ; q̇2] = A⁺ ẋ, then q̇1 = J1⁻¹ H ḃ: keeps the contact, minimum norm in (b̃, q2)."""
+
+    name: str = "braced_min_norm"
+    braced: bool = True
+    needs_hessians: bool = False
+
+    def velocity(self, state: BracedState, xdot: Array) -> Array:
+        y = pinv_checked(state.A, "the braced Jacobian A") @ np.asarray(xdot, dtype=float)
+        return braced_to_joint(state, y)
+
+
+@dataclass(frozen=True)
+class BracedGradientProjection:
+    """eq:grad_proj: A⁺ ẋ + (I − A⁺A) α ∇g, ∇g of eq:grad_g; analytic or finite-difference gradient."""
+
+    objective: Objective
+    alpha: float = -1.0
+    gradient: GradientMode = "analytic"
+    fd_step: float = 1e-5
+    name: str = "braced_gradient_projection"
+    braced: bool = True
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.alpha) or self.alpha >= 0:
+            raise InputError(f"the gradient-projection gain alpha must be negative (it descends g), got {self.alpha}")
+        if self.gradient not in GRADIENT_MODES:
+            raise InputError(f"unknown gradient mode '{self.gradient}'; choose one of {', '.join(GRADIENT_MODES)}")
+
+    @property
+    def needs_hessians(self) -> bool:  # type: ignore[override]
+        return self.gradient == "analytic"
+
+    def dg_dq(self, state: BracedState) -> Array:
+        """∂g/∂q (n,) in the chosen gradient mode."""
+        if self.gradient == "analytic":
+            return self.objective.gradient(state)
+        return finite_difference_gradient(state.braced, self.objective.value, state.q, self.fd_step)
+
+    def velocity(self, state: BracedState, xdot: ArrayLike) -> Array:
+        a = state.A
+        a_pinv = pinv_checked(a, "the braced Jacobian A")
+        grad = braced_gradient(state, self.dg_dq(state))
+        null = grad - a_pinv @ (a @ grad)
+        y = a_pinv @ np.asarray(xdot, dtype=float) + self.alpha * null
+        return braced_to_joint(state, y)

@@ -1,0 +1,21 @@
+"""Kinematic simulation along a task (Section VI): tasks, the integrator, scenario files and the whole run."""
+
+from bracekit.simulation.run import RunResult, run_scenario
+from bracekit.simulation.scenario import Scenario, load_scenario, shipped_scenarios
+from bracekit.simulation.simulate import Trajectory, simulate, solve_start
+from bracekit.simulation.tasks import Circle, Line, Task, Waypoints
+
+__all__ = [
+    "Circle",
+    "Line",
+    "RunResult",
+    "Scenario",
+    "Task",
+    "Trajectory",
+    "Waypoints",
+    "load_scenario",
+    "run_scenario",
+    "shipped_scenarios",
+    "simulate",
+    "solve_start",
+]

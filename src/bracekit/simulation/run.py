@@ -1,0 +1,123 @@
+"""The paper's experiment: every strategy of a scenario along its task, with the Table I metrics."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel, check_model
+from bracekit.errors import InputError
+from bracekit.kinematics import BracedState
+from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
+from bracekit.simulation.scenario import Scenario, load_scenario
+from bracekit.simulation.simulate import Trajectory, simulate, solve_start
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class RunResult:
+    """All runs of a scenario. ``summary`` is what ``summary.json`` holds (chosen compliance model).
+
+    ``trajectories[model][strategy]``: the runs under each compliance model (the minimum-norm runs do
+    not depend on the model and are shared). ``summaries[model]`` the Table I metrics of each.
+    """
+
+    scenario: Scenario
+    start: BracedState
+    compliance_model: ComplianceModel
+    gradient: GradientMode
+    trajectories: dict[str, dict[str, Trajectory]]
+    summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """{"strategies": {name: metrics}, ...} for the chosen compliance model."""
+        return self.summaries[self.compliance_model]
+
+    @property
+    def completed(self) -> bool:
+        """Whether every run finished its task."""
+        return all(t.completed for runs in self.trajectories.values() for t in runs.values())
+
+
+def _summaries(result: RunResult) -> None:
+    for model, runs in result.trajectories.items():
+        strategies = {name: tr.summary(model) for name, tr in runs.items()}  # type: ignore[arg-type]
+        out: dict[str, Any] = {
+            "scenario": result.scenario.name,
+            "compliance_model": model,
+            "gradient": result.gradient,
+            "units": "SI: C_i in m/N, lengths in m, angles in rad",
+            "strategies": strategies,
+        }
+        free = strategies.get("free_space_min_norm")
+        if free is not None:
+            out["Ci_mean_reduction_vs_free_space"] = {
+                name: 1.0 - s["Ci_mean"] / free["Ci_mean"]
+                for name, s in strategies.items()
+                if name != "free_space_min_norm"
+            }
+        out["warnings"] = [w for tr in runs.values() for w in tr.warnings]
+        result.summaries[model] = out
+
+
+def run_scenario(
+    scenario: Scenario | str,
+    gradient: GradientMode | None = None,
+    compliance_model: ComplianceModel | None = None,
+    *,
+    both_models: bool = True,
+    progress: Callable[[int], None] | None = None,
+) -> RunResult:
+    """Solve the start configuration and run every strategy of the scenario along its task.
+
+    Args:
+        scenario: a Scenario, a TOML path or a shipped name ('paper').
+        gradient: 'analytic' (default of the scenario) or 'finite-difference' (the paper's).
+        compliance_model: 'constrained' or 'projection'; the model of ``summary``.
+        both_models: also run gradient projection under the other compliance model (for Table I).
+        progress: called with the number of steps done, for a progress bar.
+    """
+    sc = load_scenario(scenario) if isinstance(scenario, str) else scenario
+    grad = gradient or sc.gradient
+    if grad not in GRADIENT_MODES:
+        raise InputError(f"unknown gradient mode '{grad}'; choose one of {', '.join(GRADIENT_MODES)}")
+    model = check_model(compliance_model or sc.compliance_model)
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
+    models = COMPLIANCE_MODELS if both_models else (model,)
+    shared: dict[str, Trajectory] = {}
+    trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}
+    for m in models:
+        for name in sc.strategies:
+            if name != "braced_gradient_projection" and name in shared:
+                trajectories[m][name] = shared[name]
+                continue
+            strategy = sc.strategy(name, gradient=grad, model=m)  # type: ignore[arg-type]
+            tr = simulate(
+                sc.braced,
+                strategy,
+                sc.task,
+                start.q,
+                sc.dt,
+                sc.beta_x,
+                feedback_gain=sc.feedback_gain,
+                progress=progress,
+            )
+            trajectories[m][name] = tr
+            if name != "braced_gradient_projection":
+                shared[name] = tr
+    result = RunResult(sc, start, model, grad, trajectories)  # type: ignore[arg-type]
+    _summaries(result)
+    return result
+
+
+def total_steps(scenario: Scenario, both_models: bool = True) -> int:
+    """Steps a run_scenario call takes (for a progress bar)."""
+    per = max(1, round(scenario.task.duration / scenario.dt))
+    n_gp = ("braced_gradient_projection" in scenario.strategies) * (2 if both_models else 1)
+    return per * (len([s for s in scenario.strategies if s != "braced_gradient_projection"]) + n_gp)

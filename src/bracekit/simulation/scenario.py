@@ -1,0 +1,356 @@
+"""Scenario files (TOML): robot, brace, task, strategies and gains, validated into a :class:`Scenario`.
+
+Every mistake raises ScenarioError naming the key and the fix. Shipped scenarios live in
+``bracekit/simulation/scenarios/`` and are addressed by name (``paper``).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel
+from bracekit.contact import CONTACT_TYPES, Brace, Surface, contact_type
+from bracekit.errors import BracekitError, InputError, ScenarioError
+from bracekit.kinematics import BracedRobot
+from bracekit.model.robot import Robot
+from bracekit.model.shipped import MODELS, load_model
+from bracekit.objective import TERMS, Objective, TermContext
+from bracekit.resolution.strategies import (
+    GRADIENT_MODES,
+    BracedGradientProjection,
+    BracedMinNorm,
+    FreeSpaceMinNorm,
+    GradientMode,
+    Strategy,
+)
+from bracekit.simulation.tasks import Circle, Line, Task, Waypoints
+
+Array = NDArray[np.float64]
+STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
+#: The weight keys of ``[gradient_projection.weights]``: one per registered objective term.
+WEIGHT_KEYS: tuple[str, ...] = tuple(TERMS)
+#: Most steps a scenario may ask for per strategy.
+MAX_STEPS = 100_000
+
+
+def shipped_scenarios() -> dict[str, Path]:
+    """Name → path of the scenarios shipped with bracekit."""
+    root = resources.files("bracekit.simulation").joinpath("scenarios")
+    return {p.name[:-5]: Path(str(p)) for p in root.iterdir() if p.name.endswith(".toml")}
+
+
+class _Table:
+    """A TOML table being read: tracks its path for messages and rejects unknown keys."""
+
+    def __init__(self, data: Any, path: str, allowed: tuple[str, ...]) -> None:
+        if not isinstance(data, dict):
+            raise ScenarioError(f"[{path}] must be a table")
+        unknown = sorted(set(data) - set(allowed))
+        if unknown:
+            where = f"[{path}]" if path else "the top level"
+            keys = ", ".join(allowed)
+            raise ScenarioError(f"unknown key '{_join(path, unknown[0])}'; allowed keys in {where}: {keys}")
+        self.data, self.path = data, path
+
+    def key(self, name: str) -> str:
+        return _join(self.path, name)
+
+    def has(self, name: str) -> bool:
+        return name in self.data
+
+    def raw(self, name: str, default: Any = ...) -> Any:
+        if name not in self.data:
+            if default is ...:
+                raise ScenarioError(f"missing key '{self.key(name)}'")
+            return default
+        return self.data[name]
+
+    def number(self, name: str, default: Any = ..., positive: bool = False) -> float:
+        v = self.raw(name, default)
+        if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v):
+            raise ScenarioError(f"'{self.key(name)}' must be a number, got {v!r}")
+        if positive and v <= 0:
+            raise ScenarioError(f"'{self.key(name)}' must be positive, got {v!r}")
+        return float(v)
+
+    def vector(self, name: str, size: int | None = None, default: Any = ...) -> Array:
+        v = self.raw(name, default)
+        ok = isinstance(v, list) and all(isinstance(x, int | float) and not isinstance(x, bool) for x in v)
+        if not ok or (size is not None and len(v) != size) or not np.all(np.isfinite(v)):
+            want = f"{size} numbers" if size else "a list of numbers"
+            raise ScenarioError(f"'{self.key(name)}' must be {want}, got {v!r}")
+        return np.asarray(v, dtype=float)
+
+    def string(self, name: str, choices: tuple[str, ...] | None = None, default: Any = ...) -> str:
+        v = self.raw(name, default)
+        if not isinstance(v, str):
+            raise ScenarioError(f"'{self.key(name)}' must be a string, got {v!r}")
+        if choices is not None and v not in choices:
+            raise ScenarioError(f"'{self.key(name)}' = {v!r} is not one of: {', '.join(choices)}")
+        return v
+
+    def table(self, name: str, allowed: tuple[str, ...], default: Any = ...) -> _Table:
+        return _Table(self.raw(name, default), self.key(name), allowed)
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+@dataclass(frozen=True, eq=False)
+class Scenario:
+    """A validated scenario. Lengths in m, times in s, stiffness in N·m/rad."""
+
+    name: str
+    braced: BracedRobot
+    task: Task
+    guess: Array
+    compliance_model: ComplianceModel
+    beta_x: Callable[[float], Array]
+    beta_x_spec: str
+    alpha: float
+    weights: dict[str, float]
+    gradient: GradientMode
+    dt: float
+    strategies: tuple[str, ...]
+    feedback_gain: float = 1.0
+    description: str = ""
+    source: Path | None = None
+
+    @property
+    def robot(self) -> Robot:
+        """The robot."""
+        return self.braced.robot
+
+    def objective(self, model: ComplianceModel | None = None, beta_x: Array | None = None) -> Objective:
+        """G of eq:objective with this scenario's weights (β_x at t = 0 unless given)."""
+        beta = self.beta_x(0.0) if beta_x is None else beta_x
+        context = TermContext(self.braced, beta, model or self.compliance_model)
+        kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in WEIGHT_KEYS if self.weights[k] > 0]
+        return Objective([t for t, _ in kept], [w for _, w in kept])
+
+    def strategy(
+        self, name: str, *, gradient: GradientMode | None = None, model: ComplianceModel | None = None
+    ) -> Strategy:
+        """One of the three strategies with this scenario's gains."""
+        if name == "free_space_min_norm":
+            return FreeSpaceMinNorm()
+        if name == "braced_min_norm":
+            return BracedMinNorm()
+        return BracedGradientProjection(self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient)
+
+
+def load_scenario(source: str | Path) -> Scenario:
+    """Read and validate a scenario: a TOML path or the name of a shipped scenario ('paper')."""
+    shipped = shipped_scenarios()
+    path = shipped[str(source)] if str(source) in shipped else Path(source)
+    if not path.is_file():
+        raise ScenarioError(
+            f"scenario not found: '{source}'; give a .toml file or one of: {', '.join(sorted(shipped))}"
+        )
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path} is not valid TOML: {exc}") from exc
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"cannot read scenario {path}: {exc}") from exc
+    try:
+        return parse_scenario(data, base=path.parent, name=path.stem, source=path)
+    except ScenarioError:
+        raise
+    except InputError as exc:
+        raise ScenarioError(f"{path.name}: {exc}") from exc
+
+
+def parse_scenario(
+    data: dict[str, Any], base: Path = Path("."), name: str = "scenario", source: Path | None = None
+) -> Scenario:
+    """Validate the TOML data of a scenario (see ``scenarios/paper.toml`` for every key)."""
+    top = _Table(
+        data,
+        "",
+        ("name", "description", "robot", "brace", "task", "start", "compliance", "gradient_projection", "simulation"),
+    )
+    robot = _robot(top.table("robot", ("model", "urdf", "tip", "stiffness")), base)
+    brace_t = top.table(
+        "brace",
+        ("frame", "link", "offset", "contact", "point", "normal", "tangent", "region_radius", "environment_stiffness"),
+    )
+    robot, brace = _brace(brace_t, robot)
+    try:
+        braced = BracedRobot(robot, brace)
+    except InputError as exc:
+        raise ScenarioError(f"[brace]: {exc}") from exc
+    task_t = top.table(
+        "task",
+        (
+            "type",
+            "centre",
+            "radius",
+            "normal",
+            "start_direction",
+            "period",
+            "turns",
+            "start",
+            "end",
+            "duration",
+            "points",
+            "times",
+        ),
+    )
+    task = _task(task_t)
+    start = top.table("start", ("guess",))
+    guess = start.vector("guess", robot.n)
+    comp = top.table("compliance", ("model", "beta_x"), {})
+    model = comp.string("model", COMPLIANCE_MODELS, "constrained")
+    beta_raw = comp.raw("beta_x", "radial")
+    if beta_raw == "radial":
+        if not isinstance(task, Circle):
+            raise ScenarioError(
+                "'compliance.beta_x' = \"radial\" needs a circle task; give 6 numbers [vx, vy, vz, wx, wy, wz]"
+            )
+        circle = task
+
+        def beta_x(t: float) -> Array:
+            return np.concatenate([circle.radial(t), np.zeros(3)])
+
+        spec = "radial"
+    else:
+        vec = comp.vector("beta_x", 6)
+        if np.linalg.norm(vec) < 1e-12:
+            raise ScenarioError("'compliance.beta_x' must not be zero")
+        fixed = vec / np.linalg.norm(vec)
+
+        def beta_x(t: float) -> Array:
+            return fixed
+
+        spec = f"fixed {np.round(fixed, 4).tolist()}"
+    gp = top.table("gradient_projection", ("alpha", "weights", "gradient"), {})
+    alpha = gp.number("alpha", -1.0)
+    if alpha >= 0:
+        raise ScenarioError(f"'gradient_projection.alpha' must be negative (it descends g), got {alpha}")
+    w = gp.table("weights", WEIGHT_KEYS, {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01})
+    weights = {k: w.number(k, 0.0) for k in WEIGHT_KEYS}
+    if any(v < 0 for v in weights.values()):
+        raise ScenarioError("'gradient_projection.weights' must be non-negative numbers")
+    if weights["d"] > 0 and brace.region_radius is None:
+        raise ScenarioError("'gradient_projection.weights.d' needs 'brace.region_radius' (r_max, m)")
+    gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
+    sim = top.table("simulation", ("dt", "strategies", "feedback_gain"), {})
+    dt = sim.number("dt", 0.05, positive=True)
+    if dt > task.duration:
+        raise ScenarioError(
+            f"'simulation.dt' = {dt} s is longer than the task ({task.duration:g} s); give a smaller dt"
+        )
+    if task.duration / dt > MAX_STEPS:
+        raise ScenarioError(
+            f"'simulation.dt' = {dt} s gives {task.duration / dt:.0f} steps (more than {MAX_STEPS}); give a larger dt"
+        )
+    feedback_gain = sim.number("feedback_gain", 1.0)
+    if feedback_gain < 0:
+        raise ScenarioError(f"'simulation.feedback_gain' must be ≥ 0 (1/s), got {feedback_gain}")
+    strategies = sim.raw("strategies", list(STRATEGIES))
+    if not isinstance(strategies, list) or not strategies or any(s not in STRATEGIES for s in strategies):
+        raise ScenarioError(f"'simulation.strategies' must be a list drawn from: {', '.join(STRATEGIES)}")
+    return Scenario(
+        name=str(top.raw("name", name)),
+        description=str(top.raw("description", "")),
+        braced=braced,
+        task=task,
+        guess=guess,
+        compliance_model=model,  # type: ignore[arg-type]
+        beta_x=beta_x,
+        beta_x_spec=spec,
+        alpha=alpha,
+        weights=weights,
+        gradient=gradient,  # type: ignore[arg-type]
+        dt=dt,
+        strategies=tuple(strategies),
+        feedback_gain=feedback_gain,
+        source=source,
+    )
+
+
+def _robot(t: _Table, base: Path) -> Robot:
+    if t.has("model") == t.has("urdf"):
+        raise ScenarioError(
+            f"[robot] needs exactly one of 'robot.model' ({', '.join(MODELS)}) or 'robot.urdf' (a path)"
+        )
+    stiffness = t.raw("stiffness", 170.0)
+    if isinstance(stiffness, list):
+        stiffness = t.vector("stiffness")
+    else:
+        stiffness = t.number("stiffness", 170.0, positive=True)
+    tip = t.string("tip", default=None) if t.has("tip") else None
+    try:
+        if t.has("model"):
+            return load_model(t.string("model", tuple(MODELS)), stiffness=stiffness, tip=tip)
+        if tip is None:
+            raise ScenarioError("'robot.tip' is needed with 'robot.urdf': name the end-effector frame")
+        urdf = Path(t.string("urdf"))
+        return Robot.from_urdf(urdf if urdf.is_absolute() else base / urdf, tip=tip, stiffness=stiffness)
+    except ScenarioError:
+        raise
+    except BracekitError as exc:
+        raise ScenarioError(f"[robot]: {exc}") from exc
+
+
+def _brace(t: _Table, robot: Robot) -> tuple[Robot, Brace]:
+    if t.has("link"):
+        frame = t.string("frame", default="brace")
+        try:
+            robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]))
+        except BracekitError as exc:
+            raise ScenarioError(f"[brace]: {exc}") from exc
+    else:
+        frame = t.string("frame")
+    try:
+        surface = Surface(
+            t.vector("point", 3), t.vector("normal", 3), t.vector("tangent", 3) if t.has("tangent") else None
+        )
+        brace = Brace(
+            frame=frame,
+            surface=surface,
+            contact=contact_type(t.string("contact", CONTACT_TYPES, "frictionless_point")),
+            region_radius=t.number("region_radius", positive=True) if t.has("region_radius") else None,
+            environment_stiffness=t.number("environment_stiffness", positive=True)
+            if t.has("environment_stiffness")
+            else None,
+        )
+    except ScenarioError:
+        raise
+    except BracekitError as exc:
+        raise ScenarioError(f"[brace]: {exc}") from exc
+    return robot, brace
+
+
+def _task(t: _Table) -> Task:
+    kind = t.string("type", ("circle", "line", "waypoints"))
+    try:
+        if kind == "circle":
+            return Circle(
+                centre=t.vector("centre", 3),
+                radius=t.number("radius", positive=True),
+                normal=t.vector("normal", 3),
+                period=t.number("period", positive=True),
+                start_direction=t.vector("start_direction", 3),
+                turns=t.number("turns", 1.0, positive=True),
+            )
+        if kind == "line":
+            return Line(t.vector("start", 3), t.vector("end", 3), t.number("duration", positive=True))
+        pts = t.raw("points")
+        if not isinstance(pts, list):
+            raise ScenarioError("'task.points' must be a list of [x, y, z] points")
+        return Waypoints(np.asarray(pts, dtype=float), t.vector("times"))
+    except ScenarioError:
+        raise
+    except (BracekitError, ValueError) as exc:
+        raise ScenarioError(f"[task]: {exc}") from exc
