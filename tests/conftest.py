@@ -1,54 +1,11 @@
-"""Shared fixtures: random serial chains as URDF text, and the shipped models."""
+"""Shared fixtures (the helpers they use live in helpers.py)."""
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
-import numpy as np
 import pytest
-
-
-def random_chain_urdf(n: int, seed: int, brace_link: int | None = None, brace_offset: float = 0.05) -> str:
-    """URDF text of an n-joint revolute chain with random axes and link offsets.
-
-    Links are `base`, `l1`..`ln`; the tip frame is `tip` (fixed, 0.1 m beyond `ln`). If `brace_link` is
-    given, a fixed frame `brace` sits on link `l{brace_link}` at a random offset of about brace_offset m.
-    """
-    rng = np.random.default_rng(seed)
-    parts = ['<robot name="chain">', '<link name="base"/>']
-    parent = "base"
-    for i in range(1, n + 1):
-        xyz = rng.uniform(-0.05, 0.25, 3) if i > 1 else np.array([0.0, 0.0, 0.1])
-        rpy = rng.uniform(-np.pi, np.pi, 3)
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        parts.append(
-            f'<link name="l{i}"><inertial><mass value="0.5"/>'
-            '<inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>'
-        )
-        parts.append(
-            f'<joint name="j{i}" type="revolute"><parent link="{parent}"/><child link="l{i}"/>'
-            f'<origin xyz="{xyz[0]} {xyz[1]} {xyz[2]}" rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/>'
-            f'<axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
-            '<limit lower="-3.14" upper="3.14" effort="10" velocity="1"/></joint>'
-        )
-        parent = f"l{i}"
-    parts.append('<link name="tip"/>')
-    parts.append(
-        f'<joint name="tip_joint" type="fixed"><parent link="l{n}"/><child link="tip"/>'
-        '<origin xyz="0.1 0.02 0.03" rpy="0 0 0"/></joint>'
-    )
-    if brace_link is not None:
-        off = rng.normal(size=3)
-        off *= brace_offset / np.linalg.norm(off)
-        parts.append('<link name="brace"/>')
-        parts.append(
-            f'<joint name="brace_joint" type="fixed"><parent link="l{brace_link}"/><child link="brace"/>'
-            f'<origin xyz="{off[0]} {off[1]} {off[2]}" rpy="0.3 -0.2 0.1"/></joint>'
-        )
-    parts.append("</robot>")
-    return "\n".join(parts)
+from helpers import random_chain_urdf, scenario_text
 
 
 @pytest.fixture
@@ -58,80 +15,6 @@ def chain_urdf() -> str:
 
 
 # --- helpers of the core-model tests (test_robot, test_kinematics, test_compliance, test_objective) ---
-def branched_chain_urdf(joint_type: str = "revolute") -> str:
-    """URDF of a 4-joint revolute chain base→l1..l4→`tip` with a side branch on l2.
-
-    The side branch is joint `a_side_joint` (of type `joint_type`, e.g. revolute, or `continuous`) from l2
-    to link `side`, which carries a fixed frame `side_tool`. Pinocchio orders sibling joints by name, so
-    it numbers the side joint between j2 and j3 (the reduced model must drop a joint inside the chain).
-    """
-    limit = '<limit lower="-3" upper="3" effort="10" velocity="1"/>'
-    joints = [
-        ("j1", "base", "l1", "0 0 0.1", "0 0 1"),
-        ("j2", "l1", "l2", "0 0.1 0.2", "0 1 0"),
-        ("a_side_joint", "l2", "side", "0.1 -0.2 0", "1 0 0"),
-        ("j3", "l2", "l3", "0.3 0 0", "0 1 0"),
-        ("j4", "l3", "l4", "0.25 0.05 0", "1 0 0"),
-    ]
-    parts = ['<robot name="branched">', '<link name="base"/>']
-    for link in ("l1", "l2", "side", "l3", "l4", "tip", "side_tool"):
-        parts.append(f'<link name="{link}"/>')
-    for name, parent, child, xyz, axis in joints:
-        kind = joint_type if name == "a_side_joint" else "revolute"
-        lim = "" if kind == "continuous" else limit
-        parts.append(
-            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
-            f'<origin xyz="{xyz}" rpy="0.1 0.2 0.3"/><axis xyz="{axis}"/>{lim}</joint>'
-        )
-    parts.append(
-        '<joint name="tip_joint" type="fixed"><parent link="l4"/><child link="tip"/>'
-        '<origin xyz="0.1 0 0" rpy="0 0 0"/></joint>'
-    )
-    parts.append(
-        '<joint name="side_tool_joint" type="fixed"><parent link="side"/><child link="side_tool"/>'
-        '<origin xyz="0.05 0 0" rpy="0 0 0"/></joint>'
-    )
-    parts.append("</robot>")
-    return "\n".join(parts)
-
-
-def pin_frame_jacobian(model, frame: str, q: np.ndarray) -> np.ndarray:
-    """Reference: Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian (6×nv) from a fresh computeFrameJacobian."""
-    import pinocchio as pin
-
-    data = model.createData()
-    fid = model.getFrameId(frame)
-    return np.asarray(
-        pin.computeFrameJacobian(model, data, np.asarray(q, dtype=float), fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-    ).copy()
-
-
-def pin_frame_placement(model, frame: str, q: np.ndarray):
-    """Reference: the world placement (pin.SE3) of a frame from a fresh framesForwardKinematics."""
-    import pinocchio as pin
-
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, np.asarray(q, dtype=float))
-    return data.oMf[model.getFrameId(frame)].copy()
-
-
-def random_unit(rng: np.random.Generator, size: int = 3) -> np.ndarray:
-    """A random unit vector."""
-    v = rng.normal(size=size)
-    return v / np.linalg.norm(v)
-
-
-PAPER_TOML = Path(__file__).resolve().parents[1] / "src" / "bracekit" / "simulation" / "scenarios" / "paper.toml"
-
-
-def scenario_text(**task: float) -> str:
-    """The paper scenario's TOML with the task's scalar keys replaced (e.g. period=2.0) and dt=0.1."""
-    text = PAPER_TOML.read_text(encoding="utf-8")
-    for key, value in task.items():
-        text = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text, count=1)
-    return text
-
-
 @pytest.fixture
 def short_scenario_file(tmp_path: Path) -> Path:
     """The paper scenario cut to its first 2 s (a tenth of the circle, 20 steps of 0.1 s per strategy)."""

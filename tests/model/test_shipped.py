@@ -13,7 +13,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-REPO = Path(__file__).parents[1]
+REPO = Path(__file__).resolve().parents[2]
 MODELS = REPO / "src/bracekit/model/urdf"
 GENERATOR = REPO / "tools" / "build_models.py"
 PUMA_URDF = MODELS / "puma560.urdf"

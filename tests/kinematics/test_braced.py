@@ -21,7 +21,7 @@ from bracekit.model.shipped import load_model, model_path
 from bracekit.objective import BraceAngle, ConditionNumber, Objective
 from bracekit.resolution.fused import GradientProjectionStep
 from bracekit.resolution.strategies import BracedGradientProjection
-from conftest import branched_chain_urdf, pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
+from helpers import branched_chain_urdf, pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
 SETTINGS = settings(max_examples=25, deadline=None)
 PAPER_URDF = model_path("paper-robot")

@@ -37,7 +37,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model, model_path
 from bracekit.validate.statics import lagrange_compliance, solve_static_equilibrium
-from conftest import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
+from helpers import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
 SETTINGS = settings(max_examples=30, deadline=None)
 PAPER_URDF = model_path("paper-robot")

@@ -24,7 +24,7 @@ Q0 = np.array([0.2, -0.4, 0.9, 0.3, -0.5, 0.4, 0.6, -0.2])
 K = 170.0 * np.linspace(0.7, 1.3, 8)
 NORMAL = np.array([0.0, 0.3, 1.0]) / np.linalg.norm([0.0, 0.3, 1.0])
 PRELOAD = 0.1  # N
-PAPER_URDF = Path(__file__).resolve().parents[1] / "src" / "bracekit" / "model" / "urdf" / "paper_robot.urdf"
+PAPER_URDF = Path(__file__).resolve().parents[2] / "src" / "bracekit" / "model" / "urdf" / "paper_robot.urdf"
 
 
 def make_arm() -> pin.Model:

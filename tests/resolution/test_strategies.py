@@ -35,7 +35,7 @@ from bracekit.objective import (
     braced_gradient,
 )
 from bracekit.resolution.strategies import with_beta_x
-from conftest import random_chain_urdf, random_unit
+from helpers import random_chain_urdf, random_unit
 
 Q0 = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

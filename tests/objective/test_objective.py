@@ -33,7 +33,7 @@ from bracekit.objective import (
     finite_difference_gradient,
 )
 from bracekit.validate.statics import lagrange_compliance
-from conftest import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
+from helpers import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
 SETTINGS = settings(max_examples=15, deadline=None)
 PAPER_URDF = model_path("paper-robot")

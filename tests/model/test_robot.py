@@ -15,7 +15,7 @@ import pytest
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import model_path
-from conftest import branched_chain_urdf, pin_frame_placement, random_chain_urdf
+from helpers import branched_chain_urdf, pin_frame_placement, random_chain_urdf
 
 PUMA = model_path("puma560")
 PAPER = model_path("paper-robot")

@@ -16,7 +16,7 @@ from bracekit.report.table import PAPER_TABLE_I, table_csv, table_markdown
 
 @pytest.fixture(scope="module")
 def short_run(tmp_path_factory):
-    from conftest import scenario_text
+    from helpers import scenario_text
 
     p = tmp_path_factory.mktemp("sc") / "short.toml"
     p.write_text(scenario_text(turns=0.05, dt=0.1), encoding="utf-8")

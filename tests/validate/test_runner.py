@@ -8,8 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bracekit.compliance import preloaded_compliance
-from bracekit.compliance.first_order import end_effector_compliance
 from bracekit.errors import InputError
 from bracekit.report.validation_figures import figure_preload, figure_validation
 from bracekit.simulation.scenario import Scenario, load_scenario
@@ -139,12 +137,6 @@ def test_mujoco_failure_is_a_failed_case(scenario: Scenario, configs: list[np.nd
     _no_nan(js)
     assert js["constrained"]["median_rel_err_mujoco"] is None
     assert "failed cases" in rep.table_text()
-
-
-def test_preloaded_compliance_reduces_to_constrained(scenario: Scenario, configs: list[np.ndarray]) -> None:
-    st = scenario.braced.state(configs[0])
-    c0 = preloaded_compliance(scenario.braced, configs[0], 0.0)
-    np.testing.assert_allclose(c0, end_effector_compliance(st, "constrained"), rtol=1e-9, atol=1e-12)
 
 
 def test_preload_study_error_grows_with_preload(scenario: Scenario, configs: list[np.ndarray], tmp_path: Path) -> None:

@@ -30,7 +30,7 @@ from bracekit import (
 from bracekit.compliance.batch import BatchEvaluator, ChainKinematics, evaluate_batch
 from bracekit.contact import contact_type
 from bracekit.errors import SingularityError, UnloadedContactWarning
-from conftest import random_chain_urdf
+from helpers import random_chain_urdf
 
 TOL = 1e-12
 

@@ -10,7 +10,7 @@ import pytest
 from bracekit import Circle, load_scenario
 from bracekit.errors import ScenarioError
 from bracekit.simulation.scenario import parse_scenario, shipped_scenarios
-from conftest import PAPER_TOML, scenario_text
+from helpers import PAPER_TOML, scenario_text
 
 
 def test_paper_scenario_matches_the_paper_setup() -> None:
