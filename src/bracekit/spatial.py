@@ -56,5 +56,7 @@ def unit(v: ArrayLike, what: str = "vector", error: type[InputError] = InputErro
     big = float(np.max(np.abs(a), initial=0.0))
     if not np.all(np.isfinite(a)) or big == 0.0:
         raise error(f"{what} must be a finite, non-zero vector, got {a.tolist()}")
-    scaled = a / big  # the largest component is ±1: the norm neither overflows nor underflows
+    if 1e-150 < big < 1e150:  # ‖a‖ neither overflows nor underflows: the plain quotient
+        return a / float(np.linalg.norm(a))
+    scaled = a / big  # the largest component is ±1
     return scaled / float(np.linalg.norm(scaled))

@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
+from mpl_toolkits.mplot3d import Axes3D
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from numpy.typing import NDArray
 
@@ -36,7 +37,7 @@ def _circle(centre: Array, normal: Array, radius: float, start: Array | None = N
     return centre + radius * (np.outer(np.cos(a), u) + np.outer(np.sin(a), w))
 
 
-def _scene(ax: plt.Axes, result: RunResult) -> None:
+def _scene(ax: Axes3D, result: RunResult) -> None:
     """Bracing region (blue, on the surface) and task path (black)."""
     sc = result.scenario
     brace = sc.braced.brace
@@ -49,7 +50,7 @@ def _scene(ax: plt.Axes, result: RunResult) -> None:
     ax.plot(*path.T, color="k", lw=1.5, label="task")
 
 
-def _equal(ax: plt.Axes, pts: Array) -> None:
+def _equal(ax: Axes3D, pts: Array) -> None:
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     c, r = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 0.05) * 1.05
     ax.set_xlim(c[0] - r, c[0] + r)
@@ -61,7 +62,7 @@ def _equal(ax: plt.Axes, pts: Array) -> None:
     ax.set_zlabel("z [m]")
 
 
-def _draw_robot(ax: plt.Axes, result: RunResult, q: Array, color: str = "0.25", alpha: float = 1.0) -> list:
+def _draw_robot(ax: Axes3D, result: RunResult, q: Array, color: str = "0.25", alpha: float = 1.0) -> list:
     robot = result.scenario.robot
     pts = skeleton(robot, q)
     b = result.scenario.braced.state(q).b

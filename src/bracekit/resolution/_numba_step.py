@@ -1,9 +1,9 @@
 """numba kernel of the fused braced gradient-projection step (internal; ``pip install bracekit[fast]``).
 
-:class:`bracekit.fast.GradientProjectionStep` with ``backend="numba"`` imports this module on first use.
+:class:`bracekit.resolution.GradientProjectionStep` with ``backend="numba"`` imports this module on first use.
 Pinocchio still computes the placements, Jacobians and kinematic Hessians; :func:`gp_step` does all the
 linear algebra of eq:grad_proj after them in one compiled call, with the formulas, shortcuts and
-certificates of the NumPy backend (``bracekit/fast.py``):
+certificates of the NumPy backend (``bracekit/resolution/fused.py``):
 
 * dq1/db̃ = J1⁻¹ H (eq:q1) by LU with partial pivoting, certified by ‖J1‖²_F ‖J1⁻¹‖²_F < CERTIFIED_COND²;
 * A⁺ = Q R⁻ᵀ and A⁺A = Q Qᵀ from a Householder QR Aᵀ = QR (eq:braced_kin), certified by
@@ -27,10 +27,10 @@ from numba import njit
 #: Status codes of :func:`gp_step`.
 OK, NOT_CERTIFIED, UNLOADED, BARRIER = 0, 1, 2, 3
 
-_JIT = {"cache": True, "error_model": "numpy", "nogil": True}
+_jit = njit(cache=True, error_model="numpy", nogil=True)
 
 
-@njit(**_JIT)
+@_jit
 def _lu(m):  # pragma: no cover - compiled
     """LU with partial pivoting of a square matrix, in a copy: (lu, piv, ok); ok is False on a zero pivot."""
     n = m.shape[0]
@@ -57,7 +57,7 @@ def _lu(m):  # pragma: no cover - compiled
     return lu, piv, True
 
 
-@njit(**_JIT)
+@_jit
 def _lu_solve(lu, piv, b):  # pragma: no cover - compiled
     """M⁻¹ B for the LU factors of M and a matrix B (n×p)."""
     n, p = b.shape
@@ -79,7 +79,7 @@ def _lu_solve(lu, piv, b):  # pragma: no cover - compiled
     return x
 
 
-@njit(**_JIT)
+@_jit
 def _mm(a, b):  # pragma: no cover - compiled
     """A B of small matrices (plain loops: no BLAS call, any layout)."""
     m, p = a.shape
@@ -92,7 +92,7 @@ def _mm(a, b):  # pragma: no cover - compiled
     return c
 
 
-@njit(**_JIT)
+@_jit
 def _frobenius2(m):  # pragma: no cover - compiled
     s = 0.0
     for i in range(m.shape[0]):
@@ -101,7 +101,7 @@ def _frobenius2(m):  # pragma: no cover - compiled
     return s
 
 
-@njit(**_JIT)
+@_jit
 def _row_basis(at):  # pragma: no cover - compiled
     """Householder QR of Aᵀ (k×m, k ≥ m): (Q (k×m) orthonormal, R⁻¹ (m×m) upper, ok)."""
     k, m = at.shape
@@ -158,7 +158,7 @@ def _row_basis(at):  # pragma: no cover - compiled
     return q, rinv, True
 
 
-@njit(**_JIT)
+@_jit
 def _spd_inverse(m, shift):  # pragma: no cover - compiled
     """(M⁻¹, ok) of a symmetric M by Cholesky; ok only if M − shift·I is positive definite too, i.e. every
     eigenvalue of M exceeds `shift` (tested by a second Cholesky, no eigen-decomposition).
@@ -197,7 +197,7 @@ def _spd_inverse(m, shift):  # pragma: no cover - compiled
     return g, True
 
 
-@njit(**_JIT)
+@_jit
 def gp_step(je, jb, he, hb, mb, me, xd, h, x, t_proj, kinv, ci, reg, normal, par):  # pragma: no cover - compiled
     """(status, q̇) of one braced gradient-projection step (eq:grad_proj) with n1 = 6 and the analytic ∇g.
 

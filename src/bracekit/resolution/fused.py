@@ -146,11 +146,11 @@ class GradientProjectionStep:
         if self._fd or self._n1 != 6:
             return None
         params = [_call(t, "numba_params", None, self.braced, w) for t, w in _terms(self._objective)]
-        if any(p is None or p[0] not in KERNEL_TERMS for p in params):
-            return None
         rows: dict[str, list[list[float]]] = {kind: [] for kind in KERNEL_TERMS}
-        for kind, row in params:  # type: ignore[misc]
-            rows[kind].append(row)
+        for p in params:
+            if p is None or p[0] not in KERNEL_TERMS:
+                return None
+            rows[p[0]].append(list(p[1]))
         self._ci = np.array(rows["Ci"], dtype=float).reshape(-1, 8)
         self._nb_const = (
             np.ascontiguousarray(self._H, dtype=float),
@@ -236,6 +236,7 @@ class GradientProjectionStep:
             xd = xd.copy()
         je, jb, mb, me, he, hb = self._kinematics(qa, True)
         h, x, t, kinv = self._nb_const
+        assert self._kernel is not None
         status, out = self._kernel(je, jb, he, hb, mb, me, xd, h, x, t, kinv, ci, self._reg, self._nb_normal, self._par)
         return out if status == 0 and math.isfinite(out.sum()) else None  # else the NumPy code (raises or warns)
 

@@ -98,7 +98,7 @@ def lagrange_compliance(J: np.ndarray, K: np.ndarray, a: np.ndarray) -> np.ndarr
     # Guard: the weighted constraint matrix K^-1/2 a must have full column rank, else the multiplier
     # is undetermined (the contact carries no load); never return NaN silently.
     sv = np.linalg.svd(a / np.sqrt(K)[:, None], compute_uv=False)
-    scale = np.linalg.norm(J / np.sqrt(K)[None, :], 2)
+    scale = float(np.linalg.norm(J / np.sqrt(K)[None, :], 2))
     if m > 0 and (sv.size == 0 or sv[-1] <= 1e-12 * max(scale, 1.0)):
         raise StaticSolveError(
             "constraint gradients a are (near) zero or dependent (aᵀK⁻¹a singular): the contact carries "
@@ -367,7 +367,7 @@ def solve_static_equilibrium(
     Jb0 = pin.getFrameJacobian(model, data, brace_frame_id, _LWA)[:3, :]
     a0 = Jb0.T @ nhat
     Je0 = pin.getFrameJacobian(model, data, tip_frame_id, _LWA)
-    if np.linalg.norm(a0 / np.sqrt(K)) <= 1e-12 * max(np.linalg.norm(Je0 / np.sqrt(K)), 1.0):
+    if float(np.linalg.norm(a0 / np.sqrt(K))) <= 1e-12 * max(float(np.linalg.norm(Je0 / np.sqrt(K))), 1.0):
         raise StaticSolveError(
             "the joints cannot move the brace point along the surface normal (J_b,vᵀ n̂ = 0): "
             "the contact carries no load and the constrained equilibrium is undefined"
