@@ -49,7 +49,7 @@ HEBI arm of the paper robot (paper_robot.urdf only)
   H4. Heavy bracket: handedness "right outside" (X5HeavyRightOutside, the
       one in HEBI's 5-DoF kit): output = translation (0, -0.0375, 0.055) then
       Rx(+pi/2). Mass 0.215 kg.
-  H5. Light bracket (not in MODEL.md): "right" (X5LightRight, the one in
+  H5. Light bracket (not among the published facts above): "right" (X5LightRight, the one in
       HEBI's 5-DoF kit), taken from HEBI's hebi_description bracket.xacro:
       output = translation (0, -0.043, 0.04) then Rx(+pi/2). Mass 0.1 kg.
   H6. Tool frame 'tool' = end effector {e}: 0.10 m along the output z axis

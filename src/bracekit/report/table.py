@@ -14,7 +14,7 @@ STRATEGY_LABELS = {
 COLUMNS = ("Ci_mean", "Ci_min", "prod_sigma_t_mean", "prod_sigma_o_mean", "sigma_t_min", "sigma_o_min", "k_mean")
 HEADERS = ("mean C_i [m/N]", "min C_i [m/N]", "mean Πσ_t", "mean Πσ_o", "σ_t,min", "σ_o,min", "mean k")
 
-#: The paper's Table I; its compliances are printed in 10⁻³ units (mm/N, MODEL.md), here in m/N.
+#: The paper's Table I; its compliances are printed in 10⁻³ units (mm/N, docs/model.md), here in m/N.
 PAPER_TABLE_I: dict[str, dict[str, float]] = {
     "free_space_min_norm": dict(zip(COLUMNS, (24.90e-3, 17.16e-3, 1.22, 5.50, 0.29, 1.08, 5.84), strict=True)),
     "braced_min_norm": dict(zip(COLUMNS, (12.52e-3, 6.86e-3, 0.81, 5.30, 0.29, 1.01, 4.87), strict=True)),

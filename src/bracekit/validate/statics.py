@@ -1,4 +1,4 @@
-"""Static references for the braced compliance models (MODEL.md, "Compliance").
+"""Static references for the braced compliance models (docs/model.md, "The exact constrained compliance").
 
 Two independent references, both on a plain Pinocchio model whose joints are all 1-DoF revolute
 (nq == nv == n, joint order = chain order base→tip):
@@ -143,7 +143,7 @@ def frame_jacobian_derivative(model: pin.Model, data: pin.Data, frame_id: int) -
     Requires ``pin.computeJointJacobians`` and ``pin.updateFramePlacements`` at the current q.
     Uses the Lie bracket of the world joint twists: ∂S_i/∂q_k = ad(S_k) S_i for k ≤ i, and the motion of
     the reference point ∂p/∂q_k = v_k + ω_k × p. No kinematic Hessian of Pinocchio is used (its 4.1.0
-    memory layout is unusual, see MODEL.md).
+    memory layout is unusual, see docs/model.md).
 
     Returns:
         dJ (6, n, n) with dJ[:, i, k] = ∂J[:, i]/∂q_k (rows [v; ω], world axes, reference point = frame).
