@@ -168,3 +168,26 @@ def test_unit_is_exact_at_any_scale(scale: float) -> None:
     else:
         np.testing.assert_allclose(out, want, rtol=0, atol=2e-16)
     assert abs(np.linalg.norm(out) - 1.0) < 1e-15
+
+
+@pytest.mark.parametrize("bad", [[1.0, 2.0], "abc", None, [np.nan, 0.0, 0.0], [[1.0], [2.0, 3.0]]])
+def test_skew_and_twist_shift_refuse_anything_but_3_finite_numbers(bad: object) -> None:
+    with pytest.raises(InputError):
+        skew(bad)  # type: ignore[arg-type]
+    with pytest.raises(InputError):
+        twist_shift(bad, np.zeros(3))  # type: ignore[arg-type]
+
+
+def test_twist_shift_of_points_whose_difference_overflows_is_a_numerical_error() -> None:
+    from bracekit.errors import NumericalError
+
+    with pytest.raises(NumericalError):
+        twist_shift(np.array([1e308, 0.0, 0.0]), np.array([-1e308, 0.0, 0.0]))
+
+
+@pytest.mark.parametrize("bad", [np.eye(2), "R", None, np.full((3, 3), np.inf)])
+def test_twist_rotate_and_wrench_map_refuse_wrong_shapes(bad: object) -> None:
+    with pytest.raises(InputError):
+        twist_rotate(bad)  # type: ignore[arg-type]
+    with pytest.raises(InputError):
+        wrench_map(bad)  # type: ignore[arg-type]

@@ -78,3 +78,11 @@ class RegionWarning(BracekitWarning):
 
 class JointLimitWarning(BracekitWarning):
     """A run took a joint beyond its URDF limits (the kinematic simulation does not enforce them)."""
+
+
+class OutputError(InputError):
+    """An output folder bracekit may not or cannot write: not a folder, in use, or holding files it did not write."""
+
+
+class ChainSingularWarning(BracekitWarning):
+    """Chain 1 is singular (J1 loses rank): it realises fewer braced motions of {b} than the contact allows."""

@@ -5,18 +5,30 @@ Twists are [v; ω] and wrenches [f; m], both (6,), referred to a point with axes
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit.errors import InputError
+from bracekit._linalg import as_array, show
+from bracekit.errors import InputError, NumericalError
 
 Array = NDArray[np.float64]
 _EYE6 = np.eye(6)
 
 
+def _floats(a: ArrayLike, shape: tuple[int, ...], what: str) -> Array:
+    """`a` itself if it is a float64 array of `shape` (the hot path), else :func:`as_array` with its checks."""
+    if type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64:
+        return a
+    return as_array(a, what, shape)
+
+
 def skew(a: ArrayLike) -> Array:
-    """[a]×, the 3×3 cross-product matrix of a 3-vector (eq:skew_sym): skew(a) @ x == a × x."""
-    x, y, z = np.asarray(a, dtype=float).reshape(3).tolist()
+    """[a]×, the 3×3 cross-product matrix of a 3-vector (eq:skew_sym): [a]× x = a × x."""
+    x, y, z = _floats(a, (3,), "the vector of skew()").tolist()
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        raise InputError(f"skew() needs 3 finite numbers, got {[x, y, z]}")
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
@@ -25,14 +37,21 @@ def twist_shift(b: ArrayLike, e: ArrayLike) -> Array:
 
     S_t1 = [[I, [b − e]×], [0, I]], so v_e = v_b + ω × (e − b).
     """
+    b0, b1, b2 = _floats(b, (3,), "the point b").tolist()
+    e0, e1, e2 = _floats(e, (3,), "the point e").tolist()
+    x, y, z = b0 - e0, b1 - e1, b2 - e2  # Python floats: an overflow gives inf, caught below
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        raise NumericalError("b − e is not finite; give finite points of moderate size (m)")
     s = _EYE6.copy()
-    s[:3, 3:] = skew(np.subtract(b, e, dtype=float))
+    s[:3, 3:] = ((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0))
     return s
 
 
 def twist_rotate(rotation: ArrayLike) -> Array:
     """S_t2 (eq:twists): re-expresses a twist given in {b}'s axes in world axes, S_t2 = diag(⁰R_b, ⁰R_b)."""
-    r = np.asarray(rotation, dtype=float).reshape(3, 3)
+    r = _floats(rotation, (3, 3), "the rotation")
+    if not np.isfinite(r).all():
+        raise InputError("the rotation must be finite numbers (no NaN or inf)")
     s = np.zeros((6, 6))
     s[:3, :3] = r
     s[3:, 3:] = r
@@ -41,7 +60,7 @@ def twist_rotate(rotation: ArrayLike) -> Array:
 
 def wrench_map(twist_map: ArrayLike) -> Array:
     """The wrench map dual to a twist map: S_w = S_tᵀ (erratum of eq:Ce in docs/model.md; keeps C_e symmetric)."""
-    return np.asarray(twist_map, dtype=float).T.copy()
+    return as_array(twist_map, "the twist map", (6, 6)).T.copy()
 
 
 def unit(v: ArrayLike, what: str = "vector", error: type[InputError] = InputError) -> Array:
@@ -49,13 +68,10 @@ def unit(v: ArrayLike, what: str = "vector", error: type[InputError] = InputErro
 
     Raises `error` (an InputError) naming `what` if v is zero, not finite or not numbers.
     """
-    try:
-        a = np.asarray(v, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise error(f"{what} must be numbers, got {v!r}") from None
+    a = as_array(v, what, finite=False, error=error).reshape(-1)
     big = float(np.max(np.abs(a), initial=0.0))
     if not np.all(np.isfinite(a)) or big == 0.0:
-        raise error(f"{what} must be a finite, non-zero vector, got {a.tolist()}")
+        raise error(f"{what} must be a finite, non-zero vector, got {show(a)}")
     if 1e-150 < big < 1e150:  # ‖a‖ neither overflows nor underflows: the plain quotient
         return a / float(np.linalg.norm(a))
     scaled = a / big  # the largest component is ±1

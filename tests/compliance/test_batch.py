@@ -226,3 +226,62 @@ def test_batch_rejects_bad_input(paper) -> None:
         ev(Q, np.ones(6), models=("stiff",))
     with pytest.raises(InputError):
         ev(Q, np.ones(6), errors="ignore")
+
+
+# ---------------------------------------------------------------------------------------------- bad input, long chains
+@pytest.fixture(scope="module")
+def paper_braced() -> BracedRobot:
+    return BracedRobot(load_model("paper-robot"), Brace("brace", Surface(np.zeros(3), (0.0, 0.0, 1.0))))
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"Q": [[0.0] * 11, [0.0] * 10]},  # ragged
+        {"Q": "zeros"},
+        {"Q": np.zeros((2, 10))},
+        {"Q": np.zeros((0, 11))},
+        {"Q": np.zeros((2, 3, 11))},
+        {"Q": np.full((2, 11), np.nan)},
+        {"beta_x": "z"},
+        {"beta_x": np.zeros(6)},
+        {"beta_x": np.full((2, 6), np.inf)},
+        {"models": ["exact"]},
+        {"models": []},
+        {"models": None},
+        {"errors": 3},
+        {"k_braced": "yes"},
+    ],
+)
+def test_evaluate_batch_refuses_bad_input_with_one_line_input_errors(paper_braced: BracedRobot, kwargs: dict) -> None:
+    args = {"Q": np.zeros((2, 11)), "beta_x": [0, 0, 1, 0, 0, 0], **kwargs}
+    with pytest.raises(InputError) as info:
+        evaluate_batch(paper_braced, **args)
+    assert "\n" not in str(info.value)
+    with pytest.raises(InputError):
+        BatchEvaluator("braced")  # type: ignore[arg-type]
+    with pytest.raises(InputError):
+        BatchEvaluator(paper_braced)(np.zeros((2, 11)), [0, 0, 1, 0, 0, 0], chunk=0)
+
+
+def test_a_model_name_alone_is_accepted_for_models(paper_braced: BracedRobot) -> None:
+    ev = evaluate_batch(paper_braced, np.zeros((1, 11)) + 0.3, [0, 0, 1, 0, 0, 0], models="projection")
+    assert ev.models == ("projection",)
+
+
+def test_batch_on_a_long_chain_equals_the_single_configuration_path() -> None:
+    from bracekit.model.chain import DATA_JOINT_LIMIT
+
+    n = DATA_JOINT_LIMIT + 36
+    robot = Robot.from_urdf(random_chain_urdf(n, seed=12, brace_link=50), tip="tip")
+    braced = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), (0.0, 0.0, 1.0))))
+    Q = np.random.default_rng(4).uniform(-1.0, 1.0, size=(3, n))
+    beta = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    ev = evaluate_batch(braced, Q, beta)
+    for i, q in enumerate(Q):
+        st = braced.state(q)
+        for model in ("constrained", "projection"):
+            c = end_effector_compliance(st, model)
+            assert _rel(ev.C_e[model][i], c) < 1e-10
+            assert ev.Ci[model][i] == pytest.approx(compliance_index(c, beta), rel=1e-10)
+        assert ev.k[i] == pytest.approx(frobenius_condition(st.J_e), rel=1e-10)

@@ -99,7 +99,9 @@ class Case:
         return (self.J_e / self.K) @ self.J_e.T
 
 
-def random_case(n: int, seed: int, link: int, contact: ContactType = FRICTIONLESS_POINT, env: float | None = None) -> Case:
+def random_case(
+    n: int, seed: int, link: int, contact: ContactType = FRICTIONLESS_POINT, env: float | None = None
+) -> Case:
     rng = np.random.default_rng(seed + 7)
     return Case(
         random_chain_urdf(n, seed=seed, brace_link=link),
@@ -190,7 +192,9 @@ def test_constrained_compliance_equals_the_kkt_equilibrium_on_the_paper_robot() 
 
 @pytest.mark.parametrize("contact", [POINT_WITH_FRICTION, SOFT_FINGER], ids=["friction", "soft-finger"])
 @pytest.mark.parametrize("link", [5, 7])
-def test_constrained_compliance_of_friction_contacts_equals_the_kkt_equilibrium(contact: ContactType, link: int) -> None:
+def test_constrained_compliance_of_friction_contacts_equals_the_kkt_equilibrium(
+    contact: ContactType, link: int
+) -> None:
     c = random_case(9, seed=60 + link, link=link, contact=contact)
     with warnings.catch_warnings():
         warnings.simplefilter("error", UnloadedContactWarning)
@@ -410,8 +414,8 @@ def test_an_overflowing_compliance_raises_numerical_error_and_is_never_reported_
     with np.errstate(all="ignore"):
         with pytest.raises(NumericalError):
             compliance_index(np.full((6, 6), 1e300), e_x)  # ‖β_xᵀ C_e‖ overflows
-        with pytest.raises(NumericalError):
-            directional_compliance(np.full((6, 6), np.nan), e_x, e_x)
+    with pytest.raises(InputError, match="finite"):  # a NaN compliance is refused as input
+        directional_compliance(np.full((6, 6), np.nan), e_x, e_x)
 
 
 def test_loaded_gain_of_a_stack_equals_each_matrix_and_counts_the_unloaded_directions() -> None:
@@ -444,3 +448,53 @@ def test_generic_contact_emits_no_unloaded_warning() -> None:
         warnings.simplefilter("error")
         end_effector_compliance(c.state)
         end_effector_compliance(c.state, "projection")
+
+
+# ---------------------------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    "c_e", [np.eye(3), np.full((6, 6), np.inf), "C", None, [[1.0] * 6] * 5, np.ones((6, 6, 1))]
+)
+def test_compliance_measures_refuse_anything_but_a_finite_6x6_matrix(c_e: object) -> None:
+    e_x = np.r_[1.0, 0, 0, 0, 0, 0]
+    for call in (
+        lambda: compliance_index(c_e, e_x),
+        lambda: directional_compliance(c_e, e_x, e_x),
+        lambda: compliance_ellipsoids(c_e),
+    ):
+        with pytest.raises(InputError) as info:
+            call()
+        assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("beta", [np.zeros(6), np.full(6, np.nan), [1, 0, 0], "x", None, [[1, 0, 0], [0, 0]]])
+def test_a_twist_that_is_not_6_finite_numbers_is_an_input_error(beta: object) -> None:
+    with pytest.raises(InputError):
+        compliance_index(np.eye(6), beta)  # type: ignore[arg-type]
+    with pytest.raises(InputError):
+        directional_compliance(np.eye(6), [1, 0, 0, 0, 0, 0], beta)  # type: ignore[arg-type]
+
+
+def test_compliance_functions_need_a_braced_state() -> None:
+    for fn in (C1, C2, end_effector_compliance, free_space_compliance):
+        with pytest.raises(InputError, match="BracedState"):
+            fn("state")  # type: ignore[arg-type]
+    state = paper_case().braced.state(WRIST_DOWN_Q)
+    with pytest.raises(InputError):
+        end_effector_compliance(state, ["constrained"])  # type: ignore[arg-type]
+
+
+def test_a_robot_whose_compliance_overflows_float64_gives_a_numerical_error_not_a_warning() -> None:
+    # links of 1e200 m: J K⁻¹ Jᵀ overflows in the matrix product ("overflow encountered in matmul")
+    text = random_chain_urdf(7, seed=2, brace_link=4).replace(
+        '<origin xyz="0.1 0.02 0.03"', '<origin xyz="1e200 0.02 0.03"'
+    )
+    braced = BracedRobot(Robot.from_urdf(text, tip="tip"), Brace("brace", Surface(np.zeros(3), [0.0, 0.0, 1.0])))
+    state = braced.state(np.full(7, 0.3))
+    for call in (
+        lambda: free_space_compliance(state),
+        lambda: end_effector_compliance(state),
+        lambda: end_effector_compliance(state, "projection"),
+    ):
+        with pytest.raises(NumericalError) as info:
+            call()
+        assert "\n" not in str(info.value)

@@ -130,3 +130,59 @@ def test_region_barrier_raises_barrier_error_at_or_beyond_r_max(r: float) -> Non
     with pytest.raises(BarrierError) as info:
         region_barrier(r, 0.2)
     assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    "J",
+    [
+        np.full((6, 7), np.nan),
+        np.array([[np.inf] * 7] + [[1.0] * 7] * 5),
+        np.eye(3),
+        np.ones(6),
+        "J",
+        None,
+        [[1, 2], [3]],
+    ],
+)
+def test_measures_of_a_jacobian_that_is_not_a_finite_6xn_matrix_are_input_errors(J: object) -> None:
+    from bracekit.errors import InputError
+
+    for fn in (frobenius_condition, singular_value_measures):
+        with pytest.raises(InputError) as info:
+            fn(J)  # type: ignore[arg-type]
+        assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("scale", [1e-170, 1e160, 1e300])
+def test_condition_number_is_scale_free_even_where_the_squares_leave_float64(scale: float) -> None:
+    J = random_jacobian(3, 8)
+    assert frobenius_condition(scale * J) == pytest.approx(frobenius_condition(J), rel=1e-12)
+
+
+def test_singular_value_products_that_overflow_are_numerical_errors_not_warnings() -> None:
+    from bracekit.errors import NumericalError
+
+    with pytest.raises(NumericalError, match="not finite"):
+        singular_value_measures(1e160 * random_jacobian(4, 8))
+
+
+def test_theta_z_refuses_zero_nan_or_wrongly_sized_vectors_and_is_scale_free() -> None:
+    from bracekit.errors import InputError
+
+    for a, b in (([0, 0, 0], [0, 0, 1]), ([np.nan, 0, 0], [0, 0, 1]), ([1, 0], [0, 0, 1]), ("z", [0, 0, 1])):
+        with pytest.raises(InputError):
+            theta_z(a, b)  # type: ignore[arg-type]
+    big = np.array([1e300, 0.0, 1e300])
+    assert theta_z(big, [0.0, 0.0, 1.0]) == pytest.approx(np.pi / 4, rel=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("r", "r_max"), [(np.nan, 0.15), (0.1, np.nan), (-0.1, 0.15), (0.1, 0.0), ("0.1", 0.15), (0.1, None), (True, 1.0)]
+)
+def test_region_barrier_refuses_values_that_are_not_a_distance_and_a_radius(r: object, r_max: object) -> None:
+    from bracekit.errors import InputError
+
+    with pytest.raises(InputError) as info:
+        region_barrier(r, r_max)  # type: ignore[arg-type]
+    assert "\n" not in str(info.value)

@@ -207,3 +207,41 @@ def test_surface_normal_and_tangent_normalise_at_any_scale(scale: float) -> None
     np.testing.assert_allclose(s.normal, [0.0, 1.0 / np.sqrt(2.0), 1.0 / np.sqrt(2.0)], rtol=0, atol=1e-15)
     np.testing.assert_allclose(s.tangent, [1.0, 0.0, 0.0], rtol=0, atol=1e-15)
     np.testing.assert_allclose(s.frame.T @ s.frame, np.eye(3), atol=1e-15)
+
+
+@pytest.mark.parametrize("p", [[0.0, 0.0], "origin", None, [np.nan, 0.0, 0.0], [[0.0, 1.0], [2.0]]])
+def test_signed_distance_of_a_point_that_is_not_3_finite_numbers_is_an_input_error(p: object) -> None:
+    surface = Surface(np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    with pytest.raises(InputError):
+        surface.signed_distance(p)  # type: ignore[arg-type]
+
+
+def test_a_distance_beyond_float64_is_a_numerical_error() -> None:
+    from bracekit.errors import NumericalError
+
+    surface = Surface(np.array([0.0, 0.0, -1e308]), np.array([0.0, 0.0, 1.0]))
+    with pytest.raises(NumericalError):
+        surface.signed_distance(np.array([0.0, 0.0, 1e308]))
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"point": ["0", "0", "0"]},
+        {"point": [True, False, True]},
+        {"normal": "up"},
+        {"normal": None},
+        {"tangent": [1.0, 0.0]},
+        {"tangent": "x"},
+    ],
+)
+def test_surface_arguments_that_are_not_3_numbers_are_contact_errors(kwargs: dict) -> None:
+    args = {"point": np.zeros(3), "normal": np.array([0.0, 0.0, 1.0]), **kwargs}
+    with pytest.raises(ContactError) as info:
+        Surface(**args)
+    assert "\n" not in str(info.value)
+
+
+def test_brace_kind_is_the_contact_type_even_when_given_by_name() -> None:
+    brace = Brace("b", Surface(np.zeros(3), np.array([0.0, 0.0, 1.0])), contact="soft_finger")
+    assert brace.kind is brace.contact and brace.kind.name == "soft_finger"

@@ -315,7 +315,9 @@ def test_a_misread_hessian_layout_raises_and_the_layout_is_checked_once_per_fram
     monkeypatch.setattr(pin, "getFrameKinematicHessian", real)
     calls: list[int] = []
     check = kinematics.check_hessian_layout
-    monkeypatch.setattr(kinematics, "check_hessian_layout", lambda m, f: (calls.append(f), check(m, f)))
+    monkeypatch.setattr(
+        kinematics, "check_hessian_layout", lambda m, f, **kw: (calls.append(f), check(m, f, **kw))
+    )
     braced, _ = braced_chain(7, seed=61, brace_link=4)
     for _ in range(3):
         braced.state(q, hessians=True)
@@ -387,3 +389,55 @@ def test_singular_J1_at_the_puma_wrist_singularity_raises_singularity_error() ->
     with pytest.raises(SingularityError) as info:
         _ = st_.chain1_map
     assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------------------------------------- long chains, bad input
+def test_a_long_chain_state_equals_pinocchio_without_its_data() -> None:
+    from bracekit.model.chain import DATA_JOINT_LIMIT
+
+    n = 200
+    assert n > DATA_JOINT_LIMIT
+    braced, ref = braced_chain(n, seed=77, brace_link=120)
+    q = np.random.default_rng(2).uniform(-1.0, 1.0, n)
+    st = braced.state(q)
+    data = ref.createData()  # the reference, one Pinocchio pass
+    pin.computeJointJacobians(ref, data, q)
+    pin.updateFramePlacements(ref, data)
+    for frame, jac in (("tip", st.J_e), ("brace", st.J_b)):
+        fid = ref.getFrameId(frame)
+        np.testing.assert_allclose(jac, pin.getFrameJacobian(ref, data, fid, pin.LOCAL_WORLD_ALIGNED), atol=1e-11)
+    np.testing.assert_allclose(st.b, data.oMf[ref.getFrameId("brace")].translation, rtol=0, atol=1e-11)
+    b, e, r_b, r_e = braced.placements(q)
+    np.testing.assert_allclose(np.concatenate([b, e]), np.concatenate([st.b, st.e]), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(np.hstack([r_b, r_e]), np.hstack([st.R_b, st.R_e]), rtol=0, atol=1e-14)
+    pts = skeleton(braced.robot, q)
+    assert pts.shape == (n + 2, 3) and np.allclose(pts[-1], st.e)
+
+
+def test_hessians_beyond_the_joint_limit_are_refused_with_the_limit() -> None:
+    from bracekit.errors import ModelError
+    from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
+
+    n = MAX_HESSIAN_JOINTS + 1
+    braced = BracedRobot(
+        Robot.from_urdf(random_chain_urdf(n, seed=5, brace_link=10), tip="tip"),
+        Brace("brace", Surface(np.zeros(3), np.array([0.0, 0.0, 1.0]))),
+    )
+    with pytest.raises(ModelError, match=str(MAX_HESSIAN_JOINTS)):
+        braced.state(np.zeros(n), hessians=True)
+    assert braced.state(np.zeros(n)).J_e.shape == (6, n)  # first order is fine
+
+
+def test_braced_robot_and_state_refuse_wrong_types() -> None:
+    from bracekit.errors import ModelError
+
+    braced, _ = braced_chain(7, seed=3, brace_link=4)
+    with pytest.raises(ModelError):
+        BracedRobot("robot.urdf", braced.brace)  # type: ignore[arg-type]
+    with pytest.raises(ContactError):
+        BracedRobot(braced.robot, "brace")  # type: ignore[arg-type]
+    with pytest.raises(InputError):
+        braced.state(np.zeros(7), hessians="yes")  # type: ignore[arg-type]
+    for q in ("0 0 0 0 0 0 0", [[0, 1], [2]], None, np.full(7, np.inf)):
+        with pytest.raises(InputError):
+            braced.state(q)  # type: ignore[arg-type]

@@ -320,3 +320,141 @@ def test_non_numeric_stiffness_is_an_input_error(bad: object) -> None:
     with pytest.raises(InputError) as info:
         Robot.from_urdf(PUMA, tip="flange", stiffness=bad)  # type: ignore[arg-type]
     one_line(info)
+
+
+# ---------------------------------------------------------------------------------------------- joints of the URDF
+def _edit_first_joint(text: str, old: str, new: str) -> str:
+    assert old in text
+    return text.replace(old, new, 1)
+
+
+def test_a_joint_with_a_zero_axis_is_a_model_error_naming_the_joint() -> None:
+    for kind in ("revolute", "prismatic"):
+        text = random_chain_urdf(4, seed=1).replace('type="revolute"', f'type="{kind}"', 1)
+        for axis in ("0 0 0", "0 0 1e-300"):
+            bad = _edit_first_joint(text, '<axis xyz="', f'<axis xyz="{axis}" was="')
+            with pytest.raises(ModelError) as info:
+                Robot.from_urdf(bad, tip="tip")
+            msg = one_line(info)
+            assert "'j1'" in msg and "zero axis" in msg
+
+
+def test_inverted_joint_limits_are_a_model_error_naming_the_joint() -> None:
+    bad = _edit_first_joint(random_chain_urdf(4, seed=1), 'lower="-3.14" upper="3.14"', 'lower="1" upper="-1"')
+    with pytest.raises(ModelError) as info:
+        Robot.from_urdf(bad, tip="tip")
+    msg = one_line(info)
+    assert "'j1'" in msg and "lower" in msg
+
+
+def test_a_locked_joint_is_a_model_error_saying_to_make_it_fixed() -> None:
+    text = random_chain_urdf(4, seed=1)
+    bad = text.replace('lower="-3.14" upper="3.14"', 'lower="0.5" upper="0.5"', 2)
+    with pytest.raises(ModelError) as info:
+        Robot.from_urdf(bad, tip="tip")
+    msg = one_line(info)
+    assert "'j1'" in msg and "fixed" in msg
+    # a locked joint off the chain to the tip does not matter (it is locked anyway)
+    side = branched_chain_urdf().replace(
+        '<joint name="a_side_joint" type="revolute"', '<joint name="a_side_joint" type="prismatic"'
+    )
+    side = side.replace('<limit lower="-3" upper="3"', '<limit lower="0" upper="0"', 3)
+    with pytest.raises(ModelError, match="'j1'"):  # j1 (on the chain) is now locked too
+        Robot.from_urdf(side, tip="tip")
+
+
+def test_a_non_finite_joint_origin_or_nan_limit_is_a_model_error() -> None:
+    model = pin.buildModelFromXML(random_chain_urdf(4, seed=1))
+    placement = model.jointPlacements[2]
+    placement.translation = np.array([np.nan, 0.0, 0.1])
+    model.jointPlacements[2] = placement
+    with pytest.raises(ModelError) as info:
+        Robot(model=model, tip="tip", stiffness=np.ones(4))
+    assert "'j2'" in one_line(info)
+    model = pin.buildModelFromXML(random_chain_urdf(4, seed=1))
+    lower = model.lowerPositionLimit.copy()
+    lower[3] = np.nan
+    model.lowerPositionLimit = lower
+    with pytest.raises(ModelError) as info:
+        Robot(model=model, tip="tip", stiffness=np.ones(4))
+    assert "'j4'" in one_line(info)
+
+
+class _Fspath:
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __fspath__(self) -> str:
+        return str(self.path)
+
+
+def test_from_urdf_accepts_any_os_pathlike() -> None:
+    assert Robot.from_urdf(_Fspath(PUMA), tip="flange").n == 6  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("source", [None, 3, 2.5, b"robot.urdf", ["a.urdf"], "", "no\nsuch\nfile.urdf", "x" * 5000])
+def test_a_urdf_source_that_is_not_a_path_or_urdf_text_is_a_one_line_model_error(source: object) -> None:
+    with pytest.raises(ModelError) as info:
+        Robot.from_urdf(source, tip="flange")  # type: ignore[arg-type]
+    assert len(one_line(info)) < 400
+
+
+@pytest.mark.parametrize("tip", [None, 3, ["flange"]])
+def test_a_tip_that_is_not_a_name_is_a_model_error(tip: object) -> None:
+    with pytest.raises(ModelError) as info:
+        Robot.from_urdf(PUMA, tip=tip)  # type: ignore[arg-type]
+    one_line(info)
+
+
+def test_a_robot_needs_a_pinocchio_model_and_frame_names_must_be_strings() -> None:
+    with pytest.raises(ModelError):
+        Robot(model="model.urdf", tip="flange", stiffness=np.ones(6))  # type: ignore[arg-type]
+    robot = Robot.from_urdf(PUMA, tip="flange")
+    with pytest.raises(InputError) as info:
+        robot.frame_id(3)  # type: ignore[arg-type]
+    one_line(info)
+
+
+def test_with_point_frame_refuses_wrong_shapes_and_types_with_input_errors() -> None:
+    robot = Robot.from_urdf(branched_chain_urdf(), tip="tip")
+    for kwargs in (
+        {"rotation": np.eye(2)},
+        {"rotation": np.full((3, 3), np.nan)},
+        {"rotation": np.full((3, 3), 1e200)},
+        {"rotation": "identity"},
+        {"offset": "0 0 0"},
+        {"offset": None},
+    ):
+        with pytest.raises(InputError) as info:
+            robot.with_point_frame("pad", "l2", **kwargs)
+        one_line(info)
+    for name, link in ((None, "l2"), (3, "l2"), ("", "l2"), ("pad", 3), ("pad", None)):
+        with pytest.raises(InputError) as info:
+            robot.with_point_frame(name, link)  # type: ignore[arg-type]
+        one_line(info)
+
+
+def test_with_point_frames_adds_several_frames_as_with_point_frame_does() -> None:
+    robot = Robot.from_urdf(branched_chain_urdf(), tip="tip")
+    rot = pin.utils.rpyToMatrix(0.1, -0.2, 0.3)
+    many = robot.with_point_frames([("a", "l2", (0.1, 0.0, 0.2), None), ("b", "l4", (0.0, 0.3, 0.0), rot)])
+    one_a = robot.with_point_frame("a", "l2", (0.1, 0.0, 0.2))
+    one_b = robot.with_point_frame("b", "l4", (0.0, 0.3, 0.0), rot)
+    q = np.random.default_rng(3).uniform(-1, 1, robot.n)
+    for name, one in (("a", one_a), ("b", one_b)):
+        np.testing.assert_array_equal(
+            pin_frame_placement(many.model, name, q).homogeneous, pin_frame_placement(one.model, name, q).homogeneous
+        )
+    with pytest.raises(InputError, match="already exists"):
+        robot.with_point_frames([("a", "l2", (0, 0, 0), None), ("a", "l3", (0, 0, 0), None)])
+    with pytest.raises(InputError):
+        robot.with_point_frames("a")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", [["paper-robot"], None, 3])
+def test_load_model_refuses_a_name_that_is_not_a_string(name: object) -> None:
+    from bracekit.model.shipped import load_model
+
+    with pytest.raises(ModelError) as info:
+        load_model(name)  # type: ignore[arg-type]
+    one_line(info)

@@ -326,3 +326,47 @@ def test_compliance_index_term_rejects_a_bad_beta_x_with_an_input_error(beta: np
     # errors.py: every error a user can cause derives from InputError (compliance_index() does this)
     with pytest.raises(InputError):
         ComplianceIndex(beta)
+
+
+# ---------------------------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("terms", "weights"),
+    [
+        (None, None),
+        ("k", [1.0]),
+        ([ConditionNumber()], "1"),
+        ([ConditionNumber()], [1.0, 2.0]),
+        ([ConditionNumber()], [np.nan]),
+        ([ConditionNumber()], [-1.0]),
+        ([ConditionNumber()], [True]),
+        (["k"], [1.0]),
+    ],
+)
+def test_objective_refuses_bad_terms_and_weights_with_input_errors(terms: object, weights: object) -> None:
+    with pytest.raises(InputError) as info:
+        Objective(terms, weights)  # type: ignore[arg-type]
+    assert "\n" not in str(info.value)
+
+
+def test_term_constructors_refuse_bad_values_with_input_errors() -> None:
+    for make in (
+        lambda: ComplianceIndex("x"),
+        lambda: ComplianceIndex([[1, 0], [0]]),
+        lambda: ComplianceIndex(np.zeros(6)),
+        lambda: ComplianceIndex([0, 0, 1, 0, 0, 0], model=None),
+        lambda: RegionBarrier("0.1", np.zeros(3)),
+        lambda: RegionBarrier(0.1, [0.0, "a", 0.0]),
+        lambda: RegionBarrier(0.1, [0.0, 0.0]),
+        lambda: BraceAngle(name=3),
+        lambda: ConditionNumber(name=""),
+    ):
+        with pytest.raises(InputError) as info:
+            make()
+        assert "\n" not in str(info.value)
+
+
+def test_an_objective_needs_a_braced_state() -> None:
+    objective = Objective([ConditionNumber()], [1.0])
+    for fn in (objective.value, objective.values, objective.gradient):
+        with pytest.raises(InputError, match="BracedState"):
+            fn("state")  # type: ignore[arg-type]

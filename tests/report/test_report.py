@@ -88,7 +88,7 @@ def test_a_rerun_without_figures_removes_the_previous_runs_figures(short_run, tm
     write_run(short_run, out)
     assert (out / "fig2_film_strip.png").exists()
     (out / "notes.txt").write_text("mine")
-    write_run(short_run, out, figures=False)
+    write_run(short_run, out, figures=False, overwrite=True)  # notes.txt is not bracekit's
     assert not (out / "fig2_film_strip.png").exists() and not (out / "animation.gif").exists()
     assert (out / "summary.json").exists() and (out / "notes.txt").read_text() == "mine"
 

@@ -32,7 +32,7 @@ from bracekit import (
     load_model,
     load_scenario,
 )
-from bracekit._linalg import angle_between, cross3, inverse
+from bracekit._linalg import cross3, inverse
 from bracekit.compliance.measures import theta_z
 from bracekit.contact import contact_type
 from bracekit.errors import BarrierError, SingularityError, UnloadedContactWarning

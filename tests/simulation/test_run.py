@@ -105,3 +105,32 @@ def test_paper_run_reproduces_the_readme_table(paper_run) -> None:
         for name, (ci_mean, k_mean) in rows.items():
             assert s[name]["Ci_mean"] == pytest.approx(ci_mean, rel=5e-3), (model, name)
             assert s[name]["k_mean"] == pytest.approx(k_mean, rel=5e-3), (model, name)
+
+
+def test_run_scenario_accepts_a_pathlib_path_as_its_docstring_promises(short_scenario_file) -> None:
+    from pathlib import Path
+
+    result = run_scenario(Path(short_scenario_file), both_models=False)
+    assert result.completed and result.scenario.source == Path(short_scenario_file)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"scenario": None},
+        {"scenario": 3},
+        {"scenario": "no-such-scenario.toml"},
+        {"gradient": "exact"},
+        {"gradient": ["analytic"]},
+        {"compliance_model": 1},
+        {"both_models": "yes"},
+        {"progress": 3},
+    ],
+)
+def test_run_scenario_refuses_bad_arguments_with_one_line_input_errors(short_scenario_file, kwargs) -> None:
+    from bracekit.errors import InputError
+
+    args = {"scenario": short_scenario_file, **kwargs}
+    with pytest.raises(InputError) as info:
+        run_scenario(**args)
+    assert "\n" not in str(info.value)

@@ -124,3 +124,82 @@ def test_a_scenario_without_region_and_without_the_barrier_term_builds_its_objec
     p.write_text(text, encoding="utf-8")
     sc = load_scenario(p)
     assert sc.objective().names == ("k", "Ci", "theta_z")
+
+
+class _Fspath:
+    """An os.PathLike that is not a pathlib.Path."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __fspath__(self) -> str:
+        return str(self.path)
+
+
+def test_scenario_loads_from_any_os_pathlike(tmp_path: Path) -> None:
+    p = tmp_path / "mine.toml"
+    p.write_text(PAPER_TOML.read_text(), encoding="utf-8")
+    assert load_scenario(_Fspath(p)).robot.n == 11
+
+
+@pytest.mark.parametrize("source", [None, 3, 2.5, ["paper"], b"paper", "", {"robot": 1}])
+def test_a_scenario_source_that_is_not_a_path_or_name_is_a_scenario_error(source: object) -> None:
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(source)  # type: ignore[arg-type]
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "key"),
+    [
+        # the circle's geometry
+        ("normal = [0.0, 1.0, 0.0]", "normal = [0.0, 0.0, 0.0]", "'task.normal'"),
+        ("start_direction = [1.0, 0.0, 0.0]", "start_direction = [0.0, 2.0, 0.0]", "'task.start_direction'"),
+        # the robot: a mistake in each key is named by that key
+        ('tip = "tool"', 'tip = "elbow_pad"', "'robot.tip'"),
+        ("stiffness = 170.0", "stiffness = [170.0, 170.0]", "'robot.stiffness'"),
+        ("stiffness = 170.0", "stiffness = 1e-30", "'robot.stiffness'"),
+        # the brace: the frame, the surface
+        ('frame = "brace"', 'frame = "tool"', "'brace.frame'"),
+        ('frame = "brace"', 'frame = "pad"\nlink = "wrist"', "'brace.link'"),
+        ('frame = "brace"', 'frame = "tool"\nlink = "link6"', "'brace.frame'"),
+        ('frame = "brace"', 'frame = "brace"\ntangent = [0.0, 0.0, 2.0]', "'brace.tangent'"),
+        # gains and directions
+        ("d = 0.01", "d = -0.01", "'gradient_projection.weights.d'"),
+        ('beta_x = "radial"', 'beta_x = "tangential"', "'compliance.beta_x'"),
+        ('beta_x = "radial"', "beta_x = [0, 0, 0, 0, 0, 0]", "'compliance.beta_x'"),
+        ('name = "paper"', "name = 3", "'name'"),
+    ],
+)
+def test_every_scenario_error_names_its_key(tmp_path: Path, old: str, new: str, key: str) -> None:
+    text = PAPER_TOML.read_text()
+    p = tmp_path / "bad.toml"
+    p.write_text(_edit(text, old, new), encoding="utf-8")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    msg = str(info.value)
+    assert key in msg and "\n" not in msg, msg
+
+
+@pytest.mark.parametrize(
+    ("points", "times", "key"),
+    [
+        ([[1.2, -0.3, -0.1], [1.3, -0.3]], [0.0, 1.0], "'task.points'"),  # ragged
+        ([[1.2, -0.3, -0.1], ["a", 0.0, 0.0]], [0.0, 1.0], "'task.points'"),
+        ([[1.2, -0.3, -0.1]], [0.0], "'task.points'"),  # one point
+        ("far", [0.0, 1.0], "'task.points'"),
+        ([[1.2, -0.3, -0.1], [1.3, -0.3, -0.1]], [0.0, 0.0], "'task.times'"),
+        ([[1.2, -0.3, -0.1], [1.3, -0.3, -0.1]], [0.0, 1.0, 2.0], "'task.times'"),
+        ([[1.2, -0.3, -0.1], [1.3, -0.3, -0.1]], [0.5, 1.0], "'task.times'"),
+    ],
+)
+def test_waypoint_task_errors_name_their_key(points: object, times: object, key: str) -> None:
+    import tomllib
+
+    data = tomllib.loads(scenario_text())
+    data["task"] = {"type": "waypoints", "points": points, "times": times}
+    data["compliance"]["beta_x"] = [0, 0, 1, 0, 0, 0]
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(data)
+    msg = str(info.value)
+    assert key in msg and "\n" not in msg, msg

@@ -5,6 +5,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from bracekit import (
@@ -51,6 +52,10 @@ def test_braced_runs_keep_the_bracing_point_on_the_surface_and_the_tip_on_the_ta
         assert abs(surface.signed_distance(st.b)) < 1e-9  # recomputed, not the recorded value
         assert np.linalg.norm(st.e - task.position(t)) < 1e-9
     assert tr.summary()["max_contact_violation_m"] < 1e-9
+    # the largest joint motion between samples, recorded per sample and in the summary
+    steps = np.max(np.abs(np.diff(tr.q, axis=0)), axis=1)
+    assert np.array_equal(tr.measures["joint_step"], np.r_[0.0, steps])
+    assert tr.summary()["max_joint_step_rad"] == np.max(steps)
 
 
 def test_free_space_run_tracks_the_task_but_leaves_the_surface(setup) -> None:
@@ -122,7 +127,11 @@ def test_a_step_that_jumps_over_the_region_barrier_is_split_and_the_run_stays_in
 
     sc, start, _ = setup
     b = sc.braced.brace
-    braced = BracedRobot(sc.robot, Brace(b.frame, b.surface, region_radius=0.05))
+    # the barrier, 0.05 m from a start solved for 0.15 m, drives the wrist at ~5× its URDF velocity limit: raise
+    # the limits, since this test is about the splitting (the joint-speed bound has its own tests)
+    fast = pin.Model(sc.robot.model)
+    fast.velocityLimit = 10 * sc.robot.model.velocityLimit
+    braced = BracedRobot(bk_robot(fast, sc), Brace(b.frame, b.surface, region_radius=0.05))
     obj = Objective([ComplianceIndex([1, 0, 0, 0, 0, 0]), RegionBarrier(0.05, b.surface.point)], [100.0, 0.01])
     task = Circle(sc.task.centre, sc.task.radius, sc.task.normal, 5.0, sc.task.start_direction, turns=0.25)
     tr = simulate(braced, BracedGradientProjection(obj), task, start.q, 0.1, sc.beta_x)
@@ -148,8 +157,6 @@ def test_runs_report_joint_limits_and_surface_penetration(setup) -> None:
     assert s["max_joint_limit_violation_rad"] == 0.0
     # a robot whose limits sit just around the start: the run exceeds them and says so
     model = sc.robot.model
-    import pinocchio as pin
-
     tight = pin.Model(model)
     tight.lowerPositionLimit = start.q - 1e-3
     tight.upperPositionLimit = start.q + 1e-3

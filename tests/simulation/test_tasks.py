@@ -67,3 +67,56 @@ def test_waypoints_reject_non_increasing_times_and_single_points() -> None:
         Waypoints([[0, 0, 0]], [0.0])
     with pytest.raises(InputError):
         Line([0, 0, 0], [1, 0, 0], 0.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"radius": "big"},
+        {"radius": None},
+        {"period": float("nan")},
+        {"turns": True},
+        {"centre": "origin"},
+        {"normal": [[0, 1], [0]]},
+        {"rotation": np.eye(2)},
+        {"rotation": 2 * np.eye(3)},
+        {"radius": 1e308, "period": 1e-10},  # a speed beyond float64
+    ],
+)
+def test_circle_rejects_wrong_types_and_shapes_with_input_errors(kwargs: dict) -> None:
+    base = {"centre": [0, 0, 0], "radius": 0.1, "normal": [0, 1, 0], "period": 1.0, "start_direction": [1, 0, 0]}
+    base.update(kwargs)
+    with pytest.raises(InputError) as info:
+        Circle(**base)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("points", "times"),
+    [
+        ([[0, 0, 0], [1, 0]], [0.0, 1.0]),  # ragged
+        ([[0, 0, 0], [1, 0, 0]], "0 1"),
+        ([[0, 0, 0], [1, 0, 0]], [0.0, float("nan")]),
+        ([[0, 0, 0], [1e308, 0, 0], [-1e308, 0, 0]], [0.0, 1.0, 2.0]),  # steps beyond float64
+        (None, [0.0, 1.0]),
+    ],
+)
+def test_waypoints_reject_ragged_or_non_numeric_input_with_input_errors(points: object, times: object) -> None:
+    with pytest.raises(InputError):
+        Waypoints(points, times)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("duration", ["1", None, float("inf"), [1.0]])
+def test_line_rejects_a_duration_that_is_not_a_positive_number(duration: object) -> None:
+    with pytest.raises(InputError):
+        Line([0, 0, 0], [1, 0, 0], duration)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("t", [float("nan"), "0", None])
+def test_positions_refuse_a_time_that_is_not_a_finite_number(t: object) -> None:
+    circle = Circle([0, 0, 0], 0.1, [0, 1, 0], 1.0, [1, 0, 0])
+    line = Line([0, 0, 0], [1, 0, 0], 1.0)
+    for task in (circle, line):
+        for fn in (task.position, task.velocity):
+            with pytest.raises(InputError):
+                fn(t)  # type: ignore[arg-type]

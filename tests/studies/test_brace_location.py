@@ -51,3 +51,70 @@ def test_bracing_nearer_the_tip_stiffens_the_tip_more_on_the_paper_robot() -> No
 def test_study_rejects_a_number_of_points_out_of_range(points: int) -> None:
     with pytest.raises(InputError):
         brace_location_study(load_model("paper-robot"), Q, points_per_link=points)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"points_per_link": 2.5},
+        {"points_per_link": True},
+        {"points_per_link": "3"},
+        {"points_per_link": None},
+        {"normal": [0, 0, 0]},
+        {"normal": "up"},
+        {"normal": [np.nan, 0, 1]},
+        {"beta_x": [1, 0, 0]},
+        {"beta_x": "z"},
+        {"contact": "glue"},
+        {"q": Q[:3]},
+        {"robot": None},
+    ],
+)
+def test_study_refuses_bad_arguments_with_one_line_input_errors(kwargs: dict) -> None:
+    args = {"robot": load_model("paper-robot"), "q": Q, **kwargs}
+    with pytest.raises(InputError) as info:
+        brace_location_study(**args)
+    assert "\n" not in str(info.value)
+
+
+def test_study_on_a_200_joint_chain_completes_and_matches_the_kkt_equilibrium() -> None:
+    from bracekit import Robot
+    from helpers import random_chain_urdf
+
+    n = 200
+    robot = Robot.from_urdf(random_chain_urdf(n, seed=21), tip="tip")
+    q = np.random.default_rng(5).uniform(-1.0, 1.0, n)
+    cands = brace_location_study(robot, q, points_per_link=2)
+    assert (n - 1) <= len(cands) <= 2 * (n - 1)
+    values = [c.Ci_constrained for c in cands]
+    assert values == sorted(values) and all(np.isfinite(values))
+    model = robot.model
+    data = model.createData()
+    pin.computeJointJacobians(model, data, q)
+    j_e = pin.getFrameJacobian(model, data, robot.tip_id, pin.LOCAL_WORLD_ALIGNED)
+    beta = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    for c in cands[:: max(1, len(cands) // 8)]:  # a sample along the ranking
+        j_joint = pin.getJointJacobian(model, data, c.n1, pin.WORLD)
+        a = (j_joint[:3] - np.cross(c.point, j_joint[3:].T).T).T @ beta[:3]
+        c_true = lagrange_compliance(j_e, robot.stiffness, a[:, None])
+        assert c.Ci_constrained == pytest.approx(np.linalg.norm(beta @ c_true), rel=1e-7)
+
+
+def test_long_chains_are_studied_without_pinocchios_data(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Pinocchio's Data holds n³-sized tensors (0.9 GB at 300 joints); beyond 64 joints neither evaluate nor
+    the study may build one (one per candidate made `bracekit study` take minutes on long chains)."""
+    from bracekit import Robot
+    from bracekit.studies.evaluate import evaluate
+    from helpers import random_chain_urdf
+
+    n = 200
+    robot = Robot.from_urdf(random_chain_urdf(n, seed=21, brace_link=90), tip="tip")
+    q = np.random.default_rng(5).uniform(-1.0, 1.0, n)
+
+    def refuse(model: pin.Model) -> pin.Data:
+        raise AssertionError(f"pinocchio.Data built for {model.nv} joints")
+
+    monkeypatch.setattr(pin.Model, "createData", refuse)
+    monkeypatch.setattr(pin, "Data", refuse)
+    assert len(brace_location_study(robot, q, points_per_link=3)) > n
+    assert evaluate(robot, "brace", q)["n1"] == 90

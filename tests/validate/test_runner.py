@@ -154,3 +154,29 @@ def test_preload_study_error_grows_with_preload(scenario: Scenario, configs: lis
     assert study["failed"] == [[0], [0], [0]]
     out = figure_preload(study, tmp_path / "preload.png")
     assert out.stat().st_size > 10_000
+
+
+def test_more_configurations_than_the_path_has_samples_is_an_input_error_stating_the_maximum(
+    scenario: Scenario,
+) -> None:
+    from bracekit.validate.runner import path_samples
+
+    most = path_samples(scenario)
+    assert most == round(scenario.task.duration / scenario.dt) + 1
+    with pytest.raises(InputError, match=f"at most {most}") as info:
+        validation_configurations(scenario, most + 1)
+    assert "\n" not in str(info.value)
+    with pytest.raises(InputError, match=f"at most {most}"):
+        run_validation(scenario, 10 * most)
+
+
+def test_validation_accepts_a_scenario_path_of_any_os_pathlike(tmp_path: Path) -> None:
+    from helpers import PAPER_TOML
+
+    class Fspath:
+        def __fspath__(self) -> str:
+            return str(PAPER_TOML)
+
+    assert len(validation_configurations(Fspath(), 1)) == 1  # type: ignore[arg-type]
+    with pytest.raises(InputError):
+        validation_configurations(3.5, 1)  # type: ignore[arg-type]

@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import threading
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
+from types import FrameType
 from typing import Any
 
 import numpy as np
@@ -16,6 +20,14 @@ from bracekit._version import __version__
 from bracekit.errors import BracekitError, InputError, MissingDependencyError
 
 LIST_OPTIONS = ("--q", "--stiffness", "--normal", "--beta-x", "--brace-offset")
+OUT_HELP = (
+    "checked before any computation and written whole: a previous bracekit output there is replaced, "
+    "a folder holding other files is refused"
+)
+OVERWRITE_HELP = (
+    "write into an --out that holds files bracekit did not write: bracekit's earlier files there are replaced, "
+    "the other files are kept (never deleted or replaced)"
+)
 
 
 def _floats(text: str, what: str) -> np.ndarray:
@@ -91,7 +103,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run a scenario: Table I, Figures 2-4 and the animation")
     run.add_argument("scenario", help="a scenario TOML file or a shipped name (paper)")
-    run.add_argument("--out", type=Path, default=Path("bracekit-out"), help="output folder (default bracekit-out)")
+    run.add_argument(
+        "--out", type=Path, default=Path("bracekit-out"), help=f"output folder (default bracekit-out); {OUT_HELP}"
+    )
+    run.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     run.add_argument("--gradient", choices=("analytic", "finite-difference"), help="how ∇g is computed")
     run.add_argument("--compliance-model", choices=("constrained", "projection"), help="model of summary.json")
     run.add_argument("--no-figures", action="store_true", help="write the table, summary and trajectories only")
@@ -101,7 +116,10 @@ def build_parser() -> argparse.ArgumentParser:
     va.add_argument("scenario", nargs="?", default="paper", help="scenario file or shipped name (default paper)")
     va.add_argument("--configs", type=int, default=3, help="number of configurations along the path (default 3)")
     va.add_argument("--json", action="store_true", help="print one JSON object")
-    va.add_argument("--out", type=Path, help="also write validation.json and validation.png into this folder")
+    va.add_argument(
+        "--out", type=Path, help=f"also write validation.json and validation.png into this folder; {OUT_HELP}"
+    )
+    va.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
 
     be = sub.add_parser("bench", help="measure the speed of the hot paths")
     be.add_argument("--json", action="store_true", help="print one JSON object")
@@ -122,7 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"bracekit: warning: {message}", file=sys.stderr)
 
     saved = warnings.showwarning
-    warnings.showwarning = show  # type: ignore[assignment]
+    warnings.showwarning = show
     try:
         return _dispatch(args)
     except InputError as exc:
@@ -204,6 +222,14 @@ def _evaluate_text(r: dict[str, Any]) -> str:
         f"b = {np.round(r['b'], 4).tolist()} m, e = {np.round(r['e'], 4).tolist()} m, "
         f"θ_z = {np.degrees(r['theta_z']):.2f}°",
         f"k (free-space J) = {r['k']:.3f}, k (braced J̃) = {r['k_braced']:.3f}",
+        f"chain 1: {r['braced_motions']} braced motions of {{b}}"
+        + (
+            "; J1 is singular (cond = "
+            + ("inf" if r["J1_condition"] is None else f"{r['J1_condition']:.3g}")
+            + "): A assumes motions chain 1 cannot make"
+            if r["J1_singular"]
+            else ""
+        ),
         "",
         "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
     ]
@@ -262,34 +288,59 @@ def _study(args: argparse.Namespace) -> int:
 
 
 # --- run -----------------------------------------------------------------------------------------
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM raises KeyboardInterrupt while a command runs, so it cleans up like Ctrl-C (exit 130)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
 def _run(args: argparse.Namespace) -> int:
     from bracekit.report import write_run
+    from bracekit.report.output import prepare_output, run_files
     from bracekit.report.table import table_markdown
     from bracekit.simulation.run import run_scenario, total_steps
     from bracekit.simulation.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
-    bar = None
-    if not args.quiet:
-        from tqdm import tqdm
+    figures = not args.no_figures
+    with (
+        _sigterm_as_interrupt(),
+        prepare_output(
+            args.out, overwrite=args.overwrite, files=run_files(figures), command=f"bracekit run {args.scenario}"
+        ) as plan,
+    ):
+        bar = None
+        if not args.quiet:
+            from tqdm import tqdm
 
-        bar = tqdm(total=total_steps(scenario), desc=f"{scenario.name}: simulating", unit="step", file=sys.stderr)
-    try:
-        result = run_scenario(
-            scenario,
-            gradient=args.gradient,
-            compliance_model=args.compliance_model,
-            progress=None if bar is None else bar.update,
+            bar = tqdm(total=total_steps(scenario), desc=f"{scenario.name}: simulating", unit="step", file=sys.stderr)
+        try:
+            result = run_scenario(
+                scenario,
+                gradient=args.gradient,
+                compliance_model=args.compliance_model,
+                progress=None if bar is None else bar.update,
+            )
+        finally:
+            if bar is not None:
+                bar.close()
+        written = write_run(
+            result,
+            plan,
+            figures=figures,
+            progress=None if args.quiet else (lambda name: print(f"writing {name}", file=sys.stderr)),
         )
-    finally:
-        if bar is not None:
-            bar.close()
-    written = write_run(
-        result,
-        args.out,
-        figures=not args.no_figures,
-        progress=None if args.quiet else (lambda name: print(f"writing {name}", file=sys.stderr)),
-    )
     print(table_markdown(result.summaries, scenario.name))
     for name, s in result.summary["strategies"].items():
         if not s["completed"]:
@@ -299,8 +350,11 @@ def _run(args: argparse.Namespace) -> int:
 
 
 # --- validate ------------------------------------------------------------------------------------
+VALIDATION_FILES = ("validation.json", "validation.png")
+
+
 def _validate(args: argparse.Namespace) -> int:
-    from bracekit.report.output import atomic_directory, to_json
+    from bracekit.report.output import atomic_directory, prepare_output, to_json
     from bracekit.simulation.scenario import load_scenario
 
     _needs("mujoco", "validate", "bracekit validate")
@@ -312,22 +366,37 @@ def _validate(args: argparse.Namespace) -> int:
     if args.configs < 1:
         raise InputError(f"--configs must be at least 1, got {args.configs}")
     scenario = load_scenario(args.scenario)
-    bar = None
-    if not args.json:
-        from tqdm import tqdm
+    from bracekit.validate.runner import path_samples
 
-        total = args.configs * len(DEFAULT_DIRECTIONS)
-        bar = tqdm(total=total, desc=f"{scenario.name}: validating", unit="case", file=sys.stderr)
-    try:
-        report = run_validation(scenario, configs=args.configs, progress=None if bar is None else bar.update)
-    finally:
-        if bar is not None:
-            bar.close()
-    data = report.to_json()
-    if args.out is not None:
-        with atomic_directory(args.out) as tmp:
-            (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
-            figure_validation(report, tmp / "validation.png")
+    if args.configs > path_samples(scenario):
+        raise InputError(
+            f"--configs {args.configs} is more than the {path_samples(scenario)} samples of the path of scenario "
+            f"'{scenario.name}'; give at most {path_samples(scenario)}"
+        )
+    with ExitStack() as stack:
+        stack.enter_context(_sigterm_as_interrupt())
+        plan = None
+        if args.out is not None:
+            command = f"bracekit validate {args.scenario}"
+            plan = stack.enter_context(
+                prepare_output(args.out, overwrite=args.overwrite, files=VALIDATION_FILES, command=command)
+            )
+        bar = None
+        if not args.json:
+            from tqdm import tqdm
+
+            total = args.configs * len(DEFAULT_DIRECTIONS)
+            bar = tqdm(total=total, desc=f"{scenario.name}: validating", unit="case", file=sys.stderr)
+        try:
+            report = run_validation(scenario, configs=args.configs, progress=None if bar is None else bar.update)
+        finally:
+            if bar is not None:
+                bar.close()
+        data = report.to_json()
+        if plan is not None:
+            with atomic_directory(plan) as tmp:
+                (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
+                figure_validation(report, tmp / "validation.png")
     print(to_json(data) if args.json else report.table_text())
     counts = report.counts()
     if counts.get("failed", 0) > 0 or report.model_stats("constrained")["n_cases"] == 0:

@@ -8,14 +8,15 @@ configurations per second.
 The Jacobians come from :class:`ChainKinematics`, a vectorised product of exponentials built from the
 Pinocchio model's joint placements and motion subspaces, Mᵢ = M_parent · placementᵢ · exp(Sᵢ qᵢ), checked
 against Pinocchio when it is built (a robot whose joints it cannot reproduce is evaluated with a loop of
-Pinocchio calls instead). The compliance formulas are those of :mod:`bracekit.compliance`, over stacks of
-matrices:
+Pinocchio calls instead). Beyond DATA_JOINT_LIMIT joints, where Pinocchio's Data (n³ in size) is too costly,
+the reference is :class:`bracekit.model.chain.ChainFK`. The compliance formulas are those of
+:mod:`bracekit.compliance`, over stacks of matrices:
 
 * C2 part: S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ, since S_t2 J2 = J_e[:, n1:] (eq:J2, eq:twists);
 * ``projection``: S_t1 C̃1 S_t1ᵀ = Ĵ1 K1⁻¹ Ĵ1ᵀ with Ĵ1 = S_t1 (I − P) J1 (eq:C1wave_detail, eq:Ce);
-* ``constrained``: C̃1 = C1 − C1 X G Xᵀ C1, G = (Xᵀ C1 X [+ I/k_env])⁻¹ (MODEL.md), unloaded directions
+* ``constrained``: C̃1 = C1 − C1 X G Xᵀ C1, G = (Xᵀ C1 X [+ I/k_env])⁻¹ (docs/model.md), unloaded directions
   dropped by ``compliance.loaded_gain`` as in ``compliance.constraint_gain`` and counted in one UnloadedContactWarning;
-* a compliance that is not finite (overflow) raises NumericalError naming the configuration;
+* a compliance that is not finite (overflow) raises NumericalError naming the configuration (no RuntimeWarning);
 * k = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) from a batched inverse of JJᵀ, with the reference's SVD for any
   configuration whose condition number is not certified below 10³ (so singular ones raise, or give NaN
   when ``errors="nan"``).
@@ -30,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit._linalg import as_array, as_count, finite_math, show
 from bracekit.compliance.first_order import (
     COMPLIANCE_MODELS,
     ComplianceModel,
@@ -41,6 +43,7 @@ from bracekit.compliance.first_order import (
 from bracekit.compliance.measures import frobenius_condition
 from bracekit.errors import InputError, SingularityError
 from bracekit.kinematics import LWA, BracedRobot
+from bracekit.model.chain import DATA_JOINT_LIMIT, joint_axis
 from bracekit.model.robot import Robot
 from bracekit.spatial import unit
 from bracekit.tolerances import CERTIFIED_COND
@@ -49,7 +52,6 @@ Array = NDArray[np.float64]
 
 #: Configurations evaluated together (bounds the memory: about 2 kB per configuration and chunk).
 CHUNK = 2048
-
 
 
 def _frame_with_z(axis: Array) -> Array:
@@ -90,8 +92,6 @@ class ChainKinematics:
         self.robot = robot
         self.frame_ids = tuple(int(f) for f in frame_ids)
         self.n = robot.n
-        data = model.createData()
-        pin.computeJointJacobians(model, data, pin.neutral(model))
         njoints = model.njoints
         self._parent = [int(model.parents[j]) for j in range(njoints)]
         self._col = [int(model.joints[j].idx_v) for j in range(njoints)]
@@ -101,8 +101,7 @@ class ChainKinematics:
         u = [np.eye(3)]
         motion: list[tuple[float, float]] = [(0.0, 0.0)]  # (|ω|, signed speed along a_j) per unit q
         exact = True
-        for j in range(1, njoints):
-            s = pin.getJointJacobian(model, data, j, pin.ReferenceFrame.LOCAL)[:, self._col[j]]
+        for s in self._motion_subspaces(model):
             v, w = s[:3], s[3:]
             nw, nv = float(np.linalg.norm(w)), float(np.linalg.norm(v))
             axis = w / nw if nw > 0 else (v / nv if nv > 0 else np.array([0.0, 0.0, 1.0]))
@@ -126,13 +125,30 @@ class ChainKinematics:
         self._supports = [[self._col[j] for j in model.supports[p][1:]] for p, _, _ in self._frames]
         self.exact = exact and self._check()
 
+    def _motion_subspaces(self, model: pin.Model) -> list[Array]:
+        """Each joint's motion subspace S = [v; ω] in its own frame (Pinocchio's, or from its axis on long chains)."""
+        if self.n > DATA_JOINT_LIMIT:  # Pinocchio's Data is n³ in size: read the axes from the joint models
+            out = []
+            for j in range(1, model.njoints):
+                kind = joint_axis(model.joints[j])
+                if kind is None:
+                    raise InputError(f"joint '{model.names[j]}' is not a revolute or prismatic joint")
+                out.append(np.concatenate([np.zeros(3), kind[1]] if kind[0] else [kind[1], np.zeros(3)]))
+            return out
+        data = model.createData()
+        pin.computeJointJacobians(model, data, pin.neutral(model))
+        return [
+            pin.getJointJacobian(model, data, j, pin.ReferenceFrame.LOCAL)[:, self._col[j]]
+            for j in range(1, model.njoints)
+        ]
+
     def _check(self) -> bool:
         rng = np.random.default_rng(0)
         lo, hi = self.robot.lower, self.robot.upper
         lo = np.where(np.isfinite(lo), lo, -np.pi)
         hi = np.where(np.isfinite(hi), hi, np.pi)
         q = rng.uniform(lo, hi, size=(4, self.n))
-        ours, ref = self._poe(q), self._pinocchio(q)
+        ours, ref = self._poe(q), self._reference(q)
         return all(
             np.allclose(a, b, rtol=0.0, atol=1e-12)
             for a, b in zip(
@@ -142,12 +158,8 @@ class ChainKinematics:
 
     def frames(self, Q: ArrayLike) -> FramesBatch:
         """Placements and Jacobians of the frames at each row of Q (N×n)."""
-        q = np.asarray(Q, dtype=float)
-        if q.ndim != 2 or q.shape[1] != self.n:
-            raise InputError(f"configurations must be an array of shape (N, {self.n}), got {q.shape}")
-        if not np.all(np.isfinite(q)):
-            raise InputError("configurations must be finite numbers")
-        return self._poe(q) if self.exact else self._pinocchio(q)
+        q = as_array(Q, "the configurations", (-1, self.n))
+        return self._poe(q) if self.exact else self._reference(q)
 
     def _poe(self, q: Array) -> FramesBatch:
         N, n = q.shape
@@ -215,6 +227,18 @@ class ChainKinematics:
                 jac[:, :3, pri] = axes[pri].transpose(1, 2, 0)
         return FramesBatch(positions, rotations, jacobians)
 
+    def _reference(self, q: Array) -> FramesBatch:
+        """The frames one configuration at a time: Pinocchio, or ChainFK beyond DATA_JOINT_LIMIT joints."""
+        if self.n <= DATA_JOINT_LIMIT:
+            return self._pinocchio(q)
+        F, N = len(self.frame_ids), q.shape[0]
+        positions, rotations = np.empty((F, N, 3)), np.empty((F, N, 3, 3))
+        jacobians = np.empty((F, N, 6, self.n))
+        for i in range(N):
+            for f, (m, jac) in enumerate(self.robot.frame_kinematics(q[i], self.frame_ids)):
+                positions[f, i], rotations[f, i], jacobians[f, i] = m[:3, 3], m[:3, :3], jac
+        return FramesBatch(positions, rotations, jacobians)
+
     def _pinocchio(self, q: Array) -> FramesBatch:
         model = self.robot.model
         data = model.createData()
@@ -253,6 +277,8 @@ class BatchEvaluator:
     """Vectorised C_e, C_i and k of a braced robot; build once, call with arrays of configurations."""
 
     def __init__(self, braced: BracedRobot) -> None:
+        if not isinstance(braced, BracedRobot):
+            raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
         self.braced = braced
         robot = braced.robot
         self.kinematics = ChainKinematics(robot, (robot.tip_id, braced.brace_id))
@@ -285,31 +311,45 @@ class BatchEvaluator:
             k_braced: also compute k of J̃.
             chunk: configurations evaluated together.
         """
-        q = np.asarray(Q, dtype=float)
+        n = self.kinematics.n
+        q = as_array(Q, "the configurations Q", finite=False)
         if q.ndim == 1:
             q = q[None, :]
+        if q.ndim != 2 or q.shape[1] != n or q.shape[0] == 0:
+            raise InputError(f"the configurations Q must be an array of shape (N, {n}) with N ≥ 1, got {q.shape}")
+        finite = np.isfinite(q).all(axis=1)
+        if not finite.all():
+            raise InputError(f"configuration {int(np.argmin(finite))} of Q is not finite (NaN or inf)")
         N = q.shape[0]
+        if isinstance(models, str):
+            models = (models,)
+        if not isinstance(models, Sequence) or len(models) == 0:
+            raise InputError(f"models must be a list of compliance models ({', '.join(COMPLIANCE_MODELS)})")
         mods = tuple(check_model(m) for m in models)
-        if errors not in ("raise", "nan"):
-            raise InputError(f"errors must be 'raise' or 'nan', got {errors!r}")
+        if not isinstance(errors, str) or errors not in ("raise", "nan"):
+            raise InputError(f"errors must be 'raise' or 'nan', got {show(errors)}")
+        if not isinstance(k_braced, bool):
+            raise InputError(f"k_braced must be True or False, got {show(k_braced)}")
+        size = as_count(chunk, "chunk")
         beta = _betas(beta_x, N)
-        c_e = {m: np.empty((N, 6, 6)) for m in mods}
-        ci = {m: np.empty(N) for m in mods}
+        c_e: dict[str, Array] = {m: np.empty((N, 6, 6)) for m in mods}
+        ci: dict[str, Array] = {m: np.empty(N) for m in mods}
         k, kb = np.empty(N), (np.empty(N) if k_braced else None)
         unloaded = 0
-        for s in range(0, N, max(1, int(chunk))):
-            sl = slice(s, min(N, s + max(1, int(chunk))))
+        for s in range(0, N, size):
+            sl = slice(s, min(N, s + size))
             fr = self.kinematics.frames(q[sl])
             je, jb = fr.jacobian[0], fr.jacobian[1]
-            d = fr.position[1] - fr.position[0]  # b − e
-            out, jt, bad = self._compliance(je, jb, d, mods, k_braced, s)
-            unloaded += bad
-            for m in mods:
-                c_e[m][sl] = _check_rows(out[m], s, f"C_e ({m})")
-                v = np.einsum("ni,nij->nj", beta[sl], out[m])
-                ci[m][sl] = _check_rows(np.sqrt(np.einsum("ni,ni->n", v, v)), s, f"C_i ({m})")
+            with np.errstate(all="ignore"):  # a non-finite row raises NumericalError naming its configuration
+                d = fr.position[1] - fr.position[0]  # b − e
+                out, jt, bad = self._compliance(je, jb, d, mods, k_braced, s)
+                unloaded += bad
+                for m in mods:
+                    c_e[m][sl] = _check_rows(out[m], s, f"C_e ({m})")
+                    v = np.einsum("ni,nij->nj", beta[sl], out[m])
+                    ci[m][sl] = _check_rows(np.sqrt(np.einsum("ni,ni->n", v, v)), s, f"C_i ({m})")
             k[sl] = _frobenius(je, errors, s)
-            if kb is not None:
+            if kb is not None and jt is not None:
                 kb[sl] = _frobenius(jt, errors, s)
         if unloaded:
             warn_unloaded(unloaded, configurations=N, stacklevel=2)
@@ -322,11 +362,9 @@ class BatchEvaluator:
         j1 = np.ascontiguousarray(jb[:, :, :n1])
         je2 = je[:, :, n1:]
         c2 = _gram(je2, self._k2inv)  # S_t2 C2 S_t2ᵀ
-        jh1 = jt = None
-        if "projection" in models or k_braced:
-            # J̃ = [S_t1 (I − P) J1, S_t2 J2] (eq:J_wave); S_t1 x = [x_v + d × x_ω; x_ω]
-            jh1 = _shift(self._t @ j1, d)
-            jt = np.concatenate((jh1, je2), axis=2) if k_braced else None
+        # J̃ = [S_t1 (I − P) J1, S_t2 J2] (eq:J_wave); S_t1 x = [x_v + d × x_ω; x_ω]
+        jh1 = _shift(self._t @ j1, d) if "projection" in models or k_braced else np.empty((0, 6, n1))
+        jt = np.concatenate((jh1, je2), axis=2) if k_braced else None
         out: dict[str, Array] = {}
         bad = 0
         for m in models:
@@ -349,16 +387,14 @@ class BatchEvaluator:
 
 
 def _betas(beta_x: ArrayLike, N: int) -> Array:
-    b = np.asarray(beta_x, dtype=float)
+    b = as_array(beta_x, "beta_x", finite=False)
     if b.shape == (6,):
-        try:
-            return np.broadcast_to(unit(b, "beta_x"), (N, 6))
-        except ValueError as exc:
-            raise InputError(str(exc)) from exc
+        return np.broadcast_to(unit(b, "beta_x"), (N, 6))
     if b.shape != (N, 6):
         raise InputError(f"beta_x must have shape (6,) or ({N}, 6), got {b.shape}")
-    norms = np.linalg.norm(b, axis=1)
-    if not np.all(np.isfinite(b)) or np.any(norms < 1e-12):
+    with finite_math("the norms of beta_x"):
+        norms = np.linalg.norm(b, axis=1) if np.all(np.isfinite(b)) else np.zeros(N)
+    if np.any(norms < 1e-12):
         raise InputError("every beta_x must be a finite, non-zero 6-vector [v; ω]")
     return b / norms[:, None]
 
@@ -420,7 +456,7 @@ def _frobenius(j: Array, errors: str, offset: int) -> Array:
                     pass
         k2 = a * bb
         k = np.sqrt(k2) / 6.0
-    for i in np.flatnonzero(~(k2 < CERTIFIED_COND**2)):  # 36 k² ≥ cond(J)²; also nan
+    for i in np.flatnonzero(~(k2 < CERTIFIED_COND**2)).tolist():  # 36 k² ≥ cond(J)²; also nan
         try:
             k[i] = frobenius_condition(j[i])
         except SingularityError as exc:

@@ -5,7 +5,7 @@ m/N, m/(N·m) = 1/N, rad/N and rad/(N·m). Two models of the bracing-consistent 
 
 * ``"projection"``: the paper's C̃1 = (I − P) C1 (I − P) (eq:C1wave_detail).
 * ``"constrained"`` (default): the exact first-order static equilibrium with the contact as a bilateral
-  constraint, C̃1 = C1 − C1 X (Xᵀ C1 X)⁻¹ Xᵀ C1 (MODEL.md). With a finite environment stiffness k_env the
+  constraint, C̃1 = C1 − C1 X (Xᵀ C1 X)⁻¹ Xᵀ C1 (docs/model.md). With a finite environment stiffness k_env the
   inverse becomes (Xᵀ C1 X + I / k_env)⁻¹.
 """
 
@@ -14,11 +14,12 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import Literal, TypeVar
+from typing import Literal, TypeVar, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit._linalg import as_array, finite_math, show
 from bracekit.errors import InputError, NumericalError, UnloadedContactWarning
 from bracekit.kinematics import BracedState
 from bracekit.spatial import unit
@@ -30,29 +31,54 @@ COMPLIANCE_MODELS: tuple[str, ...] = ("constrained", "projection")
 _T = TypeVar("_T")
 
 
-
 def check_model(model: str) -> ComplianceModel:
     """Validate a compliance-model name."""
-    if model not in COMPLIANCE_MODELS:
-        raise InputError(f"unknown compliance model '{model}'; choose one of {', '.join(COMPLIANCE_MODELS)}")
-    return model  # type: ignore[return-value]
+    if not isinstance(model, str) or model not in COMPLIANCE_MODELS:
+        raise InputError(f"unknown compliance model {show(model)}; choose one of {', '.join(COMPLIANCE_MODELS)}")
+    return cast(ComplianceModel, model)
+
+
+def check_state(state: object) -> BracedState:
+    """`state` if it is a BracedState (from ``BracedRobot.state(q)``); InputError otherwise."""
+    if not isinstance(state, BracedState):
+        raise InputError(f"expected a BracedState (from BracedRobot.state(q)), got {type(state).__name__}")
+    return state
+
+
+def compliance_matrix(c_e: ArrayLike, what: str = "the compliance C_e") -> Array:
+    """`c_e` as a finite 6×6 float array; InputError naming `what` otherwise."""
+    return as_array(c_e, what, (6, 6))
+
+
+def c1_unchecked(state: BracedState) -> Array:
+    """J1 K1⁻¹ J1ᵀ without the finiteness check: inf or NaN where it overflows, and no warning.
+
+    For callers that check what they build from it, with their own message.
+    """
+    j1 = state.J1
+    with np.errstate(all="ignore"):
+        return (j1 / state.K[: state.n1]) @ j1.T
 
 
 def C1(state: BracedState) -> Array:
-    """Free compliance of chain 1 at b, world axes: J1 K1⁻¹ J1ᵀ (6×6), eq:C1_def."""
-    j1 = state.J1
-    return (j1 / state.K[: state.n1]) @ j1.T
+    """Free compliance of chain 1 at b, world axes: J1 K1⁻¹ J1ᵀ (6×6), eq:C1_def. NumericalError on overflow."""
+    return check_finite(c1_unchecked(check_state(state)), "C1")
 
 
 def C2(state: BracedState) -> Array:
-    """Compliance of chain 2 at e, {b}'s axes: J2 K2⁻¹ J2ᵀ (6×6), eq:C2_def."""
+    """Compliance of chain 2 at e, {b}'s axes: J2 K2⁻¹ J2ᵀ (6×6), eq:C2_def. NumericalError on overflow."""
+    return check_finite(_c2(check_state(state)), "C2")
+
+
+def _c2(state: BracedState) -> Array:
     j2 = state.J2
-    return (j2 / state.K[state.n1 :]) @ j2.T
+    with np.errstate(all="ignore"):
+        return (j2 / state.K[state.n1 :]) @ j2.T
 
 
 def check_finite(a: _T, what: str) -> _T:
     """`a` itself if every entry is finite; NumericalError naming `what` otherwise (no silent NaN or inf)."""
-    if not (math.isfinite(a) if isinstance(a, float) else np.isfinite(a).all()):
+    if not (math.isfinite(a) if isinstance(a, float) else np.isfinite(np.asarray(a)).all()):
         raise NumericalError(
             f"{what} is not finite: the compliance overflows (joint stiffnesses too small for 1/K or lengths too large)"
         )
@@ -74,7 +100,7 @@ def warn_unloaded(count: int, configurations: int | None = None, stacklevel: int
     )
 
 
-def loaded_gain(m: Array, trace_c1: ArrayLike, k_env: float | None = None) -> tuple[Array, Array]:
+def loaded_gain(m: Array, trace_c1: ArrayLike, k_env: float | None = None) -> tuple[Array, NDArray[np.int_]]:
     """G = (Xᵀ C1 X + I/k_env)⁻¹ and the number of unloaded directions, for one m = Xᵀ C1 X or a stack (N, c, c).
 
     With a rigid environment (k_env None) G is the inverse over the loaded directions only: eigenvalues of m
@@ -84,11 +110,13 @@ def loaded_gain(m: Array, trace_c1: ArrayLike, k_env: float | None = None) -> tu
     check_finite(m, "Xᵀ C1 X")
     check_finite(trace_c1, "tr(C1)")
     if k_env is not None:
-        return np.linalg.inv(m + np.eye(m.shape[-1]) / k_env), np.zeros(m.shape[:-2], dtype=int)
+        inv = np.asarray(np.linalg.inv(m + np.eye(m.shape[-1]) / k_env), dtype=np.float64)
+        return inv, np.zeros(m.shape[:-2], dtype=np.int_)
     # one constraint direction (a frictionless point): m is its own eigenvalue, exactly
     w, v = (m[..., 0], np.ones(m.shape)) if m.shape[-1] == 1 else np.linalg.eigh(m)
     good = w > UNLOADED_TOL * np.maximum(trace_c1, 1e-300)[..., None]
-    return (v / np.where(good, w, np.inf)[..., None, :]) @ np.swapaxes(v, -1, -2), np.sum(~good, axis=-1)
+    gain: Array = (v / np.where(good, w, np.inf)[..., None, :]) @ np.swapaxes(v, -1, -2)
+    return gain, np.asarray(np.sum(~good, axis=-1), dtype=np.int_)
 
 
 def constraint_gain(state: BracedState, c1: Array | None = None) -> Array:
@@ -97,55 +125,78 @@ def constraint_gain(state: BracedState, c1: Array | None = None) -> Array:
     Directions in which chain 1 cannot move {b} (Xᵀ C1 X singular, rigid environment) carry no load:
     they are dropped (pseudo-inverse) and an UnloadedContactWarning says so. NumericalError if C1 is not finite.
     """
-    c1 = C1(state) if c1 is None else c1
+    c1 = c1_unchecked(check_state(state)) if c1 is None else c1
     x = state.X
-    g, unloaded = loaded_gain(x.T @ c1 @ x, np.trace(c1), state.braced.brace.environment_stiffness)
+    with np.errstate(all="ignore"):  # a non-finite Xᵀ C1 X raises NumericalError in loaded_gain
+        g, unloaded = loaded_gain(x.T @ c1 @ x, np.trace(c1), state.braced.brace.environment_stiffness)
     if unloaded:
         warn_unloaded(int(unloaded), stacklevel=3)
     return g
+
+
+def braced_c1_unchecked(state: BracedState, model: ComplianceModel, c1: Array) -> Array:
+    """C̃1 of :func:`braced_C1` from C1, without the final finiteness check (the callers check)."""
+    with np.errstate(all="ignore"):
+        if model == "projection":
+            t = np.eye(6) - state.P
+            return t @ c1 @ t
+        cx = c1 @ state.X
+        out = c1 - cx @ constraint_gain(state, c1) @ cx.T
+        return 0.5 * (out + out.T)
 
 
 def braced_C1(state: BracedState, model: ComplianceModel = "constrained") -> Array:
     """Bracing-consistent compliance C̃1 of chain 1 at b, world axes (6×6).
 
     ``projection``: (I − P) C1 (I − P), eq:C1wave_detail. ``constrained``: C1 − C1 X G Xᵀ C1 with
-    G = (Xᵀ C1 X)⁻¹ (MODEL.md; the Lagrange-multiplier equilibrium).
+    G = (Xᵀ C1 X)⁻¹ (docs/model.md; the Lagrange-multiplier equilibrium). NumericalError on overflow.
     """
     model = check_model(model)
-    c1 = C1(state)
-    if model == "projection":
-        t = np.eye(6) - state.P
-        return t @ c1 @ t
-    cx = c1 @ state.X
-    out = c1 - cx @ constraint_gain(state, c1) @ cx.T
-    return 0.5 * (out + out.T)
+    return check_finite(braced_c1_unchecked(state, model, c1_unchecked(check_state(state))), "C̃1")
 
 
 def end_effector_compliance(state: BracedState, model: ComplianceModel = "constrained") -> Array:
     """C_e = S_t1 C̃1 S_w1 + S_t2 C2 S_w2 (6×6), eq:Ce, with the dual wrench maps S_w = S_tᵀ (erratum).
 
     Maps a tip wrench [f; m] at e (world axes) to the tip deflection [Δp; Δθ] (world axes).
+    Raises NumericalError if it overflows float64.
     """
-    s1, s2 = state.S_t1, state.S_t2
-    out = s1 @ braced_C1(state, model) @ s1.T + s2 @ C2(state) @ s2.T
-    return check_finite(0.5 * (out + out.T), "C_e")
+    check_state(state)
+    model = check_model(model)
+    c1t = braced_c1_unchecked(state, model, c1_unchecked(state))
+    with np.errstate(all="ignore"):  # an overflow gives inf or NaN, which check_finite refuses
+        s1, s2 = state.S_t1, state.S_t2
+        out = s1 @ c1t @ s1.T + s2 @ _c2(state) @ s2.T
+        return check_finite(0.5 * (out + out.T), "C_e")
 
 
 def free_space_compliance(state: BracedState) -> Array:
     """Compliance of the unbraced robot at e: J K⁻¹ Jᵀ (6×6), world axes."""
-    j = state.J_e
-    return check_finite((j / state.K) @ j.T, "the free-space compliance J K⁻¹ Jᵀ")
+    j = check_state(state).J_e
+    with np.errstate(all="ignore"):
+        return check_finite((j / state.K) @ j.T, "the free-space compliance J K⁻¹ Jᵀ")
 
 
-def directional_compliance(c_e: Array, beta_x: ArrayLike, beta_w: ArrayLike) -> float:
-    """C_βx = β_xᵀ C_e β_w (eq:directional_compliance_result); β_x a unit twist, β_w a unit wrench."""
+def directional_compliance(c_e: ArrayLike, beta_x: ArrayLike, beta_w: ArrayLike) -> float:
+    """C_βx = β_xᵀ C_e β_w (eq:directional_compliance_result); β_x a unit twist, β_w a unit wrench.
+
+    `c_e` is a 6×6 compliance (e.g. :func:`end_effector_compliance`); β_x and β_w are scaled to unit length.
+    """
+    c = compliance_matrix(c_e)
     bx, bw = unit6(beta_x, "beta_x"), unit6(beta_w, "beta_w")
-    return float(check_finite(bx @ c_e @ bw, "the directional compliance"))
+    with np.errstate(all="ignore"):
+        return float(check_finite(bx @ c @ bw, "the directional compliance"))
 
 
-def compliance_index(c_e: Array, beta_x: ArrayLike) -> float:
-    """C_i = ‖β_xᵀ C_e‖₂ (eq:compliance_index): the largest deflection along β_x per unit wrench."""
-    return float(check_finite(np.linalg.norm(unit6(beta_x, "beta_x") @ c_e), "the compliance index"))
+def compliance_index(c_e: ArrayLike, beta_x: ArrayLike) -> float:
+    """C_i = ‖β_xᵀ C_e‖₂ (eq:compliance_index): the largest deflection along β_x per unit wrench.
+
+    `c_e` is a 6×6 compliance; β_x (6,) is scaled to unit length.
+    """
+    c = compliance_matrix(c_e)
+    beta = unit6(beta_x, "beta_x")
+    with np.errstate(all="ignore"):
+        return float(check_finite(np.linalg.norm(beta @ c), "the compliance index"))
 
 
 @dataclass(frozen=True)
@@ -167,20 +218,20 @@ class ComplianceEllipsoids:
     rotational: Ellipsoid
 
 
-def compliance_ellipsoids(c_e: Array) -> ComplianceEllipsoids:
-    """Eigen-decomposition of the translational and rotational diagonal blocks of C_e."""
+def compliance_ellipsoids(c_e: ArrayLike) -> ComplianceEllipsoids:
+    """Eigen-decomposition of the translational and rotational diagonal blocks of a 6×6 compliance C_e."""
+    c = compliance_matrix(c_e)
     out = []
-    for block in (c_e[:3, :3], c_e[3:, 3:]):
-        w, v = np.linalg.eigh(0.5 * (block + block.T))
-        out.append(Ellipsoid(semi_axes=np.clip(w, 0.0, None), axes=v))
+    with finite_math("the compliance ellipsoids"):
+        for block in (c[:3, :3], c[3:, 3:]):
+            w, v = np.linalg.eigh(0.5 * (block + block.T))
+            out.append(Ellipsoid(semi_axes=np.clip(w, 0.0, None), axes=v))
     return ComplianceEllipsoids(translational=out[0], rotational=out[1])
 
 
 def unit6(v: ArrayLike, what: str) -> Array:
-    a = np.asarray(v, dtype=float).reshape(-1)
+    """`v` (6 numbers [v; ω], not all zero) scaled to unit length; InputError naming `what` otherwise."""
+    a = as_array(v, what, finite=False).reshape(-1)
     if a.size != 6:
         raise InputError(f"{what} must have 6 components [v; ω], got {a.size}")
-    try:
-        return unit(a, what)
-    except ValueError as exc:
-        raise InputError(str(exc)) from exc
+    return unit(a, what)

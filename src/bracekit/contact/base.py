@@ -13,6 +13,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._linalg import show
 from bracekit.errors import ContactError
 
 Array = NDArray[np.float64]
@@ -70,5 +71,5 @@ def contact_type(name: str | ContactType) -> ContactType:
         return name
     cls = REGISTRY.get(name) if isinstance(name, str) else None
     if cls is None:
-        raise ContactError(f"unknown contact type {name!r}; choose one of {', '.join(REGISTRY)}")
+        raise ContactError(f"unknown contact type {show(name)}; choose one of {', '.join(REGISTRY)}")
     return cls()

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._linalg import as_number, show
 from bracekit.contact.base import ContactType, contact_type
 from bracekit.contact.frictionless_point import FRICTIONLESS_POINT
 from bracekit.contact.surface import Surface
@@ -37,27 +38,32 @@ class Brace:
 
     def __post_init__(self) -> None:
         if not isinstance(self.frame, str) or not self.frame:
-            raise ContactError(f"the brace frame must be a frame name (a non-empty string), got {self.frame!r}")
+            raise ContactError(f"the brace frame must be a frame name (a non-empty string), got {show(self.frame)}")
         if not isinstance(self.surface, Surface):
             raise ContactError(f"the brace surface must be a bracekit Surface, got {type(self.surface).__name__}")
         object.__setattr__(self, "contact", contact_type(self.contact))
-        for key in ("region_radius", "environment_stiffness"):
-            value = getattr(self, key)
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int | float | np.floating)):
-                raise ContactError(f"{key} must be a number or None, got {value!r}")
-        if self.region_radius is not None and not (np.isfinite(self.region_radius) and self.region_radius > 0):
-            raise ContactError(f"bracing region radius must be a positive length (m), got {self.region_radius}")
-        if self.environment_stiffness is not None and not (
-            np.isfinite(self.environment_stiffness) and self.environment_stiffness > 0
-        ):
-            raise ContactError(
-                f"environment stiffness must be positive (N/m) or omitted for rigid, got {self.environment_stiffness}"
+        if self.region_radius is not None:
+            radius = as_number(self.region_radius, "region_radius", positive=True, unit="m", error=ContactError)
+            if not radius < 1e150:  # r_max² must stay in float64
+                raise ContactError(f"region_radius must be a length below 1e150 m, got {radius:g}")
+        if self.environment_stiffness is not None:
+            as_number(
+                self.environment_stiffness,
+                "environment_stiffness (omit it for a rigid surface)",
+                positive=True,
+                unit="N/m",
+                error=ContactError,
             )
+
+    @property
+    def kind(self) -> ContactType:
+        """The contact type (``contact``, which the constructor turns from a name into a ContactType)."""
+        return contact_type(self.contact)
 
     def H(self) -> Array:
         """H of eq:constraint for this brace (6×l)."""
-        return self.contact.H(self.surface.frame)
+        return self.kind.H(self.surface.frame)
 
     def X(self) -> Array:
         """Constraint wrench basis X (6×(6−l)), Hᵀ X = 0."""
-        return self.contact.X(self.surface.frame)
+        return self.kind.X(self.surface.frame)

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit.errors import ContactError
+from bracekit._linalg import as_array
+from bracekit.errors import ContactError, NumericalError
 from bracekit.spatial import unit
 
 Array = NDArray[np.float64]
@@ -26,19 +28,12 @@ class Surface:
     frame: Array = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        p = np.asarray(self.point, dtype=float).reshape(-1) if _numeric(self.point) else np.full(1, np.nan)
-        if p.size != 3 or not np.all(np.isfinite(p)):
-            raise ContactError(f"surface point must be 3 finite numbers (m), got {p.tolist()}")
-        n = np.asarray(self.normal, dtype=float).reshape(-1) if _numeric(self.normal) else None
-        if n is None or n.size != 3:
-            raise ContactError(f"surface normal must be 3 numbers, got {self.normal!r}")
-        n = unit(n, "surface normal", error=ContactError)
+        p = _vector3(self.point, "surface point (m)")
+        n = unit(_vector3(self.normal, "surface normal"), "surface normal", error=ContactError)
         if self.tangent is None:
             seed = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
         else:
-            seed = np.asarray(self.tangent, dtype=float).reshape(-1) if _numeric(self.tangent) else np.full(1, np.nan)
-            if seed.size != 3 or not np.all(np.isfinite(seed)):
-                raise ContactError("surface tangent must be 3 finite numbers")
+            seed = _vector3(self.tangent, "surface tangent")
             big = float(np.max(np.abs(seed)))
             seed = seed / big if big > 0.0 else seed  # scale-safe; a zero tangent is caught below
         x = seed - n * (n @ seed)
@@ -52,14 +47,18 @@ class Surface:
         object.__setattr__(self, "frame", np.column_stack([x, y, n]))
 
     def signed_distance(self, p: ArrayLike) -> float:
-        """n̂ᵀ(p − point), m: positive on the robot's side of the plane."""
-        return float(self.normal @ (np.asarray(p, dtype=float) - self.point))
+        """n̂ᵀ(p − point), m: positive on the robot's side of the plane. `p` is a point (3,), m, world."""
+        a = p if type(p) is np.ndarray and p.shape == (3,) and p.dtype == np.float64 else as_array(p, "the point", (3,))
+        with np.errstate(all="ignore"):
+            d = float(self.normal @ (a - self.point))
+        if not math.isfinite(d):
+            raise NumericalError("the distance from the bracing surface is not finite (float64 overflow)")
+        return d
 
 
-def _numeric(value: object) -> bool:
-    """Whether `value` converts to a float array (numbers, not strings or None)."""
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return False
-    return a.dtype.kind == "f" and not isinstance(value, str)
+def _vector3(value: object, what: str) -> Array:
+    """`value` as 3 finite floats (any shape of 3 numbers); ContactError naming `what` otherwise."""
+    a = as_array(value, what, error=ContactError).reshape(-1)
+    if a.size != 3:
+        raise ContactError(f"{what} must be 3 numbers, got {a.size}")
+    return a

@@ -14,15 +14,19 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit._linalg import show
 from bracekit.contact import Brace
-from bracekit.errors import ContactError, SingularityError
-from bracekit.kinematics.hessian import LWA, frame_hessian
+from bracekit.errors import ContactError, InputError, ModelError, SingularityError
+from bracekit.kinematics.hessian import LWA, ensure_hessian_layout, frame_hessian
+from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.robot import Robot
 from bracekit.spatial import twist_rotate, twist_shift
 from bracekit.tolerances import J1_COND_LIMIT, NULL_SPACE_RTOL
 
 Array = NDArray[np.float64]
 
+#: Most joints for the kinematic Hessians: they need Pinocchio's Data, of 32·n³ bytes (0.5 GB at 250 joints).
+MAX_HESSIAN_JOINTS = 250
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,19 +43,23 @@ class BracedRobot:
     n1: int = field(init=False)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.robot, Robot):
+            raise ModelError(f"a BracedRobot needs a bracekit Robot, got {type(self.robot).__name__}")
+        if not isinstance(self.brace, Brace):
+            raise ContactError(f"a BracedRobot needs a bracekit Brace, got {type(self.brace).__name__}")
         name = self.brace.frame
         if name in self.robot.off_chain:
             raise ContactError(
-                f"brace frame '{name}' is not on the chain from the base to the tip '{self.robot.tip}'; "
+                f"brace frame {show(name)} is not on the chain from the base to the tip {show(self.robot.tip)}; "
                 "brace a frame of a link between them"
             )
         fid = self.robot.frame_id(name)
         last = self.robot.frame_joint(name)
         if last < 0:
-            raise ContactError(f"brace frame '{name}' is fixed to the base: no joint moves it; brace a moving link")
+            raise ContactError(f"brace frame {show(name)} is fixed to the base: no joint moves it; brace a moving link")
         if last >= self.robot.n - 1:
             raise ContactError(
-                f"brace frame '{name}' is on the last link: no joint lies between {{b}} and the tip; "
+                f"brace frame {show(name)} is on the last link: no joint lies between {{b}} and the tip; "
                 "brace a link nearer the base"
             )
         object.__setattr__(self, "brace_id", fid)
@@ -88,12 +96,29 @@ class BracedRobot:
         return self.robot.model.createData()
 
     def state(self, q: ArrayLike, *, hessians: bool = False) -> BracedState:
-        """Evaluate the kinematics at q (n,) with one Pinocchio pass; Hessians only when asked."""
+        """Evaluate the kinematics at q (n,) with one Pinocchio pass; Hessians only when asked.
+
+        Beyond DATA_JOINT_LIMIT joints the first-order kinematics come from the robot's
+        :class:`~bracekit.model.chain.ChainFK` (Pinocchio's Data grows as n³); the Hessians need that Data
+        and are refused beyond MAX_HESSIAN_JOINTS joints.
+        """
         qa = self.robot.check_q(q)
+        if not isinstance(hessians, bool):
+            raise InputError(f"hessians must be True or False, got {show(hessians)}")
+        tip_id = self.robot.tip_id
+        if not hessians and self.robot.n > DATA_JOINT_LIMIT:
+            (tip, j_e), (brace, j_b) = self.robot.frame_kinematics(qa, (tip_id, self.brace_id))
+            return self.state_from_kinematics(qa, tip, j_e, brace, j_b)
+        if hessians and self.robot.n > MAX_HESSIAN_JOINTS:
+            raise ModelError(
+                f"kinematic Hessians (analytic gradients) support up to {MAX_HESSIAN_JOINTS} joints, the robot has "
+                f"{self.robot.n}: Pinocchio's data for them needs 32·n³ bytes; use a shorter chain"
+            )
         model, data = self.robot.model, self._data
+        if hessians:  # the first time: check Pinocchio's Hessian layout with this data (before it is filled at q)
+            ensure_hessian_layout(model, data, (tip_id, self.brace_id))
         pin.computeJointJacobians(model, data, qa)
         pin.updateFramePlacements(model, data)
-        tip_id = self.robot.tip_id
         tip, brace = data.oMf[tip_id].homogeneous, data.oMf[self.brace_id].homogeneous  # fresh arrays
         j_e = pin.getFrameJacobian(model, data, tip_id, LWA)  # fresh arrays too
         j_b = pin.getFrameJacobian(model, data, self.brace_id, LWA)
@@ -102,9 +127,25 @@ class BracedRobot:
             pin.computeJointKinematicHessians(model, data)
             d_je = frame_hessian(model, data, tip_id)
             d_jb = frame_hessian(model, data, self.brace_id)
+        return self.state_from_kinematics(qa, tip, j_e, brace, j_b, d_je, d_jb)
+
+    def state_from_kinematics(
+        self,
+        q: Array,
+        tip: Array,
+        j_e: Array,
+        brace: Array,
+        j_b: Array,
+        d_je: Array | None = None,
+        d_jb: Array | None = None,
+    ) -> BracedState:
+        """The state at q (checked by the caller) from placements ⁰M_e, ⁰M_b (4×4) and Jacobians J_e, J_b (6×n).
+
+        For callers that evaluate many frames in one pass (:meth:`Robot.frame_kinematics`).
+        """
         return BracedState(
             braced=self,
-            q=qa,
+            q=q,
             b=brace[:3, 3],
             e=tip[:3, 3],
             R_b=brace[:3, :3],
@@ -118,6 +159,11 @@ class BracedRobot:
     def placements(self, q: ArrayLike) -> tuple[Array, Array, Array, Array]:
         """b, e (3,), ⁰R_b, ⁰R_e (3×3) at q by forward kinematics alone: the values of ``state(q)``, cheaper."""
         qa = self.robot.check_q(q)
+        if self.robot.n > DATA_JOINT_LIMIT:
+            fk = self.robot.chain
+            pose = fk.pose(qa)
+            tip, brace = fk.frame_placement(pose, self.robot.tip_id), fk.frame_placement(pose, self.brace_id)
+            return brace[:3, 3], tip[:3, 3], brace[:3, :3], tip[:3, :3]
         model, data = self.robot.model, self._data
         pin.forwardKinematics(model, data, qa)
         pin.updateFramePlacements(model, data)
@@ -129,12 +175,16 @@ def contact_null_space(xt_j1: Array) -> Array:
     """Orthonormal basis (n1×l') of the null space of Xᵀ J1: the chain-1 motions that keep the contact."""
     _, s, vt = np.linalg.svd(xt_j1)
     rank = int(np.sum(s > NULL_SPACE_RTOL * max(1.0, s[0] if s.size else 1.0)))
-    return vt[rank:].T.copy()
+    return np.ascontiguousarray(vt[rank:].T, dtype=np.float64)
 
 
 def skeleton(robot: Robot, q: ArrayLike) -> Array:
     """Points of the robot for drawing (k×3, m, world): base, each joint origin, then the tip."""
     qa = robot.check_q(q)
+    if robot.n > DATA_JOINT_LIMIT:
+        fk = robot.chain
+        pose = fk.pose(qa)
+        return np.vstack([pose.origins, fk.frame_placement(pose, robot.tip_id)[None, :3, 3]])
     data = robot.model.createData()
     pin.forwardKinematics(robot.model, data, qa)
     pin.updateFramePlacements(robot.model, data)
@@ -238,7 +288,7 @@ class BracedState:
                     f"J1 is singular at this configuration (cond = {s[0] / max(s[-1], 1e-300):.3g}); "
                     "chain 1 cannot realise the bracing motion"
                 )
-            return np.linalg.solve(j1, self.H)
+            return np.asarray(np.linalg.solve(j1, self.H), dtype=np.float64)
         return contact_null_space(self.X.T @ j1)
 
     @cached_property

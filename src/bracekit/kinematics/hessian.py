@@ -32,29 +32,50 @@ def _hessian_buffer(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
     order (docs/model.md); the memory itself is the column-major tensor. The first call for a frame of a model
     checks this against finite differences (:func:`check_hessian_layout`).
     """
-    entry = _LAYOUT_CHECKED.get(id(model))
-    if entry is None or entry[0]() is not model or frame_id not in entry[1]:
+    if not _checked(model, frame_id):
         check_hessian_layout(model, frame_id)
-        if entry is None or entry[0]() is not model:  # (a WeakKeyDictionary lookup costs microseconds)
-            key = id(model)
-            entry = _LAYOUT_CHECKED[key] = (weakref.ref(model, lambda _: _LAYOUT_CHECKED.pop(key, None)), set())
-        entry[1].add(frame_id)
+        _mark_checked(model, frame_id)
     return _raw_hessian(model, data, frame_id)
+
+
+def _checked(model: pin.Model, frame_id: int) -> bool:
+    entry = _LAYOUT_CHECKED.get(id(model))
+    return entry is not None and entry[0]() is model and frame_id in entry[1]
+
+
+def _mark_checked(model: pin.Model, frame_id: int) -> None:
+    entry = _LAYOUT_CHECKED.get(id(model))
+    if entry is None or entry[0]() is not model:  # (a WeakKeyDictionary lookup costs microseconds)
+        key = id(model)
+        entry = _LAYOUT_CHECKED[key] = (weakref.ref(model, lambda _: _LAYOUT_CHECKED.pop(key, None)), set())
+    entry[1].add(frame_id)
+
+
+def ensure_hessian_layout(model: pin.Model, data: pin.Data, frame_ids: tuple[int, ...]) -> None:
+    """Check the Hessian layout of each frame not yet checked, using (and overwriting) the caller's `data`.
+
+    For callers that evaluate their own configuration afterwards: it spares the second Data (n³ in size)
+    that :func:`check_hessian_layout` would otherwise create.
+    """
+    for frame_id in frame_ids:
+        if not _checked(model, frame_id):
+            check_hessian_layout(model, frame_id, data=data)
+            _mark_checked(model, frame_id)
 
 
 def _raw_hessian(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
     return pin.getFrameKinematicHessian(model, data, frame_id, LWA).ravel(order="C")
 
 
-def check_hessian_layout(model: pin.Model, frame_id: int, step: float = 1e-6) -> None:
+def check_hessian_layout(model: pin.Model, frame_id: int, step: float = 1e-6, data: pin.Data | None = None) -> None:
     """NumericalError unless :func:`frame_hessian` equals central differences of the frame's Jacobian.
 
-    Evaluated at a fixed generic configuration with its own data, so it does not disturb the caller's.
-    Guards the memory layout of Pinocchio's kinematic Hessian that bracekit reads (docs/model.md): another layout
-    would make every analytic gradient wrong without any other symptom.
+    Evaluated at a fixed generic configuration with its own data (or `data`, which it then overwrites), so it
+    does not disturb the caller's. Guards the memory layout of Pinocchio's kinematic Hessian that bracekit reads
+    (docs/model.md): another layout would make every analytic gradient wrong without any other symptom.
     """
     n = model.nv
-    data = model.createData()
+    data = model.createData() if data is None else data
     q = pin.integrate(model, pin.neutral(model), np.random.default_rng(0).uniform(-1.0, 1.0, n))
     pin.computeJointJacobians(model, data, q)
     pin.computeJointKinematicHessians(model, data)

@@ -11,13 +11,16 @@ import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit._linalg import as_array, show
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
+from bracekit.model.chain import DATA_JOINT_LIMIT, ChainFK, joint_axis
 
 Array = NDArray[np.float64]
 
@@ -44,53 +47,107 @@ def _quiet_stderr() -> Iterator[None]:
         os.close(saved)
 
 
-def _load_urdf(source: str | Path) -> pin.Model:
-    text = str(source)
-    is_xml = isinstance(source, str) and text.lstrip().startswith("<")
-    if is_xml:
+def _load_urdf(source: str | os.PathLike[str]) -> pin.Model:
+    if isinstance(source, str) and source.lstrip().startswith("<"):
         try:
             with _quiet_stderr():
-                return pin.buildModelFromXML(text)
+                return pin.buildModelFromXML(source)
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with multi-line text
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise ModelError(f"cannot parse the URDF string: {first}; check that it is valid URDF XML") from exc
-    path = Path(source)
-    if not path.is_file():
-        raise ModelError(f"URDF file not found: {path}; give the path of an existing .urdf file")
+            why = _first_line(exc)
+            raise ModelError(f"cannot parse the URDF string: {why}; check that it is valid URDF XML") from exc
+    path = as_path(source, "the URDF source", ModelError, "a .urdf file path or the URDF text (starting with '<')")
+    shown = show(str(path), 200)
+    try:
+        found = path.is_file()
+    except (OSError, ValueError):  # a name the file system cannot hold (too long, a NUL byte)
+        found = False
+    if not found:
+        raise ModelError(f"URDF file not found: {shown}; give the path of an existing .urdf file")
     try:
         head = path.read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
-        raise ModelError(f"cannot read the URDF file {path}: {exc.strerror}") from exc
+        raise ModelError(f"cannot read the URDF file {shown}: {exc.strerror}") from exc
     if "<robot" not in head:
-        raise ModelError(f"{path} is not a URDF file (no <robot> element); give a valid URDF file")
+        raise ModelError(f"{shown} is not a URDF file (no <robot> element); give a valid URDF file")
     try:
         with _quiet_stderr():
             return pin.buildModelFromUrdf(str(path))
     except Exception as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ModelError(f"cannot parse the URDF file {path}: {first}") from exc
+        raise ModelError(f"cannot parse the URDF file {shown}: {_first_line(exc)}") from exc
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return show(text.splitlines()[0], 200) if text else type(exc).__name__
+
+
+def as_path(source: object, what: str, error: type[InputError], want: str) -> Path:
+    """`source` (a str or an os.PathLike naming a file) as a Path; `error` for anything else."""
+    if isinstance(source, str | os.PathLike):
+        name = os.fspath(source)
+        if isinstance(name, str) and name:
+            return Path(name)
+    raise error(f"{what} must be {want}, got {show(source)}")
 
 
 def _as_stiffness(stiffness: float | Sequence[float] | ArrayLike, names: Sequence[str]) -> Array:
     n = len(names)
-    try:
-        k = np.asarray(stiffness, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"joint stiffness must be numbers in N·m/rad, got {stiffness!r}") from None
+    k = as_array(stiffness, "joint stiffness (N·m/rad)", finite=False)
     if k.ndim == 0:
         k = np.full(n, float(k))
     k = k.reshape(-1)
     if k.size != n:
-        raise InputError(f"got {k.size} joint stiffnesses for {n} joints ({', '.join(names)}); give one value or {n}")
-    for name, value in zip(names, k, strict=True):
-        if not np.isfinite(value) or value <= 0.0:
-            raise InputError(f"joint stiffness of '{name}' must be a positive number in N·m/rad, got {value}")
-        if not STIFFNESS_RANGE[0] <= value <= STIFFNESS_RANGE[1]:
-            raise InputError(
-                f"joint stiffness of '{name}' is {value:g}; give a value between {STIFFNESS_RANGE[0]:g} and "
-                f"{STIFFNESS_RANGE[1]:g} N·m/rad (outside it the compliance under- or overflows)"
-            )
+        raise InputError(f"got {k.size} joint stiffnesses for {n} joints ({name_list(names)}); give one value or {n}")
+    bad = ~(np.isfinite(k) & (k > 0.0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f"joint stiffness of '{names[i]}' must be a positive number in N·m/rad, got {k[i]}")
+    out = (k < STIFFNESS_RANGE[0]) | (k > STIFFNESS_RANGE[1])
+    if out.any():
+        i = int(np.argmax(out))
+        raise InputError(
+            f"joint stiffness of '{names[i]}' is {k[i]:g}; give a value between {STIFFNESS_RANGE[0]:g} and "
+            f"{STIFFNESS_RANGE[1]:g} N·m/rad (outside it the compliance under- or overflows)"
+        )
     return k
+
+
+def name_list(names: Sequence[str], limit: int = 12) -> str:
+    """Names joined by commas, the middle elided past `limit` names (for one-line messages)."""
+    if len(names) <= limit:
+        return ", ".join(names)
+    return ", ".join([*names[: limit - 2], "…", names[-1]]) + f" ({len(names)} in all)"
+
+
+def _check_joints(model: pin.Model) -> None:
+    """ModelError naming the first joint that is not a usable 1-DoF joint (type, axis, origin, limits)."""
+    for j in range(1, model.njoints):
+        joint, name = model.joints[j], model.names[j]
+        kind = joint_axis(joint) if joint.nq == 1 and joint.nv == 1 else None
+        if kind is None:
+            raise ModelError(
+                f"joint {show(name)} is {joint.shortname()} (nq={joint.nq}, nv={joint.nv}); "
+                "bracekit needs revolute or prismatic joints: give it type='revolute' with <limit>"
+            )
+        if not abs(float(np.linalg.norm(kind[1])) - 1.0) <= 1e-9:
+            raise ModelError(
+                f"joint {show(name)} has a zero axis ({kind[1].tolist()}); give its <axis xyz> a non-zero direction"
+            )
+        if not np.all(np.isfinite(model.jointPlacements[j].homogeneous)):
+            raise ModelError(f"joint {show(name)} has a non-finite origin (NaN or inf); give its <origin> numbers")
+    lower = np.asarray(model.lowerPositionLimit, dtype=float)
+    upper = np.asarray(model.upperPositionLimit, dtype=float)
+    for bad, why in (
+        (np.isnan(lower) | np.isnan(upper), "has a NaN limit; give its <limit> numbers"),
+        (lower > upper, "has lower limit {lo:g} > upper limit {hi:g}; give it lower < upper in its <limit>"),
+        (
+            lower == upper,
+            "is locked (lower = upper = {lo:g}) and cannot move; make it type=\"fixed\" or give it a range of motion",
+        ),
+    ):
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ModelError(f"joint '{model.names[i + 1]}' " + why.format(lo=lower[i], hi=upper[i]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,43 +170,54 @@ class Robot:
     _tip_id: int = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.model, pin.Model):
+            raise ModelError(
+                f"a Robot needs a pinocchio.Model, got {type(self.model).__name__}; use Robot.from_urdf or load_model"
+            )
         if self.model.nq != self.model.nv:
             raise ModelError("every joint must be 1-DoF revolute or prismatic (nq == nv)")
+        if self.model.nv == 0:
+            raise ModelError("the model has no joint; give a chain of revolute or prismatic joints")
+        _check_joints(self.model)
         object.__setattr__(self, "_tip_id", self.frame_id(self.tip))
         object.__setattr__(self, "stiffness", _as_stiffness(self.stiffness, self.joint_names))
+        object.__setattr__(self, "off_chain", frozenset(self.off_chain))
 
     @classmethod
     def from_urdf(
         cls,
-        source: str | Path,
+        source: str | os.PathLike[str],
         tip: str,
         stiffness: float | Sequence[float] | ArrayLike = 170.0,
     ) -> Robot:
         """Load a robot from a URDF file path or an XML string.
 
         Args:
-            source: path of a .urdf file, or the URDF text itself (a string starting with '<').
+            source: path of a .urdf file (a str or an os.PathLike), or the URDF text itself (a string starting
+                with '<').
             tip: name of the end-effector frame {e} (a link or a fixed joint of the URDF).
             stiffness: one joint stiffness for all joints or one per joint of the chain, N·m/rad.
+
+        Raises:
+            ModelError: the file is missing or not URDF, or a joint of the chain is not a 1-DoF revolute or
+                prismatic joint with a non-zero axis and limits lower < upper.
+            FrameNotFoundError: `tip` is not a frame of the URDF.
         """
         full = _load_urdf(source)
+        if not isinstance(tip, str):
+            raise ModelError(f"the tip frame must be a frame name (a string), got {show(tip)}")
         if not full.existFrame(tip):
-            raise FrameNotFoundError(f"unknown tip frame '{tip}'; known frames: {', '.join(_frame_names(full))}")
+            raise FrameNotFoundError(f"unknown tip frame {show(tip)}; known frames: {name_list(_frame_names(full))}")
         tip_joint = full.frames[full.getFrameId(tip)].parentJoint
         keep = set(full.supports[tip_joint])
         lock = [j for j in range(1, full.njoints) if j not in keep]
         model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
         off_chain = frozenset(f.name for f in full.frames if f.parentJoint not in keep)
         if model.nv == 0:
-            raise ModelError(f"no joint moves the tip frame '{tip}'; choose a frame on a moving link")
-        for j in range(1, model.njoints):
-            joint = model.joints[j]
-            if joint.nq != 1 or joint.nv != 1:
-                raise ModelError(
-                    f"joint '{model.names[j]}' is {joint.shortname()} (nq={joint.nq}, nv={joint.nv}); "
-                    "bracekit needs revolute or prismatic joints: give it type='revolute' with <limit>"
-                )
-        return cls(model=model, tip=tip, stiffness=stiffness, off_chain=off_chain)  # type: ignore[arg-type]
+            raise ModelError(f"no joint moves the tip frame {show(tip)}; choose a frame on a moving link")
+        _check_joints(model)
+        k = _as_stiffness(stiffness, tuple(model.names[1:]))
+        return cls(model=model, tip=tip, stiffness=k, off_chain=off_chain)
 
     # --- names and sizes -------------------------------------------------------------------------
     @property
@@ -179,8 +247,10 @@ class Robot:
 
     def frame_id(self, name: str) -> int:
         """Pinocchio frame id of a frame or link name; raises FrameNotFoundError."""
+        if not isinstance(name, str):
+            raise InputError(f"a frame name must be a string, got {show(name)}")
         if not self.model.existFrame(name):
-            raise FrameNotFoundError(f"unknown frame '{name}'; known frames: {', '.join(_frame_names(self.model))}")
+            raise FrameNotFoundError(f"unknown frame {show(name)}; known frames: {name_list(_frame_names(self.model))}")
         return int(self.model.getFrameId(name))
 
     def frame_joint(self, name: str) -> int:
@@ -190,17 +260,14 @@ class Robot:
     # --- configurations --------------------------------------------------------------------------
     def check_q(self, q: ArrayLike) -> Array:
         """Q as a float array (n,); raises InputError on a wrong length or a non-finite value."""
-        try:
-            a = np.asarray(q, dtype=float).reshape(-1)
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"joint values must be numbers: {exc}") from exc
+        a = as_array(q, "joint values", finite=False).reshape(-1)
         if a.size != self.n:
             raise InputError(
-                f"got {a.size} joint values for {self.n} joints ({', '.join(self.joint_names)}); "
+                f"got {a.size} joint values for {self.n} joints ({name_list(self.joint_names)}); "
                 f"give {self.n} values in chain order"
             )
         if not np.all(np.isfinite(a)):
-            raise InputError(f"joint values must be finite numbers, got {a.tolist()}")
+            raise InputError(f"joint values must be finite numbers, got {show(a)}")
         return a
 
     def neutral(self) -> Array:
@@ -220,26 +287,77 @@ class Robot:
         `rotation` (3×3, link axes) orients the new frame; identity by default. Use it to place a
         bracing frame {b} at a point of a link's body.
         """
-        if self.model.existFrame(name):
-            raise InputError(f"frame '{name}' already exists; choose another name for the brace point")
-        fid = self.frame_id(link)
-        if link in self.off_chain:
-            raise InputError(f"link '{link}' is not on the chain to the tip '{self.tip}'")
-        off = np.asarray(offset, dtype=float).reshape(-1)
-        if off.size != 3 or not np.all(np.isfinite(off)):
-            raise InputError(f"the offset of frame '{name}' must be 3 finite numbers (m), got {off.tolist()}")
-        rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float).reshape(3, 3)
-        if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-9) or np.linalg.det(rot) < 0:
-            raise InputError(f"the rotation of frame '{name}' must be a proper rotation matrix")
+        return self.with_point_frames([(name, link, offset, rotation)])
+
+    def with_point_frames(self, frames: Sequence[tuple[str, str, ArrayLike, ArrayLike | None]]) -> Robot:
+        """A copy of this robot with several new frames (name, link, offset, rotation), one model copy in all.
+
+        Each entry is as the arguments of :meth:`with_point_frame`; rotation None is the identity.
+        """
+        if isinstance(frames, str | bytes) or not isinstance(frames, Sequence):
+            raise InputError(f"frames must be a list of (name, link, offset, rotation), got {show(frames)}")
+        placed = []
+        names: set[str] = set()
+        for entry in frames:
+            if not isinstance(entry, tuple | list) or len(entry) != 4:
+                raise InputError(f"a new frame must be (name, link, offset, rotation), got {show(entry)}")
+            name, link, offset, rotation = entry
+            if not isinstance(name, str) or not name:
+                raise InputError(f"a frame name must be a non-empty string, got {show(name)}")
+            if self.model.existFrame(name) or name in names:
+                raise InputError(f"frame {show(name)} already exists; choose another name for the brace point")
+            names.add(name)
+            fid = self.frame_id(link)
+            if link in self.off_chain:
+                raise InputError(f"link {show(link)} is not on the chain to the tip {show(self.tip)}")
+            off = as_array(offset, f"the offset of frame {show(name)} (m)").reshape(-1)
+            if off.size != 3:
+                raise InputError(f"the offset of frame {show(name)} must be 3 numbers (m), got {off.size}")
+            rot = np.eye(3) if rotation is None else as_array(rotation, f"the rotation of frame {show(name)}", (3, 3))
+            if not (
+                float(np.max(np.abs(rot))) <= 1.0 + 1e-9
+                and np.allclose(rot.T @ rot, np.eye(3), atol=1e-9)
+                and np.linalg.det(rot) > 0
+            ):
+                raise InputError(f"the rotation of frame {show(name)} must be a rotation matrix (RᵀR = I, det 1)")
+            placed.append((name, fid, pin.SE3(rot, off)))
         model = pin.Model(self.model)
-        parent = model.frames[fid]
-        placement = parent.placement * pin.SE3(rot, off)
-        model.addFrame(pin.Frame(name, parent.parentJoint, fid, placement, pin.FrameType.OP_FRAME))
+        for name, fid, local in placed:
+            parent = model.frames[fid]
+            model.addFrame(pin.Frame(name, parent.parentJoint, fid, parent.placement * local, pin.FrameType.OP_FRAME))
         return Robot(model=model, tip=self.tip, stiffness=self.stiffness, off_chain=self.off_chain)
 
     def with_stiffness(self, stiffness: float | Sequence[float] | ArrayLike) -> Robot:
         """A copy of this robot with other joint stiffnesses (N·m/rad)."""
-        return Robot(model=self.model, tip=self.tip, stiffness=stiffness, off_chain=self.off_chain)  # type: ignore[arg-type]
+        k = _as_stiffness(stiffness, self.joint_names)
+        return Robot(model=self.model, tip=self.tip, stiffness=k, off_chain=self.off_chain)
+
+    # --- kinematics ------------------------------------------------------------------------------
+    @cached_property
+    def chain(self) -> ChainFK:
+        """Forward kinematics of the chain without Pinocchio's Data (used beyond DATA_JOINT_LIMIT joints)."""
+        return ChainFK(self.model)
+
+    def frame_kinematics(self, q: ArrayLike, frame_ids: Sequence[int]) -> list[tuple[Array, Array]]:
+        """(⁰M_f (4×4), LOCAL_WORLD_ALIGNED Jacobian (6×n)) of each frame at q, from one kinematics pass.
+
+        Pinocchio's algorithms up to DATA_JOINT_LIMIT joints, :class:`~bracekit.model.chain.ChainFK` beyond
+        (Pinocchio's Data grows as n³).
+        """
+        qa = self.check_q(q)
+        if self.n <= DATA_JOINT_LIMIT:
+            model, data = self.model, self.model.createData()
+            pin.computeJointJacobians(model, data, qa)
+            pin.updateFramePlacements(model, data)
+            lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+            return [(data.oMf[f].homogeneous, pin.getFrameJacobian(model, data, f, lwa)) for f in frame_ids]
+        fk = self.chain
+        pose = fk.pose(qa)
+        out = []
+        for f in frame_ids:
+            m = fk.frame_placement(pose, f)
+            out.append((m, fk.frame_jacobian(pose, f, m[:3, 3])))
+        return out
 
 
 def _frame_names(model: pin.Model) -> list[str]:

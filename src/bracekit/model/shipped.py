@@ -14,6 +14,7 @@ from pathlib import Path
 
 from numpy.typing import ArrayLike
 
+from bracekit._linalg import show
 from bracekit.errors import ModelError
 from bracekit.model.robot import Robot
 
@@ -26,15 +27,15 @@ MODELS: dict[str, tuple[str, str, str | None]] = {
 
 def model_path(name: str) -> Path:
     """Path of a shipped model's URDF file."""
-    if name not in MODELS:
-        raise ModelError(f"unknown shipped model '{name}'; choose one of {', '.join(MODELS)}")
+    if not isinstance(name, str) or name not in MODELS:
+        raise ModelError(f"unknown shipped model {show(name)}; choose one of {', '.join(MODELS)}")
     return Path(str(resources.files("bracekit.model").joinpath("urdf", MODELS[name][0])))
 
 
 def load_model(name: str, stiffness: float | Sequence[float] | ArrayLike = 170.0, tip: str | None = None) -> Robot:
     """Load a shipped robot (joint stiffness in N·m/rad, 170 by default as in the paper)."""
     path = model_path(name)
-    return Robot.from_urdf(path, tip=tip or MODELS[name][1], stiffness=stiffness)
+    return Robot.from_urdf(path, tip=MODELS[name][1] if tip is None else tip, stiffness=stiffness)
 
 
 def default_brace_frame(name: str) -> str | None:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit._linalg import as_number, show
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot, BracedState
 
@@ -37,6 +38,10 @@ class Term:
 
     name: str = "term"
     key: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InputError(f"a term's name must be a non-empty string, got {show(self.name)}")
 
     def value(self, state: BracedState) -> float:
         """The measure at the state."""
@@ -84,7 +89,7 @@ TERMS: dict[str, type[Term]] = {}
 def register_term(cls: type[Term]) -> type[Term]:
     """Class decorator: make a term available to scenarios under its ``key``."""
     if not cls.key or cls.key in TERMS:
-        raise InputError(f"objective term {cls.__name__} needs a unique weight key, got {cls.key!r}")
+        raise InputError(f"objective term {cls.__name__} needs a unique weight key, got {show(cls.key)}")
     TERMS[cls.key] = cls
     return cls
 
@@ -111,21 +116,30 @@ class Objective:
     names: tuple[str, ...] = field(init=False)
 
     def __post_init__(self) -> None:
+        for what, seq in (("terms", self.terms), ("weights", self.weights)):
+            if isinstance(seq, str | bytes) or not (
+                isinstance(seq, Sequence) or (isinstance(seq, np.ndarray) and seq.ndim == 1)
+            ):
+                raise InputError(f"an objective's {what} must be a list, got {show(seq)}")
         if len(self.terms) != len(self.weights):
-            raise InputError("an objective needs one weight per term")
+            raise InputError(
+                f"an objective needs one weight per term, got {len(self.terms)} terms and {len(self.weights)} weights"
+            )
         for t, w in zip(self.terms, self.weights, strict=True):
             if not (callable(getattr(t, "value", None)) and callable(getattr(t, "gradient", None))):
-                raise InputError(f"an objective term needs value() and gradient() (a bracekit Term), got {t!r}")
-            if isinstance(w, bool) or not isinstance(w, int | float | np.floating) or not np.isfinite(w) or w < 0:
-                raise InputError(f"the weight of term '{t.name}' must be a non-negative number, got {w!r}")
+                raise InputError(f"an objective term needs value() and gradient() (a bracekit Term), got {show(t)}")
+            name = getattr(t, "name", type(t).__name__)
+            as_number(w, f"the weight of term {show(name)}", nonnegative=True)
         object.__setattr__(self, "names", tuple(getattr(t, "name", type(t).__name__) for t in self.terms))
 
     def value(self, state: BracedState) -> float:
         """G at the state."""
+        _check_state(state)
         return float(sum(w * t.value(state) for t, w in zip(self.terms, self.weights, strict=True) if w))
 
     def values(self, state: BracedState) -> dict[str, float]:
         """Each term's value (unweighted)."""
+        _check_state(state)
         return {t.name: t.value(state) for t in self.terms}
 
     def with_beta_x(self, beta_x: ArrayLike) -> Objective:
@@ -137,11 +151,17 @@ class Objective:
 
     def gradient(self, state: BracedState) -> Array:
         """∂g/∂q (n,), analytic."""
-        out = np.zeros(state.q.size)
+        out = np.zeros(_check_state(state).q.size)
         for t, w in zip(self.terms, self.weights, strict=True):
             if w:
                 out += w * t.gradient(state)
         return out
+
+
+def _check_state(state: object) -> BracedState:
+    if not isinstance(state, BracedState):
+        raise InputError(f"expected a BracedState (from BracedRobot.state(q)), got {type(state).__name__}")
+    return state
 
 
 def central_difference(fn: Callable[[Array], float], q: Array, step: float = 1e-5) -> Array:

@@ -8,11 +8,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from bracekit._linalg import cross3, cross3_list
+from bracekit._linalg import as_array, cross3, cross3_list
 from bracekit.compliance.first_order import (
-    C1,
     ComplianceModel,
-    braced_C1,
+    braced_c1_unchecked,
+    c1_unchecked,
     check_finite,
     check_model,
     constraint_gain,
@@ -35,21 +35,23 @@ class ComplianceIndex(Term):
     key = "Ci"
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         object.__setattr__(self, "beta_x", unit6(self.beta_x, "beta_x"))
         check_model(self.model)
 
     def with_beta_x(self, beta_x: ArrayLike) -> ComplianceIndex:
-        return replace(self, beta_x=beta_x)
+        return replace(self, beta_x=as_array(beta_x, "beta_x", finite=False))  # made a unit twist by __post_init__
 
     def value(self, state: BracedState) -> float:
         return float(np.linalg.norm(self.beta_x @ end_effector_compliance(state, self.model)))
 
+    @np.errstate(all="ignore")  # an overflow raises NumericalError below (check_finite), not a RuntimeWarning
     def gradient(self, state: BracedState) -> Array:
         d_je, d_jb = hessians(state)
         n1 = state.n1
         beta = self.beta_x
-        c1 = C1(state)
-        c1t = braced_C1(state, self.model)
+        c1 = c1_unchecked(state)
+        c1t = braced_c1_unchecked(state, self.model, c1)
         s1 = state.S_t1
         # chain 2: S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ with J_e2 = S_t2 J2 = J_e[:, n1:]
         j_e2 = state.J_e[:, n1:]
@@ -78,7 +80,7 @@ class ComplianceIndex(Term):
         u = np.zeros((6, state.q.size))
         u[:, :n1] = np.outer(bh, (j1.T @ vh) / k1) + np.outer(vh, (j1.T @ bh) / k1)
         grad += contract(d_jb, u)
-        return grad / ci
+        return check_finite(grad / ci, "the gradient of the compliance index")
 
     def fused_value(self, kin: FusedKinematics) -> float:
         jh = kin.compliance(self.model)[2]
@@ -99,9 +101,7 @@ class ComplianceIndex(Term):
         # β ⊗ (J_e2ᵀ v / k2) + v ⊗ (J_e2ᵀ β / k2) on chain 2 (∂J_e); on chain 1 the same with
         # [b̂ v̂] = Tᵀ S_t1ᵀ [β v] against ∂J_b
         pb = np.array((beta, v)).T.dot(wu)
-        ue = np.zeros((6, kin.n))
-        ue[:, n1:] += pb[:, n1:]
-        out.add_ue(ue)
+        out.add_ue_columns(n1, pb[:, n1:])
         out.add_ub(s1t.T.dot(pb[:, :n1]))
         # S_t1 depends on b − e: (J_b[:3] − J_e[:3])ᵀ ((C̃1 S_t1ᵀ v)_ω × β_v + (C̃1 S_t1ᵀ β)_ω × v_v)
         cv, cb = wu[:, :n1].dot(tj1[3:].T).tolist()
@@ -119,4 +119,4 @@ class ComplianceIndex(Term):
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> ComplianceIndex:
-        return cls(context.beta_x, context.compliance_model)  # type: ignore[arg-type]
+        return cls(context.beta_x, check_model(context.compliance_model))

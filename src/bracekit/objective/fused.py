@@ -54,6 +54,12 @@ class FusedKinematics:
     _s1: Array | None = None
     _cache: dict[str, Any] = field(default_factory=dict)
 
+    def at(self, je: Array, jb: Array, mb: Array, me: Array, s1: Array | None = None) -> FusedKinematics:
+        """This object moved to a new configuration's Jacobians and placements (the shared factors reset)."""
+        self.je, self.jb, self.mb, self.me, self._s1 = je, jb, mb, me, s1
+        self._cache.clear()
+        return self
+
     @property
     def s1(self) -> Array:
         """S_t1 (eq:twists) at q."""
@@ -133,6 +139,14 @@ class FusedGradient:
     def add_ue(self, part: Array) -> None:
         """Ue += part (6×n)."""
         self.ue = part if self.ue is None else self.ue + part
+
+    def add_ue_columns(self, start: int, part: Array) -> None:
+        """ue[:, start:] += part (6×(n − start)), in place."""
+        if self.ue is None:
+            self.ue = np.zeros((6, self.n))
+            self.ue[:, start:] = part
+        else:
+            self.ue[:, start:] += part
 
     def add_ub(self, part: Array) -> None:
         """Ub += part (6×n1)."""

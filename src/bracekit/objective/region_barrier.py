@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bracekit._linalg import as_array, as_number
 from bracekit.compliance.measures import region_barrier
 from bracekit.errors import BarrierError, InputError
 from bracekit.kinematics import BracedRobot, BracedState
@@ -25,15 +26,12 @@ class RegionBarrier(Term):
     key = "d"
 
     def __post_init__(self) -> None:
-        r = self.r_max
-        if isinstance(r, bool) or not isinstance(r, int | float | np.floating) or not (np.isfinite(r) and r > 0):
-            raise InputError(f"r_max must be a positive length (m), got {r!r}")
-        try:
-            centre = np.asarray(self.centre, dtype=float).reshape(3)
-        except (TypeError, ValueError):
-            raise InputError(f"the region centre must be 3 numbers (m), got {self.centre!r}") from None
-        if not np.all(np.isfinite(centre)):
-            raise InputError(f"the region centre must be finite, got {centre.tolist()}")
+        super().__post_init__()
+        if not as_number(self.r_max, "r_max", positive=True, unit="m") < 1e150:  # r_max² must stay in float64
+            raise InputError(f"r_max must be a length below 1e150 m, got {self.r_max:g}")
+        centre = as_array(self.centre, "the region centre (m)").reshape(-1)
+        if centre.size != 3:
+            raise InputError(f"the region centre must be 3 numbers (m), got {centre.size}")
         object.__setattr__(self, "centre", centre)
 
     def radius(self, state: BracedState) -> float:

@@ -160,8 +160,9 @@ def _row_basis(at):  # pragma: no cover - compiled
 
 @_jit
 def _spd_inverse(m, shift):  # pragma: no cover - compiled
-    """(M⁻¹, ok) of a symmetric M by Cholesky; ok only if M − shift·I is positive definite too, i.e. every
-    eigenvalue of M exceeds `shift` (tested by a second Cholesky, no eigen-decomposition).
+    """(M⁻¹, ok) of a symmetric M by Cholesky; ok only if every eigenvalue of M exceeds `shift`.
+
+    M − shift·I is tested positive definite by a second Cholesky (no eigen-decomposition).
     """
     c = m.shape[0]
     for attempt in range(2):

@@ -45,8 +45,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import inverse, row_basis
 from bracekit.compliance.first_order import unit6
-from bracekit.errors import InputError
+from bracekit.errors import InputError, ModelError
 from bracekit.kinematics import LWA, BracedRobot, contact_null_space, frame_hessian_rows
+from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
+from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
 from bracekit.resolution.strategies import BracedGradientProjection
@@ -112,6 +114,11 @@ class GradientProjectionStep:
         self.strategy = strategy
         robot = braced.robot
         self._model = robot.model
+        if braced.n > MAX_HESSIAN_JOINTS:
+            raise ModelError(
+                f"the fused gradient-projection step supports up to {MAX_HESSIAN_JOINTS} joints (it needs Pinocchio's "
+                f"kinematic Hessians); the robot has {braced.n}"
+            )
         self._data = robot.model.createData()
         self._tip, self._bid = robot.tip_id, braced.brace_id
         self._n, self._n1 = braced.n, braced.n1
@@ -123,10 +130,13 @@ class GradientProjectionStep:
         self._k_env = braced.brace.environment_stiffness
         self._normal = braced.brace.surface.normal
         self._nl = self._normal.tolist()
+        self._fk: FusedKinematics | None = None
         obj = strategy.objective
         kept = [(t, float(w)) for t, w in zip(obj.terms, obj.weights, strict=True) if w]
         self._objective = Objective([t for t, _ in kept], [w for _, w in kept])  # the terms of non-zero weight
         self._fd = strategy.gradient == "finite-difference"
+        if not self._fd:  # check Pinocchio's Hessian layout once, with this step's own data (no second n³ Data)
+            ensure_hessian_layout(self._model, self._data, (self._tip, self._bid))
         self._alpha = float(strategy.alpha)
         self._cert2 = CERTIFIED_COND**2
         kernels = None
@@ -272,23 +282,24 @@ class GradientProjectionStep:
         return np.concatenate((g1.dot(y[:l_]), y[l_:]))  # eq:q1
 
     def _fused_kinematics(self, kin: tuple[Any, ...], s1: Array | None = None) -> FusedKinematics:
-        je, jb, mb, me = kin[:4]
-        return FusedKinematics(
-            je=je,
-            jb=jb,
-            mb=mb,
-            me=me,
-            n=self._n,
-            n1=self._n1,
-            kinv=self._kinv,
-            k1inv=self._k1inv,
-            X=self._X,
-            t_proj=self._t,
-            k_env=self._k_env,
-            normal=self._nl,
-            cert2=self._cert2,
-            _s1=s1,
-        )
+        """The terms' view of one Pinocchio pass (one object per step instance, moved to each q)."""
+        if self._fk is None:
+            self._fk = FusedKinematics(
+                je=kin[0],
+                jb=kin[1],
+                mb=kin[2],
+                me=kin[3],
+                n=self._n,
+                n1=self._n1,
+                kinv=self._kinv,
+                k1inv=self._k1inv,
+                X=self._X,
+                t_proj=self._t,
+                k_env=self._k_env,
+                normal=self._nl,
+                cert2=self._cert2,
+            )
+        return self._fk.at(kin[0], kin[1], kin[2], kin[3], s1)
 
     def _dg_dq(self, qa: Array, kin: tuple[Any, ...], obj: Objective, s1: Array | None = None) -> Array:
         """∂g/∂q (n,), analytic: each term's fused coefficients, contracted once per Hessian.

@@ -21,7 +21,30 @@ from bracekit.tolerances import STEP_SINGULAR_RATIO
 Array = NDArray[np.float64]
 GradientMode = Literal["analytic", "finite-difference"]
 GRADIENT_MODES: tuple[str, ...] = ("analytic", "finite-difference")
+#: Printed names of the matrices whose conditioning a run records (measure ``sigma_ratio_<key>``).
+MATRIX_LABELS = {"J1": "J1", "A": "A", "J": "J", "J_braced": "J̃"}
 
+
+def singular_ratio(m: ArrayLike) -> float:
+    """σ_min / σ_max of a matrix (over its min(rows, columns) singular values); 0 for a zero matrix."""
+    s = np.linalg.svd(np.asarray(m, dtype=float), compute_uv=False)
+    return float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
+
+
+def inverted_matrices(braced: bool, n1: int) -> tuple[str, ...]:
+    """Keys (of :data:`MATRIX_LABELS`) of the matrices a strategy inverts, then J̃ (the measures' Jacobian).
+
+    Free space: J (J⁺ ẋ). Braced: A (A⁺ ẋ, eq:general_inv) and, when n1 = 6, J1 (J1⁻¹ H, eq:q1).
+    """
+    if not braced:
+        return ("J", "J_braced")
+    return ("A", "J1", "J_braced") if n1 == 6 else ("A", "J_braced")
+
+
+def conditioning(state: BracedState, keys: tuple[str, ...]) -> dict[str, float]:
+    """σ_min / σ_max at `state` of each matrix named in `keys` (J1, A, J = J_e, J_braced = J̃)."""
+    mats = {"J1": lambda: state.J1, "A": lambda: state.A, "J": lambda: state.J_e, "J_braced": lambda: state.J_braced}
+    return {key: singular_ratio(mats[key]()) for key in keys}
 
 
 def pinv_checked(m: Array, what: str) -> Array:
@@ -33,11 +56,22 @@ def pinv_checked(m: Array, what: str) -> Array:
 
 
 class Strategy(Protocol):
-    """A redundancy-resolution strategy."""
+    """A redundancy-resolution strategy (read-only attributes: frozen dataclasses satisfy it)."""
 
-    name: str
-    braced: bool
-    needs_hessians: bool
+    @property
+    def name(self) -> str:
+        """The strategy's name, as in scenario files."""
+        ...
+
+    @property
+    def braced(self) -> bool:
+        """Whether it keeps the contact (q̇ from A⁺ and eq:q1) rather than ignoring the brace."""
+        ...
+
+    @property
+    def needs_hessians(self) -> bool:
+        """Whether `velocity` needs the state's kinematic Hessians."""
+        ...
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,)."""
@@ -102,7 +136,8 @@ class BracedGradientProjection:
             raise InputError(f"unknown gradient mode '{self.gradient}'; choose one of {', '.join(GRADIENT_MODES)}")
 
     @property
-    def needs_hessians(self) -> bool:  # type: ignore[override]
+    def needs_hessians(self) -> bool:
+        """Whether the analytic gradient (kinematic Hessians) is used."""
         return self.gradient == "analytic"
 
     def dg_dq(self, state: BracedState) -> Array:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -9,6 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._linalg import show
 from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel, check_model
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedState
@@ -47,7 +49,7 @@ class RunResult:
 
 def _summaries(result: RunResult) -> None:
     for model, runs in result.trajectories.items():
-        strategies = {name: tr.summary(model) for name, tr in runs.items()}  # type: ignore[arg-type]
+        strategies = {name: tr.summary(check_model(model)) for name, tr in runs.items()}
         out: dict[str, Any] = {
             "scenario": result.scenario.name,
             "compliance_model": model,
@@ -67,7 +69,7 @@ def _summaries(result: RunResult) -> None:
 
 
 def run_scenario(
-    scenario: Scenario | str,
+    scenario: Scenario | str | os.PathLike[str],
     gradient: GradientMode | None = None,
     compliance_model: ComplianceModel | None = None,
     *,
@@ -77,17 +79,26 @@ def run_scenario(
     """Solve the start configuration and run every strategy of the scenario along its task.
 
     Args:
-        scenario: a Scenario, a TOML path or a shipped name ('paper').
+        scenario: a Scenario, a TOML path (a str or an os.PathLike) or a shipped name ('paper').
         gradient: 'analytic' (default of the scenario) or 'finite-difference' (the paper's).
         compliance_model: 'constrained' or 'projection'; the model of ``summary``.
         both_models: also run gradient projection under the other compliance model (for Table I).
         progress: called with the number of steps done, for a progress bar.
     """
-    sc = load_scenario(scenario) if isinstance(scenario, str) else scenario
-    grad = gradient or sc.gradient
-    if grad not in GRADIENT_MODES:
-        raise InputError(f"unknown gradient mode '{grad}'; choose one of {', '.join(GRADIENT_MODES)}")
-    model = check_model(compliance_model or sc.compliance_model)
+    if isinstance(scenario, Scenario):
+        sc = scenario
+    elif isinstance(scenario, str | os.PathLike):
+        sc = load_scenario(scenario)
+    else:
+        raise InputError(f"scenario must be a Scenario, a .toml path or a shipped name, got {show(scenario)}")
+    grad = sc.gradient if gradient is None else gradient
+    if not isinstance(grad, str) or grad not in GRADIENT_MODES:
+        raise InputError(f"unknown gradient mode {show(grad)}; choose one of {', '.join(GRADIENT_MODES)}")
+    model = check_model(sc.compliance_model if compliance_model is None else compliance_model)
+    if not isinstance(both_models, bool):
+        raise InputError(f"both_models must be True or False, got {show(both_models)}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress must be a function of the number of steps done, got {show(progress)}")
     start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
     models = COMPLIANCE_MODELS if both_models else (model,)
     shared: dict[str, Trajectory] = {}
@@ -97,7 +108,7 @@ def run_scenario(
             if name != "braced_gradient_projection" and name in shared:
                 trajectories[m][name] = shared[name]
                 continue
-            strategy = sc.strategy(name, gradient=grad, model=m)  # type: ignore[arg-type]
+            strategy = sc.strategy(name, gradient=grad, model=check_model(m))
             tr = simulate(
                 sc.braced,
                 strategy,
@@ -111,7 +122,7 @@ def run_scenario(
             trajectories[m][name] = tr
             if name != "braced_gradient_projection":
                 shared[name] = tr
-    result = RunResult(sc, start, model, grad, trajectories)  # type: ignore[arg-type]
+    result = RunResult(sc, start, model, grad, trajectories)
     _summaries(result)
     return result
 

@@ -6,19 +6,22 @@ Every mistake raises ScenarioError naming the key and the fix. Shipped scenarios
 
 from __future__ import annotations
 
+import math
+import os
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._linalg import show
 from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel
 from bracekit.contact import CONTACT_TYPES, Brace, Surface, contact_type
-from bracekit.errors import BracekitError, InputError, ScenarioError
+from bracekit.errors import BracekitError, FrameNotFoundError, InputError, ScenarioError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import MODELS, load_model
@@ -31,7 +34,8 @@ from bracekit.resolution.strategies import (
     GradientMode,
     Strategy,
 )
-from bracekit.simulation.tasks import Circle, Line, Task, Waypoints
+from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
+from bracekit.spatial import unit
 
 Array = NDArray[np.float64]
 STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
@@ -52,7 +56,9 @@ class _Table:
 
     def __init__(self, data: Any, path: str, allowed: tuple[str, ...]) -> None:
         if not isinstance(data, dict):
-            raise ScenarioError(f"[{path}] must be a table")
+            if not path:
+                raise ScenarioError(f"a scenario must be a TOML table of keys, got {show(data)}")
+            raise ScenarioError(f"'{path}' must be a table ([{path}] and its keys), got {show(data)}")
         unknown = sorted(set(data) - set(allowed))
         if unknown:
             where = f"[{path}]" if path else "the top level"
@@ -75,26 +81,38 @@ class _Table:
 
     def number(self, name: str, default: Any = ..., positive: bool = False) -> float:
         v = self.raw(name, default)
-        if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v):
-            raise ScenarioError(f"'{self.key(name)}' must be a number, got {v!r}")
-        if positive and v <= 0:
-            raise ScenarioError(f"'{self.key(name)}' must be positive, got {v!r}")
-        return float(v)
+        x = _float(v)
+        if x is None:
+            raise ScenarioError(f"'{self.key(name)}' must be a number, got {show(v)}")
+        if positive and x <= 0:
+            raise ScenarioError(f"'{self.key(name)}' must be positive, got {show(v)}")
+        return x
 
     def vector(self, name: str, size: int | None = None, default: Any = ...) -> Array:
         v = self.raw(name, default)
-        ok = isinstance(v, list) and all(isinstance(x, int | float) and not isinstance(x, bool) for x in v)
-        if not ok or (size is not None and len(v) != size) or not np.all(np.isfinite(v)):
+        values = [_float(x) for x in v] if isinstance(v, list) else [None]
+        if None in values or (size is not None and len(values) != size) or (size is None and not values):
             want = f"{size} numbers" if size else "a list of numbers"
-            raise ScenarioError(f"'{self.key(name)}' must be {want}, got {v!r}")
-        return np.asarray(v, dtype=float)
+            raise ScenarioError(f"'{self.key(name)}' must be {want}, got {show(v)}")
+        return np.asarray(values, dtype=float)
+
+    def points(self, name: str) -> Array:
+        """A list of at least two [x, y, z] points (k×3)."""
+        v = self.raw(name)
+        rows: list[list[float | None]] = [[None]]
+        if isinstance(v, list):
+            rows = [[_float(x) for x in p] if isinstance(p, list) and len(p) == 3 else [None] for p in v]
+        if len(rows) < 2 or any(None in r for r in rows):
+            want = "a list of at least two [x, y, z] points (m)"
+            raise ScenarioError(f"'{self.key(name)}' must be {want}, got {show(v)}")
+        return np.asarray(rows, dtype=float)
 
     def string(self, name: str, choices: tuple[str, ...] | None = None, default: Any = ...) -> str:
         v = self.raw(name, default)
         if not isinstance(v, str):
-            raise ScenarioError(f"'{self.key(name)}' must be a string, got {v!r}")
+            raise ScenarioError(f"'{self.key(name)}' must be a string, got {show(v)}")
         if choices is not None and v not in choices:
-            raise ScenarioError(f"'{self.key(name)}' = {v!r} is not one of: {', '.join(choices)}")
+            raise ScenarioError(f"'{self.key(name)}' = {show(v)} is not one of: {', '.join(choices)}")
         return v
 
     def table(self, name: str, allowed: tuple[str, ...], default: Any = ...) -> _Table:
@@ -103,6 +121,17 @@ class _Table:
 
 def _join(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
+
+
+def _float(v: object) -> float | None:
+    """A TOML number as a finite float; None for anything else (booleans, strings, inf, nan, huge integers)."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return None
+    try:
+        x = float(v)
+    except OverflowError:
+        return None
+    return x if math.isfinite(x) else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,27 +170,46 @@ class Scenario:
         self, name: str, *, gradient: GradientMode | None = None, model: ComplianceModel | None = None
     ) -> Strategy:
         """One of the three strategies with this scenario's gains."""
+        if name not in STRATEGIES:
+            raise InputError(f"unknown strategy {show(name)}; choose one of {', '.join(STRATEGIES)}")
         if name == "free_space_min_norm":
-            return FreeSpaceMinNorm()
+            return cast(Strategy, FreeSpaceMinNorm())
         if name == "braced_min_norm":
-            return BracedMinNorm()
-        return BracedGradientProjection(self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient)
+            return cast(Strategy, BracedMinNorm())
+        strategy = BracedGradientProjection(self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient)
+        return cast(Strategy, strategy)
 
 
-def load_scenario(source: str | Path) -> Scenario:
-    """Read and validate a scenario: a TOML path or the name of a shipped scenario ('paper')."""
+def load_scenario(source: str | os.PathLike[str]) -> Scenario:
+    """Read and validate a scenario: a TOML path (a str or an os.PathLike) or a shipped scenario's name ('paper').
+
+    Raises:
+        ScenarioError: the file is missing, not TOML, or a key is missing, unknown or malformed (the message
+            names the key).
+    """
     shipped = shipped_scenarios()
-    path = shipped[str(source)] if str(source) in shipped else Path(source)
-    if not path.is_file():
+    if isinstance(source, str) and source in shipped:
+        path = shipped[source]
+    elif isinstance(source, str | os.PathLike) and isinstance(os.fspath(source), str) and os.fspath(source):
+        path = Path(os.fspath(source))
+    else:
         raise ScenarioError(
-            f"scenario not found: '{source}'; give a .toml file or one of: {', '.join(sorted(shipped))}"
+            f"a scenario must be a .toml path or a shipped name ({', '.join(sorted(shipped))}), got {show(source)}"
+        )
+    try:
+        found = path.is_file()
+    except (OSError, ValueError):  # a name the file system cannot hold
+        found = False
+    if not found:
+        raise ScenarioError(
+            f"scenario not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
         )
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path} is not valid TOML: {exc}") from exc
+        raise ScenarioError(f"{path} is not valid TOML: {show(str(exc), 200)}") from exc
     except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"cannot read scenario {path}: {exc}") from exc
+        raise ScenarioError(f"cannot read scenario {path}: {show(str(exc), 200)}") from exc
     try:
         return parse_scenario(data, base=path.parent, name=path.stem, source=path)
     except ScenarioError:
@@ -184,11 +232,8 @@ def parse_scenario(
         "brace",
         ("frame", "link", "offset", "contact", "point", "normal", "tangent", "region_radius", "environment_stiffness"),
     )
-    robot, brace = _brace(brace_t, robot)
-    try:
-        braced = BracedRobot(robot, brace)
-    except InputError as exc:
-        raise ScenarioError(f"[brace]: {exc}") from exc
+    braced = _brace(brace_t, robot)
+    robot, brace = braced.robot, braced.brace
     task_t = top.table(
         "task",
         (
@@ -212,6 +257,9 @@ def parse_scenario(
     comp = top.table("compliance", ("model", "beta_x"), {})
     model = comp.string("model", COMPLIANCE_MODELS, "constrained")
     beta_raw = comp.raw("beta_x", "radial")
+    if isinstance(beta_raw, str) and beta_raw != "radial":
+        want = '"radial" or 6 numbers [vx, vy, vz, wx, wy, wz]'
+        raise ScenarioError(f"'compliance.beta_x' must be {want}, got {show(beta_raw)}")
     if beta_raw == "radial":
         if not isinstance(task, Circle):
             raise ScenarioError(
@@ -225,9 +273,11 @@ def parse_scenario(
         spec = "radial"
     else:
         vec = comp.vector("beta_x", 6)
-        if np.linalg.norm(vec) < 1e-12:
-            raise ScenarioError("'compliance.beta_x' must not be zero")
-        fixed = vec / np.linalg.norm(vec)
+        with np.errstate(over="ignore"):
+            size = float(np.linalg.norm(vec))
+        if not 1e-12 <= size < math.inf:
+            raise ScenarioError(f"'compliance.beta_x' must be a non-zero twist of moderate size, got {vec.tolist()}")
+        fixed = vec / size
 
         def beta_x(t: float) -> Array:
             return fixed
@@ -239,8 +289,9 @@ def parse_scenario(
         raise ScenarioError(f"'gradient_projection.alpha' must be negative (it descends g), got {alpha}")
     w = gp.table("weights", WEIGHT_KEYS, {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01})
     weights = {k: w.number(k, 0.0) for k in WEIGHT_KEYS}
-    if any(v < 0 for v in weights.values()):
-        raise ScenarioError("'gradient_projection.weights' must be non-negative numbers")
+    for k, v in weights.items():
+        if v < 0:
+            raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")
     if weights["d"] > 0 and brace.region_radius is None:
         raise ScenarioError("'gradient_projection.weights.d' needs 'brace.region_radius' (r_max, m)")
     gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
@@ -259,19 +310,21 @@ def parse_scenario(
         raise ScenarioError(f"'simulation.feedback_gain' must be ≥ 0 (1/s), got {feedback_gain}")
     strategies = sim.raw("strategies", list(STRATEGIES))
     if not isinstance(strategies, list) or not strategies or any(s not in STRATEGIES for s in strategies):
-        raise ScenarioError(f"'simulation.strategies' must be a list drawn from: {', '.join(STRATEGIES)}")
+        raise ScenarioError(
+            f"'simulation.strategies' must be a list drawn from: {', '.join(STRATEGIES)}; got {show(strategies)}"
+        )
     return Scenario(
-        name=str(top.raw("name", name)),
-        description=str(top.raw("description", "")),
+        name=top.string("name", default=name),
+        description=top.string("description", default=""),
         braced=braced,
         task=task,
         guess=guess,
-        compliance_model=model,  # type: ignore[arg-type]
+        compliance_model=cast(ComplianceModel, model),
         beta_x=beta_x,
         beta_x_spec=spec,
         alpha=alpha,
         weights=weights,
-        gradient=gradient,  # type: ignore[arg-type]
+        gradient=cast(GradientMode, gradient),
         dt=dt,
         strategies=tuple(strategies),
         feedback_gain=feedback_gain,
@@ -292,30 +345,43 @@ def _robot(t: _Table, base: Path) -> Robot:
     tip = t.string("tip", default=None) if t.has("tip") else None
     try:
         if t.has("model"):
-            return load_model(t.string("model", tuple(MODELS)), stiffness=stiffness, tip=tip)
-        if tip is None:
-            raise ScenarioError("'robot.tip' is needed with 'robot.urdf': name the end-effector frame")
-        urdf = Path(t.string("urdf"))
-        return Robot.from_urdf(urdf if urdf.is_absolute() else base / urdf, tip=tip, stiffness=stiffness)
-    except ScenarioError:
-        raise
+            robot = load_model(t.string("model", tuple(MODELS)), tip=tip)
+        else:
+            if tip is None:
+                raise ScenarioError("'robot.tip' is needed with 'robot.urdf': name the end-effector frame")
+            urdf = Path(t.string("urdf"))
+            robot = Robot.from_urdf(urdf if urdf.is_absolute() else base / urdf, tip=tip)
+    except FrameNotFoundError as exc:
+        raise ScenarioError(f"'robot.tip': {exc}") from exc
     except BracekitError as exc:
-        raise ScenarioError(f"[robot]: {exc}") from exc
+        raise ScenarioError(f"'{t.key('model' if t.has('model') else 'urdf')}': {exc}") from exc
+    try:
+        return robot.with_stiffness(stiffness)
+    except BracekitError as exc:
+        raise ScenarioError(f"'robot.stiffness': {exc}") from exc
 
 
-def _brace(t: _Table, robot: Robot) -> tuple[Robot, Brace]:
+def _brace(t: _Table, robot: Robot) -> BracedRobot:
     if t.has("link"):
         frame = t.string("frame", default="brace")
+        if robot.model.existFrame(frame):
+            raise ScenarioError(
+                f"'brace.frame' = {show(frame)} is already a frame of the robot; name the new brace point otherwise"
+            )
         try:
             robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]))
         except BracekitError as exc:
-            raise ScenarioError(f"[brace]: {exc}") from exc
+            raise ScenarioError(f"'brace.link': {exc}") from exc
     else:
         frame = t.string("frame")
+    point, normal = t.vector("point", 3), t.vector("normal", 3)
+    if not np.any(normal):
+        raise ScenarioError("'brace.normal' must be a non-zero vector (the surface normal, toward the robot)")
     try:
-        surface = Surface(
-            t.vector("point", 3), t.vector("normal", 3), t.vector("tangent", 3) if t.has("tangent") else None
-        )
+        surface = Surface(point, normal, t.vector("tangent", 3) if t.has("tangent") else None)
+    except BracekitError as exc:
+        raise ScenarioError(f"'brace.tangent': {exc}") from exc
+    try:
         brace = Brace(
             frame=frame,
             surface=surface,
@@ -325,32 +391,42 @@ def _brace(t: _Table, robot: Robot) -> tuple[Robot, Brace]:
             if t.has("environment_stiffness")
             else None,
         )
+        return BracedRobot(robot, brace)
     except ScenarioError:
         raise
     except BracekitError as exc:
-        raise ScenarioError(f"[brace]: {exc}") from exc
-    return robot, brace
+        raise ScenarioError(f"'{t.key('link' if t.has('link') else 'frame')}': {exc}") from exc
 
 
 def _task(t: _Table) -> Task:
     kind = t.string("type", ("circle", "line", "waypoints"))
     try:
         if kind == "circle":
+            normal = unit(t.vector("normal", 3), "'task.normal'", ScenarioError)
+            start = t.vector("start_direction", 3)
+            if in_plane(normal, start) is None:
+                raise ScenarioError(
+                    "'task.start_direction' is parallel to 'task.normal'; give a direction in the circle's plane"
+                )
             return Circle(
                 centre=t.vector("centre", 3),
                 radius=t.number("radius", positive=True),
                 normal=t.vector("normal", 3),
                 period=t.number("period", positive=True),
-                start_direction=t.vector("start_direction", 3),
+                start_direction=start,
                 turns=t.number("turns", 1.0, positive=True),
             )
         if kind == "line":
             return Line(t.vector("start", 3), t.vector("end", 3), t.number("duration", positive=True))
-        pts = t.raw("points")
-        if not isinstance(pts, list):
-            raise ScenarioError("'task.points' must be a list of [x, y, z] points")
-        return Waypoints(np.asarray(pts, dtype=float), t.vector("times"))
+        points = t.points("points")
+        times = t.vector("times")
+        if times.size != len(points) or times[0] != 0.0 or np.any(np.diff(times) <= 0):
+            raise ScenarioError(
+                f"'task.times' must start at 0, increase strictly and give one time per point ({len(points)}), "
+                f"got {show(times.tolist())}"
+            )
+        return Waypoints(points, times)
     except ScenarioError:
         raise
-    except (BracekitError, ValueError) as exc:
-        raise ScenarioError(f"[task]: {exc}") from exc
+    except BracekitError as exc:
+        raise ScenarioError(f"[task] ({kind}): {exc}") from exc

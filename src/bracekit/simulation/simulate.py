@@ -2,9 +2,14 @@
 
 Each step: tip twist ẋ = feed-forward + pose-error feedback, q̇ from the strategy, an Euler step, then a
 Gauss–Newton correction that puts the tip back on the task pose and, for braced strategies, {b} back on
-the contact (to 1e-12), so neither error accumulates. Measures are recorded at every sample. A
-gradient-projection step that would jump over the region barrier (explicit Euler can) is split in halves,
-at most MAX_SUBSTEP_DEPTH times, and counted in ``Trajectory.substeps``.
+the contact (to 1e-12 of the robot's reach and of 1 rad), so neither error accumulates. Measures are
+recorded at every sample. A gradient-projection step that would jump over the region barrier (explicit
+Euler can) is split in halves, at most MAX_SUBSTEP_DEPTH times, and counted in ``Trajectory.substeps``.
+
+A run never passes a singularity silently. It stops (``completed=False``, the reason in ``failure``) when
+a joint moves more between two samples than JOINT_STEP_SAFETY × its URDF velocity limit × dt (at most
+MAX_JOINT_STEP; DEFAULT_JOINT_SPEED where the URDF gives no limit), or when σ_min/σ_max of a matrix the
+strategy inverts (J, or A and J1 when n1 = 6) or of J̃ falls below PATH_SINGULAR_RATIO.
 Gradient projection runs through the fused :class:`bracekit.fast.GradientProjectionStep`, which gives the
 strategy's own q̇ to ~1e-13.
 """
@@ -36,14 +41,34 @@ from bracekit.errors import (
     ConvergenceError,
     InputError,
     JointLimitWarning,
+    NumericalError,
     RegionWarning,
+    SingularityError,
     UnloadedContactWarning,
 )
-from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics import BracedRobot, BracedState, skeleton
+from bracekit.model.robot import Robot
 from bracekit.objective import RegionBarrier
-from bracekit.resolution.strategies import BracedGradientProjection, Strategy, with_beta_x
+from bracekit.resolution.strategies import (
+    MATRIX_LABELS,
+    BracedGradientProjection,
+    Strategy,
+    conditioning,
+    inverted_matrices,
+    with_beta_x,
+)
 from bracekit.simulation.tasks import Task
-from bracekit.tolerances import ACCEPT_TOL, CORRECTION_TOL
+from bracekit.tolerances import (
+    ACCEPT_TOL,
+    CORRECTION_ROUNDOFF,
+    CORRECTION_TOL,
+    DEFAULT_JOINT_SPEED,
+    JOINT_STEP_SAFETY,
+    MAX_JOINT_STEP,
+    NEAR_SINGULAR_DROP,
+    NEAR_SINGULAR_RATIO,
+    PATH_SINGULAR_RATIO,
+)
 
 Array = NDArray[np.float64]
 
@@ -51,6 +76,8 @@ Array = NDArray[np.float64]
 START_MAX_NFEV = 2000
 #: A gradient-projection step that jumps out of the bracing region is halved at most this many times.
 MAX_SUBSTEP_DEPTH = 4
+#: Configurations on the straight joint path between two samples at which a joint jump is diagnosed.
+JUMP_PROBES = 17
 
 
 def _has_region_term(strategy: Strategy) -> bool:
@@ -73,6 +100,30 @@ def contact_residual(state: BracedState, anchor: Array, anchor_rotation: Array) 
     return state.X.T @ np.concatenate([state.b - anchor, pin.log3(state.R_b @ anchor_rotation.T)])
 
 
+def contact_jacobian(state: BracedState, anchor_rotation: Array) -> Array:
+    """∂(contact_residual)/∂q ((6 − l)×n): Xᵀ [J_b,v; Jlog3(R) Rᵀ J_b,ω] with R = R_b R_b0ᵀ.
+
+    The moment rows use the exact derivative of log3: the allowed rotations of {b} away from the anchor
+    grow to O(1 rad) along a run, where the plain rows Xᵀ J_b make the correction converge only linearly.
+    A contact without constraint moments (frictionless point, point with friction) gives Xᵀ J_b.
+    """
+    x = state.X
+    if not np.any(x[3:]):
+        return x.T @ state.J_b
+    r = state.R_b @ anchor_rotation.T
+    return x[:3].T @ state.J_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ state.J_b[3:])
+
+
+def reach(robot: Robot) -> float:
+    """Length (m) of the chain from the first joint to the tip at the neutral configuration (1 if zero).
+
+    The scale of the correction's position residuals: the tip cannot be farther than this from joint 1.
+    """
+    pts = skeleton(robot, robot.neutral())[1:]
+    length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    return length if length > 0 else 1.0
+
+
 def correct(
     braced: BracedRobot,
     q: Array,
@@ -82,12 +133,21 @@ def correct(
     *,
     tol: float = CORRECTION_TOL,
     max_iter: int = 20,
+    length: float | None = None,
 ) -> BracedState:
     """Minimum-norm Gauss–Newton: the state nearest q with the tip at the pose (and {b} on the contact).
 
-    Stops at a residual below `tol`, or when it stops falling below ACCEPT_TOL (round-off); raises
-    ConvergenceError otherwise.
+    Residuals are relative to the problem's scale: positions divided by `length` (m; the robot's
+    :func:`reach` if not given), angles by 1 rad. Stops when the relative residual is below `tol`, below
+    its round-off (CORRECTION_ROUNDOFF · eps · √n · max(1, ‖q‖∞) · ‖scaled Jacobian‖_F), or when it stops
+    falling below ACCEPT_TOL; raises ConvergenceError otherwise.
     """
+    scale_len = reach(braced.robot) if length is None else float(length)
+    scale = np.array([scale_len] * 3 + [1.0] * 3)
+    if anchor is not None:
+        x = braced.X  # unit force and moment columns: a length and an angle residual
+        scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
+    roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
     previous = np.inf
     for _ in range(max_iter):
         st = braced.state(q)
@@ -95,21 +155,114 @@ def correct(
         rows = st.J_e
         if anchor is not None:
             res = np.concatenate([res, -contact_residual(st, *anchor)])
-            rows = np.vstack([rows, st.X.T @ st.J_b])
-        size = float(np.max(np.abs(res)))
-        if size < tol or (size < ACCEPT_TOL and size > 0.5 * previous):
+            rows = np.vstack([rows, contact_jacobian(st, anchor[1])])
+        size = float(np.max(np.abs(res) / scale))
+        floor = roundoff * max(1.0, float(np.max(np.abs(st.q)))) * float(np.linalg.norm(rows / scale[:, None]))
+        if size < max(tol, floor) or (size < ACCEPT_TOL and size > 0.5 * previous):
             return st
         previous = size
         q = q + rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
     raise ConvergenceError(
-        f"the pose/contact correction did not converge in {max_iter} iterations "
-        f"(residual {size:.2e}); reduce the time step or move away from singularities"
+        f"the pose/contact correction did not converge in {max_iter} iterations (residual {size:.2e} of the "
+        f"robot's reach {scale_len:.3g} m and of 1 rad); reduce the time step or move away from singularities"
     )
+
+
+def joint_step_bound(robot: Robot, dt: float) -> Array:
+    """Largest motion (n,) of each joint between two samples dt (s) apart: rad (m for a prismatic joint).
+
+    JOINT_STEP_SAFETY × the URDF velocity limit × dt, with DEFAULT_JOINT_SPEED (rad/s) for a joint whose
+    URDF gives 0 or inf, and never more than MAX_JOINT_STEP.
+    """
+    return np.minimum(JOINT_STEP_SAFETY * _joint_speeds(robot)[0] * dt, MAX_JOINT_STEP)
+
+
+def _joint_speeds(robot: Robot) -> tuple[Array, NDArray[np.bool_]]:
+    """The velocity limit of each joint (n,) and whether the URDF gave it (n,) (else DEFAULT_JOINT_SPEED)."""
+    v = np.asarray(robot.model.velocityLimit, dtype=float).copy()
+    given = np.isfinite(v) & (v > 0)
+    v[~given] = DEFAULT_JOINT_SPEED
+    return v, given
+
+
+def _jump_failure(
+    braced: BracedRobot,
+    strategy: Strategy,
+    before: Array,
+    after: Array,
+    bound: Array,
+    dt: float,
+    start: dict[str, float],
+) -> NumericalError:
+    """The error that ends a run whose joints moved more than `bound` (n,) between two samples.
+
+    Names the joints (1-based, chain order), the motion and its bound, and the smallest σ_min/σ_max of the
+    strategy's matrices at JUMP_PROBES configurations on the straight joint path between the samples. That
+    is a singularity when below NEAR_SINGULAR_RATIO or NEAR_SINGULAR_DROP × its value at the run's start
+    (`start`, the measures of the first sample).
+    """
+    step = np.abs(after - before)
+    over = np.flatnonzero(step > bound)
+    joints = ", ".join(str(j + 1) for j in over)
+    units = {"m" if _prismatic(braced.robot, int(j)) else "rad" for j in over}
+    unit = units.pop() if len(units) == 1 else "rad or m"
+    lo, hi = float(np.min(bound[over])), float(np.max(bound[over]))
+    limit = f"bound {hi:.3g} {unit}" if f"{lo:.3g}" == f"{hi:.3g}" else f"bounds {lo:.3g}–{hi:.3g} {unit}"
+    given = _joint_speeds(braced.robot)[1]
+    sources = []
+    if np.any(bound[over] >= MAX_JOINT_STEP):
+        sources.append(f"at most {MAX_JOINT_STEP:.3g} per step")
+    if np.any(given[over] & (bound[over] < MAX_JOINT_STEP)):
+        sources.append(f"{JOINT_STEP_SAFETY:g} × the URDF velocity limit × dt")
+    if np.any(~given[over] & (bound[over] < MAX_JOINT_STEP)):
+        sources.append(f"{JOINT_STEP_SAFETY:g} × {DEFAULT_JOINT_SPEED:.3g}/s × dt, no URDF velocity limit")
+    message = (
+        f"joint{'s' if over.size > 1 else ''} {joints} moved {np.max(step[over]):.3g} {unit} in one {dt:.3g} s step "
+        f"({limit}: {'; '.join(sources)})"
+    )
+    keys = inverted_matrices(strategy.braced, braced.n1)
+    probes = [braced.state(before + s * (after - before)) for s in np.linspace(0.0, 1.0, JUMP_PROBES)]
+    ratios = {key: min(conditioning(p, (key,))[key] for p in probes) for key in keys}
+    drop = {key: ratios[key] / max(start[f"sigma_ratio_{key}"], 1e-300) for key in keys}
+    near = [key for key in keys if ratios[key] < NEAR_SINGULAR_RATIO or drop[key] < NEAR_SINGULAR_DROP]
+    if near:
+        key = min(near, key=drop.__getitem__)
+        return SingularityError(
+            f"{message}; the step passes a singularity of {MATRIX_LABELS[key]} (σ_min/σ_max down to "
+            f"{ratios[key]:.1e} from {start[f'sigma_ratio_{key}']:.1e} at the start)"
+        )
+    worst = min(ratios, key=ratios.__getitem__)
+    label = MATRIX_LABELS[worst]
+    gain = " or |alpha|" if getattr(strategy, "objective", None) is not None else ""
+    return NumericalError(
+        f"{message}; no singularity between the samples (σ_min/σ_max ≥ {ratios[worst]:.1e}, of {label}): "
+        f"the strategy's joint rates exceed the bound; reduce dt, slow the task{gain}"
+    )
+
+
+def _prismatic(robot: Robot, j: int) -> bool:
+    """Whether joint j (0-based, chain order) is prismatic."""
+    return str(robot.model.joints[j + 1].shortname()).startswith("JointModelP")
+
+
+def _check_conditioning(row: dict[str, float], keys: tuple[str, ...]) -> None:
+    """SingularityError if σ_min/σ_max of a matrix in `keys` (recorded in `row`) is below PATH_SINGULAR_RATIO."""
+    low = [key for key in keys if row[f"sigma_ratio_{key}"] < PATH_SINGULAR_RATIO]
+    if low:
+        key = min(low, key=lambda k: row[f"sigma_ratio_{k}"])
+        raise SingularityError(
+            f"{MATRIX_LABELS[key]} is singular on the path (σ_min/σ_max = {row[f'sigma_ratio_{key}']:.1e} "
+            f"< {PATH_SINGULAR_RATIO:g})"
+        )
 
 
 @dataclass
 class Trajectory:
-    """One strategy's run: samples at times t (N,), joint values q (N×n) and named measures (N,)."""
+    """One strategy's run: samples at times t (N,), joint values q (N×n) and named measures (N,).
+
+    ``failure`` says why a run that did not complete stopped: the step and time, and what failed (a joint
+    jump, a singular matrix, a barrier, a correction that did not converge).
+    """
 
     strategy: str
     braced: bool
@@ -149,6 +302,7 @@ class Trajectory:
             "max_region_radius_m": float(np.max(m["region_radius"])),
             "min_surface_distance_m": float(np.min(m["surface_distance"])),
             "max_joint_limit_violation_rad": float(np.max(m["joint_limit_violation"])),
+            "max_joint_step_rad": float(np.max(m["joint_step"])),
             "steps": self.steps,
             "substeps": self.substeps,
             "completed": self.completed,
@@ -156,8 +310,14 @@ class Trajectory:
         }
 
 
-def measure(state: BracedState, beta_x: Array, centre: Array, task_error: float, braced: bool) -> dict[str, float]:
-    """The measures recorded at a sample (C_i in all models, J̃ singular values, k, θ_z, r, limits)."""
+def measure(
+    state: BracedState, beta_x: Array, centre: Array, task_error: float, braced: bool, joint_step: float = 0.0
+) -> dict[str, float]:
+    """The measures recorded at a sample (C_i in all models, J̃ singular values, k, θ_z, r, limits).
+
+    Also σ_min/σ_max of J1, A, J and J̃ (``sigma_ratio_<key>``) and ``joint_step``, the largest |Δq_i|
+    since the previous sample (rad, m for a prismatic joint; 0 at the start).
+    """
     sv = singular_value_measures(state.J_braced)
     lower, upper = state.braced.robot.lower, state.braced.robot.upper
     surface = state.braced.brace.surface
@@ -175,7 +335,10 @@ def measure(state: BracedState, beta_x: Array, centre: Array, task_error: float,
         "surface_distance": surface.signed_distance(state.b),
         "joint_limit_violation": float(np.max(np.maximum(0.0, np.maximum(lower - state.q, state.q - upper)))),
         "task_error": task_error,
+        "joint_step": joint_step,
     }
+    for key, ratio in conditioning(state, tuple(MATRIX_LABELS)).items():
+        out[f"sigma_ratio_{key}"] = ratio
     for model in COMPLIANCE_MODELS:
         out[f"Ci_{model}"] = compliance_index(end_effector_compliance(state, model), beta_x)  # type: ignore[arg-type]
     return out
@@ -194,7 +357,8 @@ def simulate(
 ) -> Trajectory:
     """Run `strategy` along `task` from q0 with time step dt (s); never raises on a failed step.
 
-    A step that meets a singularity, a barrier or a failed correction ends the run with
+    A step that meets a singularity (σ_min/σ_max below PATH_SINGULAR_RATIO at a sample, or a joint jump
+    beyond :func:`joint_step_bound`), a barrier or a failed correction ends the run with
     ``completed=False`` and the reason in ``failure``. `beta_x(t)` gives the unit twist (6,) along which
     the compliance index is measured (and minimised by a gradient-projection strategy).
     """
@@ -214,6 +378,9 @@ def simulate(
         fast = GradientProjectionStep(braced, strategy)
     guard = r_max is not None and _has_region_term(strategy)
     substeps = 0
+    length = reach(braced.robot)
+    bound = joint_step_bound(braced.robot, dt)
+    checked = inverted_matrices(strategy.braced, braced.n1)
 
     def advance(st: BracedState, t: float, h: float, depth: int = 0) -> BracedState:
         """One Euler step of length h from t, corrected; halved (up to 1/16) if it jumps out of the region."""
@@ -227,7 +394,7 @@ def simulate(
             if strategy.needs_hessians:
                 st = braced.state(st.q, hessians=True)
             qdot = current.velocity(st, xdot)
-        new = correct(braced, st.q + qdot * h, task.position(t + h), rotation, anchor)
+        new = correct(braced, st.q + qdot * h, task.position(t + h), rotation, anchor, length=length)
         if guard and np.linalg.norm(new.b - centre) >= r_max:  # type: ignore[operator]
             if depth >= MAX_SUBSTEP_DEPTH:
                 raise BarrierError(
@@ -241,14 +408,24 @@ def simulate(
 
     ts, qs, rows = [0.0], [st.q.copy()], [measure(st, beta_x(0.0), centre, 0.0, strategy.braced)]
     failure = None
+    try:
+        _check_conditioning(rows[0], checked)
+    except SingularityError as exc:
+        failure = f"start (t = 0.000 s): {exc}"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnloadedContactWarning)
-        for i in range(steps):
+        for i in range(steps if failure is None else 0):
             t, t_next = i * dt, (i + 1) * dt
             try:
+                before = st.q
                 st = advance(st, t, dt)
+                step = np.abs(st.q - before)
+                if np.any(step > bound):
+                    raise _jump_failure(braced, strategy, before, st.q, bound, dt, rows[0])
                 task_err = float(np.linalg.norm(task.position(t_next) - st.e))
-                rows.append(measure(st, beta_x(t_next), centre, task_err, strategy.braced))
+                row = measure(st, beta_x(t_next), centre, task_err, strategy.braced, float(np.max(step)))
+                _check_conditioning(row, checked)
+                rows.append(row)
             except BracekitError as exc:
                 failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
                 break
@@ -311,13 +488,17 @@ def solve_start(
 
     Solved from `guess` (n,) by SciPy least squares: the tip pose and the contact are hard residuals
     (then polished to 1e-12 by Gauss–Newton), while the distance of {b} from the region centre, θ_z and
-    the distance from the guess are soft. Raises ConvergenceError if the hard residuals are not met or
-    {b} ends outside the bracing region.
+    the distance from the guess are soft. Raises InputError for a position that is not 3 finite numbers
+    (m), a rotation that is not a finite 3×3 rotation matrix or a bad guess; ConvergenceError if the hard
+    residuals are not met or {b} ends outside the bracing region. Warns (BracekitWarning) only about a
+    start that meets the task and the contact but whose soft terms did not converge.
     """
     from scipy.optimize import least_squares
 
-    target = np.asarray(position, dtype=float).reshape(3)
-    rot = None if rotation is None else np.asarray(rotation, dtype=float).reshape(3, 3)
+    target = _finite(position, (3,), "the start position (m)")
+    rot = None if rotation is None else _finite(rotation, (3, 3), "the start rotation")
+    if rot is not None and not (np.allclose(rot.T @ rot, np.eye(3), atol=1e-9) and np.linalg.det(rot) > 0):
+        raise InputError("the start rotation must be a rotation matrix (orthonormal, determinant +1)")
     q_guess = braced.robot.check_q(guess)
     surface = braced.brace.surface
     lo, hi = braced.robot.lower, braced.robot.upper
@@ -326,7 +507,7 @@ def solve_start(
 
     def residual(q: Array) -> Array:
         st = braced.state(q)
-        hard = [target - st.e, [surface.signed_distance(st.b)]]
+        hard = [target - st.e, np.array([surface.signed_distance(st.b)])]
         if rot is not None:
             hard.append(pin.log3(rot @ st.R_e.T))
         # ẑ_b's tangential components: ≈ θ_z for small angles and smooth at 0, unlike θ_z itself
@@ -353,13 +534,6 @@ def solve_start(
     sol = least_squares(
         residual, x0, jac=jacobian, bounds=(lo, hi), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=START_MAX_NFEV
     )
-    if sol.status <= 0:
-        warnings.warn(
-            f"the start solve stopped after {sol.nfev} evaluations before its soft terms (r, θ_z, distance to the "
-            "guess) converged; the start meets the task and the contact but is not their optimum: give a closer guess",
-            BracekitWarning,
-            stacklevel=2,
-        )
     st = braced.state(sol.x)
     rotation_target = rot if rot is not None else st.R_e
     # the plane point under b: an anchor on the surface
@@ -378,4 +552,22 @@ def solve_start(
             f"no start configuration with the bracing point inside the region: r = {r:.4f} m ≥ r_max = {r_max} m; "
             "move the region centre, the task or the start guess"
         )
+    if sol.status <= 0:  # only now is it known that the start meets the task and the contact
+        warnings.warn(
+            f"the start solve stopped after {sol.nfev} evaluations before its soft terms (r, θ_z, distance to the "
+            "guess) converged; the start meets the task and the contact but is not their optimum: give a closer guess",
+            BracekitWarning,
+            stacklevel=2,
+        )
     return st
+
+
+def _finite(value: ArrayLike, shape: tuple[int, ...], what: str) -> Array:
+    """`value` as a float array of `shape`; InputError if it has another size or a non-finite entry."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be numbers, got {value!r}") from None
+    if a.size != int(np.prod(shape)) or not np.all(np.isfinite(a)):
+        raise InputError(f"{what} must be {' × '.join(map(str, shape))} finite numbers, got {a.tolist()}")
+    return a.reshape(shape)

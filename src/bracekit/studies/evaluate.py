@@ -3,22 +3,27 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
+from bracekit._linalg import as_array
 from bracekit.compliance.first_order import (
     compliance_ellipsoids,
     compliance_index,
     end_effector_compliance,
     free_space_compliance,
+    unit6,
 )
 from bracekit.compliance.measures import frobenius_condition, singular_value_measures, theta_z
-from bracekit.contact import Brace, Surface, contact_type
-from bracekit.errors import InputError
-from bracekit.kinematics import BracedRobot
+from bracekit.contact import Brace, ContactType, Surface, contact_type
+from bracekit.errors import ChainSingularWarning, ContactError, InputError
+from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
 from bracekit.model.robot import Robot
+from bracekit.spatial import unit
+from bracekit.tolerances import J1_COND_LIMIT
 
 
 def _ellipsoids(c: np.ndarray) -> dict[str, Any]:
@@ -34,29 +39,73 @@ def _reduction(braced: float, free: float) -> float | None:
     return None if free <= 1e-15 else 1.0 - braced / free
 
 
+def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """V / ‖v‖, scaled first where the norm leaves float64 (vectors of extreme size)."""
+    with np.errstate(over="ignore", under="ignore"):
+        size = np.linalg.norm(v)
+    return v / size if np.isfinite(size) and size > 1e-150 else unit(v, "beta_x")
+
+
+def _rank(m: NDArray[np.float64], scale: float) -> int:
+    """Singular values of m above scale / J1_COND_LIMIT (the limit beyond which J1 counts as singular)."""
+    if m.size == 0:
+        return 0
+    return int(np.sum(np.linalg.svd(m, compute_uv=False) > scale / J1_COND_LIMIT))
+
+
+def chain1_motions(state: BracedState) -> dict[str, Any]:
+    """How many braced motions of {b} chain 1 realises at the state, and the rank of A it gives.
+
+    ``J1_condition``: σ_max/σ_min of J1 (None if σ_min = 0); ``J1_singular``: σ_min ≤ σ_max / J1_COND_LIMIT;
+    ``braced_motions``: rank of J1 N, N the chain-1 motions that keep the contact (null space of Xᵀ J1);
+    ``A_rank``: rank of [S_t1 J1 N, S_t2 J2], the braced Jacobian that chain 1 actually realises (equal to the
+    rank of A, built from H, wherever J1 is regular).
+    """
+    j1 = state.J1
+    s = np.linalg.svd(j1, compute_uv=False)
+    top = float(s[0]) if s.size else 0.0
+    keep = contact_null_space(state.X.T @ j1)
+    motions = j1 @ keep
+    realised = np.hstack([state.S_t1 @ motions, state.S_t2 @ state.J2])
+    return {
+        "J1_condition": float(s[0] / s[-1]) if s.size and s[-1] > 0 else None,
+        "J1_singular": bool(not s.size or not s[-1] > top / J1_COND_LIMIT),
+        "braced_motions": _rank(motions, top),
+        "A_rank": _rank(realised, float(np.linalg.norm(realised, 2)) if realised.size else 0.0),
+    }
+
+
 def evaluate(
     robot: Robot,
     brace_frame: str,
     q: ArrayLike,
     *,
     normal: ArrayLike = (0.0, 0.0, 1.0),
-    contact: str = "frictionless_point",
+    contact: str | ContactType = "frictionless_point",
     beta_x: ArrayLike | None = None,
 ) -> dict[str, Any]:
     """The braced model at q with a surface through b of the given normal (world).
 
     Keys (SI; matrices as nested lists row-major; twists [v; ω] and wrenches [f; m] at the tip point,
     world axes): J, J1, J2, H, X, A, J_braced, C_free, C_e_projection, C_e_constrained, k, k_braced,
-    b, e, theta_z, the compliance index along β_x (default [n̂; 0]) in each model and the ellipsoids.
+    b, e, theta_z, the compliance index along β_x (default [n̂; 0]) in each model and the ellipsoids;
+    J1_condition, J1_singular, braced_motions and A_rank (:func:`chain1_motions`). Where J1 is singular a
+    ChainSingularWarning says that chain 1 realises fewer braced motions than A's columns suggest.
     """
+    if not isinstance(robot, Robot):
+        raise InputError(f"evaluate needs a bracekit Robot, got {type(robot).__name__}")
     qa = robot.check_q(q)
-    probe = BracedRobot(robot, Brace(brace_frame, Surface(np.zeros(3), normal)))
+    kind = contact_type(contact)
+    n_raw = as_array(normal, "the surface normal", error=ContactError)
+    probe = BracedRobot(robot, Brace(brace_frame, Surface(np.zeros(3), n_raw)))
     b = probe.state(qa).b
-    braced = BracedRobot(robot, Brace(brace_frame, Surface(b, normal), contact_type(contact)))
+    braced = BracedRobot(robot, Brace(brace_frame, Surface(b, n_raw), kind))
     st = braced.state(qa)
-    beta = np.concatenate([braced.brace.surface.normal, np.zeros(3)]) if beta_x is None else np.asarray(beta_x)
-    if beta.size != 6:
-        raise InputError(f"--beta-x must have 6 numbers [vx, vy, vz, wx, wy, wz], got {beta.size}")
+    if beta_x is None:
+        beta = np.concatenate([braced.brace.surface.normal, np.zeros(3)])
+    else:
+        beta = as_array(beta_x, "beta_x", finite=False).reshape(-1)
+        unit6(beta, "beta_x")  # 6 finite numbers, not all zero
     c_free = free_space_compliance(st)
     c_con = end_effector_compliance(st, "constrained")
     c_proj = end_effector_compliance(st, "projection")
@@ -65,6 +114,16 @@ def evaluate(
         for name, c in (("free", c_free), ("constrained", c_con), ("projection", c_proj))
     }
     sv = singular_value_measures(st.J_braced)
+    chain1 = chain1_motions(st)
+    if chain1["J1_singular"]:
+        cond = chain1["J1_condition"]
+        warnings.warn(
+            f"J1 is singular at this configuration (cond = {'inf' if cond is None else f'{cond:.3g}'}): chain 1 "
+            f"realises {chain1['braced_motions']} of the {st.H.shape[1]} braced motions of {{b}} that A's columns "
+            f"assume (A_rank = {chain1['A_rank']}); move chain 1 away from its singularity",
+            ChainSingularWarning,
+            stacklevel=2,
+        )
     return {
         "n": robot.n,
         "n1": braced.n1,
@@ -72,7 +131,7 @@ def evaluate(
         "joint_names": list(robot.joint_names),
         "brace_frame": brace_frame,
         "tip_frame": robot.tip,
-        "contact": contact,
+        "contact": kind.name,
         "q": qa,
         "b": st.b,
         "e": st.e,
@@ -85,6 +144,7 @@ def evaluate(
         "H": st.H,
         "X": st.X,
         "A": st.A,
+        **chain1,
         "J_braced": st.J_braced,
         "C_free": c_free,
         "C_e_constrained": c_con,
@@ -93,7 +153,7 @@ def evaluate(
         "k_braced": frobenius_condition(st.J_braced),
         **{f.name: getattr(sv, f.name) for f in dataclasses.fields(sv)},
         "theta_z": theta_z(braced.brace.surface.normal, st.z_b),
-        "beta_x": beta / np.linalg.norm(beta),
+        "beta_x": _unit(beta),
         "Ci_free": ci["free"],
         "Ci_constrained": ci["constrained"],
         "Ci_projection": ci["projection"],

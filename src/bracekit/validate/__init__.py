@@ -1,6 +1,7 @@
-"""Physics references for the compliance models: the first-order Lagrange (KKT) compliance, the nonlinear static
-equilibrium (Pinocchio), a MuJoCo model of the braced chain, and the runner that compares the first-order models
-with both (``bracekit validate``). Needs MuJoCo: ``pip install bracekit[validate]``.
+"""Physics references for the compliance models (``bracekit validate``; needs ``pip install bracekit[validate]``).
+
+The first-order Lagrange (KKT) compliance, the nonlinear static equilibrium (Pinocchio), a MuJoCo model of the
+braced chain, and the runner that compares the first-order models with both.
 """
 
 from bracekit.validate.mujoco_check import (

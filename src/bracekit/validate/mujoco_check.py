@@ -1,4 +1,4 @@
-"""MuJoCo cross-check of the braced statics (docs/model.md, "Limits of the model"; MuJoCo settings in docs/validation.md).
+"""MuJoCo cross-check of the braced statics (docs/model.md; the settings are in docs/validation.md).
 
 A MuJoCo model mirrors a Pinocchio chain of 1-DoF revolute joints: nested bodies at the Pinocchio joint
 placements, hinge joints with springs (stiffness k_i, springref), a small frictionless sphere at the brace

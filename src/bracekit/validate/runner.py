@@ -24,15 +24,17 @@ message, and the run goes on. Statistics are ``None`` (never NaN) when no case c
 
 from __future__ import annotations
 
+import math
+import os
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit._linalg import as_array, show
 from bracekit.compliance.first_order import end_effector_compliance, free_space_compliance
 from bracekit.compliance.preloaded import preloaded_compliance
 from bracekit.errors import (
@@ -54,6 +56,7 @@ __all__ = [
     "FORCE_DIRECTIONS",
     "MODELS",
     "ValidationReport",
+    "path_samples",
     "preload_study",
     "run_validation",
     "validation_configurations",
@@ -96,13 +99,15 @@ MUJOCO_SETTINGS: dict[str, Any] = {
 # --------------------------------------------------------------------------------------------------
 # Inputs
 # --------------------------------------------------------------------------------------------------
-def _scenario(scenario: Scenario | str | Path) -> Scenario:
+def _scenario(scenario: Scenario | str | os.PathLike[str]) -> Scenario:
+    if not isinstance(scenario, Scenario | str | os.PathLike):
+        raise InputError(f"scenario must be a Scenario, a .toml path or a shipped name, got {type(scenario).__name__}")
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     brace = sc.braced.brace
-    if brace.contact.name != "frictionless_point":
+    if brace.kind.name != "frictionless_point":
         raise InputError(
             f"validation supports the frictionless point contact only (MuJoCo and the static solve model it); "
-            f"scenario '{sc.name}' uses '{brace.contact.name}'"
+            f"scenario '{sc.name}' uses '{brace.kind.name}'"
         )
     if brace.environment_stiffness is not None:
         raise InputError(
@@ -112,16 +117,23 @@ def _scenario(scenario: Scenario | str | Path) -> Scenario:
 
 
 def _positive(value: float, name: str, unit: str, *, zero_ok: bool = False) -> float:
-    ok = isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(_as_float(value))
     if not ok or value < 0 or (value == 0 and not zero_ok):
         want = ">= 0" if zero_ok else "> 0"
-        raise InputError(f"{name} must be a finite number {want} {unit}, got {value!r}")
+        raise InputError(f"{name} must be a finite number {want} {unit}, got {show(value)}")
     return float(value)
+
+
+def _as_float(value: float) -> float:
+    try:
+        return float(value)
+    except OverflowError:  # an int beyond float64
+        return math.inf
 
 
 def _count(n: object, name: str) -> int:
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or int(n) < 1:
-        raise InputError(f"{name} must be a whole number >= 1, got {n!r}")
+        raise InputError(f"{name} must be a whole number >= 1, got {show(n)}")
     return int(n)
 
 
@@ -135,7 +147,7 @@ def _directions(directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike
             label, vec = item[0], item[1]
         else:
             label, vec = f"direction {i}", item
-        v = np.asarray(vec, dtype=float).reshape(-1)
+        v = as_array(vec, f"load direction '{label}'", finite=False).reshape(-1)
         if v.size != 6 or not np.all(np.isfinite(v)):
             raise InputError(f"load direction '{label}' must be 6 finite numbers [fx, fy, fz, mx, my, mz]")
         nf, nm = np.linalg.norm(v[:3]), np.linalg.norm(v[3:])
@@ -145,16 +157,28 @@ def _directions(directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike
     return out
 
 
-def validation_configurations(scenario: Scenario | str | Path, n: int) -> list[Array]:
+def path_samples(scenario: Scenario) -> int:
+    """Samples of a scenario's path (steps + 1): the most configurations :func:`validation_configurations` gives."""
+    return max(1, round(scenario.task.duration / scenario.dt)) + 1
+
+
+def validation_configurations(scenario: Scenario | str | os.PathLike[str], n: int) -> list[Array]:
     """N braced configurations (each (n_joints,), rad) of a scenario, contact closed at every one.
 
     The first is the solved start configuration; the others are evenly spaced samples (in time) of the
     braced minimum-norm run along the task, ``k·N/n`` for k = 0..n−1 of the N samples (the task's end,
-    which repeats the start of a closed circle, is not taken). Raises InputError for n < 1 and
-    ConvergenceError when the start cannot be solved.
+    which repeats the start of a closed circle, is not taken). Raises InputError for n < 1 or n beyond the
+    path's samples (:func:`path_samples`), NumericalError when the run ends early and ConvergenceError when
+    the start cannot be solved.
     """
     n = _count(n, "the number of configurations")
     sc = _scenario(scenario)
+    most = path_samples(sc)
+    if n > most:
+        raise InputError(
+            f"asked for {n} configurations, but the path of scenario '{sc.name}' has {most} samples "
+            f"(task {sc.task.duration:g} s, dt {sc.dt:g} s); ask for at most {most}"
+        )
     start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
     if n == 1:
         return [start.q.copy()]
@@ -410,7 +434,7 @@ class ValidationReport:
 
 
 def run_validation(
-    scenario: Scenario | str | Path,
+    scenario: Scenario | str | os.PathLike[str],
     configs: int | Sequence[ArrayLike] = 3,
     *,
     force: float = 0.5,
@@ -450,7 +474,7 @@ def run_validation(
     if isinstance(configs, int | np.integer) and not isinstance(configs, bool):
         qs = validation_configurations(sc, _count(configs, "configs"))
     elif isinstance(configs, bool) or isinstance(configs, str) or not isinstance(configs, Sequence | np.ndarray):
-        raise InputError(f"configs must be a whole number >= 1 or a list of configurations, got {configs!r}")
+        raise InputError(f"configs must be a whole number >= 1 or a list of configurations, got {show(configs)}")
     else:
         if len(configs) == 0:
             raise InputError("configs must hold at least one configuration")
@@ -493,7 +517,7 @@ def run_validation(
 # Preload study
 # --------------------------------------------------------------------------------------------------
 def preload_study(
-    scenario: Scenario | str | Path,
+    scenario: Scenario | str | os.PathLike[str],
     preloads: Sequence[float] = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 50.0),
     loads: Sequence[float] = (0.05, 0.5, 2.0),
     *,
@@ -522,7 +546,7 @@ def preload_study(
     """
     sc = _scenario(scenario)
     if reference not in ("static", "mujoco"):
-        raise InputError(f"reference must be 'static' or 'mujoco', got {reference!r}")
+        raise InputError(f"reference must be 'static' or 'mujoco', got {show(reference)}")
     ps = [_positive(p, "preload", "N", zero_ok=True) for p in preloads]
     fs = [_positive(f, "load", "N") for f in loads]
     if not ps or not fs:
