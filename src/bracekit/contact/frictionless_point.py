@@ -15,11 +15,13 @@ class FrictionlessPoint(ContactType):
     l = 5
 
     def H(self, frame: Array) -> Array:
+        """Allowable twists of {b} (6×l), world axes, for the tangent frame `frame` (eq:constraint)."""
         x, y, z = frame[:, 0], frame[:, 1], frame[:, 2]
         zero = np.zeros(3)
         return columns((x, zero), (y, zero), (zero, x), (zero, y), (zero, z))
 
     def X(self, frame: Array) -> Array:
+        """Constraint wrenches (6×(6−l)), world axes, reciprocal to H (Hᵀ X = 0)."""
         return columns((frame[:, 2], np.zeros(3)))
 
 

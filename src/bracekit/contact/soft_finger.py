@@ -15,10 +15,12 @@ class SoftFinger(ContactType):
     l = 2
 
     def H(self, frame: Array) -> Array:
+        """Allowable twists of {b} (6×l), world axes, for the tangent frame `frame` (eq:constraint)."""
         zero = np.zeros(3)
         return columns((zero, frame[:, 0]), (zero, frame[:, 1]))
 
     def X(self, frame: Array) -> Array:
+        """Constraint wrenches (6×(6−l)), world axes, reciprocal to H (Hᵀ X = 0)."""
         zero = np.zeros(3)
         return columns((frame[:, 0], zero), (frame[:, 1], zero), (frame[:, 2], zero), (zero, frame[:, 2]))
 

@@ -23,9 +23,11 @@ class BraceAngle(Term):
     key = "theta_z"
 
     def value(self, state: BracedState) -> float:
+        """The term's value at the state (the class docstring gives its units)."""
         return theta_z(state.braced.brace.surface.normal, state.z_b)
 
     def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,), exact through the state's kinematic Hessians."""
         u = cross3(state.braced.brace.surface.normal, state.z_b)
         s = float(np.linalg.norm(u))
         if s < 1e-12:
@@ -33,9 +35,11 @@ class BraceAngle(Term):
         return state.J_b[3:].T @ (u / s)
 
     def fused_value(self, kin: FusedKinematics) -> float:
+        """The value from the fused step's kinematics (the same as :meth:`value`)."""
         return angle_between(np.asarray(kin.normal), kin.mb[:3, 2])
 
     def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to the fused step's accumulator; True when done here."""
         u = cross3_list(kin.normal, kin.mb[:3, 2].tolist())
         s = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
         if s >= 1e-12:
@@ -44,8 +48,10 @@ class BraceAngle(Term):
         return True
 
     def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]]:
+        """(kind, parameters) of the numba kernel's compiled copy of this term."""
         return "theta_z", [weight]
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> BraceAngle:
+        """The term as a scenario configures it (its weight key is ``key``)."""
         return cls()

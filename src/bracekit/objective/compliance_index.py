@@ -40,13 +40,16 @@ class ComplianceIndex(Term):
         check_model(self.model)
 
     def with_beta_x(self, beta_x: ArrayLike) -> ComplianceIndex:
+        """The term with β_x replaced by a new unit twist (6,)."""
         return replace(self, beta_x=as_array(beta_x, "beta_x", finite=False))  # made a unit twist by __post_init__
 
     def value(self, state: BracedState) -> float:
+        """The term's value at the state (the class docstring gives its units)."""
         return float(np.linalg.norm(self.beta_x @ end_effector_compliance(state, self.model)))
 
     @np.errstate(all="ignore")  # an overflow raises NumericalError below (check_finite), not a RuntimeWarning
     def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,), exact through the state's kinematic Hessians."""
         d_je, d_jb = hessians(state)
         n1 = state.n1
         beta = self.beta_x
@@ -83,11 +86,13 @@ class ComplianceIndex(Term):
         return check_finite(grad / ci, "the gradient of the compliance index")
 
     def fused_value(self, kin: FusedKinematics) -> float:
+        """The value from the fused step's kinematics (the same as :meth:`value`)."""
         jh = kin.compliance(self.model)[2]
         v = jh.dot(jh.T.dot(self.beta_x) * kin.kinv)
         return check_finite(float(np.sqrt(v.dot(v))), "the compliance index")
 
     def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to the fused step's accumulator; True when done here."""
         beta = self.beta_x
         n1 = kin.n1
         s1t, tj1, jh = kin.compliance(self.model)
@@ -113,10 +118,12 @@ class ComplianceIndex(Term):
         return True
 
     def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]] | None:
+        """(kind, parameters) of the numba kernel's compiled copy of this term."""
         if braced.brace.environment_stiffness is not None and self.model != "projection":
             return None  # the kernel's T C1 Tᵀ form needs a rigid environment
         return "Ci", [*self.beta_x.tolist(), weight, float(self.model == "projection")]
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> ComplianceIndex:
+        """The term as a scenario configures it (its weight key is ``key``)."""
         return cls(context.beta_x, check_model(context.compliance_model))

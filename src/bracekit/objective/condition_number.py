@@ -22,9 +22,11 @@ class ConditionNumber(Term):
     key = "k"
 
     def value(self, state: BracedState) -> float:
+        """The term's value at the state (the class docstring gives its units)."""
         return frobenius_condition(state.J_e)
 
     def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,), exact through the state's kinematic Hessians."""
         d_je, _ = hessians(state)
         j = state.J_e
         k = frobenius_condition(j)
@@ -34,18 +36,22 @@ class ConditionNumber(Term):
         return contract(d_je, (2.0 * b) * j - (2.0 * a) * (m_inv @ m_inv @ j)) / (72.0 * k)
 
     def fused_value(self, kin: FusedKinematics) -> float:
+        """The value from the fused step's kinematics (the same as :meth:`value`)."""
         a, bb, _ = kin.frobenius()
         return float(np.sqrt(a * bb) / 6.0)
 
     def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to the fused step's accumulator; True when done here."""
         a, bb, m2j = kin.frobenius()  # (b da + a db) / (72 k), as gradient()
         c = weight / (6.0 * math.sqrt(a * bb))
         out.add_ue(kin.je * (c * bb) - m2j * (c * a))
         return True
 
     def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]]:
+        """(kind, parameters) of the numba kernel's compiled copy of this term."""
         return "k", [weight]
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> ConditionNumber:
+        """The term as a scenario configures it (its weight key is ``key``)."""
         return cls()

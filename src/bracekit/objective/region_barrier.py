@@ -39,9 +39,11 @@ class RegionBarrier(Term):
         return float(np.linalg.norm(state.b - self.centre))
 
     def value(self, state: BracedState) -> float:
+        """The term's value at the state (the class docstring gives its units)."""
         return region_barrier(self.radius(state), self.r_max)
 
     def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,), exact through the state's kinematic Hessians."""
         rel = state.b - self.centre
         r2 = float(rel @ rel)
         if r2 >= self.r_max**2:
@@ -49,9 +51,11 @@ class RegionBarrier(Term):
         return (self.r_max**2 / (self.r_max**2 - r2) ** 2) * 2.0 * (state.J_b[:3].T @ rel)
 
     def fused_value(self, kin: FusedKinematics) -> float:
+        """The value from the fused step's kinematics (the same as :meth:`value`)."""
         return region_barrier(float(np.linalg.norm(kin.mb[:3, 3] - self.centre)), self.r_max)
 
     def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to the fused step's accumulator; True when done here."""
         c0, c1, c2 = self.centre.tolist()
         b0, b1, b2 = kin.mb[:3, 3].tolist()
         rel = (b0 - c0, b1 - c1, b2 - c2)
@@ -65,10 +69,12 @@ class RegionBarrier(Term):
         return True
 
     def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]]:
+        """(kind, parameters) of the numba kernel's compiled copy of this term."""
         return "d", [*self.centre.tolist(), float(self.r_max), weight]
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> RegionBarrier:
+        """The term as a scenario configures it (its weight key is ``key``)."""
         brace = context.braced.brace
         if brace.region_radius is None:
             raise InputError("the region barrier d needs the brace's region_radius (r_max, m)")

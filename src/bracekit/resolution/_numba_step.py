@@ -203,11 +203,16 @@ def gp_step(je, jb, he, hb, mb, me, xd, h, x, t_proj, kinv, ci, reg, normal, par
     """(status, q̇) of one braced gradient-projection step (eq:grad_proj) with n1 = 6 and the analytic ∇g.
 
     Args:
-        je, jb: the frame Jacobians of {e} and {b} (6×n, world axes, LOCAL_WORLD_ALIGNED).
-        he, hb: their kinematic Hessians as (n, 6n) rows, ``he[k, r + 6 i] = ∂J_e[r, i]/∂q_k``.
-        mb, me: ⁰M_b and ⁰M_e (4×4).
+        je: the frame Jacobian of {e} (6×n, world axes, LOCAL_WORLD_ALIGNED).
+        jb: the frame Jacobian of {b} (6×n, world axes).
+        he: the kinematic Hessian of {e} as (n, 6n) rows, ``he[k, r + 6 i] = ∂J_e[r, i]/∂q_k``.
+        hb: the same for {b}.
+        mb: ⁰M_b (4×4).
+        me: ⁰M_e (4×4).
         xd: the tip twist ẋ (6,).
-        h, x: H (6×l) and X (6×(6−l)) of the contact; t_proj = I − P (6×6).
+        h: H (6×l) of the contact.
+        x: X (6×(6−l)) of the contact.
+        t_proj: I − P (6×6).
         kinv: 1/K (n,).
         ci: one row per compliance-index term: β_x (6), weight, 1.0 for the projection model else 0.0.
         reg: one row per region-barrier term: centre (3), r_max, weight.

@@ -87,6 +87,7 @@ class FreeSpaceMinNorm:
     needs_hessians: bool = False
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
+        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
         return pinv_checked(state.J_e, "the Jacobian J") @ np.asarray(xdot, dtype=float)
 
 
@@ -114,6 +115,7 @@ class BracedMinNorm:
     needs_hessians: bool = False
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
+        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
         y = pinv_checked(state.A, "the braced Jacobian A") @ np.asarray(xdot, dtype=float)
         return braced_to_joint(state, y)
 
@@ -147,6 +149,7 @@ class BracedGradientProjection:
         return finite_difference_gradient(state.braced, self.objective.value, state.q, self.fd_step)
 
     def velocity(self, state: BracedState, xdot: ArrayLike) -> Array:
+        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
         a = state.A
         a_pinv = pinv_checked(a, "the braced Jacobian A")
         grad = braced_gradient(state, self.dg_dq(state))

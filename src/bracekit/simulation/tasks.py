@@ -125,10 +125,12 @@ class Circle:
         return a
 
     def position(self, t: float) -> Array:
+        """Desired tip position p_d(t) (3,), m, world frame."""
         a = self.angle(t)
         return self.centre + self.radius * (np.cos(a) * self._u + np.sin(a) * self._w)
 
     def velocity(self, t: float) -> Array:
+        """Desired tip velocity ṗ_d(t) (3,), m/s, world frame."""
         a, om = self.angle(t), 2.0 * np.pi / self.period
         return self.radius * om * (-np.sin(a) * self._u + np.cos(a) * self._w)
 
@@ -165,18 +167,21 @@ class Waypoints:
 
     @property
     def duration(self) -> float:
+        """Length of the task, s."""
         return float(self.times[-1])
 
     def _segment(self, t: float) -> int:
         return int(np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, self.times.size - 2))
 
     def position(self, t: float) -> Array:
+        """Desired tip position p_d(t) (3,), m, world frame."""
         t = float(np.clip(_time(t), 0.0, self.duration))
         i = self._segment(t)
         s = (t - self.times[i]) / (self.times[i + 1] - self.times[i])
         return self.points[i] + s * (self.points[i + 1] - self.points[i])
 
     def velocity(self, t: float) -> Array:
+        """Desired tip velocity ṗ_d(t) (3,), m/s, world frame."""
         t = _time(t)
         if t < 0.0 or t > self.duration:
             return np.zeros(3)

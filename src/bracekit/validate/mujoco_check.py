@@ -243,6 +243,16 @@ def build_mujoco_model(
     gravity: use it for visual checks only).
 
     Args:
+        model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
+        q0: (n,) rad, the (preloaded) equilibrium; b lies on the plane at q0.
+        stiffness: (n,) joint stiffnesses, N·m/rad, > 0.
+        brace_frame_id: Pinocchio frame id of {b}.
+        tip_frame_id: Pinocchio frame id of {e}.
+        surface_point: (3,) m, a point of the plane (world).
+        surface_normal: (3,) unit normal, toward the robot.
+        sphere_radius: radius of the contact sphere, m.
+        gravity: use Pinocchio's inertias and gravity along −z.
+        preload: contact force P ≥ 0 at q0, N.
         damping_time: τ (s); default 2√λ_max(K⁻¹M(q0)) (heaviest mode critically damped).
         timestep: s; default min(1 ms, τ/20).
 
@@ -374,6 +384,14 @@ def mujoco_static_deflection(
     remaining motion max|q̇|·τ < ``tol`` (rad); the loop runs on a step counter.
 
     Args:
+        model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
+        q0: (n,) rad, the (preloaded) equilibrium; b lies on the plane at q0.
+        stiffness: (n,) joint stiffnesses, N·m/rad, > 0.
+        brace_frame_id: Pinocchio frame id of {b}.
+        tip_frame_id: Pinocchio frame id of {e}.
+        surface_point: (3,) m, a point of the plane (world).
+        surface_normal: (3,) unit normal, toward the robot.
+        wrench: (6,) [f; m] at the tip, world axes (N, N·m).
         preload: contact force P ≥ 0 (N) at q0. A unilateral MuJoCo contact needs P > 0 to hold a pull.
         max_steps: step budget for both phases together.
         tol: settling tolerance, rad.

@@ -322,7 +322,8 @@ def solve_static_equilibrium(
         model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
         q0: (n,) rad, preloaded equilibrium; b must lie on the plane at q0.
         stiffness: (n,) joint stiffnesses, N·m/rad, > 0.
-        brace_frame_id, tip_frame_id: Pinocchio frame ids of {b} and {e}.
+        brace_frame_id: Pinocchio frame id of {b}.
+        tip_frame_id: Pinocchio frame id of {e}.
         surface_point: (3,) m, a point of the plane (world).
         surface_normal: (3,) unit normal, pointing out of the surface toward the robot.
         wrench: (6,) [f; m] at e, world axes (N, N·m).
