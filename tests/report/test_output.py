@@ -86,7 +86,7 @@ def test_a_folder_with_files_bracekit_did_not_write_is_refused_and_untouched(tmp
     if manifest is not None:
         (out / MANIFEST).write_text(manifest)
     before = _snapshot(out)
-    with pytest.raises(OutputError, match=r"holds files bracekit did not write: .*a\.txt.*--overwrite"):
+    with pytest.raises(OutputError, match=r"holds files bracekit did not write: .*a\.txt.*overwrite=True"):
         _write(out, {"b.txt": "new"})
     assert _snapshot(out) == before and _siblings(out) == []
     assert not (tmp_path / "a.txt").exists()

@@ -144,7 +144,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return _dispatch(args)
     except InputError as exc:
-        print(f"bracekit: error: {exc}", file=sys.stderr)
+        print(f"bracekit: error: {_as_cli(str(exc))}", file=sys.stderr)
         return 2
     except BracekitError as exc:
         print(f"bracekit: error: {exc}", file=sys.stderr)
@@ -157,6 +157,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     finally:
         warnings.showwarning = saved
+
+
+def _as_cli(message: str) -> str:
+    """A library message in the command line's words (its argument names become the flags)."""
+    return (
+        message.replace("overwrite=True", "--overwrite")
+        .replace("another output folder", "another --out")
+        .replace("points_per_link", "--points-per-link")
+    )
 
 
 def _dispatch(args: argparse.Namespace) -> int:

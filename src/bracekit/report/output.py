@@ -226,14 +226,14 @@ def _reason(exc: OSError) -> str:
 
 def _target(shown: str) -> Path:
     if shown.strip() == "" or Path(shown).name in ("", ".", ".."):
-        raise OutputError("the output folder must be a named folder (e.g. --out bracekit-out), not '' or '.'")
+        raise OutputError("the output folder must be a named folder (e.g. bracekit-out), not '' or '.'")
     path = Path(os.path.abspath(shown))
     if path.is_symlink():
         if not path.exists():
-            raise OutputError(f"output path {shown} is a broken symbolic link; give a folder path with --out")
+            raise OutputError(f"output path {shown} is a broken symbolic link; give a folder path")
         path = Path(os.path.realpath(path))
     if path.exists() and not path.is_dir():
-        raise OutputError(f"output path {shown} exists and is not a folder; give a folder path with --out")
+        raise OutputError(f"output path {shown} exists and is not a folder; give a folder path")
     return path
 
 
@@ -243,11 +243,11 @@ def _make_parents(parent: Path, shown: str) -> tuple[Path, ...]:
     folder = parent
     while not folder.exists():
         if folder.is_symlink():
-            raise OutputError(f"cannot write {shown}: {folder} is a broken symbolic link; choose another --out")
+            raise OutputError(f"cannot write {shown}: {folder} is a broken symbolic link; choose another output folder")
         missing.append(folder)
         folder = folder.parent
     if not folder.is_dir():
-        raise OutputError(f"cannot write {shown}: {folder} is not a folder; choose another --out")
+        raise OutputError(f"cannot write {shown}: {folder} is not a folder; choose another output folder")
     made: list[Path] = []
     try:
         for folder in reversed(missing):
@@ -261,7 +261,7 @@ def _make_parents(parent: Path, shown: str) -> tuple[Path, ...]:
     except OSError as exc:
         for done in reversed(made):
             done.rmdir()
-        raise OutputError(f"cannot make {folder} for {shown}: {_reason(exc)}; choose another --out") from exc
+        raise OutputError(f"cannot make {folder} for {shown}: {_reason(exc)}; choose another output folder") from exc
     return tuple(made)
 
 
@@ -304,7 +304,7 @@ def _inspect(path: Path, shown: str) -> _Contents:
     except FileNotFoundError:
         return _Contents(exists=False)
     except OSError as exc:
-        raise OutputError(f"cannot read {shown}: {_reason(exc)}; choose another --out") from exc
+        raise OutputError(f"cannot read {shown}: {_reason(exc)}; choose another output folder") from exc
     raw = None
     if MANIFEST in entries and _is_file(path / MANIFEST):
         try:
@@ -332,13 +332,13 @@ def _check(contents: _Contents, path: Path, shown: str, overwrite: bool, names: 
     if not overwrite:
         raise OutputError(
             f"{shown} holds files bracekit did not write: {_names(path, foreign)}; "
-            "choose another --out or pass --overwrite"
+            "choose another output folder or allow overwriting (overwrite=True)"
         )
     clash = [n for n in foreign if n in names]
     if clash:
         raise OutputError(
             f"{shown} holds {_names(path, clash)}, which bracekit did not write and never replaces, not even with "
-            "--overwrite; move it away or choose another --out"
+            "overwrite=True; move it away or choose another output folder"
         )
 
 
@@ -350,7 +350,8 @@ def _lock_path(path: Path) -> Path:
 def _busy(shown: str, pid: str, lock: Path) -> OutputError:
     who = f" (pid {pid})" if pid.isdigit() else ""
     return OutputError(
-        f"another bracekit process{who} is writing to {shown} (lock {lock.name}); wait for it or choose another --out"
+        f"another bracekit process{who} is writing to {shown} (lock {lock.name}); "
+        "wait for it or choose another output folder"
     )
 
 
@@ -363,7 +364,7 @@ def _lock(path: Path, shown: str) -> int:
         except FileExistsError:
             raise _busy(shown, lock.read_text(encoding="ascii", errors="replace").strip(), lock) from None
         except OSError as exc:
-            raise OutputError(f"cannot write beside {shown}: {_reason(exc)}; choose another --out") from exc
+            raise OutputError(f"cannot write beside {shown}: {_reason(exc)}; choose another output folder") from exc
         os.write(fd, f"{os.getpid()}\n".encode("ascii"))
         return fd
     import fcntl
@@ -372,7 +373,7 @@ def _lock(path: Path, shown: str) -> int:
         try:
             fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
         except OSError as exc:
-            raise OutputError(f"cannot write beside {shown}: {_reason(exc)}; choose another --out") from exc
+            raise OutputError(f"cannot write beside {shown}: {_reason(exc)}; choose another output folder") from exc
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -385,13 +386,15 @@ def _lock(path: Path, shown: str) -> int:
             if same:
                 held = os.pread(fd, 64, 0).decode("ascii", "replace").strip()
                 if held and not held.isdigit():
-                    raise OutputError(f"{lock} is not bracekit's lock file; move it away or choose another --out")
+                    raise OutputError(
+                        f"{lock} is not bracekit's lock file; move it away or choose another output folder"
+                    )
                 os.ftruncate(fd, 0)
                 os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
                 return fd
         except OSError as exc:
             os.close(fd)
-            raise OutputError(f"cannot lock {shown}: {_reason(exc)}; choose another --out") from exc
+            raise OutputError(f"cannot lock {shown}: {_reason(exc)}; choose another output folder") from exc
         except BaseException:
             os.close(fd)
             raise
@@ -436,7 +439,7 @@ def _sibling(path: Path, kind: str, make: bool = False) -> Path:
             continue
         except OSError as exc:
             raise OutputError(
-                f"cannot write beside {path.name} (in {path.parent}): {_reason(exc)}; choose another --out"
+                f"cannot write beside {path.name} (in {path.parent}): {_reason(exc)}; choose another output folder"
             ) from exc
         return candidate
 
@@ -485,7 +488,7 @@ def _commit(plan: OutputPlan, tmp: Path, names: list[str]) -> None:
         try:
             os.rename(tmp, path)
         except OSError as exc:
-            raise OutputError(f"cannot make {shown}: {_reason(exc)}; choose another --out") from exc
+            raise OutputError(f"cannot make {shown}: {_reason(exc)}; choose another output folder") from exc
         return
     _check(contents, path, shown, plan.overwrite, {*names, MANIFEST})
     whole = contents.entries and not contents.foreign and not os.path.ismount(path) and not _holds_cwd(path)
