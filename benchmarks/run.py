@@ -1,6 +1,6 @@
 """Benchmarks of bracekit (not part of the test run): ``python benchmarks/run.py [--quick] [--json FILE]``.
 
-Prints the table of :func:`bracekit.bench.run_benchmarks` (the same as ``bracekit bench``): the braced
+Prints the table of :func:`bench.run_benchmarks` (benchmarks/bench.py) (the same as ``bracekit bench``): the braced
 gradient-projection step (analytic vs finite differences, fused vs reference path, NumPy and numba backends
 side by side, numba's compilation and cache-load times), Pinocchio's floor, Robotics Toolbox for Python when
 it is installed, batch throughput and the ``paper`` scenario's wall time. The numba rows need

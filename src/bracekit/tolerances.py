@@ -36,3 +36,5 @@ JOINT_STEP_SAFETY = 2.0
 DEFAULT_JOINT_SPEED = math.pi
 #: Largest joint motion between two samples whatever dt and the limits (rad): a wrist flip (±π) is always caught.
 MAX_JOINT_STEP = math.pi / 2
+#: Most integration steps one simulated run may take (a task's duration / dt).
+MAX_STEPS = 100_000

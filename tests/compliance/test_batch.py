@@ -1,4 +1,4 @@
-"""Batch evaluation (bracekit.batch) equals the single-configuration path to 1e-12.
+"""Batch evaluation (bracekit.compliance.batch) equals the single-configuration path to 1e-12.
 
 References: Pinocchio's own placements and frame Jacobians for the vectorised product of exponentials, and
 ``end_effector_compliance`` / ``compliance_index`` / ``frobenius_condition`` on ``braced.state(q)`` for the

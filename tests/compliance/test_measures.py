@@ -1,4 +1,4 @@
-"""Tests of bracekit.measures (Section V): k, Πσ_t, Πσ_o, σ_min, θ_z and the region barrier d.
+"""Tests of bracekit.compliance.measures (Section V): k, Πσ_t, Πσ_o, σ_min, θ_z and the region barrier d.
 
 References: eigenvalues of JJᵀ (numpy.linalg.eigvalsh), determinants of the 3×3 blocks of JJᵀ,
 arccos / exact angles, and the barrier formula by hand.

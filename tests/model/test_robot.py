@@ -1,4 +1,4 @@
-"""Tests of bracekit.robot: loading a serial chain from URDF, its tip, stiffnesses, errors and point frames.
+"""Tests of bracekit.model.robot: loading a serial chain from URDF, its tip, stiffnesses, errors and point frames.
 
 References are Pinocchio models built independently from the same URDF (pin.buildModelFromXML /
 buildModelFromUrdf on the full tree, no reduction).

@@ -1,4 +1,4 @@
-"""The fused gradient-projection step (bracekit.fast) and the hot-path helpers equal their reference paths.
+"""The fused gradient-projection step (bracekit.resolution.fused) and the hot-path helpers equal their reference paths.
 
 Reference: ``BracedGradientProjection.velocity(braced.state(q, hessians=True), ẋ)`` (and
 ``Objective.gradient`` / ``Objective.value``), on the paper's robot, on random chains whose brace is not
@@ -498,7 +498,7 @@ def test_backend_choice_and_numba_missing(paper, monkeypatch) -> None:
     strategy = sc.strategy("braced_gradient_projection")
     with pytest.raises(InputError, match="unknown backend"):
         GradientProjectionStep(sc.braced, strategy, backend="fortran")  # type: ignore[arg-type]
-    default = GradientProjectionStep(sc.braced, strategy)  # what bracekit.simulate uses
+    default = GradientProjectionStep(sc.braced, strategy)  # what bracekit.simulation.simulate uses
     assert (default.backend, default.uses_kernel) == ("numpy", False)
     # numba not installed: "numba" is a clear InputError, "auto" is NumPy
     monkeypatch.setitem(sys.modules, "numba", None)

@@ -64,6 +64,13 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
+def contact_registry() -> tuple[str, ...]:
+    """The names of the registered contact types (the choices of --contact)."""
+    from bracekit.contact import REGISTRY
+
+    return tuple(REGISTRY)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `bracekit`."""
     p = _Parser(prog="bracekit", description="Braced serial robots: kinematics, compliance, redundancy resolution.")
@@ -84,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
     ev.add_argument("--normal", default="0,0,1", help="surface normal NX,NY,NZ (world), the surface passes through b")
     ev.add_argument(
-        "--contact", default="frictionless_point", help="frictionless_point | point_with_friction | soft_finger"
+        "--contact", default="frictionless_point", help=" | ".join(contact_registry())
     )
     ev.add_argument("--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the normal)")
     ev.add_argument("--json", action="store_true", help="print one JSON object (SI units)")
@@ -323,6 +330,8 @@ def _run(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     figures = not args.no_figures
+    if figures:  # before any computation
+        _needs("matplotlib", "viz", "bracekit run with figures (or pass --no-figures)")
     with (
         _sigterm_as_interrupt(),
         prepare_output(
@@ -421,6 +430,18 @@ def _bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _is_bracekit_repository(root: Path) -> bool:
+    """Whether `root` is the clone this bracekit was installed from (its pyproject names bracekit, its src holds us)."""
+    import tomllib
+
+    try:
+        meta = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    here = Path(__file__).resolve().parents[1]
+    return meta.get("project", {}).get("name") == "bracekit" and (root / "src" / "bracekit").resolve() == here
+
+
 def _bench_module() -> Any:
     """benchmarks/bench.py of the repository bracekit was installed from (the timing code is not installed)."""
     import importlib.util
@@ -428,7 +449,7 @@ def _bench_module() -> Any:
     here = Path(__file__).resolve()
     for root in here.parents:
         path = root / "benchmarks" / "bench.py"
-        if path.is_file() and (root / "pyproject.toml").is_file():
+        if path.is_file() and _is_bracekit_repository(root):
             spec = importlib.util.spec_from_file_location("bracekit_benchmarks", path)
             if spec is None or spec.loader is None:
                 break

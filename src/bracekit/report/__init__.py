@@ -1,6 +1,6 @@
 """Reporting: Table I, Figures 2–4, the animation, and whole-or-nothing output directories.
 
-No physics here: everything is read from a :class:`bracekit.run.RunResult`.
+No physics here: everything is read from a :class:`bracekit.simulation.RunResult`.
 """
 
 from bracekit.report.output import write_run

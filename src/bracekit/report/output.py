@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bracekit._version import __version__
-from bracekit.errors import OutputError
+from bracekit.errors import MissingDependencyError, OutputError
 from bracekit.report.table import table_csv, table_markdown
 
 if TYPE_CHECKING:
@@ -205,6 +205,9 @@ def atomic_directory(
             try:
                 yield tmp
                 names = sorted(n for n in os.listdir(tmp) if n != MANIFEST)
+                odd = [n for n in names if not _is_file(tmp / n)]
+                if odd:
+                    raise OutputError(f"an output holds files only, got {', '.join(odd)} (not a regular file)")
                 _write_manifest(tmp / MANIFEST, names, plan.command)
             except OSError as exc:
                 raise OutputError(f"cannot write the output for {plan.shown}: {_reason(exc)}") from exc
@@ -511,6 +514,7 @@ def _swap(path: Path, shown: str, tmp: Path) -> bool:
     """
     old = _sibling(path, "old")
     try:
+        os.chmod(tmp, stat.S_IMODE(os.stat(path).st_mode))  # the user's permissions on OUT stay
         os.rename(path, old)
     except OSError:
         return False
@@ -559,7 +563,9 @@ def _merge(path: Path, shown: str, tmp: Path, names: list[str], contents: _Conte
         os.replace(tmp / MANIFEST, path / MANIFEST)
     except BaseException as exc:
         lost = _roll_back(path, tmp, backup, moved_in, moved_out, contents.manifest)
-        if lost and isinstance(exc, Exception):
+        if lost:  # the backup holds bracekit's previous files that could not be put back: never removed
+            if not isinstance(exc, Exception):
+                raise
             raise OutputError(
                 f"cannot write into {shown}; bracekit's previous {', '.join(lost)} could not be put back and are in "
                 f"{backup}"
@@ -643,7 +649,13 @@ def write_run(
         ("trajectories.npz", lambda p: save_trajectories(result, p)),
     ]
     if figures:
-        from bracekit.report import figures as fig  # matplotlib only when figures are asked for
+        try:
+            from bracekit.report import figures as fig  # matplotlib only when figures are asked for
+        except ImportError as exc:
+            raise MissingDependencyError(
+                f"figures need matplotlib, which cannot be imported ({exc}): pip install 'bracekit[viz]', "
+                "or write without figures"
+            ) from exc
 
         steps += [
             ("fig2_film_strip.png", lambda p: fig.figure_film_strip(result, p)),

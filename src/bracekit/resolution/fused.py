@@ -21,7 +21,7 @@ environment under the constrained model, the step is the reference path itself, 
 own value and gradient coefficients (:meth:`bracekit.objective.Term.fused_gradient`); a term without them is
 evaluated by its own ``gradient``/``value`` on a BracedState.
 
-Two backends compute the same step: ``"numpy"`` (the default; no compilation, what :mod:`bracekit.simulate`
+Two backends compute the same step: ``"numpy"`` (the default; no compilation, what :mod:`bracekit.simulation.simulate`
 uses) and ``"numba"`` (``pip install bracekit[fast]``), which hands everything after Pinocchio's pass to one
 compiled kernel (:mod:`bracekit.resolution._numba_step`, cached on disk after the first compilation) with the
 same shortcuts and certificates; the kernel holds compiled copies of the terms that give
@@ -51,7 +51,7 @@ from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
-from bracekit.resolution.strategies import BracedGradientProjection
+from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
 from bracekit.tolerances import CERTIFIED_COND, UNLOADED_TOL
 
@@ -66,7 +66,7 @@ KERNEL_TERMS: tuple[str, ...] = ("k", "Ci", "theta_z", "d")
 
 
 def numba_kernels() -> ModuleType:
-    """The numba kernels (:mod:`bracekit._numba_step`), imported on first use; InputError without numba."""
+    """The numba kernels (:mod:`bracekit.resolution._numba_step`), imported on first use; InputError without numba."""
     try:
         return importlib.import_module("bracekit.resolution._numba_step")
     except ImportError as exc:
@@ -179,16 +179,17 @@ class GradientProjectionStep:
     def __call__(self, q: ArrayLike, xdot: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
         """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) and descend g, at q (n,)."""
         qa = self._check_q(q)
-        xd = np.asarray(xdot, dtype=float)
-        if xd.shape != (6,):
-            raise InputError(f"the tip twist ẋ must have 6 components [v; ω], got shape {xd.shape}")
+        xd = xdot
+        if not (type(xd) is np.ndarray and xd.dtype == np.float64 and xd.shape == (6,) and math.isfinite(xd.sum())):
+            xd = tip_twist(xdot)
         if self._kernel is not None:
             out = self._numba_step(qa, xd, beta_x)
             if out is not None:
                 return out
         obj = self._with_beta(beta_x)
         try:
-            return self._step(qa, xd, obj)
+            qdot = self._step(qa, xd, obj)
+            return qdot if math.isfinite(qdot.sum()) else finite_rates(qdot)
         except NotCertified:
             strategy = replace(self.strategy, objective=obj)
             return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)

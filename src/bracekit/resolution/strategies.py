@@ -13,7 +13,8 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit.errors import InputError, SingularityError
+from bracekit._linalg import as_array, as_number, show
+from bracekit.errors import InputError, NumericalError, SingularityError
 from bracekit.kinematics import BracedState
 from bracekit.objective import Objective, braced_gradient, finite_difference_gradient
 from bracekit.tolerances import STEP_SINGULAR_RATIO
@@ -88,7 +89,7 @@ class FreeSpaceMinNorm:
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        return pinv_checked(state.J_e, "the Jacobian J") @ np.asarray(xdot, dtype=float)
+        return finite_rates(pinv_checked(state.J_e, "the Jacobian J") @ tip_twist(xdot))
 
 
 def with_beta_x(strategy: Strategy, beta_x: ArrayLike) -> Strategy:
@@ -98,6 +99,18 @@ def with_beta_x(strategy: Strategy, beta_x: ArrayLike) -> Strategy:
         return strategy
     new = objective.with_beta_x(beta_x)
     return strategy if new is objective else replace(strategy, objective=new)  # type: ignore[type-var]
+
+
+def tip_twist(xdot: ArrayLike) -> Array:
+    """ẋ as a finite (6,) float array [v; ω] (m/s, rad/s); InputError otherwise."""
+    return as_array(xdot, "the tip twist ẋ [v; ω]", (6,))
+
+
+def finite_rates(qdot: Array) -> Array:
+    """q̇ itself if finite; NumericalError otherwise (a twist or gain so large that the rates overflow)."""
+    if not np.all(np.isfinite(qdot)):
+        raise NumericalError("the joint velocities are not finite: the tip twist or the gains are too large")
+    return qdot
 
 
 def braced_to_joint(state: BracedState, y: Array) -> Array:
@@ -116,8 +129,8 @@ class BracedMinNorm:
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        y = pinv_checked(state.A, "the braced Jacobian A") @ np.asarray(xdot, dtype=float)
-        return braced_to_joint(state, y)
+        y = pinv_checked(state.A, "the braced Jacobian A") @ tip_twist(xdot)
+        return finite_rates(braced_to_joint(state, y))
 
 
 @dataclass(frozen=True)
@@ -132,10 +145,14 @@ class BracedGradientProjection:
     braced: bool = True
 
     def __post_init__(self) -> None:
-        if not np.isfinite(self.alpha) or self.alpha >= 0:
-            raise InputError(f"the gradient-projection gain alpha must be negative (it descends g), got {self.alpha}")
-        if self.gradient not in GRADIENT_MODES:
-            raise InputError(f"unknown gradient mode '{self.gradient}'; choose one of {', '.join(GRADIENT_MODES)}")
+        if not isinstance(self.objective, Objective):
+            raise InputError(f"the objective must be a bracekit Objective, got {type(self.objective).__name__}")
+        alpha = as_number(self.alpha, "the gradient-projection gain alpha")
+        as_number(self.fd_step, "the finite-difference step fd_step", positive=True, unit="rad")
+        if alpha >= 0:
+            raise InputError(f"the gradient-projection gain alpha must be negative (it descends g), got {alpha}")
+        if not isinstance(self.gradient, str) or self.gradient not in GRADIENT_MODES:
+            raise InputError(f"unknown gradient mode {show(self.gradient)}; choose one of {', '.join(GRADIENT_MODES)}")
 
     @property
     def needs_hessians(self) -> bool:
@@ -150,9 +167,10 @@ class BracedGradientProjection:
 
     def velocity(self, state: BracedState, xdot: ArrayLike) -> Array:
         """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
+        xd = tip_twist(xdot)
         a = state.A
         a_pinv = pinv_checked(a, "the braced Jacobian A")
         grad = braced_gradient(state, self.dg_dq(state))
         null = grad - a_pinv @ (a @ grad)
-        y = a_pinv @ np.asarray(xdot, dtype=float) + self.alpha * null
-        return braced_to_joint(state, y)
+        y = a_pinv @ xd + self.alpha * null
+        return finite_rates(braced_to_joint(state, y))

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from bracekit._linalg import show
 from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel
-from bracekit.contact import CONTACT_TYPES, Brace, Surface, contact_type
+from bracekit.contact import REGISTRY, Brace, Surface, contact_type
 from bracekit.errors import BracekitError, FrameNotFoundError, InputError, ScenarioError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
@@ -36,13 +36,13 @@ from bracekit.resolution.strategies import (
 )
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
 from bracekit.spatial import unit
+from bracekit.tolerances import MAX_STEPS
 
 Array = NDArray[np.float64]
 STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
-#: The weight keys of ``[gradient_projection.weights]``: one per registered objective term.
-WEIGHT_KEYS: tuple[str, ...] = tuple(TERMS)
-#: Most steps a scenario may ask for per strategy.
-MAX_STEPS = 100_000
+def weight_keys() -> tuple[str, ...]:
+    """The weight keys of ``[gradient_projection.weights]``: one per registered objective term, now."""
+    return tuple(TERMS)
 
 
 def shipped_scenarios() -> dict[str, Path]:
@@ -163,7 +163,8 @@ class Scenario:
         """G of eq:objective with this scenario's weights (β_x at t = 0 unless given)."""
         beta = self.beta_x(0.0) if beta_x is None else beta_x
         context = TermContext(self.braced, beta, model or self.compliance_model)
-        kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in WEIGHT_KEYS if self.weights[k] > 0]
+        keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
+        kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in keys]
         return Objective([t for t, _ in kept], [w for _, w in kept])
 
     def strategy(
@@ -287,8 +288,8 @@ def parse_scenario(
     alpha = gp.number("alpha", -1.0)
     if alpha >= 0:
         raise ScenarioError(f"'gradient_projection.alpha' must be negative (it descends g), got {alpha}")
-    w = gp.table("weights", WEIGHT_KEYS, {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01})
-    weights = {k: w.number(k, 0.0) for k in WEIGHT_KEYS}
+    w = gp.table("weights", weight_keys(), {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01})
+    weights = {k: w.number(k, 0.0) for k in weight_keys()}
     for k, v in weights.items():
         if v < 0:
             raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")
@@ -385,7 +386,7 @@ def _brace(t: _Table, robot: Robot) -> BracedRobot:
         brace = Brace(
             frame=frame,
             surface=surface,
-            contact=contact_type(t.string("contact", CONTACT_TYPES, "frictionless_point")),
+            contact=contact_type(t.string("contact", tuple(REGISTRY), "frictionless_point")),
             region_radius=t.number("region_radius", positive=True) if t.has("region_radius") else None,
             environment_stiffness=t.number("environment_stiffness", positive=True)
             if t.has("environment_stiffness")

@@ -10,7 +10,7 @@ A run never passes a singularity silently. It stops (``completed=False``, the re
 a joint moves more between two samples than JOINT_STEP_SAFETY × its URDF velocity limit × dt (at most
 MAX_JOINT_STEP; DEFAULT_JOINT_SPEED where the URDF gives no limit), or when σ_min/σ_max of a matrix the
 strategy inverts (J, or A and J1 when n1 = 6) or of J̃ falls below PATH_SINGULAR_RATIO.
-Gradient projection runs through the fused :class:`bracekit.fast.GradientProjectionStep`, which gives the
+Gradient projection runs through the fused :class:`bracekit.resolution.GradientProjectionStep`, which gives the
 strategy's own q̇ to ~1e-13.
 """
 
@@ -25,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit._linalg import angle_between
+from bracekit._linalg import angle_between, as_number
 from bracekit.compliance.first_order import (
     COMPLIANCE_MODELS,
     ComplianceModel,
@@ -65,6 +65,7 @@ from bracekit.tolerances import (
     DEFAULT_JOINT_SPEED,
     JOINT_STEP_SAFETY,
     MAX_JOINT_STEP,
+    MAX_STEPS,
     NEAR_SINGULAR_DROP,
     NEAR_SINGULAR_RATIO,
     PATH_SINGULAR_RATIO,
@@ -362,8 +363,21 @@ def simulate(
     ``completed=False`` and the reason in ``failure``. `beta_x(t)` gives the unit twist (6,) along which
     the compliance index is measured (and minimised by a gradient-projection strategy).
     """
-    if not (np.isfinite(dt) and dt > 0):
-        raise InputError(f"time step dt must be a positive number of seconds, got {dt}")
+    dt = as_number(dt, "the time step dt", positive=True, unit="s")
+    feedback_gain = as_number(feedback_gain, "the feedback gain", nonnegative=True, unit="1/s")
+    for name, value, needed in (
+        ("strategy", strategy, ("velocity", "braced", "name")),
+        ("task", task, ("position", "velocity", "duration")),
+    ):
+        if any(not hasattr(value, attr) for attr in needed):
+            raise InputError(f"{name} must be a bracekit {name.capitalize()}, got {type(value).__name__}")
+    if not callable(beta_x):
+        raise InputError(f"beta_x must be a function of time returning a unit twist (6,), got {type(beta_x).__name__}")
+    if task.duration / dt > MAX_STEPS:
+        raise InputError(
+            f"dt = {dt:g} s gives {task.duration / dt:.3g} steps for a {task.duration:g} s task (more than "
+            f"{MAX_STEPS}); give a larger dt"
+        )
     steps = max(1, round(task.duration / dt))
     dt = task.duration / steps  # the last sample lands on the task's end
     st = braced.state(q0)
@@ -406,7 +420,12 @@ def simulate(
             return advance(mid, t + h / 2, h / 2, depth + 1)
         return new
 
-    ts, qs, rows = [0.0], [st.q.copy()], [measure(st, beta_x(0.0), centre, 0.0, strategy.braced)]
+    start_error = float(np.linalg.norm(task.position(0.0) - st.e))
+    try:
+        rows = [measure(st, beta_x(0.0), centre, start_error, strategy.braced)]
+    except NumericalError as exc:  # nothing can be recorded at a start the measures cannot take
+        raise type(exc)(f"the start of {strategy.name} (t = 0.000 s) cannot be measured: {exc}") from exc
+    ts, qs = [0.0], [st.q.copy()]
     failure = None
     try:
         _check_conditioning(rows[0], checked)
