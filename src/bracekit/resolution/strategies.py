@@ -3,6 +3,9 @@
 * :class:`FreeSpaceMinNorm`: q̇ = J⁺ ẋ, the unbraced robot.
 * :class:`BracedMinNorm`: [ḃ; q̇2] = A⁺ ẋ (eq:general_inv with η = 0), q̇1 = J1⁻¹ H ḃ (eq:q1).
 * :class:`BracedGradientProjection`: [ḃ; q̇2] = A⁺ ẋ + (I − A⁺A) α ∇g (eq:grad_proj), α < 0.
+
+Each takes a :class:`~bracekit.resolution.task_space.TaskSpace` (``space``, the full pose by default) and
+resolves its selected rows S(⁰R_e) only: J and A above become S J and S A, ẋ becomes S ẋ.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit.errors import InputError, SingularityError
 from bracekit.kinematics import BracedState
 from bracekit.objective import Objective, braced_gradient, finite_difference_gradient
+from bracekit.resolution.task_space import POSE, TaskSpace, select
 from bracekit.tolerances import STEP_SINGULAR_RATIO
 
 Array = NDArray[np.float64]
@@ -85,10 +89,12 @@ class FreeSpaceMinNorm:
     name: str = "free_space_min_norm"
     braced: bool = False
     needs_hessians: bool = False
+    space: TaskSpace = POSE
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
-        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        return pinv_checked(state.J_e, "the Jacobian J") @ np.asarray(xdot, dtype=float)
+        """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        j, x = select(self.space, state.R_e, state.J_e, np.asarray(xdot, dtype=float))
+        return pinv_checked(j, "the Jacobian J") @ x
 
 
 def with_beta_x(strategy: Strategy, beta_x: ArrayLike) -> Strategy:
@@ -113,10 +119,12 @@ class BracedMinNorm:
     name: str = "braced_min_norm"
     braced: bool = True
     needs_hessians: bool = False
+    space: TaskSpace = POSE
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
-        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        y = pinv_checked(state.A, "the braced Jacobian A") @ np.asarray(xdot, dtype=float)
+        """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        a, x = select(self.space, state.R_e, state.A, np.asarray(xdot, dtype=float))
+        y = pinv_checked(a, "the braced Jacobian A") @ x
         return braced_to_joint(state, y)
 
 
@@ -130,12 +138,15 @@ class BracedGradientProjection:
     fd_step: float = 1e-5
     name: str = "braced_gradient_projection"
     braced: bool = True
+    space: TaskSpace = POSE
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.alpha) or self.alpha >= 0:
             raise InputError(f"the gradient-projection gain alpha must be negative (it descends g), got {self.alpha}")
         if self.gradient not in GRADIENT_MODES:
             raise InputError(f"unknown gradient mode '{self.gradient}'; choose one of {', '.join(GRADIENT_MODES)}")
+        if not isinstance(self.space, TaskSpace):
+            raise InputError(f"space must be a TaskSpace, got {self.space!r}")
 
     @property
     def needs_hessians(self) -> bool:
@@ -149,10 +160,10 @@ class BracedGradientProjection:
         return finite_difference_gradient(state.braced, self.objective.value, state.q, self.fd_step)
 
     def velocity(self, state: BracedState, xdot: ArrayLike) -> Array:
-        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        a = state.A
+        """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        a, x = select(self.space, state.R_e, state.A, np.asarray(xdot, dtype=float))
         a_pinv = pinv_checked(a, "the braced Jacobian A")
         grad = braced_gradient(state, self.dg_dq(state))
         null = grad - a_pinv @ (a @ grad)
-        y = a_pinv @ np.asarray(xdot, dtype=float) + self.alpha * null
+        y = a_pinv @ x + self.alpha * null
         return braced_to_joint(state, y)
