@@ -199,6 +199,9 @@ ENTRIES += [
       "beta_x": lambda t: E_X, "feedback_gain": 1.0},
      ("strategy", "task", "q0", "dt", "beta_x", "feedback_gain")),
 ]
+ENTRIES.append(
+    ("TaskSpace", bk.TaskSpace, {"kind": "position+axis", "axis": np.array([0.0, 0.0, 1.0])}, ("kind", "axis"))
+)
 CASES = [(name, fn, valid, key) for name, fn, valid, keys in ENTRIES for key in keys]
 #: Public names that take no values of a user (types, results, exceptions) and so need no entry above.
 TAKES_NO_VALUES = {

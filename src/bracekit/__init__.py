@@ -29,6 +29,7 @@ from bracekit.resolution import (
     BracedMinNorm,
     FreeSpaceMinNorm,
     GradientProjectionStep,
+    TaskSpace,
 )
 from bracekit.simulation import (
     Circle,
@@ -67,6 +68,7 @@ __all__ = [
     "RunResult",
     "Scenario",
     "Surface",
+    "TaskSpace",
     "Term",
     "Trajectory",
     "Waypoints",

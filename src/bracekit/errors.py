@@ -72,6 +72,10 @@ class UnloadedContactWarning(BracekitWarning):
     """The contact carries no load from chain 1 along some constraint direction (Xᵀ C1 X is singular)."""
 
 
+class NoRedundancyWarning(BracekitWarning):
+    """Gradient projection was asked for where the task leaves no null space: it equals minimum norm."""
+
+
 class RegionWarning(BracekitWarning):
     """The bracing point left the bracing region during a run whose strategy does not guard it."""
 

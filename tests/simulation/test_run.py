@@ -134,3 +134,11 @@ def test_run_scenario_refuses_bad_arguments_with_one_line_input_errors(short_sce
     with pytest.raises(InputError) as info:
         run_scenario(**args)
     assert "\n" not in str(info.value)
+
+
+def test_paper_run_reports_the_pose_task_space_and_its_redundancy(paper_run) -> None:
+    # 11 joints, brace after joint 6 (l = 5 for the frictionless point, n2 = 5), a 6-D pose task
+    expected = {"free_space_min_norm": 11 - 6, "braced_min_norm": 5 + 5 - 6, "braced_gradient_projection": 5 + 5 - 6}
+    for name, s in paper_run.summary["strategies"].items():
+        assert s["task_space"] == "pose" and s["redundancy"] == expected[name]
+    assert not any("no redundancy" in w for w in paper_run.summary["warnings"])

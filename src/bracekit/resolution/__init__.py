@@ -15,15 +15,18 @@ from bracekit.resolution.strategies import (
     Strategy,
     with_beta_x,
 )
+from bracekit.resolution.task_space import TASK_SPACES, TaskSpace
 
 __all__ = [
     "GRADIENT_MODES",
+    "TASK_SPACES",
     "BracedGradientProjection",
     "BracedMinNorm",
     "FreeSpaceMinNorm",
     "GradientMode",
     "GradientProjectionStep",
     "Strategy",
+    "TaskSpace",
     "numba_available",
     "with_beta_x",
 ]

@@ -27,7 +27,9 @@ compiled kernel (:mod:`bracekit.resolution._numba_step`, cached on disk after th
 same shortcuts and certificates; the kernel holds compiled copies of the terms that give
 :meth:`~bracekit.objective.Term.numba_params`. Where the kernel does not apply (n1 ≠ 6, finite differences, a
 term without numba parameters) or declines (a certificate fails, an unloaded
-contact, {b} outside its region), the numba backend runs the NumPy code, so errors and warnings are the same.
+contact, {b} outside its region, a task space other than the full pose), the numba backend runs the NumPy
+code, so errors and warnings are the same. A task space other than the pose resolves its selected rows S A
+and S ẋ (:mod:`bracekit.resolution.task_space`) in the NumPy code.
 ``backend="auto"`` is numba when it can be imported, else NumPy.
 """
 
@@ -138,6 +140,7 @@ class GradientProjectionStep:
         if not self._fd:  # check Pinocchio's Hessian layout once, with this step's own data (no second n³ Data)
             ensure_hessian_layout(self._model, self._data, (self._tip, self._bid))
         self._alpha = float(strategy.alpha)
+        self._space = strategy.space
         self._cert2 = CERTIFIED_COND**2
         kernels = None
         if backend == "numba":
@@ -153,7 +156,7 @@ class GradientProjectionStep:
 
     def _numba_setup(self, kernels: ModuleType) -> Any:
         """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs)."""
-        if self._fd or self._n1 != 6:
+        if self._fd or self._n1 != 6 or not self._space.is_pose:
             return None
         params = [_call(t, "numba_params", None, self.braced, w) for t, w in _terms(self._objective)]
         rows: dict[str, list[list[float]]] = {kind: [] for kind in KERNEL_TERMS}
@@ -270,6 +273,9 @@ class GradientProjectionStep:
         l_ = g1.shape[1]
         # A = [S_t1 J1 dq1/db̃, S_t2 J2] (eq:braced_kin): S_t1 H when n1 = 6, and S_t2 J2 = J_e[:, n1:]
         a = np.concatenate((s1.dot(self._H if n1 == 6 else jb[:, :n1].dot(g1)), je[:, n1:]), axis=1)
+        if not self._space.is_pose:  # the selected rows S(⁰R_e) A, S ẋ
+            sel = self._space.selection(me[:3, :3])
+            a, xd = sel.dot(a), sel.dot(xd)
         if a.shape[0] > a.shape[1]:  # fewer braced coordinates than twist components: no null space
             raise NotCertified
         qr = row_basis(a)  # Aᵀ = Q R

@@ -3,6 +3,9 @@
 * :class:`FreeSpaceMinNorm`: q̇ = J⁺ ẋ, the unbraced robot.
 * :class:`BracedMinNorm`: [ḃ; q̇2] = A⁺ ẋ (eq:general_inv with η = 0), q̇1 = J1⁻¹ H ḃ (eq:q1).
 * :class:`BracedGradientProjection`: [ḃ; q̇2] = A⁺ ẋ + (I − A⁺A) α ∇g (eq:grad_proj), α < 0.
+
+Each takes a :class:`~bracekit.resolution.task_space.TaskSpace` (``space``, the full pose by default) and
+resolves its selected rows S(⁰R_e) only: J and A above become S J and S A, ẋ becomes S ẋ.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from bracekit._linalg import as_array, as_number, show
 from bracekit.errors import InputError, NumericalError, SingularityError
 from bracekit.kinematics import BracedState
 from bracekit.objective import Objective, braced_gradient, finite_difference_gradient
+from bracekit.resolution.task_space import POSE, TaskSpace, select
 from bracekit.tolerances import STEP_SINGULAR_RATIO
 
 Array = NDArray[np.float64]
@@ -86,10 +90,12 @@ class FreeSpaceMinNorm:
     name: str = "free_space_min_norm"
     braced: bool = False
     needs_hessians: bool = False
+    space: TaskSpace = POSE
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
-        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        return finite_rates(pinv_checked(state.J_e, "the Jacobian J") @ tip_twist(xdot))
+        """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        j, x = select(self.space, state.R_e, state.J_e, tip_twist(xdot))
+        return finite_rates(pinv_checked(j, "the Jacobian J") @ x)
 
 
 def with_beta_x(strategy: Strategy, beta_x: ArrayLike) -> Strategy:
@@ -126,10 +132,12 @@ class BracedMinNorm:
     name: str = "braced_min_norm"
     braced: bool = True
     needs_hessians: bool = False
+    space: TaskSpace = POSE
 
     def velocity(self, state: BracedState, xdot: Array) -> Array:
-        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        y = pinv_checked(state.A, "the braced Jacobian A") @ tip_twist(xdot)
+        """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        a, x = select(self.space, state.R_e, state.A, tip_twist(xdot))
+        y = pinv_checked(a, "the braced Jacobian A") @ x
         return finite_rates(braced_to_joint(state, y))
 
 
@@ -143,6 +151,7 @@ class BracedGradientProjection:
     fd_step: float = 1e-5
     name: str = "braced_gradient_projection"
     braced: bool = True
+    space: TaskSpace = POSE
 
     def __post_init__(self) -> None:
         if not isinstance(self.objective, Objective):
@@ -153,6 +162,8 @@ class BracedGradientProjection:
             raise InputError(f"the gradient-projection gain alpha must be negative (it descends g), got {alpha}")
         if not isinstance(self.gradient, str) or self.gradient not in GRADIENT_MODES:
             raise InputError(f"unknown gradient mode {show(self.gradient)}; choose one of {', '.join(GRADIENT_MODES)}")
+        if not isinstance(self.space, TaskSpace):
+            raise InputError(f"space must be a TaskSpace, got {show(self.space)}")
 
     @property
     def needs_hessians(self) -> bool:
@@ -166,11 +177,10 @@ class BracedGradientProjection:
         return finite_difference_gradient(state.braced, self.objective.value, state.q, self.fd_step)
 
     def velocity(self, state: BracedState, xdot: ArrayLike) -> Array:
-        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        xd = tip_twist(xdot)
-        a = state.A
+        """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        a, x = select(self.space, state.R_e, state.A, tip_twist(xdot))
         a_pinv = pinv_checked(a, "the braced Jacobian A")
         grad = braced_gradient(state, self.dg_dq(state))
         null = grad - a_pinv @ (a @ grad)
-        y = a_pinv @ xd + self.alpha * null
+        y = a_pinv @ x + self.alpha * null
         return finite_rates(braced_to_joint(state, y))

@@ -34,6 +34,7 @@ from bracekit.resolution.strategies import (
     GradientMode,
     Strategy,
 )
+from bracekit.resolution.task_space import POSE, TASK_SPACES, TaskSpace
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
 from bracekit.spatial import unit
 from bracekit.tolerances import MAX_STEPS
@@ -153,6 +154,7 @@ class Scenario:
     feedback_gain: float = 1.0
     description: str = ""
     source: Path | None = None
+    task_space: TaskSpace = POSE
 
     @property
     def robot(self) -> Robot:
@@ -170,14 +172,16 @@ class Scenario:
     def strategy(
         self, name: str, *, gradient: GradientMode | None = None, model: ComplianceModel | None = None
     ) -> Strategy:
-        """One of the three strategies with this scenario's gains."""
+        """One of the three strategies with this scenario's gains and task space."""
         if name not in STRATEGIES:
             raise InputError(f"unknown strategy {show(name)}; choose one of {', '.join(STRATEGIES)}")
         if name == "free_space_min_norm":
-            return cast(Strategy, FreeSpaceMinNorm())
+            return cast(Strategy, FreeSpaceMinNorm(space=self.task_space))
         if name == "braced_min_norm":
-            return cast(Strategy, BracedMinNorm())
-        strategy = BracedGradientProjection(self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient)
+            return cast(Strategy, BracedMinNorm(space=self.task_space))
+        strategy = BracedGradientProjection(
+            self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient, space=self.task_space
+        )
         return cast(Strategy, strategy)
 
 
@@ -250,9 +254,12 @@ def parse_scenario(
             "duration",
             "points",
             "times",
+            "space",
+            "axis",
         ),
     )
     task = _task(task_t)
+    task_space = _task_space(task_t)
     start = top.table("start", ("guess",))
     guess = start.vector("guess", robot.n)
     comp = top.table("compliance", ("model", "beta_x"), {})
@@ -330,6 +337,7 @@ def parse_scenario(
         strategies=tuple(strategies),
         feedback_gain=feedback_gain,
         source=source,
+        task_space=task_space,
     )
 
 
@@ -431,3 +439,19 @@ def _task(t: _Table) -> Task:
         raise
     except BracekitError as exc:
         raise ScenarioError(f"[task] ({kind}): {exc}") from exc
+
+
+def _task_space(t: _Table) -> TaskSpace:
+    """``[task] space`` ("pose" by default) and ``[task] axis`` (3 numbers, only with "position+axis")."""
+    kind = t.string("space", TASK_SPACES, "pose")
+    if t.has("axis") and kind != "position+axis":
+        raise ScenarioError(
+            f"'task.axis' is used only with 'task.space' = \"position+axis\" (here {show(kind)}); remove it"
+        )
+    axis = t.vector("axis", 3) if t.has("axis") else None
+    if axis is not None and not np.any(axis):
+        raise ScenarioError("'task.axis' must be a non-zero direction [x, y, z] in tip coordinates")
+    try:
+        return TaskSpace(cast(Any, kind), axis)
+    except BracekitError as exc:
+        raise ScenarioError(f"'task.axis': {exc}") from exc

@@ -41,6 +41,7 @@ from bracekit.errors import (
     ConvergenceError,
     InputError,
     JointLimitWarning,
+    NoRedundancyWarning,
     NumericalError,
     RegionWarning,
     SingularityError,
@@ -57,6 +58,7 @@ from bracekit.resolution.strategies import (
     inverted_matrices,
     with_beta_x,
 )
+from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
 from bracekit.simulation.tasks import Task
 from bracekit.tolerances import (
     ACCEPT_TOL,
@@ -91,6 +93,17 @@ def _has_region_term(strategy: Strategy) -> bool:
 def pose_error(state: BracedState, position: Array, rotation: Array) -> Array:
     """[p_d − e; log3(R_d R_eᵀ)] (6,), m and rad, world axes."""
     return np.concatenate([position - state.e, pin.log3(rotation @ state.R_e.T)])
+
+
+def task_error(state: BracedState, position: Array, rotation: Array, space: TaskSpace = POSE) -> Array:
+    """The error (6,) of the rows `space` prescribes: :func:`pose_error` for the pose, else [p_d − e; ω].
+
+    ω is 0 for ``"position"`` and, for ``"position+axis"``, the rotation θ k̂ taking the tool axis
+    a = ⁰R_e a_tip to a_d = R_d a_tip (:meth:`TaskSpace.error`), perpendicular to a.
+    """
+    if space.is_pose:
+        return pose_error(state, position, rotation)
+    return space.error(position - state.e, state.R_e, rotation)
 
 
 def contact_residual(state: BracedState, anchor: Array, anchor_rotation: Array) -> Array:
@@ -135,8 +148,12 @@ def correct(
     tol: float = CORRECTION_TOL,
     max_iter: int = 20,
     length: float | None = None,
+    space: TaskSpace = POSE,
 ) -> BracedState:
     """Minimum-norm Gauss–Newton: the state nearest q with the tip at the pose (and {b} on the contact).
+
+    With a task space other than the pose only its selected rows are corrected: S(⁰R_e) [p_d − e; ω]
+    (:func:`task_error`) with the rows S J_e; the free rows are left where they are.
 
     Residuals are relative to the problem's scale: positions divided by `length` (m; the robot's
     :func:`reach` if not given), angles by 1 rad. Stops when the relative residual is below `tol`, below
@@ -144,7 +161,7 @@ def correct(
     falling below ACCEPT_TOL; raises ConvergenceError otherwise.
     """
     scale_len = reach(braced.robot) if length is None else float(length)
-    scale = np.array([scale_len] * 3 + [1.0] * 3)
+    scale = np.array([scale_len] * 3 + [1.0] * (space.rows - 3))
     if anchor is not None:
         x = braced.X  # unit force and moment columns: a length and an angle residual
         scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
@@ -152,8 +169,12 @@ def correct(
     previous = np.inf
     for _ in range(max_iter):
         st = braced.state(q)
-        res = pose_error(st, position, rotation)
-        rows = st.J_e
+        if space.is_pose:
+            res = pose_error(st, position, rotation)
+            rows = st.J_e
+        else:
+            sel = space.selection(st.R_e)
+            res, rows = sel @ task_error(st, position, rotation, space), sel @ st.J_e
         if anchor is not None:
             res = np.concatenate([res, -contact_residual(st, *anchor)])
             rows = np.vstack([rows, contact_jacobian(st, anchor[1])])
@@ -274,6 +295,8 @@ class Trajectory:
     failure: str | None = None
     warnings: list[str] = field(default_factory=list)
     substeps: int = 0
+    task_space: str = "pose"
+    redundancy: int | None = None
 
     @property
     def steps(self) -> int:
@@ -308,6 +331,8 @@ class Trajectory:
             "substeps": self.substeps,
             "completed": self.completed,
             "failure": self.failure,
+            "task_space": self.task_space,
+            "redundancy": self.redundancy,
         }
 
 
@@ -362,6 +387,11 @@ def simulate(
     beyond :func:`joint_step_bound`), a barrier or a failed correction ends the run with
     ``completed=False`` and the reason in ``failure``. `beta_x(t)` gives the unit twist (6,) along which
     the compliance index is measured (and minimised by a gradient-projection strategy).
+
+    The strategy's ``space`` (a :class:`~bracekit.resolution.task_space.TaskSpace`, the pose by default)
+    says which rows of the task the run follows and corrects; the others are free. ``redundancy`` of the
+    trajectory is the null space those rows leave at the start: (l + n2) − rank(S A) for a braced strategy,
+    n − rank(S J) in free space. Gradient projection with none warns (NoRedundancyWarning): it cannot act.
     """
     dt = as_number(dt, "the time step dt", positive=True, unit="s")
     feedback_gain = as_number(feedback_gain, "the feedback gain", nonnegative=True, unit="1/s")
@@ -382,6 +412,10 @@ def simulate(
     dt = task.duration / steps  # the last sample lands on the task's end
     st = braced.state(q0)
     rotation = task.rotation if task.rotation is not None else st.R_e.copy()
+    space = getattr(strategy, "space", POSE)
+    if not isinstance(space, TaskSpace):
+        raise InputError(f"the strategy's space must be a TaskSpace, got {space!r}")
+    free_dims = redundancy(space, st.R_e, st.A if strategy.braced else st.J_e)
     anchor = (st.b.copy(), st.R_b.copy()) if strategy.braced else None
     centre = braced.brace.surface.point
     r_max = braced.brace.region_radius
@@ -399,7 +433,7 @@ def simulate(
     def advance(st: BracedState, t: float, h: float, depth: int = 0) -> BracedState:
         """One Euler step of length h from t, corrected; halved (up to 1/16) if it jumps out of the region."""
         nonlocal substeps
-        err = pose_error(st, task.position(t), rotation)
+        err = task_error(st, task.position(t), rotation, space)
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
         if fast is not None:  # the fused step: the same q̇ as the strategy's, to ~1e-13
             qdot = fast(st.q, xdot, beta_x(t))
@@ -408,7 +442,7 @@ def simulate(
             if strategy.needs_hessians:
                 st = braced.state(st.q, hessians=True)
             qdot = current.velocity(st, xdot)
-        new = correct(braced, st.q + qdot * h, task.position(t + h), rotation, anchor, length=length)
+        new = correct(braced, st.q + qdot * h, task.position(t + h), rotation, anchor, length=length, space=space)
         if guard and np.linalg.norm(new.b - centre) >= r_max:  # type: ignore[operator]
             if depth >= MAX_SUBSTEP_DEPTH:
                 raise BarrierError(
@@ -474,6 +508,13 @@ def simulate(
         )
     if substeps:
         notes.append(f"{strategy.name}: {substeps} step(s) were split to keep the bracing point in the region")
+    if free_dims == 0 and isinstance(strategy, BracedGradientProjection):
+        notes.append(
+            f"{strategy.name}: the task space '{space.kind}' leaves no redundancy ({space.rows} task rows take every "
+            "braced coordinate): gradient projection cannot act and equals braced minimum norm; free task rows "
+            "(space 'position' or 'position+axis') leave it room"
+        )
+        warnings.warn(notes[-1], NoRedundancyWarning, stacklevel=2)
     if r_max is not None and np.max(measures["region_radius"]) >= r_max:
         notes.append(
             f"{strategy.name}: the bracing point left the bracing region "
@@ -490,6 +531,8 @@ def simulate(
         failure=failure,
         warnings=notes,
         substeps=substeps,
+        task_space=space.describe(),
+        redundancy=free_dims,
     )
 
 
