@@ -87,6 +87,50 @@ def branched_chain_urdf(joint_type: str = "revolute") -> str:
     return "\n".join(parts)
 
 
+def continuous_chain_urdf(n: int, seed: int, continuous: tuple[int, ...] = (1, 3)) -> tuple[str, str]:
+    """(URDF with joints j{i}, i in `continuous`, of type continuous and no <limit>, its revolute original).
+
+    The chain is :func:`random_chain_urdf` (n joints, links base, l1..ln, tip frame `tip`).
+    """
+    revolute = random_chain_urdf(n, seed)
+    text = revolute
+    limit = '<limit lower="-3.14" upper="3.14" effort="10" velocity="1"/>'
+    for i in continuous:
+        head = f'<joint name="j{i}" type="revolute">'
+        start = text.index(head)
+        end = text.index("</joint>", start)
+        body = text[start:end].replace(head, f'<joint name="j{i}" type="continuous">').replace(limit, "")
+        text = text[:start] + body + text[end:]
+    return text, revolute
+
+
+def mimic_gripper_urdf(mimic_on_chain: bool = False) -> str:
+    """A 3-joint chain base→l1..l3→`tip` with a two-finger gripper on l3 (finger_2 mimics finger_1).
+
+    With `mimic_on_chain`, joint j3 mimics j2 instead (a coupled joint on the chain to the tip).
+    """
+    limit = '<limit lower="-2" upper="2" effort="10" velocity="1"/>'
+    joints = [
+        ("j1", "revolute", "base", "l1", "0 0 0.1", "0 0 1", ""),
+        ("j2", "revolute", "l1", "l2", "0 0 0.3", "0 1 0", ""),
+        ("j3", "revolute", "l2", "l3", "0.3 0 0", "0 1 0", '<mimic joint="j2"/>' if mimic_on_chain else ""),
+        ("finger_1", "prismatic", "l3", "f1", "0.1 0.02 0", "0 1 0", ""),
+        ("finger_2", "prismatic", "l3", "f2", "0.1 -0.02 0", "0 -1 0", '<mimic joint="finger_1" multiplier="1"/>'),
+    ]
+    parts = ['<robot name="gripper">', '<link name="base"/>']
+    parts += [f'<link name="{link}"/>' for link in ("l1", "l2", "l3", "f1", "f2", "tip")]
+    for name, kind, parent, child, xyz, axis, extra in joints:
+        parts.append(
+            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="0 0 0"/><axis xyz="{axis}"/>{limit}{extra}</joint>'
+        )
+    parts.append(
+        '<joint name="tip_joint" type="fixed"><parent link="l3"/><child link="tip"/>'
+        '<origin xyz="0.15 0 0" rpy="0 0 0"/></joint></robot>'
+    )
+    return "\n".join(parts)
+
+
 def pin_frame_jacobian(model, frame: str, q: np.ndarray) -> np.ndarray:
     """Reference: Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian (6×nv) from a fresh computeFrameJacobian."""
     import pinocchio as pin
