@@ -35,7 +35,7 @@ from bracekit.resolution.strategies import (
     Strategy,
 )
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
-from bracekit.spatial import unit
+from bracekit.spatial import rotation_with_z, unit
 
 Array = NDArray[np.float64]
 STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
@@ -43,6 +43,8 @@ STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_project
 WEIGHT_KEYS: tuple[str, ...] = tuple(TERMS)
 #: Most steps a scenario may ask for per strategy.
 MAX_STEPS = 100_000
+#: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
+START_THETA_WEIGHT = 0.3
 
 
 def shipped_scenarios() -> dict[str, Path]:
@@ -153,6 +155,7 @@ class Scenario:
     feedback_gain: float = 1.0
     description: str = ""
     source: Path | None = None
+    start_theta_weight: float = 0.0
 
     @property
     def robot(self) -> Robot:
@@ -230,7 +233,18 @@ def parse_scenario(
     robot = _robot(top.table("robot", ("model", "urdf", "tip", "stiffness")), base)
     brace_t = top.table(
         "brace",
-        ("frame", "link", "offset", "contact", "point", "normal", "tangent", "region_radius", "environment_stiffness"),
+        (
+            "frame",
+            "link",
+            "offset",
+            "pad_axis",
+            "contact",
+            "point",
+            "normal",
+            "tangent",
+            "region_radius",
+            "environment_stiffness",
+        ),
     )
     braced = _brace(brace_t, robot)
     robot, brace = braced.robot, braced.brace
@@ -252,7 +266,7 @@ def parse_scenario(
         ),
     )
     task = _task(task_t)
-    start = top.table("start", ("guess",))
+    start = top.table("start", ("guess", "theta_weight"))
     guess = start.vector("guess", robot.n)
     comp = top.table("compliance", ("model", "beta_x"), {})
     model = comp.string("model", COMPLIANCE_MODELS, "constrained")
@@ -287,11 +301,18 @@ def parse_scenario(
     alpha = gp.number("alpha", -1.0)
     if alpha >= 0:
         raise ScenarioError(f"'gradient_projection.alpha' must be negative (it descends g), got {alpha}")
-    w = gp.table("weights", WEIGHT_KEYS, {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01})
+    default_weights = {"k": 0.5, "Ci": 100.0, "theta_z": 0.6 if brace.pad_axis else 0.0, "d": 0.01}
+    w = gp.table("weights", WEIGHT_KEYS, default_weights)
     weights = {k: w.number(k, 0.0) for k in WEIGHT_KEYS}
     for k, v in weights.items():
         if v < 0:
             raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")
+    if weights["theta_z"] > 0 and not brace.pad_axis:
+        raise ScenarioError(
+            "'gradient_projection.weights.theta_z' needs a pad axis, and a link-point brace has none: give "
+            "'brace.pad_axis' = [x, y, z] (link axes) or set theta_z = 0"
+        )
+    theta_weight = _start_theta_weight(start, brace.pad_axis, weights["theta_z"])
     if weights["d"] > 0 and brace.region_radius is None:
         raise ScenarioError("'gradient_projection.weights.d' needs 'brace.region_radius' (r_max, m)")
     gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
@@ -329,7 +350,22 @@ def parse_scenario(
         strategies=tuple(strategies),
         feedback_gain=feedback_gain,
         source=source,
+        start_theta_weight=theta_weight,
     )
+
+
+def _start_theta_weight(start: _Table, pad_axis: bool, theta_z: float) -> float:
+    """The start solve's θ_z weight: '[start] theta_weight', by default START_THETA_WEIGHT if θ_z is weighted."""
+    default = START_THETA_WEIGHT if pad_axis and theta_z > 0 else 0.0
+    value = start.number("theta_weight", default)
+    if value < 0:
+        raise ScenarioError(f"'start.theta_weight' must be ≥ 0, got {value}")
+    if value > 0 and not pad_axis:
+        raise ScenarioError(
+            "'start.theta_weight' needs a pad axis, and a link-point brace has none: give 'brace.pad_axis' = "
+            "[x, y, z] (link axes) or set start.theta_weight = 0"
+        )
+    return value
 
 
 def _robot(t: _Table, base: Path) -> Robot:
@@ -362,17 +398,26 @@ def _robot(t: _Table, base: Path) -> Robot:
 
 
 def _brace(t: _Table, robot: Robot) -> BracedRobot:
+    pad_axis = True  # a frame of the robot's description: its z is the pad direction
     if t.has("link"):
         frame = t.string("frame", default="brace")
         if robot.model.existFrame(frame):
             raise ScenarioError(
                 f"'brace.frame' = {show(frame)} is already a frame of the robot; name the new brace point otherwise"
             )
+        rotation = None
+        pad_axis = t.has("pad_axis")
+        if pad_axis:
+            rotation = rotation_with_z(t.vector("pad_axis", 3), "'brace.pad_axis' (link axes)", ScenarioError)
         try:
-            robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]))
+            robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]), rotation)
         except BracekitError as exc:
             raise ScenarioError(f"'brace.link': {exc}") from exc
     else:
+        if t.has("pad_axis"):
+            raise ScenarioError(
+                "'brace.pad_axis' goes with 'brace.link' (a link point); a brace frame's own z is its pad axis"
+            )
         frame = t.string("frame")
     point, normal = t.vector("point", 3), t.vector("normal", 3)
     if not np.any(normal):
@@ -390,6 +435,7 @@ def _brace(t: _Table, robot: Robot) -> BracedRobot:
             environment_stiffness=t.number("environment_stiffness", positive=True)
             if t.has("environment_stiffness")
             else None,
+            pad_axis=pad_axis,
         )
         return BracedRobot(robot, brace)
     except ScenarioError:
