@@ -43,7 +43,7 @@ def _rewrite_urdf(text: str) -> tuple[str, _UrdfJoints]:
     """Continuous joints rewritten as revolute joints (q a plain angle) and the mimic joints listed.
 
     Pinocchio parses a continuous joint as (cos q, sin q) (nq = 2, nv = 1); as a revolute joint with limits
-    ±CONTINUOUS_PARSE_LIMIT its q is the angle itself, and :func:`_load_urdf`'s caller makes the limits ±inf.
+    ±CONTINUOUS_PARSE_LIMIT its q is the angle itself, and :func:`_load_urdf` then makes the limits ±inf.
     Text that is not XML is returned unchanged (Pinocchio reports the error).
     """
     try:
@@ -304,12 +304,12 @@ class Robot:
 
     @property
     def lower(self) -> Array:
-        """Lower joint limits (n,)."""
+        """Lower joint limits (n,); −inf for a continuous joint."""
         return np.asarray(self.model.lowerPositionLimit, dtype=float).copy()
 
     @property
     def upper(self) -> Array:
-        """Upper joint limits (n,)."""
+        """Upper joint limits (n,); +inf for a continuous joint."""
         return np.asarray(self.model.upperPositionLimit, dtype=float).copy()
 
     @property

@@ -138,7 +138,10 @@ def _float(v: object) -> float | None:
 
 @dataclass(frozen=True, eq=False)
 class Scenario:
-    """A validated scenario. Lengths in m, times in s, stiffness in N·m/rad."""
+    """A validated scenario. Lengths in m, times in s, stiffness in N·m/rad.
+
+    ``start_theta_weight`` is the start solve's θ_z weight ('[start] theta_weight'; 0 without a pad axis).
+    """
 
     name: str
     braced: BracedRobot
