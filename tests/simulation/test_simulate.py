@@ -233,3 +233,24 @@ def test_an_iiwa_braced_at_its_forearm_starts_conditioned_and_completes_the_brac
             tr = simulate(sc.braced, sc.strategy(name), sc.task, start.q, sc.dt, sc.beta_x)
             assert tr.completed, tr.failure
             assert tr.summary()["max_contact_violation_m"] < 1e-9
+
+
+def test_an_arm_with_continuous_joints_solves_its_start_and_runs_with_unbounded_angles(tmp_path) -> None:
+    text = iiwa_like_urdf()
+    for j in ("joint_1", "joint_7"):
+        head = f'<joint name="{j}" type="revolute">'
+        start = text.index(head)
+        end = text.index("</joint>", start)
+        body = text[start:end].replace(head, f'<joint name="{j}" type="continuous">')
+        text = text[:start] + body[: body.index("<limit")] + text[end:]
+    (tmp_path / "iiwa.urdf").write_text(text, encoding="utf-8")
+    (tmp_path / "s.toml").write_text(iiwa_scenario_text(pad_axis=True), encoding="utf-8")
+    sc = load_scenario(tmp_path / "s.toml")
+    assert np.isneginf(sc.robot.lower[[0, 6]]).all() and np.isposinf(sc.robot.upper[[0, 6]]).all()
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, theta_weight=sc.start_theta_weight)
+    assert start.q.shape == (7,)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RegionWarning)
+        tr = simulate(sc.braced, sc.strategy("braced_min_norm"), sc.task, start.q, sc.dt, sc.beta_x)
+    assert tr.completed, tr.failure
+    assert tr.summary()["max_joint_limit_violation_rad"] == 0.0
