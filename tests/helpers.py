@@ -87,6 +87,112 @@ def branched_chain_urdf(joint_type: str = "revolute") -> str:
     return "\n".join(parts)
 
 
+def continuous_chain_urdf(n: int, seed: int, continuous: tuple[int, ...] = (1, 3)) -> tuple[str, str]:
+    """(URDF with joints j{i}, i in `continuous`, of type continuous and no <limit>, its revolute original).
+
+    The chain is :func:`random_chain_urdf` (n joints, links base, l1..ln, tip frame `tip`).
+    """
+    revolute = random_chain_urdf(n, seed)
+    text = revolute
+    limit = '<limit lower="-3.14" upper="3.14" effort="10" velocity="1"/>'
+    for i in continuous:
+        head = f'<joint name="j{i}" type="revolute">'
+        start = text.index(head)
+        end = text.index("</joint>", start)
+        body = text[start:end].replace(head, f'<joint name="j{i}" type="continuous">').replace(limit, "")
+        text = text[:start] + body + text[end:]
+    return text, revolute
+
+
+def mimic_gripper_urdf(mimic_on_chain: bool = False) -> str:
+    """A 3-joint chain base→l1..l3→`tip` with a two-finger gripper on l3 (finger_2 mimics finger_1).
+
+    With `mimic_on_chain`, joint j3 mimics j2 instead (a coupled joint on the chain to the tip).
+    """
+    limit = '<limit lower="-2" upper="2" effort="10" velocity="1"/>'
+    joints = [
+        ("j1", "revolute", "base", "l1", "0 0 0.1", "0 0 1", ""),
+        ("j2", "revolute", "l1", "l2", "0 0 0.3", "0 1 0", ""),
+        ("j3", "revolute", "l2", "l3", "0.3 0 0", "0 1 0", '<mimic joint="j2"/>' if mimic_on_chain else ""),
+        ("finger_1", "prismatic", "l3", "f1", "0.1 0.02 0", "0 1 0", ""),
+        ("finger_2", "prismatic", "l3", "f2", "0.1 -0.02 0", "0 -1 0", '<mimic joint="finger_1" multiplier="1"/>'),
+    ]
+    parts = ['<robot name="gripper">', '<link name="base"/>']
+    parts += [f'<link name="{link}"/>' for link in ("l1", "l2", "l3", "f1", "f2", "tip")]
+    for name, kind, parent, child, xyz, axis, extra in joints:
+        parts.append(
+            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="0 0 0"/><axis xyz="{axis}"/>{limit}{extra}</joint>'
+        )
+    parts.append(
+        '<joint name="tip_joint" type="fixed"><parent link="l3"/><child link="tip"/>'
+        '<origin xyz="0.15 0 0" rpy="0 0 0"/></joint></robot>'
+    )
+    return "\n".join(parts)
+
+
+def iiwa_like_urdf() -> str:
+    """URDF of a 7-joint arm with the KUKA LBR iiwa 14's kinematics (approximately) and limits.
+
+    Joint axes z, y, z, −y, z, y, z; shoulder, elbow, wrist and flange 0.36, 0.42, 0.40 and 0.126 m apart
+    along the arm at q = 0. Links link_0 (base) .. link_7, tip frame `tool` on the flange.
+    """
+    heights = [0.1575, 0.2025, 0.2045, 0.2155, 0.1845, 0.2155, 0.081]
+    axes = ["0 0 1", "0 1 0", "0 0 1", "0 -1 0", "0 0 1", "0 1 0", "0 0 1"]
+    limits = [170, 120, 170, 120, 170, 120, 175]
+    speeds = [1.48, 1.48, 1.75, 1.31, 2.27, 2.36, 2.36]
+    parts = ['<robot name="iiwa_like">', '<link name="link_0"/>']
+    for i in range(7):
+        lim = np.radians(limits[i])
+        parts.append(f'<link name="link_{i + 1}"/>')
+        parts.append(
+            f'<joint name="joint_{i + 1}" type="revolute"><parent link="link_{i}"/><child link="link_{i + 1}"/>'
+            f'<origin xyz="0 0 {heights[i]}" rpy="0 0 0"/><axis xyz="{axes[i]}"/>'
+            f'<limit lower="{-lim}" upper="{lim}" effort="100" velocity="{speeds[i]}"/></joint>'
+        )
+    parts.append(
+        '<link name="tool"/><joint name="tool_joint" type="fixed"><parent link="link_7"/><child link="tool"/>'
+        '<origin xyz="0 0 0.126" rpy="0 0 0"/></joint></robot>'
+    )
+    return "\n".join(parts)
+
+
+def iiwa_scenario_text(pad_axis: bool) -> str:
+    """A scenario for :func:`iiwa_like_urdf` (file ``iiwa.urdf`` next to it): the forearm braced on a table.
+
+    {b} is a point under link_4 (the forearm, whose z runs along it); the tip moves along a 0.12 m line
+    holding its orientation. With `pad_axis` the point's pad direction is link_4's −x (up at the guess) and
+    θ_z is weighted; without, θ_z has weight 0.
+    """
+    pad = "pad_axis = [-1.0, 0.0, 0.0]\n" if pad_axis else ""
+    theta = "theta_z = 0.6, " if pad_axis else ""
+    return f"""name = "iiwa-forearm"
+[robot]
+urdf = "iiwa.urdf"
+tip = "tool"
+[brace]
+frame = "pad"
+link = "link_4"
+offset = [0.06, 0.0, 0.1]
+{pad}point = [0.34, 0.0, 0.647]
+normal = [0.0, 0.0, 1.0]
+region_radius = 0.15
+[task]
+type = "line"
+start = [0.70, -0.06, 0.50]
+end = [0.70, 0.06, 0.50]
+duration = 4.0
+[start]
+guess = [0.0, 0.6, 0.0, -0.97, 0.0, 1.2, 0.0]
+[compliance]
+beta_x = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0]
+[gradient_projection]
+weights = {{ k = 0.5, Ci = 100.0, {theta}d = 0.01 }}
+[simulation]
+dt = 0.05
+"""
+
+
 def pin_frame_jacobian(model, frame: str, q: np.ndarray) -> np.ndarray:
     """Reference: Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian (6×nv) from a fresh computeFrameJacobian."""
     import pinocchio as pin

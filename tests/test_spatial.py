@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from bracekit.errors import InputError
-from bracekit.spatial import skew, twist_rotate, twist_shift, unit, wrench_map
+from bracekit.spatial import rotation_with_z, skew, twist_rotate, twist_shift, unit, wrench_map
 
 FINITE = st.floats(-10.0, 10.0, allow_nan=False, allow_infinity=False)
 VEC3 = arrays(np.float64, 3, elements=FINITE)
@@ -191,3 +191,20 @@ def test_twist_rotate_and_wrench_map_refuse_wrong_shapes(bad: object) -> None:
         twist_rotate(bad)  # type: ignore[arg-type]
     with pytest.raises(InputError):
         wrench_map(bad)  # type: ignore[arg-type]
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, 3, elements=st.floats(-1e3, 1e3)))
+def test_rotation_with_z_is_a_rotation_whose_z_is_the_axis(axis: np.ndarray) -> None:
+    if not np.any(axis):
+        with pytest.raises(InputError):
+            rotation_with_z(axis)
+        return
+    r = rotation_with_z(axis)
+    np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(r[:, 2], unit(axis), atol=1e-12)
+
+
+def test_rotation_with_z_of_plus_z_is_the_identity() -> None:
+    np.testing.assert_array_equal(rotation_with_z([0.0, 0.0, 3.0]), np.eye(3))

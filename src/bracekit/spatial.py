@@ -76,3 +76,20 @@ def unit(v: ArrayLike, what: str = "vector", error: type[InputError] = InputErro
         return a / float(np.linalg.norm(a))
     scaled = a / big  # the largest component is ±1
     return scaled / float(np.linalg.norm(scaled))
+
+
+def rotation_with_z(axis: ArrayLike, what: str = "axis", error: type[InputError] = InputError) -> Array:
+    """A rotation matrix (3×3) whose third column is the unit vector of `axis`.
+
+    The first column is the component of the coordinate axis least aligned with `axis` orthogonal to it, so
+    an `axis` along a coordinate axis gives a signed permutation (identity for +z). Raises `error` naming
+    `what` for a zero or non-finite axis.
+    """
+    z = unit(axis, what, error)
+    if np.allclose(z, (0.0, 0.0, 1.0), rtol=0.0, atol=1e-15):
+        return np.eye(3)
+    seed = np.zeros(3)
+    seed[int(np.argmin(np.abs(z)))] = 1.0
+    x = seed - (seed @ z) * z
+    x /= float(np.linalg.norm(x))
+    return np.column_stack([x, np.cross(z, x), z])

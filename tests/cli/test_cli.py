@@ -86,6 +86,23 @@ def test_evaluate_with_a_urdf_and_a_brace_at_a_link_point(capsys, tmp_path: Path
     assert json.loads(out)["n1"] == 6
 
 
+def test_evaluate_with_a_urdf_of_continuous_joints(capsys, tmp_path: Path) -> None:
+    import pinocchio as pin
+
+    from helpers import continuous_chain_urdf, pin_frame_jacobian
+
+    text, revolute = continuous_chain_urdf(7, seed=3, continuous=(1, 2, 4, 7))
+    path = tmp_path / "continuous.urdf"
+    path.write_text(text)
+    q = [0.2, 4.0, -0.5, 0.3, -7.0, 0.4, 9.0]  # angles, some beyond ±π
+    args = ["evaluate", "--urdf", str(path), "--tip", "tip", "--brace-link", "l4", "--brace-offset", "0,0,0.05"]
+    code, out, _ = _run([*args, "--q", ",".join(map(str, q)), "--json"], capsys)
+    assert code == 0
+    data = json.loads(out)
+    assert len(data["q"]) == 7 and np.array(data["J"]).shape == (6, 7)
+    np.testing.assert_allclose(data["J"], pin_frame_jacobian(pin.buildModelFromXML(revolute), "tip", q), atol=1e-12)
+
+
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [

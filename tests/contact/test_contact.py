@@ -245,3 +245,10 @@ def test_surface_arguments_that_are_not_3_numbers_are_contact_errors(kwargs: dic
 def test_brace_kind_is_the_contact_type_even_when_given_by_name() -> None:
     brace = Brace("b", Surface(np.zeros(3), np.array([0.0, 0.0, 1.0])), contact="soft_finger")
     assert brace.kind is brace.contact and brace.kind.name == "soft_finger"
+
+
+def test_a_brace_has_a_pad_axis_unless_told_otherwise() -> None:
+    surface = Surface((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    assert Brace("b", surface).pad_axis and not Brace("b", surface, pad_axis=False).pad_axis
+    with pytest.raises(ContactError, match="pad_axis"):
+        Brace("b", surface, pad_axis=1)  # type: ignore[arg-type]

@@ -15,7 +15,14 @@ import pytest
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import model_path
-from helpers import branched_chain_urdf, pin_frame_placement, random_chain_urdf
+from helpers import (
+    branched_chain_urdf,
+    continuous_chain_urdf,
+    mimic_gripper_urdf,
+    pin_frame_jacobian,
+    pin_frame_placement,
+    random_chain_urdf,
+)
 
 PUMA = model_path("puma560")
 PAPER = model_path("paper-robot")
@@ -213,13 +220,55 @@ def test_tip_on_the_base_is_a_model_error() -> None:
     one_line(info)
 
 
-def test_continuous_joint_on_the_chain_is_rejected_with_a_clear_message() -> None:
+@pytest.mark.parametrize("seed", [8, 21])
+def test_continuous_joints_load_as_plain_angles_with_the_revolute_version_s_kinematics(seed: int) -> None:
+    text, revolute = continuous_chain_urdf(5, seed, continuous=(1, 3, 5))
+    assert text.count('type="continuous"') == 3
+    robot = Robot.from_urdf(text, tip="tip")
+    ref = pin.buildModelFromXML(revolute)
+    assert robot.n == robot.model.nq == robot.model.nv == 5
+    assert np.all(np.isinf(robot.lower[[0, 2, 4]])) and np.all(robot.lower[[0, 2, 4]] < 0)
+    assert np.all(np.isposinf(robot.upper[[0, 2, 4]]))
+    np.testing.assert_array_equal(robot.lower[[1, 3]], [-3.14, -3.14])
+    rng = np.random.default_rng(seed)
+    for q in (rng.uniform(-3, 3, 5), rng.uniform(-20, 20, 5)):  # angles beyond ±π too
+        np.testing.assert_allclose(
+            robot.frame_kinematics(q, [robot.tip_id])[0][1], pin_frame_jacobian(ref, "tip", q), atol=1e-12
+        )
+        np.testing.assert_allclose(
+            pin_frame_placement(robot.model, "tip", q).homogeneous,
+            pin_frame_placement(ref, "tip", q).homogeneous,
+            atol=1e-12,
+        )
+
+
+def test_a_continuous_joint_keeps_its_urdf_velocity_limit(tmp_path: Path) -> None:
     text = random_chain_urdf(3, seed=8).replace('name="j2" type="revolute"', 'name="j2" type="continuous"')
-    assert 'type="continuous"' in text
+    path = tmp_path / "chain.urdf"
+    path.write_text(text)
+    robot = Robot.from_urdf(path, tip="tip")
+    assert np.isneginf(robot.lower[1]) and robot.model.velocityLimit[1] == 1.0
+
+
+def test_a_mimic_joint_on_the_chain_is_refused_naming_it_and_its_leader() -> None:
     with pytest.raises(ModelError) as info:
-        Robot.from_urdf(text, tip="tip")
+        Robot.from_urdf(mimic_gripper_urdf(mimic_on_chain=True), tip="tip")
     msg = one_line(info)
-    assert "'j2'" in msg and "revolute" in msg
+    assert "'j3'" in msg and "'j2'" in msg and "mimic" in msg
+
+
+def test_mimic_gripper_fingers_off_the_chain_are_locked() -> None:
+    robot = Robot.from_urdf(mimic_gripper_urdf(), tip="tip")
+    assert robot.joint_names == ("j1", "j2", "j3")
+    ref = pin.buildModelFromXML(mimic_gripper_urdf())
+    q = np.array([0.3, -0.4, 0.7])
+    q_ref = np.zeros(ref.nq)
+    for name, value in zip(robot.joint_names, q, strict=True):
+        q_ref[ref.joints[ref.getJointId(name)].idx_q] = value
+    ours = robot.frame_kinematics(q, [robot.tip_id])[0][1]
+    full = pin_frame_jacobian(ref, "tip", q_ref)
+    cols = [ref.joints[ref.getJointId(name)].idx_v for name in robot.joint_names]
+    np.testing.assert_allclose(ours, full[:, cols], atol=1e-12)
 
 
 def test_continuous_joint_on_a_locked_side_branch_is_accepted() -> None:

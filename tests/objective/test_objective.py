@@ -29,6 +29,7 @@ from bracekit.objective import (
     ConditionNumber,
     Objective,
     RegionBarrier,
+    TermContext,
     braced_gradient,
     finite_difference_gradient,
 )
@@ -370,3 +371,18 @@ def test_an_objective_needs_a_braced_state() -> None:
     for fn in (objective.value, objective.values, objective.gradient):
         with pytest.raises(InputError, match="BracedState"):
             fn("state")  # type: ignore[arg-type]
+
+
+def test_brace_angle_needs_a_brace_with_a_pad_axis() -> None:
+    robot = Robot.from_urdf(random_chain_urdf(7, seed=4), tip="tip").with_point_frame("pad", "l4", (0.0, 0.0, 0.05))
+    braced = BracedRobot(robot, Brace("pad", Surface((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), pad_axis=False))
+    state = braced.state(np.full(7, 0.2))
+    term = BraceAngle()
+    for call in (
+        lambda: term.value(state),
+        lambda: term.gradient(state),
+        lambda: term.numba_params(braced, 1.0),
+        lambda: BraceAngle.from_scenario(TermContext(braced, np.eye(6)[0], "constrained")),
+    ):
+        with pytest.raises(InputError, match="pad axis"):
+            call()

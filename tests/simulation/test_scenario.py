@@ -99,14 +99,80 @@ def test_brace_can_be_placed_at_a_link_point_and_urdf_paths_are_relative_to_the_
     (tmp_path / "robot.urdf").write_text(model_path("paper-robot").read_text(), encoding="utf-8")
     text = scenario_text()
     text = _edit(text, 'model = "paper-robot"', 'urdf = "robot.urdf"')
-    text = _edit(text, 'frame = "brace"', 'frame = "pad"\nlink = "link6"\noffset = [0.0, 0.0, 0.05]')
+    text = _edit(
+        text, 'frame = "brace"', 'frame = "pad"\nlink = "link6"\noffset = [0.0, 0.0, 0.05]\npad_axis = [0.0, 0.0, -2.0]'
+    )
     p = tmp_path / "custom.toml"
     p.write_text(text, encoding="utf-8")
     sc = load_scenario(p)
+    assert sc.braced.brace.pad_axis and sc.start_theta_weight == 0.3
     q = sc.guess
-    # the new frame sits where the URDF's own brace frame is (same link, same offset)
+    # the new frame is the URDF's own brace frame (same link, same offset, z_b = −z_flange)
     ref = load_scenario("paper").braced.state(q)
-    assert np.allclose(sc.braced.state(q).b, ref.b, atol=1e-12)
+    st = sc.braced.state(q)
+    assert np.allclose(st.b, ref.b, atol=1e-12)
+    np.testing.assert_allclose(st.R_b, ref.R_b, atol=1e-12)
+
+
+def _link_point_scenario(tmp_path: Path, extra: str = "", weights: str | None = None, start: str = "") -> Path:
+    text = _edit(scenario_text(), 'frame = "brace"', f'frame = "pad"\nlink = "link6"\noffset = [0.0, 0.0, 0.05]{extra}')
+    if weights is not None:
+        text = _edit(text, "theta_z = 0.6", weights)
+    if start:
+        text = _edit(text, "[start]", f"[start]\n{start}")
+    p = tmp_path / "link_point.toml"
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def test_a_link_point_brace_without_pad_axis_refuses_a_theta_z_weight_naming_the_key_and_the_fix(
+    tmp_path: Path,
+) -> None:
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(_link_point_scenario(tmp_path))
+    msg = str(info.value)
+    assert "'gradient_projection.weights.theta_z'" in msg and "'brace.pad_axis'" in msg and "theta_z = 0" in msg
+
+
+def test_a_link_point_brace_without_pad_axis_has_no_theta_z_anywhere(tmp_path: Path) -> None:
+    sc = load_scenario(_link_point_scenario(tmp_path, weights="theta_z = 0.0"))
+    assert not sc.braced.brace.pad_axis
+    assert sc.start_theta_weight == 0.0
+    assert all(t.key != "theta_z" for t in sc.objective().terms)
+    with pytest.raises(ScenarioError, match=r"'start\.theta_weight'"):
+        load_scenario(_link_point_scenario(tmp_path, weights="theta_z = 0.0", start="theta_weight = 0.3"))
+
+
+@pytest.mark.parametrize(
+    ("start", "weights", "expected"),
+    [("", None, 0.3), ("", "theta_z = 0.0", 0.0), ("theta_weight = 0.7", None, 0.7), ("theta_weight = 0", None, 0.0)],
+)
+def test_the_start_theta_weight_follows_the_scenario(
+    tmp_path: Path, start: str, weights: str | None, expected: float
+) -> None:
+    sc = load_scenario(_link_point_scenario(tmp_path, "\npad_axis = [1.0, 0.0, 0.0]", weights, start))
+    assert sc.start_theta_weight == expected
+    assert sc.braced.brace.pad_axis
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        ("\npad_axis = [0.0, 0.0, 0.0]", "'brace.pad_axis'"),
+        ("\npad_axis = [1.0, 0.0]", "'brace.pad_axis'"),
+    ],
+)
+def test_a_bad_pad_axis_is_refused_naming_the_key(tmp_path: Path, extra: str, fragment: str) -> None:
+    with pytest.raises(ScenarioError, match=fragment):
+        load_scenario(_link_point_scenario(tmp_path, extra))
+
+
+def test_a_pad_axis_goes_with_a_link_point_only(tmp_path: Path) -> None:
+    text = _edit(scenario_text(), 'frame = "brace"', 'frame = "brace"\npad_axis = [0.0, 0.0, 1.0]')
+    p = tmp_path / "frame_pad.toml"
+    p.write_text(text, encoding="utf-8")
+    with pytest.raises(ScenarioError, match=r"'brace\.pad_axis'"):
+        load_scenario(p)
 
 
 def test_region_barrier_weight_needs_a_region(tmp_path: Path) -> None:

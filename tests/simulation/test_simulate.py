@@ -18,8 +18,10 @@ from bracekit import (
     simulate,
     solve_start,
 )
-from bracekit.errors import ConvergenceError, RegionWarning
-from bracekit.simulation.simulate import correct
+from bracekit.errors import ConvergenceError, NoRedundancyWarning, RegionWarning
+from bracekit.resolution.strategies import conditioning
+from bracekit.simulation.simulate import START_CONDITIONING_FLOOR, correct
+from helpers import iiwa_like_urdf, iiwa_scenario_text
 
 
 @pytest.fixture(scope="module")
@@ -171,3 +173,89 @@ def bk_robot(model, sc):
     from bracekit import Robot
 
     return Robot(model=model, tip=sc.robot.tip, stiffness=sc.robot.stiffness)
+
+
+# ------------------------------------------------------------------------------------------ start solve
+def test_the_paper_start_is_the_plain_solve_the_conditioning_barrier_inactive(setup) -> None:
+    sc, start, _ = setup
+    plain = solve_start(sc.braced, sc.task.position(0.0), sc.guess, conditioning_weight=0.0)
+    np.testing.assert_array_equal(start.q, plain.q)
+    assert min(conditioning(start, ("A", "J_braced")).values()) >= START_CONDITIONING_FLOOR
+
+
+def test_a_theta_weight_needs_a_pad_axis(tmp_path) -> None:
+    (tmp_path / "iiwa.urdf").write_text(iiwa_like_urdf(), encoding="utf-8")
+    (tmp_path / "s.toml").write_text(iiwa_scenario_text(pad_axis=False), encoding="utf-8")
+    sc = load_scenario(tmp_path / "s.toml")
+    with pytest.raises(InputError, match="pad axis"):
+        solve_start(sc.braced, sc.task.position(0.0), sc.guess, theta_weight=0.3)
+
+
+@pytest.mark.parametrize("weights", [{"conditioning_weight": -1.0}, {"conditioning_floor": 0.0}, {"theta_weight": "x"}])
+def test_bad_start_weights_are_input_errors(setup, weights: dict) -> None:
+    sc, _, _ = setup
+    with pytest.raises(InputError):
+        solve_start(sc.braced, sc.task.position(0.0), sc.guess, **weights)
+
+
+@pytest.mark.parametrize("pad_axis", [False, True], ids=["link-point", "pad-axis"])
+def test_an_iiwa_braced_at_its_forearm_starts_conditioned_and_completes_the_braced_runs(
+    tmp_path, pad_axis: bool
+) -> None:
+    """Before: the start solve pulled link_4's z (or the pad axis) to the normal with weight 0.3 and nothing
+    kept A conditioned: σ_min/σ_max of A 5e-4 (7e-4 with the pad axis), and the braced runs failed their
+    correction after 16 (32) steps. Now A's ratio is above 0.01 and every run completes."""
+    (tmp_path / "iiwa.urdf").write_text(iiwa_like_urdf(), encoding="utf-8")
+    (tmp_path / "s.toml").write_text(iiwa_scenario_text(pad_axis), encoding="utf-8")
+    sc = load_scenario(tmp_path / "s.toml")
+    assert sc.braced.brace.pad_axis is pad_axis and sc.robot.n == 7
+    assert sc.start_theta_weight == (0.3 if pad_axis else 0.0)
+    position = sc.task.position(0.0)
+    start = solve_start(sc.braced, position, sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight)
+    ratios = conditioning(start, ("A", "J_braced"))
+    assert ratios["A"] > 0.01 and ratios["J_braced"] > 0.05
+    assert np.linalg.norm(start.e - position) < 1e-10
+    assert abs(sc.braced.brace.surface.signed_distance(start.b)) < 1e-10
+    if pad_axis:  # the pad axis is pulled toward the normal
+        assert np.degrees(np.arccos(start.z_b @ sc.braced.brace.surface.normal)) < 20.0
+    unconditioned = solve_start(
+        sc.braced,
+        position,
+        sc.guess,
+        rotation=sc.task.rotation,
+        theta_weight=0.3 if pad_axis else 0.0,
+        conditioning_weight=0.0,
+    )
+    assert conditioning(unconditioned, ("A",))["A"] < 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RegionWarning)
+        for name in ("braced_min_norm", "braced_gradient_projection"):
+            # a 7-joint arm, a point contact and a 6-D pose task: gradient projection has no room, and says so
+            expected = NoRedundancyWarning if name == "braced_gradient_projection" else None
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", NoRedundancyWarning)
+                tr = simulate(sc.braced, sc.strategy(name), sc.task, start.q, sc.dt, sc.beta_x)
+            assert [w.category for w in caught if w.category is NoRedundancyWarning] == ([expected] if expected else [])
+            assert tr.completed, tr.failure
+            assert tr.summary()["max_contact_violation_m"] < 1e-9
+
+
+def test_an_arm_with_continuous_joints_solves_its_start_and_runs_with_unbounded_angles(tmp_path) -> None:
+    text = iiwa_like_urdf()
+    for j in ("joint_1", "joint_7"):
+        head = f'<joint name="{j}" type="revolute">'
+        start = text.index(head)
+        end = text.index("</joint>", start)
+        body = text[start:end].replace(head, f'<joint name="{j}" type="continuous">')
+        text = text[:start] + body[: body.index("<limit")] + text[end:]
+    (tmp_path / "iiwa.urdf").write_text(text, encoding="utf-8")
+    (tmp_path / "s.toml").write_text(iiwa_scenario_text(pad_axis=True), encoding="utf-8")
+    sc = load_scenario(tmp_path / "s.toml")
+    assert np.isneginf(sc.robot.lower[[0, 6]]).all() and np.isposinf(sc.robot.upper[[0, 6]]).all()
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, theta_weight=sc.start_theta_weight)
+    assert start.q.shape == (7,)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RegionWarning)
+        tr = simulate(sc.braced, sc.strategy("braced_min_norm"), sc.task, start.q, sc.dt, sc.beta_x)
+    assert tr.completed, tr.failure
+    assert tr.summary()["max_joint_limit_violation_rad"] == 0.0

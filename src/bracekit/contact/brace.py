@@ -28,6 +28,9 @@ class Brace:
         region_radius: r_max of the circular bracing region centred at ``surface.point`` (m), or None.
         environment_stiffness: stiffness of the environment along each constraint direction (N/m, or
             N·m/rad for constraint moments); None means rigid (the paper's assumption).
+        pad_axis: whether the z axis of {b} is a pad direction (the brace's contact normal on the robot's
+            side), so that θ_z (eq:theta) is defined: True for a frame of the robot's description or a link
+            point given a pad axis; False for a bare link point, whose z is only the link's.
     """
 
     frame: str
@@ -35,6 +38,7 @@ class Brace:
     contact: ContactType | str = FRICTIONLESS_POINT
     region_radius: float | None = None
     environment_stiffness: float | None = None
+    pad_axis: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.frame, str) or not self.frame:
@@ -42,6 +46,8 @@ class Brace:
         if not isinstance(self.surface, Surface):
             raise ContactError(f"the brace surface must be a bracekit Surface, got {type(self.surface).__name__}")
         object.__setattr__(self, "contact", contact_type(self.contact))
+        if not isinstance(self.pad_axis, bool):
+            raise ContactError(f"pad_axis must be True or False, got {show(self.pad_axis)}")
         if self.region_radius is not None:
             radius = as_number(self.region_radius, "region_radius", positive=True, unit="m", error=ContactError)
             if not radius < 1e150:  # r_max² must stay in float64

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import sys
+import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -26,6 +27,61 @@ Array = NDArray[np.float64]
 
 #: Accepted joint stiffnesses, N·m/rad (N/m for prismatic joints).
 STIFFNESS_RANGE = (1e-6, 1e12)
+#: The limit a continuous joint is given for the URDF parser (which refuses inf); the model then gets ±inf.
+CONTINUOUS_PARSE_LIMIT = 1e30
+
+
+@dataclass(frozen=True)
+class _UrdfJoints:
+    """What bracekit rewrites or checks in a URDF before Pinocchio builds the model."""
+
+    continuous: frozenset[str] = frozenset()
+    mimic: tuple[tuple[str, str], ...] = ()  # (mimic joint, its leader)
+
+
+def _rewrite_urdf(text: str) -> tuple[str, _UrdfJoints]:
+    """Continuous joints rewritten as revolute joints (q a plain angle) and the mimic joints listed.
+
+    Pinocchio parses a continuous joint as (cos q, sin q) (nq = 2, nv = 1); as a revolute joint with limits
+    ±CONTINUOUS_PARSE_LIMIT its q is the angle itself, and :func:`_load_urdf` then makes the limits ±inf.
+    Text that is not XML is returned unchanged (Pinocchio reports the error).
+    """
+    try:
+        root = ET.fromstring(text)
+    except (ET.ParseError, ValueError):
+        return text, _UrdfJoints()
+    continuous: set[str] = set()
+    mimic: list[tuple[str, str]] = []
+    for joint in root.iter("joint"):
+        name = joint.get("name", "")
+        follow = joint.find("mimic")
+        if follow is not None and joint.get("type") not in (None, "fixed", "floating", "planar"):
+            mimic.append((name, follow.get("joint", "")))
+        if joint.get("type") != "continuous":
+            continue
+        continuous.add(name)
+        joint.set("type", "revolute")
+        limit = joint.find("limit")
+        if limit is None:
+            limit = ET.SubElement(joint, "limit", {"effort": "0", "velocity": "0"})
+        limit.set("lower", repr(-CONTINUOUS_PARSE_LIMIT))
+        limit.set("upper", repr(CONTINUOUS_PARSE_LIMIT))
+        limit.attrib.setdefault("effort", "0")
+        limit.attrib.setdefault("velocity", "0")
+    if not continuous:
+        return text, _UrdfJoints(mimic=tuple(mimic))
+    return ET.tostring(root, encoding="unicode"), _UrdfJoints(frozenset(continuous), tuple(mimic))
+
+
+def _unbound(model: pin.Model, continuous: frozenset[str]) -> None:
+    """Give the joints named in `continuous` the limits ±inf (in place)."""
+    lower = np.asarray(model.lowerPositionLimit, dtype=float).copy()
+    upper = np.asarray(model.upperPositionLimit, dtype=float).copy()
+    for j in range(1, model.njoints):
+        if model.names[j] in continuous and model.joints[j].nq == 1:
+            i = model.joints[j].idx_q
+            lower[i], upper[i] = -np.inf, np.inf
+    model.lowerPositionLimit, model.upperPositionLimit = lower, upper
 
 
 @contextmanager
@@ -47,11 +103,15 @@ def _quiet_stderr() -> Iterator[None]:
         os.close(saved)
 
 
-def _load_urdf(source: str | os.PathLike[str]) -> pin.Model:
+def _load_urdf(source: str | os.PathLike[str]) -> tuple[pin.Model, _UrdfJoints]:
+    """The Pinocchio model of a URDF (continuous joints as revolute ones with limits ±inf) and its mimic joints."""
     if isinstance(source, str) and source.lstrip().startswith("<"):
+        text, joints = _rewrite_urdf(source)
         try:
             with _quiet_stderr():
-                return pin.buildModelFromXML(source)
+                model = pin.buildModelFromXML(text)
+            _unbound(model, joints.continuous)
+            return model, joints
         except Exception as exc:  # pinocchio raises ValueError/RuntimeError with multi-line text
             why = _first_line(exc)
             raise ModelError(f"cannot parse the URDF string: {why}; check that it is valid URDF XML") from exc
@@ -69,9 +129,12 @@ def _load_urdf(source: str | os.PathLike[str]) -> pin.Model:
         raise ModelError(f"cannot read the URDF file {shown}: {exc.strerror}") from exc
     if "<robot" not in head:
         raise ModelError(f"{shown} is not a URDF file (no <robot> element); give a valid URDF file")
+    text, joints = _rewrite_urdf(head)
     try:
         with _quiet_stderr():
-            return pin.buildModelFromUrdf(str(path))
+            model = pin.buildModelFromXML(text) if joints.continuous else pin.buildModelFromUrdf(str(path))
+        _unbound(model, joints.continuous)
+        return model, joints
     except Exception as exc:
         raise ModelError(f"cannot parse the URDF file {shown}: {_first_line(exc)}") from exc
 
@@ -158,7 +221,8 @@ class Robot:
     Joint values are given in chain order, base to tip (n values, rad or m).
 
     Attributes:
-        model: Pinocchio model; every joint is 1-DoF (revolute or prismatic), nq == nv == n.
+        model: Pinocchio model; every joint is 1-DoF (revolute or prismatic), nq == nv == n. A URDF's
+            continuous joints are revolute joints here with limits ±inf (q is the angle).
         tip: name of the end-effector frame {e}.
         stiffness: joint stiffnesses K (n,), N·m/rad (N/m for prismatic joints).
     """
@@ -196,20 +260,28 @@ class Robot:
             source: path of a .urdf file (a str or an os.PathLike), or the URDF text itself (a string starting
                 with '<').
             tip: name of the end-effector frame {e} (a link or a fixed joint of the URDF).
+                Continuous joints become revolute joints with limits ±inf: q holds their angles.
             stiffness: one joint stiffness for all joints or one per joint of the chain, N·m/rad.
 
         Raises:
             ModelError: the file is missing or not URDF, or a joint of the chain is not a 1-DoF revolute or
-                prismatic joint with a non-zero axis and limits lower < upper.
+                prismatic joint with a non-zero axis and limits lower < upper, or a joint of the chain mimics
+                another (mimic joints off the chain are locked like every joint off the chain).
             FrameNotFoundError: `tip` is not a frame of the URDF.
         """
-        full = _load_urdf(source)
+        full, joints = _load_urdf(source)
         if not isinstance(tip, str):
             raise ModelError(f"the tip frame must be a frame name (a string), got {show(tip)}")
         if not full.existFrame(tip):
             raise FrameNotFoundError(f"unknown tip frame {show(tip)}; known frames: {name_list(_frame_names(full))}")
         tip_joint = full.frames[full.getFrameId(tip)].parentJoint
         keep = set(full.supports[tip_joint])
+        for name, leader in joints.mimic:
+            if full.existJointName(name) and full.getJointId(name) in keep:
+                raise ModelError(
+                    f"joint {show(name)} mimics joint {show(leader)} and moves the tip {show(tip)}; bracekit needs "
+                    "independent joints on the chain to the tip: remove its <mimic> or make it type=\"fixed\""
+                )
         lock = [j for j in range(1, full.njoints) if j not in keep]
         model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
         off_chain = frozenset(f.name for f in full.frames if f.parentJoint not in keep)
@@ -232,12 +304,12 @@ class Robot:
 
     @property
     def lower(self) -> Array:
-        """Lower joint limits (n,)."""
+        """Lower joint limits (n,); −inf for a continuous joint."""
         return np.asarray(self.model.lowerPositionLimit, dtype=float).copy()
 
     @property
     def upper(self) -> Array:
-        """Upper joint limits (n,)."""
+        """Upper joint limits (n,); +inf for a continuous joint."""
         return np.asarray(self.model.upperPositionLimit, dtype=float).copy()
 
     @property

@@ -9,6 +9,7 @@ import numpy as np
 
 from bracekit._linalg import angle_between, cross3, cross3_list
 from bracekit.compliance.measures import theta_z
+from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective.base import Array, Term, TermContext, register_term
 from bracekit.objective.fused import FusedGradient, FusedKinematics
@@ -17,17 +18,22 @@ from bracekit.objective.fused import FusedGradient, FusedKinematics
 @register_term
 @dataclass(frozen=True)
 class BraceAngle(Term):
-    """θ_z (eq:theta), rad. Its gradient is 0 where θ_z = 0 (a cone point)."""
+    """θ_z (eq:theta), rad. Its gradient is 0 where θ_z = 0 (a cone point).
+
+    Defined only for a brace with a pad axis (``Brace.pad_axis``); InputError otherwise.
+    """
 
     name: str = "theta_z"
     key = "theta_z"
 
     def value(self, state: BracedState) -> float:
         """The term's value at the state (the class docstring gives its units)."""
+        _check_pad_axis(state.braced)
         return theta_z(state.braced.brace.surface.normal, state.z_b)
 
     def gradient(self, state: BracedState) -> Array:
         """∂value/∂q (n,), exact through the state's kinematic Hessians."""
+        _check_pad_axis(state.braced)
         u = cross3(state.braced.brace.surface.normal, state.z_b)
         s = float(np.linalg.norm(u))
         if s < 1e-12:
@@ -49,9 +55,20 @@ class BraceAngle(Term):
 
     def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]]:
         """(kind, parameters) of the numba kernel's compiled copy of this term."""
+        _check_pad_axis(braced)
         return "theta_z", [weight]
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> BraceAngle:
         """The term as a scenario configures it (its weight key is ``key``)."""
+        _check_pad_axis(context.braced)
         return cls()
+
+
+def _check_pad_axis(braced: BracedRobot) -> None:
+    """InputError if the brace has no pad axis (θ_z is then undefined)."""
+    if not braced.brace.pad_axis:
+        raise InputError(
+            f"θ_z needs a pad axis, and the brace at {braced.brace.frame!r} (a link point) has none; give the brace "
+            "a pad axis (a frame, or a link point with a pad direction) or drop the θ_z term"
+        )

@@ -99,7 +99,9 @@ def run_scenario(
         raise InputError(f"both_models must be True or False, got {show(both_models)}")
     if progress is not None and not callable(progress):
         raise InputError(f"progress must be a function of the number of steps done, got {show(progress)}")
-    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
+    start = solve_start(
+        sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
+    )
     models = COMPLIANCE_MODELS if both_models else (model,)
     shared: dict[str, Trajectory] = {}
     trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}

@@ -36,11 +36,15 @@ from bracekit.resolution.strategies import (
 )
 from bracekit.resolution.task_space import POSE, TASK_SPACES, TaskSpace
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
-from bracekit.spatial import unit
+from bracekit.spatial import rotation_with_z, unit
 from bracekit.tolerances import MAX_STEPS
 
 Array = NDArray[np.float64]
 STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
+#: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
+START_THETA_WEIGHT = 0.3
+
+
 def weight_keys() -> tuple[str, ...]:
     """The weight keys of ``[gradient_projection.weights]``: one per registered objective term, now."""
     return tuple(TERMS)
@@ -137,7 +141,10 @@ def _float(v: object) -> float | None:
 
 @dataclass(frozen=True, eq=False)
 class Scenario:
-    """A validated scenario. Lengths in m, times in s, stiffness in N·m/rad."""
+    """A validated scenario. Lengths in m, times in s, stiffness in N·m/rad.
+
+    ``start_theta_weight`` is the start solve's θ_z weight ('[start] theta_weight'; 0 without a pad axis).
+    """
 
     name: str
     braced: BracedRobot
@@ -155,6 +162,7 @@ class Scenario:
     description: str = ""
     source: Path | None = None
     task_space: TaskSpace = POSE
+    start_theta_weight: float = 0.0
 
     @property
     def robot(self) -> Robot:
@@ -235,7 +243,18 @@ def parse_scenario(
     robot = _robot(top.table("robot", ("model", "urdf", "tip", "stiffness")), base)
     brace_t = top.table(
         "brace",
-        ("frame", "link", "offset", "contact", "point", "normal", "tangent", "region_radius", "environment_stiffness"),
+        (
+            "frame",
+            "link",
+            "offset",
+            "pad_axis",
+            "contact",
+            "point",
+            "normal",
+            "tangent",
+            "region_radius",
+            "environment_stiffness",
+        ),
     )
     braced = _brace(brace_t, robot)
     robot, brace = braced.robot, braced.brace
@@ -260,7 +279,7 @@ def parse_scenario(
     )
     task = _task(task_t)
     task_space = _task_space(task_t)
-    start = top.table("start", ("guess",))
+    start = top.table("start", ("guess", "theta_weight"))
     guess = start.vector("guess", robot.n)
     comp = top.table("compliance", ("model", "beta_x"), {})
     model = comp.string("model", COMPLIANCE_MODELS, "constrained")
@@ -295,11 +314,18 @@ def parse_scenario(
     alpha = gp.number("alpha", -1.0)
     if alpha >= 0:
         raise ScenarioError(f"'gradient_projection.alpha' must be negative (it descends g), got {alpha}")
-    w = gp.table("weights", weight_keys(), {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01})
+    default_weights = {"k": 0.5, "Ci": 100.0, "theta_z": 0.6 if brace.pad_axis else 0.0, "d": 0.01}
+    w = gp.table("weights", weight_keys(), default_weights)
     weights = {k: w.number(k, 0.0) for k in weight_keys()}
     for k, v in weights.items():
         if v < 0:
             raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")
+    if weights["theta_z"] > 0 and not brace.pad_axis:
+        raise ScenarioError(
+            "'gradient_projection.weights.theta_z' needs a pad axis, and a link-point brace has none: give "
+            "'brace.pad_axis' = [x, y, z] (link axes) or set theta_z = 0"
+        )
+    theta_weight = _start_theta_weight(start, brace.pad_axis, weights["theta_z"])
     if weights["d"] > 0 and brace.region_radius is None:
         raise ScenarioError("'gradient_projection.weights.d' needs 'brace.region_radius' (r_max, m)")
     gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
@@ -338,7 +364,22 @@ def parse_scenario(
         feedback_gain=feedback_gain,
         source=source,
         task_space=task_space,
+        start_theta_weight=theta_weight,
     )
+
+
+def _start_theta_weight(start: _Table, pad_axis: bool, theta_z: float) -> float:
+    """The start solve's θ_z weight: '[start] theta_weight', by default START_THETA_WEIGHT if θ_z is weighted."""
+    default = START_THETA_WEIGHT if pad_axis and theta_z > 0 else 0.0
+    value = start.number("theta_weight", default)
+    if value < 0:
+        raise ScenarioError(f"'start.theta_weight' must be ≥ 0, got {value}")
+    if value > 0 and not pad_axis:
+        raise ScenarioError(
+            "'start.theta_weight' needs a pad axis, and a link-point brace has none: give 'brace.pad_axis' = "
+            "[x, y, z] (link axes) or set start.theta_weight = 0"
+        )
+    return value
 
 
 def _robot(t: _Table, base: Path) -> Robot:
@@ -371,17 +412,26 @@ def _robot(t: _Table, base: Path) -> Robot:
 
 
 def _brace(t: _Table, robot: Robot) -> BracedRobot:
+    pad_axis = True  # a frame of the robot's description: its z is the pad direction
     if t.has("link"):
         frame = t.string("frame", default="brace")
         if robot.model.existFrame(frame):
             raise ScenarioError(
                 f"'brace.frame' = {show(frame)} is already a frame of the robot; name the new brace point otherwise"
             )
+        rotation = None
+        pad_axis = t.has("pad_axis")
+        if pad_axis:
+            rotation = rotation_with_z(t.vector("pad_axis", 3), "'brace.pad_axis' (link axes)", ScenarioError)
         try:
-            robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]))
+            robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]), rotation)
         except BracekitError as exc:
             raise ScenarioError(f"'brace.link': {exc}") from exc
     else:
+        if t.has("pad_axis"):
+            raise ScenarioError(
+                "'brace.pad_axis' goes with 'brace.link' (a link point); a brace frame's own z is its pad axis"
+            )
         frame = t.string("frame")
     point, normal = t.vector("point", 3), t.vector("normal", 3)
     if not np.any(normal):
@@ -399,6 +449,7 @@ def _brace(t: _Table, robot: Robot) -> BracedRobot:
             environment_stiffness=t.number("environment_stiffness", positive=True)
             if t.has("environment_stiffness")
             else None,
+            pad_axis=pad_axis,
         )
         return BracedRobot(robot, brace)
     except ScenarioError:

@@ -536,6 +536,27 @@ def simulate(
     )
 
 
+#: The θ_z weight of the start solve when the caller gives none and the brace has a pad axis.
+START_THETA_WEIGHT = 0.3
+#: The start solve's conditioning term acts where σ_min/σ_max of A or J̃ falls below this (inactive above).
+START_CONDITIONING_FLOOR = 0.02
+#: The start solve's default weight of the conditioning term.
+START_CONDITIONING_WEIGHT = 0.1
+#: Matrices whose conditioning the start solve keeps above START_CONDITIONING_FLOOR (the braced inverses).
+START_CONDITIONED = ("A", "J_braced")
+#: Joint step (rad or m) of the finite differences of the conditioning term's Jacobian rows.
+START_FD_STEP = 1e-7
+
+
+def _conditioning_residual(state: BracedState, floor: float) -> Array:
+    """log(floor / ρ) where ρ = σ_min/σ_max < floor, else 0, for each matrix of START_CONDITIONED.
+
+    A barrier that is C¹ in its square and exactly zero wherever every ratio is at least `floor`.
+    """
+    ratios = conditioning(state, START_CONDITIONED)
+    return np.array([np.log(floor / max(ratios[k], 1e-300)) if ratios[k] < floor else 0.0 for k in START_CONDITIONED])
+
+
 def solve_start(
     braced: BracedRobot,
     position: ArrayLike,
@@ -543,17 +564,41 @@ def solve_start(
     *,
     rotation: ArrayLike | None = None,
     region_weight: float = 1.0,
-    theta_weight: float = 0.3,
+    theta_weight: float | None = None,
     posture_weight: float = 0.01,
+    conditioning_weight: float = START_CONDITIONING_WEIGHT,
+    conditioning_floor: float = START_CONDITIONING_FLOOR,
 ) -> BracedState:
     """A start configuration: tip at `position` (and `rotation` if given), {b} on the surface.
 
     Solved from `guess` (n,) by SciPy least squares: the tip pose and the contact are hard residuals
-    (then polished to 1e-12 by Gauss–Newton), while the distance of {b} from the region centre, θ_z and
-    the distance from the guess are soft. Raises InputError for a position that is not 3 finite numbers
-    (m), a rotation that is not a finite 3×3 rotation matrix or a bad guess; ConvergenceError if the hard
-    residuals are not met or {b} ends outside the bracing region. Warns (BracekitWarning) only about a
-    start that meets the task and the contact but whose soft terms did not converge.
+    (then polished to 1e-12 by Gauss–Newton), while the distance of {b} from the region centre, θ_z (only
+    for a brace with a pad axis), the conditioning of the braced inverses and the distance from the guess
+    are soft. The conditioning term is ``conditioning_weight · log(conditioning_floor / ρ)`` for each of
+    σ_min/σ_max ρ of A and J̃ below `conditioning_floor` and zero elsewhere (its Jacobian rows by finite
+    differences where it acts); it is added, and the solve continued, only if the solve without it ends
+    with a ratio below the floor, so a start that is conditioned enough is the plain solve's.
+
+    Args:
+        braced: the braced robot.
+        position: tip position at the start (3,), m.
+        guess: the initial guess (n,).
+        rotation: tip rotation at the start (3×3), or None for any.
+        region_weight: weight of ‖b − region centre‖ (1/m).
+        theta_weight: weight of θ_z (1/rad); None is START_THETA_WEIGHT for a brace with a pad axis and 0
+            otherwise. Must be 0 for a brace without pad axis.
+        posture_weight: weight of ‖q − guess‖.
+        conditioning_weight: weight of the conditioning barrier (0 drops it).
+        conditioning_floor: the σ_min/σ_max below which the barrier acts, in (0, 1).
+
+    Raises:
+        InputError: a position that is not 3 finite numbers (m), a rotation that is not a finite 3×3
+            rotation matrix, a bad guess, a negative or non-finite weight, a floor outside (0, 1), or a
+            θ_z weight for a brace without pad axis.
+        ConvergenceError: the hard residuals are not met or {b} ends outside the bracing region.
+
+    Warns (BracekitWarning) only about a start that meets the task and the contact but whose soft terms did
+    not converge.
     """
     from scipy.optimize import least_squares
 
@@ -562,40 +607,77 @@ def solve_start(
     if rot is not None and not (np.allclose(rot.T @ rot, np.eye(3), atol=1e-9) and np.linalg.det(rot) > 0):
         raise InputError("the start rotation must be a rotation matrix (orthonormal, determinant +1)")
     q_guess = braced.robot.check_q(guess)
+    pad = braced.brace.pad_axis
+    if theta_weight is None:
+        theta_weight = START_THETA_WEIGHT if pad else 0.0
+    for what, value in (
+        ("region_weight", region_weight),
+        ("theta_weight", theta_weight),
+        ("posture_weight", posture_weight),
+        ("conditioning_weight", conditioning_weight),
+    ):
+        if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value < np.inf):
+            raise InputError(f"{what} must be a finite number ≥ 0, got {value!r}")
+    if theta_weight > 0 and not pad:
+        raise InputError(
+            f"theta_weight = {theta_weight:g} needs a brace with a pad axis, and {braced.brace.frame!r} (a link "
+            "point) has none; give the brace a pad axis or theta_weight = 0"
+        )
+    if isinstance(conditioning_floor, bool) or not isinstance(conditioning_floor, int | float):
+        raise InputError(f"conditioning_floor must be a number in (0, 1), got {conditioning_floor!r}")
+    if not 0.0 < conditioning_floor < 1.0:
+        raise InputError(f"conditioning_floor must be a number in (0, 1), got {conditioning_floor!r}")
     surface = braced.brace.surface
     lo, hi = braced.robot.lower, braced.robot.upper
 
     x_t, y_t = surface.frame[:, 0], surface.frame[:, 1]
+    use_theta = theta_weight > 0
 
-    def residual(q: Array) -> Array:
+    def residual(q: Array, conditioned: bool) -> Array:
         st = braced.state(q)
         hard = [target - st.e, np.array([surface.signed_distance(st.b)])]
         if rot is not None:
             hard.append(pin.log3(rot @ st.R_e.T))
-        # ẑ_b's tangential components: ≈ θ_z for small angles and smooth at 0, unlike θ_z itself
-        soft = [
-            region_weight * (st.b - surface.point),
-            theta_weight * np.array([x_t @ st.z_b, y_t @ st.z_b]),
-            posture_weight * (q - q_guess),
-        ]
+        soft = [region_weight * (st.b - surface.point)]
+        if use_theta:  # ẑ_b's tangential components: ≈ θ_z for small angles and smooth at 0, unlike θ_z itself
+            soft.append(theta_weight * np.array([x_t @ st.z_b, y_t @ st.z_b]))
+        soft.append(posture_weight * (q - q_guess))
+        if conditioned:
+            soft.append(conditioning_weight * _conditioning_residual(st, conditioning_floor))
         return np.concatenate([1e3 * np.concatenate(hard), np.concatenate(soft)])
 
-    def jacobian(q: Array) -> Array:
+    def jacobian(q: Array, conditioned: bool) -> Array:
         st = braced.state(q)
         hard = [-st.J_e[:3], surface.normal @ st.J_b[:3]]
         if rot is not None:
             hard.append(-st.J_e[3:])  # first-order (exact at the solution)
-        soft = [
-            region_weight * st.J_b[:3],
-            theta_weight * np.vstack([np.cross(st.z_b, x_t) @ st.J_b[3:], np.cross(st.z_b, y_t) @ st.J_b[3:]]),
-            posture_weight * np.eye(q.size),
-        ]
+        soft = [region_weight * st.J_b[:3]]
+        if use_theta:
+            soft.append(
+                theta_weight * np.vstack([np.cross(st.z_b, x_t) @ st.J_b[3:], np.cross(st.z_b, y_t) @ st.J_b[3:]])
+            )
+        soft.append(posture_weight * np.eye(q.size))
+        if conditioned:
+            soft.append(conditioning_weight * _conditioning_jacobian(braced, st, conditioning_floor))
         return np.vstack([1e3 * np.vstack(hard), np.vstack(soft)])
 
-    x0 = np.clip(q_guess, lo + 1e-6, hi - 1e-6)
-    sol = least_squares(
-        residual, x0, jac=jacobian, bounds=(lo, hi), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=START_MAX_NFEV
-    )
+    def solve(x0: Array, conditioned: bool) -> Any:
+        return least_squares(
+            residual,
+            x0,
+            jac=jacobian,
+            bounds=(lo, hi),
+            xtol=1e-12,
+            ftol=1e-12,
+            gtol=1e-12,
+            max_nfev=START_MAX_NFEV,
+            args=(conditioned,),
+        )
+
+    # without the barrier first: where it would be inactive at the solution, the start is that solve's exactly
+    sol = solve(np.clip(q_guess, lo + 1e-6, hi - 1e-6), False)
+    if conditioning_weight > 0 and np.any(_conditioning_residual(braced.state(sol.x), conditioning_floor)):
+        sol = solve(sol.x, True)
     st = braced.state(sol.x)
     rotation_target = rot if rot is not None else st.R_e
     # the plane point under b: an anchor on the surface
@@ -616,12 +698,28 @@ def solve_start(
         )
     if sol.status <= 0:  # only now is it known that the start meets the task and the contact
         warnings.warn(
-            f"the start solve stopped after {sol.nfev} evaluations before its soft terms (r, θ_z, distance to the "
-            "guess) converged; the start meets the task and the contact but is not their optimum: give a closer guess",
+            f"the start solve stopped after {sol.nfev} evaluations before its soft terms (r, θ_z, conditioning, "
+            "distance to the guess) converged; the start meets the task and the contact but is not their optimum: "
+            "give a closer guess",
             BracekitWarning,
             stacklevel=2,
         )
     return st
+
+
+def _conditioning_jacobian(braced: BracedRobot, state: BracedState, floor: float) -> Array:
+    """∂(_conditioning_residual)/∂q by central differences; zero rows where the barrier is inactive."""
+    base = _conditioning_residual(state, floor)
+    out = np.zeros((base.size, state.q.size))
+    if not np.any(base):
+        return out
+    for i in range(state.q.size):
+        step = np.zeros(state.q.size)
+        step[i] = START_FD_STEP
+        up = _conditioning_residual(braced.state(state.q + step), floor)
+        down = _conditioning_residual(braced.state(state.q - step), floor)
+        out[:, i] = (up - down) / (2.0 * START_FD_STEP)
+    return out
 
 
 def _finite(value: ArrayLike, shape: tuple[int, ...], what: str) -> Array:

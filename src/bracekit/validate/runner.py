@@ -179,7 +179,9 @@ def validation_configurations(scenario: Scenario | str | os.PathLike[str], n: in
             f"asked for {n} configurations, but the path of scenario '{sc.name}' has {most} samples "
             f"(task {sc.task.duration:g} s, dt {sc.dt:g} s); ask for at most {most}"
         )
-    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
+    start = solve_start(
+        sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
+    )
     if n == 1:
         return [start.q.copy()]
     with warnings.catch_warnings():  # leaving the bracing region does not matter for a static check
