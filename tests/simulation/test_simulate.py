@@ -313,3 +313,26 @@ def test_an_arm_with_continuous_joints_solves_its_start_and_runs_with_unbounded_
         tr = simulate(sc.braced, sc.strategy("braced_min_norm"), sc.task, start.q, sc.dt, sc.beta_x)
     assert tr.completed, tr.failure
     assert tr.summary()["max_joint_limit_violation_rad"] == 0.0
+
+
+def test_gradient_projection_scales_its_null_space_motion_at_a_limit_fused_and_reference_alike(setup) -> None:
+    import dataclasses
+
+    sc, start, task = setup
+    # joint 9's upper limit 0.1 rad above the start: braced minimum norm leaves joint 9 where it is, the
+    # paper's gradient projection moves it 0.13 rad up; scaled steps keep it inside and the run completes
+    braced = _with_limits(sc, start, 8, 1.5, 0.1)
+    gp = sc.strategy("braced_gradient_projection")
+    tr = simulate(braced, gp, task, start.q, 0.1, sc.beta_x)
+    assert tr.completed, tr.failure
+    assert np.all(tr.q <= braced.robot.upper) and tr.summary()["max_joint_limit_violation_rad"] == 0.0
+    assert np.max(tr.q[:, 8]) > braced.robot.upper[8] - 0.02  # it goes up to the limit, not further
+    assert any("null-space motion scaled down" in w for w in tr.warnings)
+
+    @dataclasses.dataclass(frozen=True)
+    class Reference(BracedGradientProjection):  # not the exact type: simulate takes the reference path
+        pass
+
+    ref = simulate(braced, Reference(gp.objective, alpha=gp.alpha), task, start.q, 0.1, sc.beta_x)
+    assert ref.completed and ref.warnings == tr.warnings
+    assert np.max(np.abs(ref.q - tr.q)) < 1e-8
