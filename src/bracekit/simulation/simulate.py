@@ -112,7 +112,10 @@ def _limit_failure(robot: Robot, q: Array, t: float, scaled: bool) -> JointLimit
     for j in _outside_limits(robot, q):
         unit = "m" if _prismatic(robot, int(j)) else "rad"
         side, limit = ("upper", robot.upper[j]) if q[j] > robot.upper[j] else ("lower", robot.lower[j])
-        parts.append(f"joint {j + 1} reaches its {side} limit {limit:.4g} {unit} at t = {t:.2f} s ({q[j]:.4g} {unit})")
+        parts.append(
+            f"joint {j + 1} reaches its {side} limit {limit:.4g} {unit} at t = {t:.2f} s (the step takes it to "
+            f"{q[j]:.4g} {unit})"
+        )
     how = (
         "even with its null-space motion scaled to 0 (the minimum-norm step): the task takes it there"
         if scaled
