@@ -48,6 +48,10 @@ class BarrierError(NumericalError):
     """A barrier term is at or beyond its limit (e.g. the bracing point left the bracing region)."""
 
 
+class JointLimitError(NumericalError):
+    """A step would take a joint beyond its URDF limits and the strategy cannot keep it inside."""
+
+
 class ConvergenceError(NumericalError):
     """An iterative solve (pose correction, static equilibrium, start configuration) did not converge."""
 
@@ -81,7 +85,7 @@ class RegionWarning(BracekitWarning):
 
 
 class JointLimitWarning(BracekitWarning):
-    """A run took a joint beyond its URDF limits (the kinematic simulation does not enforce them)."""
+    """A run started with a joint beyond its URDF limits (the steps of a run never take one beyond them)."""
 
 
 class OutputError(InputError):

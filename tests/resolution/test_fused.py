@@ -510,3 +510,23 @@ def test_backend_choice_and_numba_missing(paper, monkeypatch) -> None:
     xdot = np.array([0.01, 0.0, 0.0, 0.0, 0.0, 0.0])
     assert np.array_equal(auto(sc.guess, xdot), default(sc.guess, xdot))
     assert not numba_available()
+
+
+@pytest.mark.parametrize("gradient", ["analytic", "finite-difference"])
+def test_fused_step_with_the_joint_limit_term_equals_the_reference(paper, gradient: str) -> None:
+    from bracekit.objective import JointLimits
+
+    sc, qs = paper
+    braced = sc.braced
+    base = _objective(braced, "constrained", np.r_[1.0, 0, 0, 0, 0, 0])
+    obj = Objective([*base.terms, JointLimits(sc.robot.lower, sc.robot.upper)], [*base.weights, 3.0])
+    strategy = BracedGradientProjection(obj, alpha=-0.7, gradient=gradient)
+    step = GradientProjectionStep(braced, strategy)
+    rng = np.random.default_rng(8)
+    rtol = RTOL if gradient == "analytic" else 1e-7
+    for q in qs[:6]:
+        xdot = rng.normal(scale=0.05, size=6)
+        st = braced.state(q, hessians=True)
+        _assert_same(strategy.velocity(st, xdot), step(q, xdot), rtol=rtol)
+        _assert_same(strategy.dg_dq(st), step.gradient(q), rtol=rtol)
+        assert step.value(q) == pytest.approx(obj.value(st), rel=1e-13)

@@ -157,16 +157,70 @@ def test_runs_report_joint_limits_and_surface_penetration(setup) -> None:
     recomputed = min(surface.signed_distance(sc.braced.state(q).b) for q in tr.q)
     assert s["min_surface_distance_m"] == pytest.approx(recomputed)
     assert s["max_joint_limit_violation_rad"] == 0.0
-    # a robot whose limits sit just around the start: the run exceeds them and says so
+    # a robot whose limits sit just around the start: the run stops at the first step and says where
     model = sc.robot.model
     tight = pin.Model(model)
     tight.lowerPositionLimit = start.q - 1e-3
     tight.upperPositionLimit = start.q + 1e-3
     robot = bk_robot(tight, sc)
     braced = BracedRobot(robot, Brace(sc.braced.brace.frame, Surface(surface.point, surface.normal)))
-    with pytest.warns(JointLimitWarning):
-        tr2 = simulate(braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
-    assert tr2.summary()["max_joint_limit_violation_rad"] > 0
+    tr2 = simulate(braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert not tr2.completed and tr2.steps == 0
+    assert "step 1 (t = 0.100 s): joint" in tr2.failure and "limit" in tr2.failure
+    assert tr2.summary()["max_joint_limit_violation_rad"] == 0.0
+    # a start beyond the limits is reported (the run's steps never go beyond them)
+    tight.lowerPositionLimit = start.q + 1e-3
+    tight.upperPositionLimit = start.q + 2e-3
+    braced = BracedRobot(bk_robot(tight, sc), Brace(sc.braced.brace.frame, Surface(surface.point, surface.normal)))
+    with pytest.warns(JointLimitWarning, match="the start exceeds the joint limits"):
+        tr3 = simulate(braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert not tr3.completed
+
+
+def _with_limits(sc, start, joint: int, below: float, above: float):
+    """The paper's braced robot with joint `joint` (0-based) limited to [q0 − below, q0 + above]."""
+    from bracekit import BracedRobot
+
+    model = pin.Model(sc.robot.model)
+    lower, upper = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
+    lower[joint], upper[joint] = start.q[joint] - below, start.q[joint] + above
+    model.lowerPositionLimit, model.upperPositionLimit = lower, upper
+    return BracedRobot(bk_robot(model, sc), sc.braced.brace)
+
+
+def test_gradient_projection_with_the_joint_limit_term_stays_inside_a_limit_it_would_cross(setup) -> None:
+    from bracekit.objective import JointLimits, Objective
+
+    sc, start, task = setup
+    # joint 7's lower limit 0.15 rad below the start: braced minimum norm moves it 0.09 rad down, gradient
+    # projection of the paper's g 0.18 rad (before joint limits were enforced it crossed and completed)
+    braced = _with_limits(sc, start, 6, 0.15, 1.5)
+    gp = sc.strategy("braced_gradient_projection")
+    plain = simulate(braced, gp, task, start.q, 0.1, sc.beta_x)
+    assert not plain.completed
+    assert "joint 7 reaches its lower limit" in plain.failure and "null-space motion scaled to 0" in plain.failure
+    assert np.all(plain.q >= braced.robot.lower) and np.all(plain.q <= braced.robot.upper)
+    obj = gp.objective
+    limited = Objective([*obj.terms, JointLimits(braced.robot.lower, braced.robot.upper)], [*obj.weights, 1.0])
+    tr = simulate(braced, BracedGradientProjection(limited, alpha=gp.alpha), task, start.q, 0.1, sc.beta_x)
+    assert tr.completed, tr.failure
+    assert tr.steps == 20
+    assert np.all(tr.q >= braced.robot.lower) and np.all(tr.q <= braced.robot.upper)
+    assert tr.summary()["max_joint_limit_violation_rad"] == 0.0
+    assert np.min(tr.q[:, 6] - braced.robot.lower[6]) > 0.01
+
+
+def test_minimum_norm_stops_where_the_task_takes_a_joint_to_its_limit(setup) -> None:
+    sc, start, task = setup
+    # braced minimum norm moves joint 6 0.28 rad down along this task; its limit is 0.2 rad below the start
+    braced = _with_limits(sc, start, 5, 0.2, 1.5)
+    tr = simulate(braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert not tr.completed
+    lower = braced.robot.lower[5]
+    assert f"joint 6 reaches its lower limit {lower:.4g} rad at t = {tr.t[-1] + 0.1:.2f} s" in tr.failure
+    assert "no null-space motion" in tr.failure
+    assert tr.summary()["max_joint_limit_violation_rad"] == 0.0
+    assert np.all(tr.q[:, 5] >= lower)
 
 
 def bk_robot(model, sc):
@@ -259,3 +313,26 @@ def test_an_arm_with_continuous_joints_solves_its_start_and_runs_with_unbounded_
         tr = simulate(sc.braced, sc.strategy("braced_min_norm"), sc.task, start.q, sc.dt, sc.beta_x)
     assert tr.completed, tr.failure
     assert tr.summary()["max_joint_limit_violation_rad"] == 0.0
+
+
+def test_gradient_projection_scales_its_null_space_motion_at_a_limit_fused_and_reference_alike(setup) -> None:
+    import dataclasses
+
+    sc, start, task = setup
+    # joint 9's upper limit 0.1 rad above the start: braced minimum norm leaves joint 9 where it is, the
+    # paper's gradient projection moves it 0.13 rad up; scaled steps keep it inside and the run completes
+    braced = _with_limits(sc, start, 8, 1.5, 0.1)
+    gp = sc.strategy("braced_gradient_projection")
+    tr = simulate(braced, gp, task, start.q, 0.1, sc.beta_x)
+    assert tr.completed, tr.failure
+    assert np.all(tr.q <= braced.robot.upper) and tr.summary()["max_joint_limit_violation_rad"] == 0.0
+    assert np.max(tr.q[:, 8]) > braced.robot.upper[8] - 0.02  # it goes up to the limit, not further
+    assert any("null-space motion scaled down" in w for w in tr.warnings)
+
+    @dataclasses.dataclass(frozen=True)
+    class Reference(BracedGradientProjection):  # not the exact type: simulate takes the reference path
+        pass
+
+    ref = simulate(braced, Reference(gp.objective, alpha=gp.alpha), task, start.q, 0.1, sc.beta_x)
+    assert ref.completed and ref.warnings == tr.warnings
+    assert np.max(np.abs(ref.q - tr.q)) < 1e-8

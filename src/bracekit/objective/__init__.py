@@ -17,11 +17,12 @@ from bracekit.objective.base import (
 )
 
 # isort: off
-# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d): the order of the sum g
+# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d), then further terms: the order of the sum g
 from bracekit.objective.condition_number import ConditionNumber
 from bracekit.objective.compliance_index import ComplianceIndex
 from bracekit.objective.brace_angle import BraceAngle
 from bracekit.objective.region_barrier import RegionBarrier
+from bracekit.objective.joint_limits import JointLimits
 
 # isort: on
 
@@ -30,6 +31,7 @@ __all__ = [
     "BraceAngle",
     "ComplianceIndex",
     "ConditionNumber",
+    "JointLimits",
     "Objective",
     "RegionBarrier",
     "Term",

@@ -288,7 +288,9 @@ class GradientProjectionStep:
         y = q.dot(rinv.T.dot(xd)) + self._alpha * (grad - q.dot(q.T.dot(grad)))
         return np.concatenate((g1.dot(y[:l_]), y[l_:]))  # eq:q1
 
-    def _fused_kinematics(self, kin: tuple[Any, ...], s1: Array | None = None) -> FusedKinematics:
+    def _fused_kinematics(
+        self, kin: tuple[Any, ...], s1: Array | None = None, q: Array | None = None
+    ) -> FusedKinematics:
         """The terms' view of one Pinocchio pass (one object per step instance, moved to each q)."""
         if self._fk is None:
             self._fk = FusedKinematics(
@@ -306,14 +308,14 @@ class GradientProjectionStep:
                 normal=self._nl,
                 cert2=self._cert2,
             )
-        return self._fk.at(kin[0], kin[1], kin[2], kin[3], s1)
+        return self._fk.at(kin[0], kin[1], kin[2], kin[3], s1, q)
 
     def _dg_dq(self, qa: Array, kin: tuple[Any, ...], obj: Objective, s1: Array | None = None) -> Array:
         """∂g/∂q (n,), analytic: each term's fused coefficients, contracted once per Hessian.
 
         A term without fused coefficients adds its own ``gradient`` on a BracedState (computed once).
         """
-        fk = self._fused_kinematics(kin, s1)
+        fk = self._fused_kinematics(kin, s1, qa)
         out = FusedGradient(self._n, self._n1)
         state = None
         for term, weight in _terms(obj):
@@ -325,7 +327,7 @@ class GradientProjectionStep:
 
     def _value(self, qa: Array, obj: Objective) -> float:
         """G at q (eq:objective), term by term as Objective.value."""
-        fk = self._fused_kinematics(self._kinematics(qa, False))
+        fk = self._fused_kinematics(self._kinematics(qa, False), None, qa)
         total = 0.0
         state = None
         for term, weight in _terms(obj):

@@ -12,13 +12,25 @@ MAX_JOINT_STEP; DEFAULT_JOINT_SPEED where the URDF gives no limit), or when σ_m
 strategy inverts (J, or A and J1 when n1 = 6) or of J̃ falls below PATH_SINGULAR_RATIO.
 Gradient projection runs through the fused :class:`bracekit.resolution.GradientProjectionStep`, which gives the
 strategy's own q̇ to ~1e-13.
+
+No step leaves the URDF joint limits (by more than JOINT_LIMIT_TOL). A corrected step that would is, for
+gradient projection, taken again with its null-space motion scaled by 1/2, 1/4, … (LIMIT_SCALES, the gain α
+scaled, down to 0: the minimum-norm step); the first scale whose corrected step keeps every joint inside is
+kept, and the run notes how many steps were scaled. If none does, or for a strategy without a null-space part
+(the minimum-norm ones), the run stops with ``completed=False`` and a reason naming the joints, their values
+and limits and the time (:class:`~bracekit.errors.JointLimitError`). Scaling the null space rather than solving
+a QP with the limits as constraints keeps every accepted step a step of the strategy itself (eq:grad_proj with
+a smaller α), leaves runs that stay inside their limits bit-identical, needs no solver dependency, and leaves
+the task and the contact to the correction as before; a QP would change the resolution everywhere a bound
+is near, not only where one is crossed. The joint-limit term of g (:class:`bracekit.objective.JointLimits`)
+is what keeps a gradient-projection run away from its limits; this check is the guarantee behind it.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -40,6 +52,7 @@ from bracekit.errors import (
     BracekitWarning,
     ConvergenceError,
     InputError,
+    JointLimitError,
     JointLimitWarning,
     NoRedundancyWarning,
     NumericalError,
@@ -53,6 +66,7 @@ from bracekit.objective import RegionBarrier
 from bracekit.resolution.strategies import (
     MATRIX_LABELS,
     BracedGradientProjection,
+    BracedMinNorm,
     Strategy,
     conditioning,
     inverted_matrices,
@@ -81,6 +95,40 @@ START_MAX_NFEV = 2000
 MAX_SUBSTEP_DEPTH = 4
 #: Configurations on the straight joint path between two samples at which a joint jump is diagnosed.
 JUMP_PROBES = 17
+#: How far (rad, m for a prismatic joint) a corrected step may leave a joint's URDF range (the correction's round-off).
+JOINT_LIMIT_TOL = 1e-9
+#: The scales of the null-space motion a gradient-projection step that leaves the joint limits is retried with.
+LIMIT_SCALES = (0.5, 0.25, 0.125, 0.0625, 0.0)
+
+
+def _outside_limits(robot: Robot, q: Array) -> NDArray[np.intp]:
+    """The joints (0-based) of q (n,) below their lower or above their upper limit by more than JOINT_LIMIT_TOL."""
+    return np.flatnonzero((q < robot.lower - JOINT_LIMIT_TOL) | (q > robot.upper + JOINT_LIMIT_TOL))
+
+
+def _limit_failure(robot: Robot, q: Array, t: float, scaled: bool) -> JointLimitError:
+    """The error that ends a run whose step to time t (s) takes joints beyond their limits at q (n,)."""
+    parts = []
+    for j in _outside_limits(robot, q):
+        unit = "m" if _prismatic(robot, int(j)) else "rad"
+        side, limit = ("upper", robot.upper[j]) if q[j] > robot.upper[j] else ("lower", robot.lower[j])
+        parts.append(
+            f"joint {j + 1} reaches its {side} limit {limit:.4g} {unit} at t = {t:.2f} s (the step takes it to "
+            f"{q[j]:.4g} {unit})"
+        )
+    how = (
+        "even with its null-space motion scaled to 0 (the minimum-norm step): the task takes it there"
+        if scaled
+        else "the strategy has no null-space motion to keep it inside: the task takes it there"
+    )
+    return JointLimitError(f"{'; '.join(parts)}, {how}; move the task or the start, or use a robot with a wider range")
+
+
+def _scaled_alpha(strategy: Strategy, scale: float) -> Strategy:
+    """The gradient-projection strategy with α · scale (braced minimum norm in its task space at scale 0)."""
+    if scale == 0.0:
+        return BracedMinNorm(space=getattr(strategy, "space", POSE))
+    return replace(strategy, alpha=float(strategy.alpha) * scale)  # type: ignore[attr-defined, type-var]
 
 
 def _has_region_term(strategy: Strategy) -> bool:
@@ -430,19 +478,47 @@ def simulate(
     bound = joint_step_bound(braced.robot, dt)
     checked = inverted_matrices(strategy.braced, braced.n1)
 
+    scalable = isinstance(strategy, BracedGradientProjection)
+    scaled_steps: dict[float, Any] = {}
+    limited = 0
+
+    def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
+        """Q̇ of the strategy at st, with its null-space motion scaled by `scale` (gradient projection only)."""
+        if fast is not None and scale > 0.0:  # the fused step: the same q̇ as the strategy's, to ~1e-13
+            if scale == 1.0:
+                return fast(st.q, xdot, beta_x(t))
+            if scale not in scaled_steps:
+                from bracekit.resolution.fused import GradientProjectionStep
+
+                scaled_steps[scale] = GradientProjectionStep(braced, _scaled_alpha(strategy, scale))  # type: ignore[arg-type]
+            return scaled_steps[scale](st.q, xdot, beta_x(t))
+        current = with_beta_x(strategy if scale == 1.0 else _scaled_alpha(strategy, scale), beta_x(t))
+        if current.needs_hessians:
+            st = braced.state(st.q, hessians=True)
+        return current.velocity(st, xdot)
+
     def advance(st: BracedState, t: float, h: float, depth: int = 0) -> BracedState:
-        """One Euler step of length h from t, corrected; halved (up to 1/16) if it jumps out of the region."""
-        nonlocal substeps
+        """One Euler step of length h from t, corrected; halved (up to 1/16) if it jumps out of the region.
+
+        A step that leaves the joint limits is retried with the null-space motion scaled (LIMIT_SCALES) or
+        ends the run (JointLimitError).
+        """
+        nonlocal substeps, limited
         err = task_error(st, task.position(t), rotation, space)
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
-        if fast is not None:  # the fused step: the same q̇ as the strategy's, to ~1e-13
-            qdot = fast(st.q, xdot, beta_x(t))
-        else:
-            current = with_beta_x(strategy, beta_x(t))
-            if strategy.needs_hessians:
-                st = braced.state(st.q, hessians=True)
-            qdot = current.velocity(st, xdot)
+        qdot = rate(st, t, xdot)
         new = correct(braced, st.q + qdot * h, task.position(t + h), rotation, anchor, length=length, space=space)
+        if _outside_limits(braced.robot, new.q).size:
+            for scale in LIMIT_SCALES if scalable else ():
+                qdot = rate(st, t, xdot, scale)
+                new = correct(
+                    braced, st.q + qdot * h, task.position(t + h), rotation, anchor, length=length, space=space
+                )
+                if not _outside_limits(braced.robot, new.q).size:
+                    limited += 1
+                    break
+            else:
+                raise _limit_failure(braced.robot, new.q, t + h, scalable)
         if guard and np.linalg.norm(new.b - centre) >= r_max:  # type: ignore[operator]
             if depth >= MAX_SUBSTEP_DEPTH:
                 raise BarrierError(
@@ -495,10 +571,15 @@ def simulate(
     for w in caught:  # pass on anything else unchanged
         if not issubclass(w.category, UnloadedContactWarning):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    limit = float(np.max(measures["joint_limit_violation"]))
+    limit = float(measures["joint_limit_violation"][0])
     if limit > 0:
-        notes.append(f"{strategy.name}: joint limits exceeded by up to {limit:.3g} rad (limits are not enforced)")
+        notes.append(f"{strategy.name}: the start exceeds the joint limits by {limit:.3g} rad")
         warnings.warn(notes[-1], JointLimitWarning, stacklevel=2)
+    if limited:
+        notes.append(
+            f"{strategy.name}: {limited} step(s) had their null-space motion scaled down to keep the joints inside "
+            "their limits"
+        )
     inside = measures["region_radius"] < (r_max if r_max is not None else np.inf)
     depth = float(np.min(measures["surface_distance"], initial=0.0, where=inside))
     if depth < -1e-6:
