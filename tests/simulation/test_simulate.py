@@ -259,3 +259,16 @@ def test_an_arm_with_continuous_joints_solves_its_start_and_runs_with_unbounded_
         tr = simulate(sc.braced, sc.strategy("braced_min_norm"), sc.task, start.q, sc.dt, sc.beta_x)
     assert tr.completed, tr.failure
     assert tr.summary()["max_joint_limit_violation_rad"] == 0.0
+
+
+def test_runs_record_the_link_clearance_and_warn_when_a_link_passes_through_the_plane(setup) -> None:
+    from bracekit.errors import ClearanceWarning
+    from bracekit.kinematics.clearance import link_clearance
+
+    sc, start, task = setup
+    with pytest.warns(ClearanceWarning, match="through the bracing plane"):
+        tr = simulate(sc.braced, FreeSpaceMinNorm(), task, start.q, 0.1, sc.beta_x)
+    recomputed = [link_clearance(sc.braced.state(q))[0] for q in tr.q]
+    np.testing.assert_allclose(tr.measures["link_clearance"], recomputed)
+    assert tr.summary()["min_link_clearance_m"] == pytest.approx(min(recomputed)) and min(recomputed) < 0
+    assert any("through the bracing plane" in w for w in tr.warnings)
