@@ -17,17 +17,20 @@ from bracekit.objective.base import (
 )
 
 # isort: off
-# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d): the order of the sum g
+# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d), then the link clearance barrier:
+# the order of the sum g
 from bracekit.objective.condition_number import ConditionNumber
 from bracekit.objective.compliance_index import ComplianceIndex
 from bracekit.objective.brace_angle import BraceAngle
 from bracekit.objective.region_barrier import RegionBarrier
+from bracekit.objective.clearance import ClearanceBarrier
 
 # isort: on
 
 __all__ = [
     "TERMS",
     "BraceAngle",
+    "ClearanceBarrier",
     "ComplianceIndex",
     "ConditionNumber",
     "Objective",

@@ -36,6 +36,7 @@ class FusedKinematics:
         kinv, k1inv: 1/K (n,) and its chain-1 part (n1,).
         X: constraint wrenches (6×(6−l)); t_proj: I − P (6×6).
         k_env: environment stiffness or None; normal: n̂ (3,) as a list; cert2: the certified condition, squared.
+        q: the joint values (n,) of the placements, or None where the step does not give them.
     """
 
     je: Array
@@ -51,12 +52,14 @@ class FusedKinematics:
     k_env: float | None
     normal: list[float]
     cert2: float
+    q: Array | None = None
     _s1: Array | None = None
     _cache: dict[str, Any] = field(default_factory=dict)
 
     def at(self, je: Array, jb: Array, mb: Array, me: Array, s1: Array | None = None) -> FusedKinematics:
         """This object moved to a new configuration's Jacobians and placements (the shared factors reset)."""
         self.je, self.jb, self.mb, self.me, self._s1 = je, jb, mb, me, s1
+        self.q = None  # the step sets it after the move
         self._cache.clear()
         return self
 

@@ -314,6 +314,7 @@ class GradientProjectionStep:
         A term without fused coefficients adds its own ``gradient`` on a BracedState (computed once).
         """
         fk = self._fused_kinematics(kin, s1)
+        fk.q = qa
         out = FusedGradient(self._n, self._n1)
         state = None
         for term, weight in _terms(obj):
@@ -326,6 +327,7 @@ class GradientProjectionStep:
     def _value(self, qa: Array, obj: Objective) -> float:
         """G at q (eq:objective), term by term as Objective.value."""
         fk = self._fused_kinematics(self._kinematics(qa, False))
+        fk.q = qa
         total = 0.0
         state = None
         for term, weight in _terms(obj):
