@@ -94,3 +94,7 @@ class OutputError(InputError):
 
 class ChainSingularWarning(BracekitWarning):
     """Chain 1 is singular (J1 loses rank): it realises fewer braced motions of {b} than the contact allows."""
+
+
+class ClearanceWarning(BracekitWarning):
+    """A link of the robot passed through the bracing plane inside the bracing region (negative clearance)."""

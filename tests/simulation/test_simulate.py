@@ -336,3 +336,16 @@ def test_gradient_projection_scales_its_null_space_motion_at_a_limit_fused_and_r
     ref = simulate(braced, Reference(gp.objective, alpha=gp.alpha), task, start.q, 0.1, sc.beta_x)
     assert ref.completed and ref.warnings == tr.warnings
     assert np.max(np.abs(ref.q - tr.q)) < 1e-8
+
+
+def test_runs_record_the_link_clearance_and_warn_when_a_link_passes_through_the_plane(setup) -> None:
+    from bracekit.errors import ClearanceWarning
+    from bracekit.kinematics.clearance import link_clearance
+
+    sc, start, task = setup
+    with pytest.warns(ClearanceWarning, match="through the bracing plane"):
+        tr = simulate(sc.braced, FreeSpaceMinNorm(), task, start.q, 0.1, sc.beta_x)
+    recomputed = [link_clearance(sc.braced.state(q))[0] for q in tr.q]
+    np.testing.assert_allclose(tr.measures["link_clearance"], recomputed)
+    assert tr.summary()["min_link_clearance_m"] == pytest.approx(min(recomputed)) and min(recomputed) < 0
+    assert any("through the bracing plane" in w for w in tr.warnings)

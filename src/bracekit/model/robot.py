@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit._linalg import as_array, show
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
 from bracekit.model.chain import DATA_JOINT_LIMIT, ChainFK, joint_axis
+from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules
 
 Array = NDArray[np.float64]
 
@@ -139,6 +140,16 @@ def _load_urdf(source: str | os.PathLike[str]) -> tuple[pin.Model, _UrdfJoints]:
         raise ModelError(f"cannot parse the URDF file {shown}: {_first_line(exc)}") from exc
 
 
+def _urdf_text(source: str | os.PathLike[str]) -> str:
+    """The URDF text of a source that :func:`_load_urdf` has read ("" if it cannot be read again)."""
+    if isinstance(source, str) and source.lstrip().startswith("<"):
+        return source
+    try:
+        return Path(os.fspath(source)).read_text(encoding="utf-8", errors="replace")
+    except (OSError, ValueError, TypeError):
+        return ""
+
+
 def _first_line(exc: BaseException) -> str:
     text = str(exc).strip()
     return show(text.splitlines()[0], 200) if text else type(exc).__name__
@@ -225,12 +236,15 @@ class Robot:
             continuous joints are revolute joints here with limits ±inf (q is the angle).
         tip: name of the end-effector frame {e}.
         stiffness: joint stiffnesses K (n,), N·m/rad (N/m for prismatic joints).
+        collisions: the capsules of the URDF's collision geometry (:mod:`bracekit.model.geometry`), read at load
+            time; () when the URDF has none (every link then gets its default capsule).
     """
 
     model: pin.Model
     tip: str
     stiffness: Array
     off_chain: frozenset[str] = frozenset()
+    collisions: tuple[Capsule, ...] = ()
     _tip_id: int = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -289,7 +303,8 @@ class Robot:
             raise ModelError(f"no joint moves the tip frame {show(tip)}; choose a frame on a moving link")
         _check_joints(model)
         k = _as_stiffness(stiffness, tuple(model.names[1:]))
-        return cls(model=model, tip=tip, stiffness=k, off_chain=off_chain)
+        collisions = collision_capsules(_urdf_text(source), model)
+        return cls(model=model, tip=tip, stiffness=k, off_chain=off_chain, collisions=collisions)
 
     # --- names and sizes -------------------------------------------------------------------------
     @property
@@ -397,12 +412,23 @@ class Robot:
         for name, fid, local in placed:
             parent = model.frames[fid]
             model.addFrame(pin.Frame(name, parent.parentJoint, fid, parent.placement * local, pin.FrameType.OP_FRAME))
-        return Robot(model=model, tip=self.tip, stiffness=self.stiffness, off_chain=self.off_chain)
+        return Robot(
+            model=model, tip=self.tip, stiffness=self.stiffness, off_chain=self.off_chain, collisions=self.collisions
+        )
 
     def with_stiffness(self, stiffness: float | Sequence[float] | ArrayLike) -> Robot:
         """A copy of this robot with other joint stiffnesses (N·m/rad)."""
         k = _as_stiffness(stiffness, self.joint_names)
-        return Robot(model=self.model, tip=self.tip, stiffness=k, off_chain=self.off_chain)
+        return Robot(model=self.model, tip=self.tip, stiffness=k, off_chain=self.off_chain, collisions=self.collisions)
+
+    def link_capsules(self, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[Capsule, ...]:
+        """Each moving link as capsules in its joint's frame: the URDF's collision geometry or the default capsule.
+
+        Args:
+            link_radius: radius (m) of the default capsule of a link without usable collision geometry (the
+                segment between its joint's origin and the next joint's origin, or the tip for the last joint).
+        """
+        return link_capsules(self.model, self.tip_id, self.collisions, link_radius)
 
     # --- kinematics ------------------------------------------------------------------------------
     @cached_property

@@ -17,18 +17,21 @@ from bracekit.objective.base import (
 )
 
 # isort: off
-# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d), then further terms: the order of the sum g
+# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d), then further terms (joint limits,
+# link clearance): the order of the sum g
 from bracekit.objective.condition_number import ConditionNumber
 from bracekit.objective.compliance_index import ComplianceIndex
 from bracekit.objective.brace_angle import BraceAngle
 from bracekit.objective.region_barrier import RegionBarrier
 from bracekit.objective.joint_limits import JointLimits
+from bracekit.objective.clearance import ClearanceBarrier
 
 # isort: on
 
 __all__ = [
     "TERMS",
     "BraceAngle",
+    "ClearanceBarrier",
     "ComplianceIndex",
     "ConditionNumber",
     "JointLimits",

@@ -50,6 +50,7 @@ from bracekit.errors import (
     BarrierError,
     BracekitError,
     BracekitWarning,
+    ClearanceWarning,
     ConvergenceError,
     InputError,
     JointLimitError,
@@ -61,6 +62,7 @@ from bracekit.errors import (
     UnloadedContactWarning,
 )
 from bracekit.kinematics import BracedRobot, BracedState, skeleton
+from bracekit.kinematics.clearance import link_clearance
 from bracekit.model.robot import Robot
 from bracekit.objective import RegionBarrier
 from bracekit.resolution.strategies import (
@@ -375,6 +377,7 @@ class Trajectory:
             "min_surface_distance_m": float(np.min(m["surface_distance"])),
             "max_joint_limit_violation_rad": float(np.max(m["joint_limit_violation"])),
             "max_joint_step_rad": float(np.max(m["joint_step"])),
+            "min_link_clearance_m": _finite_or_none(float(np.min(m["link_clearance"]))),
             "steps": self.steps,
             "substeps": self.substeps,
             "completed": self.completed,
@@ -384,13 +387,20 @@ class Trajectory:
         }
 
 
+def _finite_or_none(value: float) -> float | None:
+    """`value`, or None where it is not finite (JSON holds no inf)."""
+    return value if np.isfinite(value) else None
+
+
 def measure(
     state: BracedState, beta_x: Array, centre: Array, task_error: float, braced: bool, joint_step: float = 0.0
 ) -> dict[str, float]:
     """The measures recorded at a sample (C_i in all models, J̃ singular values, k, θ_z, r, limits).
 
-    Also σ_min/σ_max of J1, A, J and J̃ (``sigma_ratio_<key>``) and ``joint_step``, the largest |Δq_i|
-    since the previous sample (rad, m for a prismatic joint; 0 at the start).
+    Also σ_min/σ_max of J1, A, J and J̃ (``sigma_ratio_<key>``), ``joint_step``, the largest |Δq_i|
+    since the previous sample (rad, m for a prismatic joint; 0 at the start), and ``link_clearance``, the
+    least clearance of the link capsules from the bracing plane inside the region (m, negative = penetration,
+    inf when no link is over the region; :mod:`bracekit.kinematics.clearance`).
     """
     sv = singular_value_measures(state.J_braced)
     lower, upper = state.braced.robot.lower, state.braced.robot.upper
@@ -410,6 +420,7 @@ def measure(
         "joint_limit_violation": float(np.max(np.maximum(0.0, np.maximum(lower - state.q, state.q - upper)))),
         "task_error": task_error,
         "joint_step": joint_step,
+        "link_clearance": link_clearance(state)[0],
     }
     for key, ratio in conditioning(state, tuple(MATRIX_LABELS)).items():
         out[f"sigma_ratio_{key}"] = ratio
@@ -587,6 +598,14 @@ def simulate(
             f"{strategy.name}: the bracing point passes {-depth:.3g} m below the bracing surface inside the region "
             "(this run ignores the surface)"
         )
+    clearance = float(np.min(measures["link_clearance"]))
+    if clearance < 0:
+        notes.append(
+            f"{strategy.name}: a link passes {-clearance:.3g} m through the bracing plane inside the region "
+            f"(at {int(np.sum(measures['link_clearance'] < 0))} of {len(rows)} samples; link capsules of "
+            "bracekit.kinematics.clearance)"
+        )
+        warnings.warn(notes[-1], ClearanceWarning, stacklevel=2)
     if substeps:
         notes.append(f"{strategy.name}: {substeps} step(s) were split to keep the bracing point in the region")
     if free_dims == 0 and isinstance(strategy, BracedGradientProjection):

@@ -1,0 +1,101 @@
+"""The clearance barrier: Σ over links of φ(c) = (δ − c)² / (δ c) for 0 < c < δ, 0 for c ≥ δ.
+
+c is a link's clearance from the bracing plane (m, :mod:`bracekit.kinematics.clearance`: the lower end of
+its capsule segments minus the radius, inside the bracing region, the link carrying {b} excepted) and δ the
+margin (m). φ and φ' vanish at c = δ, φ grows without bound as c → 0, and c ≤ 0 raises BarrierError (as the
+region barrier d does outside the region). φ'(c) = (c² − δ²) / (δ c²), so ∂/∂q = Σ φ'(c) ∂c/∂q, exact through
+the point Jacobians of the capsule end points (no Hessian needed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bracekit._linalg import as_number
+from bracekit.errors import BarrierError, InputError
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics.clearance import Clearance, LinkDistance
+from bracekit.model.geometry import DEFAULT_LINK_RADIUS
+from bracekit.objective.base import Array, Term, TermContext, register_term
+from bracekit.objective.fused import FusedGradient, FusedKinematics
+
+#: Margin δ of the barrier (m): links farther than this from the plane add nothing.
+DEFAULT_MARGIN = 0.10
+
+
+@register_term
+@dataclass(frozen=True, eq=False)
+class ClearanceBarrier(Term):
+    """Σ_links φ(c_link), φ(c) = (δ − c)² / (δ c) below the margin δ (m), 0 above; dimensionless.
+
+    Attributes:
+        braced: the braced robot (its capsules, plane, region and brace link).
+        margin: δ, m.
+        link_radius: radius of the default link capsules, m.
+    """
+
+    braced: BracedRobot
+    margin: float = DEFAULT_MARGIN
+    link_radius: float = DEFAULT_LINK_RADIUS
+    name: str = "clearance"
+    key = "clearance"
+    _clearance: Clearance = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not isinstance(self.braced, BracedRobot):
+            raise InputError(f"the clearance barrier needs a BracedRobot, got {type(self.braced).__name__}")
+        margin = as_number(self.margin, "the clearance margin", positive=True, unit="m")
+        if not margin < 1e150:
+            raise InputError(f"the clearance margin must be a length below 1e150 m, got {margin:g}")
+        radius = as_number(self.link_radius, "the link radius", nonnegative=True, unit="m")
+        object.__setattr__(self, "margin", margin)
+        object.__setattr__(self, "_clearance", Clearance(self.braced, radius))
+
+    def _links(self, q: Array, gradient: bool) -> list[LinkDistance]:
+        """The links within the margin; BarrierError if one touches or passes through the plane."""
+        found = [d for d in self._clearance.links(q, gradient) if d.clearance < self.margin]
+        for d in found:
+            if not d.clearance > 0.0:
+                raise BarrierError(
+                    f"link {self.braced.robot.joint_names[d.joint]!r} reaches the bracing plane inside the region "
+                    f"(clearance {d.clearance:.4g} m)"
+                )
+        return found
+
+    def _value(self, q: Array) -> float:
+        delta = self.margin
+        return float(sum((delta - d.clearance) ** 2 / (delta * d.clearance) for d in self._links(q, False)))
+
+    def _gradient(self, q: Array) -> Array:
+        delta = self.margin
+        out = np.zeros(q.size)
+        for d in self._links(q, True):
+            out += (d.clearance**2 - delta**2) / (delta * d.clearance**2) * d.gradient
+        return out
+
+    def value(self, state: BracedState) -> float:
+        """The term's value at the state (the class docstring gives it)."""
+        return self._value(state.q)
+
+    def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,), exact (point Jacobians of the capsule end points)."""
+        return self._gradient(state.q)
+
+    def fused_value(self, kin: FusedKinematics) -> float | None:
+        """The value at the fused step's q (the same as :meth:`value`); None without q."""
+        return None if kin.q is None else self._value(kin.q)
+
+    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to the fused step's accumulator (as an extra gradient); False without q."""
+        if kin.q is None:
+            return False
+        out.add_extra(weight * self._gradient(kin.q))
+        return True
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> ClearanceBarrier:
+        """The term as a scenario configures it (its weight key is ``key``): default margin and link radius."""
+        return cls(context.braced)
