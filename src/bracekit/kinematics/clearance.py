@@ -14,6 +14,7 @@ the joint's Jacobian shifted to the point: J_p = J_v − [p − o]× J_ω.
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit.kinematics.braced import BracedRobot, BracedState
+from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
 
 Array = NDArray[np.float64]
@@ -61,6 +63,7 @@ class Clearance:
         surface = braced.brace.surface
         self._normal, self._point = surface.normal, surface.point
         self._r_max = braced.brace.region_radius
+        self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
 
     def _counts(self, p: Array) -> bool:
         """Whether the plane under end point p (3,) is an obstacle (inside the region's disk, or no region)."""
@@ -77,7 +80,14 @@ class Clearance:
         """
         robot = self.braced.robot
         qa = robot.check_q(q)
-        kin = dict(zip(self._joints, robot.frame_kinematics(qa, self._frames), strict=True))
+        kin: dict[int, tuple[Array, Array | None]]
+        if gradient or self._data is None:
+            kin = dict(zip(self._joints, robot.frame_kinematics(qa, self._frames), strict=True))
+        else:  # placements only: forward kinematics with this object's own data, no Jacobians
+            model, data = robot.model, self._data
+            pin.forwardKinematics(model, data, qa)
+            pin.updateFramePlacements(model, data)
+            kin = {j: (data.oMf[f].homogeneous, None) for j, f in zip(self._joints, self._frames, strict=True)}
         best: dict[int, tuple[float, Array | None]] = {}
         n = self._normal
         for cap in self.capsules:
@@ -91,7 +101,7 @@ class Clearance:
                 if cap.joint in best and best[cap.joint][0] <= value:
                     continue
                 grad = None
-                if gradient:
+                if gradient and jac is not None:
                     arm = p - origin
                     # nᵀ(J_v − [arm]× J_ω) = nᵀJ_v + (arm × n)ᵀ J_ω
                     grad = n @ jac[:3] + np.cross(arm, n) @ jac[3:]
@@ -115,12 +125,25 @@ def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS)
     Negative is penetration; (inf, −1) when no link is over the bracing region. The rule is in this module's
     docstring.
     """
-    return Clearance(state.braced, link_radius).minimum(state.q)
+    return _clearance(state.braced, link_radius).minimum(state.q)
 
 
 def link_clearance_gradient(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> Array:
     """∂/∂q (n,) of the minimum link clearance (of the link :func:`link_clearance` names); zeros if none counts."""
-    found = Clearance(state.braced, link_radius).links(state.q)
+    found = _clearance(state.braced, link_radius).links(state.q)
     if not found:
         return np.zeros(state.q.size)
     return min(found, key=lambda d: d.clearance).gradient
+
+
+#: braced robot → {link radius: its Clearance}: built once per model (capsules, frames, data), not per sample.
+_CACHE: weakref.WeakKeyDictionary[BracedRobot, dict[float, Clearance]] = weakref.WeakKeyDictionary()
+
+
+def _clearance(braced: BracedRobot, link_radius: float) -> Clearance:
+    if isinstance(link_radius, bool) or not isinstance(link_radius, int | float):
+        return Clearance(braced, link_radius)  # validates (and refuses) it
+    per = _CACHE.setdefault(braced, {})
+    if link_radius not in per:
+        per[link_radius] = Clearance(braced, link_radius)
+    return per[link_radius]
