@@ -1,7 +1,8 @@
 """Tests of the link capsules (bracekit.model.geometry) and the link clearance (bracekit.kinematics.clearance).
 
 References: capsules read off the URDF text by hand, the plane distance of end points placed by an independent
-Pinocchio model, and central finite differences of the clearance.
+Pinocchio model, a brute-force clearance from 2001 points sampled along each capsule segment (the disk's edge
+found by bisection), and central finite differences of the clearance.
 """
 
 from __future__ import annotations
@@ -106,3 +107,184 @@ def test_the_region_limits_the_obstacle_and_the_brace_link_is_excepted() -> None
     whole = link_clearance(_braced(None).state(q))
     assert link_clearance(_braced(50.0).state(q)) == whole
     assert all(c.joint != 3 for c in Clearance(_braced(None)).capsules)  # the brace sits on l3 (joint 3)
+
+
+def _chain_braced(surface: Surface, region: float | None) -> BracedRobot:
+    """The 7-joint random chain (brace frame on l3, collisions on l1..l4) braced on `surface`."""
+    robot = Robot.from_urdf(_with_collisions(random_chain_urdf(7, seed=4, brace_link=3)), tip="tip")
+    return BracedRobot(robot, Brace("brace", surface, region_radius=region))
+
+
+def _sampled(braced: BracedRobot, q: np.ndarray, count: int = 2001) -> dict[int, tuple[float, float, float]]:
+    """Brute force: link (chain order) → (least sampled clearance, the same with the disk's edge, its t).
+
+    `count` points along each capsule segment placed by forward kinematics; those over the disk (lateral
+    distance ≤ r_max) are kept. The second value also keeps the disk's edge points between an inside and an
+    outside sample, found by bisection on that predicate (60 halvings).
+    """
+    model = braced.robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    normal, centre = braced.brace.surface.normal, braced.brace.surface.point
+    r_max = braced.brace.region_radius
+    skip = model.frames[braced.brace_id].parentJoint
+    ts = np.linspace(0.0, 1.0, count)
+
+    def over(p: np.ndarray) -> np.ndarray:
+        rel = p - centre
+        lateral = rel - np.outer(rel @ normal, normal)
+        return np.ones(len(p), bool) if r_max is None else np.linalg.norm(lateral, axis=1) <= r_max
+
+    out: dict[int, tuple[float, float, float]] = {}
+    for cap in braced.robot.link_capsules():
+        if cap.joint == skip:
+            continue
+        pa, pb = data.oMi[cap.joint].act(cap.a), data.oMi[cap.joint].act(cap.b)
+        points = pa + np.outer(ts, pb - pa)
+        inside = over(points)
+        if not inside.any():
+            continue
+        dist = (points - centre) @ normal - cap.radius
+        sampled = float(dist[inside].min())
+        cand_t, cand_d = list(ts[inside]), list(dist[inside])
+        for i in np.flatnonzero(inside[:-1] != inside[1:]):
+            t_in, t_out = (ts[i], ts[i + 1]) if inside[i] else (ts[i + 1], ts[i])
+            for _ in range(60):
+                mid = 0.5 * (t_in + t_out)
+                if over((pa + mid * (pb - pa))[None])[0]:
+                    t_in = mid
+                else:
+                    t_out = mid
+            cand_t.append(t_in)
+            cand_d.append(float((pa + t_in * (pb - pa) - centre) @ normal) - cap.radius)
+        k = int(np.argmin(cand_d))
+        link = cap.joint - 1
+        if link not in out or cand_d[k] < out[link][1]:
+            out[link] = (min(sampled, out.get(link, (np.inf,))[0]), cand_d[k], cand_t[k])
+    return out
+
+
+def _edge_cases(seed: int) -> tuple[BracedRobot, np.ndarray]:
+    """A q and a tilted plane with a 0.12 m region whose edge cuts the chain's links."""
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-2.0, 2.0, 7)
+    normal = rng.normal(size=3) + np.array([0.0, 0.0, 3.0])
+    normal /= np.linalg.norm(normal)
+    probe = _chain_braced(Surface([0.0, 0.0, -1.0], normal), None)
+    model = probe.robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    cap = Clearance(probe).capsules[rng.integers(3)]
+    pa, pb = data.oMi[cap.joint].act(cap.a), data.oMi[cap.joint].act(cap.b)
+    centre = pa + 0.7 * (pb - pa) - 0.1 * normal  # the disk's edge near the segment's middle
+    return _chain_braced(Surface(centre, normal), 0.12), q
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_clearance_over_a_region_matches_segments_sampled_brute_force(seed) -> None:
+    braced, q = _edge_cases(seed)
+    found = {d.joint: d.clearance for d in Clearance(braced).links(q, gradient=False)}
+    brute = _sampled(braced, q)
+    assert set(found) == set(brute)
+    caps = {c.joint - 1: c for c in Clearance(braced).capsules}
+    model = braced.robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    for link, (sampled, edged, _) in brute.items():
+        assert found[link] == pytest.approx(edged, abs=1e-9)
+        # the samples lie inside the clipped interval, at most one step (1/2000 of the segment) from its ends
+        span = max(
+            abs(braced.brace.surface.normal @ (data.oMi[c.joint].act(c.b) - data.oMi[c.joint].act(c.a)))
+            for c in caps.values()
+            if c.joint - 1 == link
+        )
+        assert found[link] - 1e-12 <= sampled <= found[link] + span / 2000 + 1e-12
+    value, link = link_clearance(braced.state(q))
+    assert (value, link) == min((v, j) for j, v in found.items()) if found else (value, link) == (np.inf, -1)
+
+
+def test_clearance_gradient_at_clip_points_on_the_region_edge_matches_finite_differences() -> None:
+    interior = 0
+    for seed in range(12):
+        braced, q = _edge_cases(seed)
+        clearance = Clearance(braced)
+        brute = _sampled(braced, q)
+        for d in clearance.links(q):
+            fd = central_difference(
+                lambda x, c=clearance, j=d.joint: {e.joint: e.clearance for e in c.links(x, False)}[j], q, 1e-6
+            )
+            np.testing.assert_allclose(d.gradient, fd, atol=2e-7)
+            interior += 1e-6 < brute[d.joint][2] < 1.0 - 1e-6
+        if clearance.links(q):
+            fd = central_difference(lambda x, b=braced: link_clearance(b.state(x))[0], q, 1e-6)
+            np.testing.assert_allclose(link_clearance_gradient(braced.state(q)), fd, atol=2e-7)
+    assert interior >= 8  # most checked links have their least point on the disk's edge, inside the segment
+
+
+def _mid_through(
+    region_scale: float, tilt: float = 0.0
+) -> tuple[BracedRobot, np.ndarray, int, float, np.ndarray, np.ndarray]:
+    """A plane 2 cm above a link's middle, its disk (radius region_scale · length) about there.
+
+    The plane is parallel to the link, or with `tilt` its normal leans that much (of a unit) along the link.
+    """
+    q = np.random.default_rng(1).uniform(-1.0, 1.0, 7)
+    probe = _chain_braced(Surface([0.0, 0.0, -1.0], [0.0, 0.0, 1.0]), None)
+    model = probe.robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    cap = max(Clearance(probe).capsules, key=lambda c: np.linalg.norm(c.b - c.a))
+    pa, pb = data.oMi[cap.joint].act(cap.a), data.oMi[cap.joint].act(cap.b)
+    normal = np.cross(pb - pa, [0.3, -0.5, 0.8])
+    normal = normal / np.linalg.norm(normal) + tilt * (pb - pa) / np.linalg.norm(pb - pa)
+    normal /= np.linalg.norm(normal)
+    centre = 0.5 * (pa + pb) + 0.02 * normal
+    braced = _chain_braced(Surface(centre, normal), region_scale * float(np.linalg.norm(pb - pa)))
+    return braced, q, cap.joint - 1, cap.radius, pa, pb
+
+
+def test_a_link_whose_middle_passes_through_the_disk_between_ends_outside_it_is_caught() -> None:
+    for tilt in (0.0, 0.05):
+        braced, q, link, radius, pa, pb = _mid_through(0.3, tilt)
+        surface, r_max = braced.brace.surface, braced.brace.region_radius
+        for end in (pa, pb):  # both ends lie beyond the disk: the plane under them is no obstacle
+            rel = end - surface.point
+            assert np.linalg.norm(rel - surface.normal * (surface.normal @ rel)) > r_max
+        found = {d.joint: d for d in Clearance(braced).links(q)}
+        assert found[link].clearance == pytest.approx(_sampled(braced, q)[link][1], abs=1e-9)
+        assert link_clearance(braced.state(q))[0] <= found[link].clearance <= -0.02 - radius + 1e-9
+        if tilt == 0.0:  # parallel: the whole clipped segment lies 2 cm beneath the plane
+            assert found[link].clearance == pytest.approx(-0.02 - radius, abs=1e-9)
+        else:  # the lower clip point is the least: a smooth function of q
+            fd = central_difference(
+                lambda x, b=braced, j=link: {e.joint: e.clearance for e in Clearance(b).links(x, False)}[j], q, 1e-6
+            )
+            np.testing.assert_allclose(found[link].gradient, fd, atol=2e-7)
+
+
+def test_segments_along_the_normal_grazing_the_cylinder_or_of_zero_length_give_finite_clearance() -> None:
+    braced, q, _, _, pa, pb = _mid_through(0.5, 0.05)  # the disk's edge passes through both ends
+    surface = braced.brace.surface
+    along = _chain_braced(Surface(pb - 0.05 * (pb - pa), (pb - pa) / np.linalg.norm(pb - pa)), 0.1)
+    # the cylinder's side touches the segment's line: the capsule counts at one clip point
+    side = np.cross(pb - pa, surface.normal)
+    side /= np.linalg.norm(side)
+    graze = _chain_braced(Surface(0.5 * (pa + pb) + 0.1 * side + 0.02 * surface.normal, surface.normal), 0.1)
+    for b in (braced, along, graze):
+        found = Clearance(b).links(q)
+        brute = _sampled(b, q)
+        for d in found:
+            assert np.all(np.isfinite(d.gradient)) and np.isfinite(d.clearance)
+            if d.joint in brute:
+                assert d.clearance == pytest.approx(brute[d.joint][1], abs=1e-6)
+        value, _ = link_clearance(b.state(q))
+        assert np.isfinite(value) and np.all(np.isfinite(link_clearance_gradient(b.state(q))))
+    # the sphere capsule of l2 (a = b) over a disk about it counts as its centre
+    model = braced.robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    sphere = next(c for c in Clearance(braced).capsules if c.link == "l2")
+    centre = data.oMi[sphere.joint].act(sphere.a)
+    ball = _chain_braced(Surface(centre - [0.01, 0.0, 0.3], [0.0, 0.0, 1.0]), 0.02)
+    got = {d.joint: d.clearance for d in Clearance(ball).links(q)}
+    assert got[sphere.joint - 1] == pytest.approx(0.3 - sphere.radius, abs=1e-12)

@@ -1,14 +1,21 @@
 """Clearance of the links from the bracing plane: signed distances of the link capsules and their ∂/∂q.
 
-The rule: a link's clearance is the signed distance from the plane (n̂ᵀ(p − point), positive on the robot's
-side) of the lower end point of each of its capsule segments, minus the capsule's radius, the least over its
-capsules. With a bracing region (``Brace.region_radius``) only the plane inside the region's disk is an
-obstacle: an end point counts only where its projection onto the plane lies within r_max of the region centre
-(the surface's point). The link carrying {b} (every capsule of the brace frame's joint) is left out: its pad
+The rule: a capsule's clearance is the least signed distance from the plane (n̂ᵀ(p − point), positive on the
+robot's side) over the part of its segment p(t) = a + t (b − a), t ∈ [0, 1], that lies over the obstacle,
+minus the capsule's radius; a link's clearance is the least over its capsules. Without a bracing region the
+whole plane is the obstacle and the part is the whole segment. With a region (``Brace.region_radius`` = r_max)
+only the plane's disk of radius r_max about the surface's point c is: the segment is clipped to the infinite
+cylinder over the disk, |L (p(t) − c)| ≤ r_max with L = I − n̂n̂ᵀ, a quadratic in t whose roots bound the
+interval [t0, t1] (empty: the capsule does not count). The distance is linear in t, so its least value over
+[t0, t1] is at t0 or t1. The link carrying {b} (every capsule of the brace frame's joint) is left out: its pad
 touches the plane by design. Negative clearance is penetration.
 
-The gradient of an end point's distance is n̂ᵀ of the linear rows of its point Jacobian (LOCAL_WORLD_ALIGNED),
-the joint's Jacobian shifted to the point: J_p = J_v − [p − o]× J_ω.
+The gradient at the least point p(t*) is n̂ᵀ(∂p/∂q) + n̂ᵀ(b − a) dt*/dq. ∂p/∂q = (1 − t*) J_a + t* J_b, the
+linear rows of the point Jacobian (LOCAL_WORLD_ALIGNED) at p(t*), the joint's Jacobian shifted to the point:
+J_p = J_v − [p − o]× J_ω. dt*/dq is 0 where t* is an end of the segment (0 or 1) and, where t* is a clip
+point on the cylinder, follows from g(t, q) = |L (p(t) − c)|² − r_max² = 0: dt*/dq = −(∂g/∂q)/(∂g/∂t) =
+−wᵀ(∂p/∂q) / (wᵀ(b − a)) with w = L (p(t*) − c). Where the segment only grazes the cylinder (wᵀ(b − a) ≈ 0)
+the clip point is held fixed (dt*/dq = 0).
 """
 
 from __future__ import annotations
@@ -26,6 +33,12 @@ from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
 
 Array = NDArray[np.float64]
+
+#: |L (b − a)|² (m²) at or below which a segment has no lateral extent: it lies over the disk whole or not at all.
+_FLAT = 1e-28
+#: cos of the angle between the segment and the cylinder's outward normal below which a clip point only grazes
+#: the cylinder: its t* is held fixed (∂t*/∂q would grow without bound).
+_GRAZE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -65,18 +78,39 @@ class Clearance:
         self._r_max = braced.brace.region_radius
         self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
 
-    def _counts(self, p: Array) -> bool:
-        """Whether the plane under end point p (3,) is an obstacle (inside the region's disk, or no region)."""
-        if self._r_max is None:
-            return True
-        rel = p - self._point
-        lateral = rel - self._normal * float(self._normal @ rel)
-        return float(np.linalg.norm(lateral)) <= self._r_max
+    def _interval(self, pa: Array, d: Array, slope: float) -> tuple[float, float] | None:
+        """[t0, t1] ⊆ [0, 1] of the segment pa + t d (world, m) over the region's disk; None if no part is.
+
+        `slope` is n̂ᵀd. Without a region it is [0, 1]. The roots of |L (pa + t d − c)|² = r_max² come from
+        the quadratic's stable form; a segment with no lateral extent (|L d|² ≤ 1e-28 m²) counts whole or not
+        at all.
+        """
+        r_max = self._r_max
+        if r_max is None:
+            return 0.0, 1.0
+        n = self._normal
+        u = pa - self._point
+        u = u - n * float(n @ u)  # L (a − c), L = I − n̂n̂ᵀ the lateral projection
+        v = d - n * slope  # L d, projected (not |d|² − slope²: exact for near-normal segments)
+        quad = float(v @ v)
+        half = float(u @ v)
+        const = float(u @ u) - r_max * r_max
+        if quad <= _FLAT:
+            return (0.0, 1.0) if const <= 0.0 else None
+        disc = half * half - quad * const
+        if disc < 0.0:
+            return None
+        qq = -(half + math.copysign(math.sqrt(disc), half))
+        lo, hi = (qq / quad, const / qq) if qq != 0.0 else (0.0, 0.0)
+        if lo > hi:
+            lo, hi = hi, lo
+        t0, t1 = max(lo, 0.0), min(hi, 1.0)
+        return (t0, t1) if t0 <= t1 else None
 
     def links(self, q: ArrayLike, gradient: bool = True) -> list[LinkDistance]:
-        """Each link with a counted end point: its clearance (m) and, if `gradient`, ∂/∂q (n,).
+        """Each link with a capsule segment over the region's disk: its clearance (m) and, if `gradient`, ∂/∂q (n,).
 
-        Links none of whose end points lies over the region's disk are left out.
+        Links none of whose capsule segments passes over the region's disk are left out.
         """
         robot = self.braced.robot
         qa = robot.check_q(q)
@@ -93,22 +127,31 @@ class Clearance:
         for cap in self.capsules:
             m, jac = kin[cap.joint]
             rot, origin = m[:3, :3], m[:3, 3]
-            for end in (cap.a, cap.b):
-                p = origin + rot @ end
-                if not self._counts(p):
-                    continue
-                value = float(n @ (p - self._point)) - cap.radius
-                if cap.joint in best and best[cap.joint][0] <= value:
-                    continue
-                grad = None
-                if gradient and jac is not None:
-                    arm = p - origin
-                    # nᵀ(J_v − [arm]× J_ω) = nᵀJ_v + (arm × n)ᵀ J_ω
-                    grad = n @ jac[:3] + np.cross(arm, n) @ jac[3:]
-                best[cap.joint] = (value, grad)
-        return [
-            LinkDistance(j - 1, v, g if g is not None else np.zeros(0)) for j, (v, g) in sorted(best.items())
-        ]
+            pa, pb = origin + rot @ cap.a, origin + rot @ cap.b
+            d = pb - pa
+            slope = float(n @ d)  # n̂ᵀ(b − a): the distance's rate along the segment
+            span = self._interval(pa, d, slope)
+            if span is None:
+                continue
+            t = span[1] if slope < 0.0 else span[0]
+            p = pa if t == 0.0 else pb if t == 1.0 else pa + t * d
+            value = float(n @ (p - self._point)) - cap.radius
+            if cap.joint in best and best[cap.joint][0] <= value:
+                continue
+            grad = None
+            if gradient and jac is not None:
+                arm = p - origin
+                # nᵀ∂p/∂q = nᵀ(J_v − [arm]× J_ω) = nᵀJ_v + (arm × n)ᵀ J_ω
+                grad = n @ jac[:3] + np.cross(arm, n) @ jac[3:]
+                if 0.0 < t < 1.0 and slope != 0.0:  # a clip point on the cylinder: t* moves with q
+                    rel = p - self._point
+                    w = rel - n * float(n @ rel)  # L (p − c), |w| = r_max
+                    rate = float(w @ d)  # ½ ∂g/∂t
+                    if abs(rate) > _GRAZE * float(np.linalg.norm(w)) * float(np.linalg.norm(d)):
+                        dw = w @ jac[:3] + np.cross(arm, w) @ jac[3:]  # wᵀ∂p/∂q = ½ ∂g/∂q
+                        grad = grad - (slope / rate) * dw
+            best[cap.joint] = (value, grad)
+        return [LinkDistance(j - 1, v, g if g is not None else np.zeros(0)) for j, (v, g) in sorted(best.items())]
 
     def minimum(self, q: ArrayLike) -> tuple[float, int]:
         """(The least clearance, m; its link's joint in chain order); (inf, −1) if no link counts."""

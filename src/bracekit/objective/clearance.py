@@ -1,10 +1,11 @@
 """The clearance barrier: Σ over links of φ(c) = (δ − c)² / (δ c) for 0 < c < δ, 0 for c ≥ δ.
 
-c is a link's clearance from the bracing plane (m, :mod:`bracekit.kinematics.clearance`: the lower end of
-its capsule segments minus the radius, inside the bracing region, the link carrying {b} excepted) and δ the
-margin (m). φ and φ' vanish at c = δ, φ grows without bound as c → 0, and c ≤ 0 raises BarrierError (as the
-region barrier d does outside the region). φ'(c) = (c² − δ²) / (δ c²), so ∂/∂q = Σ φ'(c) ∂c/∂q, exact through
-the point Jacobians of the capsule end points (no Hessian needed).
+c is a link's clearance from the bracing plane (m, :mod:`bracekit.kinematics.clearance`: the least signed
+distance of its capsule segments, clipped to the cylinder over the bracing region's disk, minus the radius, the
+link carrying {b} excepted) and δ the margin (m). φ and φ' vanish at c = δ, φ grows without bound as c → 0, and
+c ≤ 0 raises BarrierError (as the region barrier d does outside the region). φ'(c) = (c² − δ²) / (δ c²), so
+∂/∂q = Σ φ'(c) ∂c/∂q, exact through the point Jacobians at the least points (with the motion of a clip point
+along its segment; no Hessian needed). The fused step adds it as an extra gradient at its q.
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ class ClearanceBarrier(Term):
         return self._value(state.q)
 
     def gradient(self, state: BracedState) -> Array:
-        """∂value/∂q (n,), exact (point Jacobians of the capsule end points)."""
+        """∂value/∂q (n,), exact (point Jacobians at the capsules' least points)."""
         return self._gradient(state.q)
 
     def fused_value(self, kin: FusedKinematics) -> float | None:
