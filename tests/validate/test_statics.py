@@ -10,6 +10,7 @@ from bracekit.validate.statics import (
     StaticSolveError,
     frame_jacobian_derivative,
     lagrange_compliance,
+    preload_rest_configuration,
     solve_static_equilibrium,
 )
 
@@ -226,3 +227,91 @@ def test_bad_inputs(arm: dict) -> None:
         solve(arm, np.zeros(6), preload=-1.0)
     with pytest.raises(ValueError, match="stiffness"):
         solve_static_equilibrium(arm["model"], Q0, -K, arm["b"], arm["e"], arm["point"], NORMAL, np.zeros(6))
+
+
+# ------------------------------------------------------------------------- gravity, base wrench, penalty contact
+T1 = np.cross(NORMAL, [1.0, 0.0, 0.0]) / np.linalg.norm(np.cross(NORMAL, [1.0, 0.0, 0.0]))
+T2 = np.cross(NORMAL, T1)
+Z3 = np.zeros(3)
+SOFT_FINGER_X = np.array([np.r_[T1, Z3], np.r_[T2, Z3], np.r_[NORMAL, Z3], np.r_[Z3, NORMAL]]).T
+W0 = np.array([1.5, -0.5, -2.0, 0.2, -0.1, 0.15])
+
+
+def loaded_residual(arm: dict, q: np.ndarray, rest: np.ndarray, w: np.ndarray, fc: np.ndarray) -> np.ndarray:
+    """K (q − rest) + g(q) − J_eᵀ w − J_bᵀ f_c, scaled by 1/K (rad), from Pinocchio's own routines."""
+    model, data = arm["model"], arm["model"].createData()
+    Je = pin.computeFrameJacobian(model, data, q, arm["e"], LWA)
+    Jb = pin.computeFrameJacobian(model, data, q, arm["b"], LWA)
+    g = pin.computeGeneralizedGravity(model, data, q)
+    return (K * (q - rest) + g - Je.T @ w - Jb.T @ fc) / K
+
+
+def test_zero_wrench_keeps_q0_under_gravity_base_wrench_and_preload(arm: dict) -> None:
+    kw = {"gravity": True, "base_wrench": W0, "environment_stiffness": 3e3, "constraint_wrenches": SOFT_FINGER_X}
+    res = solve(arm, np.zeros(6), preload=2.0, **kw)
+    np.testing.assert_allclose(res.q, Q0, atol=1e-14)
+    np.testing.assert_allclose(res.contact_wrench, np.r_[2.0 * NORMAL, Z3], atol=1e-12)
+    assert res.contact_force == pytest.approx(2.0, abs=1e-12)
+    rest = preload_rest_configuration(
+        arm["model"], Q0, K, arm["b"], NORMAL, 2.0, gravity=True, tip_frame_id=arm["e"], base_wrench=W0
+    )
+    assert np.abs(loaded_residual(arm, Q0, rest, W0, np.r_[2.0 * NORMAL, Z3])).max() < 1e-14
+    assert np.abs(rest - Q0).max() > 1e-2  # gravity and the base wrench do move the set points
+
+
+@pytest.mark.parametrize("k_env", [None, 3e3])
+def test_equilibrium_with_gravity_friction_and_penalty_holds(arm: dict, k_env: float | None) -> None:
+    """The returned q and contact wrench satisfy the equilibrium and the contact law, checked independently."""
+    P, w = 2.0, np.array([-0.4, 0.3, -0.6, 0.03, 0.05, -0.02])
+    kw = {"gravity": True, "base_wrench": W0, "environment_stiffness": k_env, "constraint_wrenches": SOFT_FINGER_X}
+    res = solve(arm, w, preload=P, **kw)
+    assert res.converged and res.residual <= 1e-12
+    model, data = arm["model"], arm["model"].createData()
+    pin.computeJointJacobians(model, data, Q0)
+    g0 = pin.computeGeneralizedGravity(model, data, Q0)
+    Je0 = pin.computeFrameJacobian(model, data, Q0, arm["e"], LWA)
+    Jb0 = pin.computeFrameJacobian(model, data, Q0, arm["b"], LWA)
+    rest = Q0 + (g0 - Je0.T @ W0 - Jb0.T @ np.r_[P * NORMAL, Z3]) / K
+    assert np.abs(loaded_residual(arm, res.q, rest, W0 + w, res.contact_wrench)).max() < 1e-11
+    # the contact law: φ(q) = Xᵀ [p_b − p_b0; log3(R_b R_b0ᵀ)] is 0 (rigid) or (λ0 − λ)/k_env (penalty)
+    pin.framesForwardKinematics(model, data, Q0)
+    M0 = data.oMf[arm["b"]].copy()
+    pin.framesForwardKinematics(model, data, res.q)
+    M1 = data.oMf[arm["b"]]
+    phi = SOFT_FINGER_X.T @ np.r_[M1.translation - M0.translation, pin.log3(M1.rotation @ M0.rotation.T)]
+    lam = SOFT_FINGER_X.T @ res.contact_wrench  # X has orthonormal columns
+    expected = np.zeros(4) if k_env is None else (np.array([0, 0, P, 0]) - lam) / k_env
+    np.testing.assert_allclose(phi, expected, rtol=0, atol=1e-12)
+    if k_env is not None:
+        assert np.abs(phi).max() > 1e-6  # a penalty contact does deflect
+    assert np.abs(res.deflection).max() > 1e-4
+
+
+def test_gravity_changes_the_deflection_by_its_geometric_stiffness(arm: dict) -> None:
+    """With gravity balanced by the set points the response to w changes only through ∂g/∂q: small but not zero."""
+    w = 0.05 * DIRECTIONS[2]
+    plain, heavy = solve(arm, w), solve(arm, w, gravity=True)
+    diff = rel(heavy.deflection, plain.deflection)
+    assert 1e-4 < diff < 0.5
+
+
+def test_free_chain_solve(arm: dict) -> None:
+    w = np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.0])
+    res = solve(arm, w, contact=False, gravity=True)
+    assert not res.contact_opened and res.contact_force == 0.0
+    model, data = arm["model"], arm["model"].createData()
+    rest = Q0 + pin.computeGeneralizedGravity(model, data, Q0) / K
+    assert np.abs(loaded_residual(arm, res.q, rest, w, np.zeros(6))).max() < 1e-12
+    with pytest.raises(ValueError, match="free chain"):
+        solve(arm, w, contact=False, preload=1.0)
+
+
+def test_bad_loaded_options(arm: dict) -> None:
+    with pytest.raises(ValueError, match="normal force"):
+        solve(arm, np.zeros(6), constraint_wrenches=np.r_[T1, Z3][:, None])
+    with pytest.raises(ValueError, match="6×c"):
+        solve(arm, np.zeros(6), constraint_wrenches=np.ones((5, 2)))
+    with pytest.raises(ValueError, match="environment_stiffness"):
+        solve(arm, np.zeros(6), environment_stiffness=-1.0)
+    with pytest.raises(ValueError, match="base_wrench"):
+        solve(arm, np.zeros(6), base_wrench=np.ones(3))

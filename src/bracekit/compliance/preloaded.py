@@ -1,56 +1,179 @@
-"""The preloaded (second-order) tip compliance: the constrained model with the preload's geometric stiffness.
+"""The preloaded (second-order) tip compliance: the constrained model on the loaded equilibrium's tangent stiffness.
 
-With the contact pressing on {b} with a force P along n̂, the equilibrium K (q − rest) = J_eᵀ w + J_b,vᵀ n̂ λ
-has, about λ = P, the tangent stiffness K_t = K − P ∂(J_b,vᵀ n̂)/∂q: a geometric stiffness (Chen & Kao's
-conservative congruence transformation) that the first-order models, built on K alone, neglect
-(docs/model.md, "The preloaded compliance").
+The joints are springs τ = K (q_s − q) that hold the robot at q under gravity, a dead tip wrench w0 and the
+contact's preload f_c0 = P [n̂; 0]: τ = g(q) − J_eᵀ w0 − J_bᵀ f_c0. At fixed set points q_s a small tip wrench
+δw then meets the tangent stiffness K_t = K + ∂g/∂q − ∂(J_eᵀ w0)/∂q − ∂(J_bᵀ f_c0)/∂q (S.-F. Chen and
+I. Kao, "Conservative congruence transformation for joint and Cartesian stiffness matrices of robotic hands
+and fingers", The International Journal of Robotics Research, 2000), not K alone as in the first-order
+models. docs/model.md, "The preloaded compliance", derives the signs and the treatment of dead moments.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit._linalg import as_number, finite_math
-from bracekit.errors import InputError, SingularityError
-from bracekit.kinematics import BracedRobot
+from bracekit._linalg import as_array, as_number, finite_math, show
+from bracekit.compliance.first_order import c1_unchecked, check_finite, warn_unloaded
+from bracekit.errors import InputError, NumericalError, SingularityError
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.tolerances import UNLOADED_TOL
 
 Array = NDArray[np.float64]
 
+__all__ = ["loaded_free_space_compliance", "preloaded_compliance", "tangent_stiffness"]
 
-def preloaded_compliance(braced: BracedRobot, q: ArrayLike, preload: float) -> Array:
-    """Tip compliance (6×6, world axes, [Δp; Δθ] per [f; m]) with the preload's geometric stiffness.
 
-    Linearising K (q − rest) = J_eᵀ w + J_b,vᵀ n̂ λ about the preloaded equilibrium (λ = P, N) with the
-    contact kept closed gives (K − P ∂(J_b,vᵀ n̂)/∂q) δq − a δλ = J_eᵀ δw, aᵀ δq = 0 (a = J_b,vᵀ n̂): the
-    constrained model with K replaced by the tangent stiffness. At P = 0 it equals the ``constrained`` C_e.
-    Frictionless point contact only. Raises SingularityError when the KKT system is singular (e.g. chain 1
-    cannot move {b} along n̂) and NumericalError when it overflows.
-    """
+def _check(braced: object, gravity: object, wrench: ArrayLike | None) -> tuple[BracedRobot, Array]:
     if not isinstance(braced, BracedRobot):
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    if braced.brace.kind.name != "frictionless_point":
-        raise InputError("the preloaded compliance is defined for the frictionless point contact")
-    preload = as_number(preload, "the preload (the contact pushes)", nonnegative=True, unit="N")
-    st = braced.state(q, hessians=True)
-    n = braced.robot.n
+    if not isinstance(gravity, bool):
+        raise InputError(f"gravity must be True or False, got {show(gravity)}")
+    w0 = np.zeros(6) if wrench is None else as_array(wrench, "the tool wrench [f; m] (N, N·m)", (6,))
+    return braced, w0
+
+
+def tangent_stiffness(
+    state: BracedState, preload: float, *, gravity: bool = False, wrench: ArrayLike | None = None
+) -> Array:
+    """K_t = K + ∂g/∂q − ∂(J_eᵀ w0)/∂q − P ∂(J_b,vᵀ n̂)/∂q (n×n, N·m/rad) at the state's loaded equilibrium.
+
+    Args:
+        state: ``braced.state(q, hessians=True)``.
+        preload: P ≥ 0 (N), the contact force [P n̂; 0] of the surface on the robot at b.
+        gravity: include ∂g/∂q of Pinocchio's generalized gravity (the model's gravity vector and masses).
+        wrench: w0 = [f; m] (6,), the dead tool wrench on the robot at e (world axes; N, N·m); default none.
+
+    Returns:
+        K_t. The terms of K, gravity, the tool force and the preload are Hessians of potentials and are
+        symmetrised (round-off only); the tool moment's term −∂(J_e,ωᵀ m)/∂q is not symmetric (a dead moment
+        is not conservative) and is kept as it is.
+    """
+    if not isinstance(state, BracedState) or state.dJ_e is None or state.dJ_b is None:
+        raise InputError("tangent_stiffness needs a BracedState with Hessians: braced.state(q, hessians=True)")
+    p = as_number(preload, "the preload (the contact pushes)", nonnegative=True, unit="N")
+    braced, w0 = _check(state.braced, gravity, wrench)
     nhat = braced.brace.surface.normal
-    if st.dJ_b is None:  # state(hessians=True) always gives them
-        raise InputError("the preloaded compliance needs the kinematic Hessians")
+    with finite_math("the tangent stiffness"):
+        k_sym = np.diag(state.K) - np.einsum("r,rik->ik", w0[:3], state.dJ_e[:3])
+        k_sym -= p * np.einsum("r,rik->ik", nhat, state.dJ_b[:3])
+        if gravity:
+            model = braced.robot.model
+            k_sym += pin.computeGeneralizedGravityDerivatives(model, model.createData(), state.q)
+        k_t: Array = 0.5 * (k_sym + k_sym.T) - np.einsum("r,rik->ik", w0[3:], state.dJ_e[3:])
+    return k_t
+
+
+def _loaded_directions(state: BracedState, k_env: float | None) -> Array:
+    """X, with the unloaded directions dropped (rigid environment) as the ``constrained`` model drops them."""
+    x = state.X
+    if k_env is not None:
+        return x
+    c1 = c1_unchecked(state)
+    with np.errstate(all="ignore"):
+        m = check_finite(x.T @ c1 @ x, "Xᵀ C1 X")
+    w, v = np.linalg.eigh(m)
+    good = w > UNLOADED_TOL * max(float(check_finite(np.trace(c1), "tr(C1)")), 1e-300)
+    if not good.all():
+        warn_unloaded(int(np.sum(~good)), stacklevel=3)
+    return x @ v[:, good]
+
+
+def _kkt_compliance(state: BracedState, k_t: Array, x: Array, k_env: float | None, symmetric: bool) -> Array:
+    """C = J_e δq/δw from [K_t, −J_bᵀX; −XᵀJ_b, −I/k_env] [δq; δλ] = [J_eᵀ δw; 0] (−I/k_env → 0 when rigid)."""
+    n, c = state.q.size, x.shape[1]
     with finite_math("the preloaded compliance"):
-        a = st.J_b[:3].T @ nhat
-        k_t = np.diag(braced.robot.stiffness) - preload * np.einsum("r,rik->ik", nhat, st.dJ_b[:3])
-        kkt = np.zeros((n + 1, n + 1))
-        kkt[:n, :n] = 0.5 * (k_t + k_t.T)
-        kkt[:n, n] = kkt[n, :n] = -a
-        rhs = np.zeros((n + 1, 6))
-        rhs[:n] = st.J_e.T
+        a = state.J_b.T @ x
+        kkt = np.zeros((n + c, n + c))
+        kkt[:n, :n] = k_t
+        kkt[:n, n:] = -a
+        kkt[n:, :n] = -a.T
+        if k_env is not None:
+            kkt[n:, n:] = -np.eye(c) / k_env
+        rhs = np.zeros((n + c, 6))
+        rhs[:n] = state.J_e.T
         try:
             dq = np.linalg.solve(kkt, rhs)[:n]
         except np.linalg.LinAlgError:
             raise SingularityError(
-                "the preloaded equilibrium is singular here (chain 1 cannot move {b} along the normal, or the preload "
-                "cancels a joint stiffness); choose another configuration or a smaller preload"
+                "the loaded equilibrium is singular here (chain 1 cannot move {b} along a constraint direction, or "
+                "the loads cancel a joint stiffness); choose another configuration or smaller loads"
             ) from None
-        c = st.J_e @ dq
-        return 0.5 * (c + c.T)
+        # static stability: the stiffness on the motions the contact allows has eigenvalues of positive real part
+        if k_env is not None:
+            reduced = k_t + k_env * (a @ a.T)
+        elif c:
+            _, s, vt = np.linalg.svd(a.T)
+            z = vt[int(np.sum(s > 1e-12 * max(float(s[0]), 1e-300))) :].T
+            reduced = z.T @ k_t @ z
+        else:
+            reduced = k_t
+        if reduced.size and not float(np.min(np.linalg.eigvals(reduced).real)) > 0.0:
+            raise NumericalError(
+                "the loaded equilibrium is unstable here: the tangent stiffness is not positive on the motions the "
+                "contact allows (gravity, the tool wrench or the preload overcome the joint springs); reduce them"
+            )
+        out: Array = state.J_e @ dq
+        return 0.5 * (out + out.T) if symmetric else out
+
+
+def preloaded_compliance(
+    braced: BracedRobot,
+    q: ArrayLike,
+    preload: float = 0.0,
+    *,
+    gravity: bool = False,
+    wrench: ArrayLike | None = None,
+) -> Array:
+    """Tip compliance C (6×6, world axes, [δp; δθ] per [δf; δm]) about the loaded, preloaded equilibrium at q.
+
+    The springs' set points hold q under gravity g(q) (Pinocchio's generalized gravity), the dead tool wrench
+    w0 = ``wrench`` on the robot at e and the contact wrench f_c0 = P [n̂; 0] of the surface on the robot at b.
+    A small tool wrench δw then deflects the robot by δq, δλ (contact wrench X δλ) with
+
+        [K_t, −J_bᵀX; −XᵀJ_b, −I/k_env] [δq; δλ] = [J_eᵀ δw; 0],   C = J_e δq/δw,
+
+    K_t from :func:`tangent_stiffness`, X the brace's constraint wrenches (any contact type), k_env the brace's
+    environment stiffness (−I/k_env → 0 for a rigid surface, and unloaded directions are dropped as in the
+    ``constrained`` model, with an UnloadedContactWarning). With P = 0, no gravity and no wrench this is the
+    ``constrained`` C_e.
+
+    Args:
+        braced: the braced robot (its brace gives X and k_env).
+        q: (n,) rad, the loaded equilibrium configuration.
+        preload: P ≥ 0 (N), the normal force with which the surface pushes on b at q.
+        gravity: include gravity (the model's gravity vector and link masses).
+        wrench: w0 = [f; m] (6,), the dead tool wrench on the robot at e (world axes; N, N·m); default none.
+
+    Returns:
+        C (6×6): m/N, m/(N·m), rad/N, rad/(N·m) blocks. Symmetric unless w0 has a moment: a dead moment makes
+        K_t, and so C, non-symmetric; C is then the true tangent compliance (δx = C δw), and measures built for a
+        symmetric C (ellipsoids) use its symmetric part ½(C + Cᵀ).
+
+    Raises:
+        SingularityError: the KKT system is singular (chain 1 cannot move {b} along a constraint direction).
+        NumericalError: the loaded equilibrium is unstable (K_t not positive on the allowed motions) or the
+            computation overflows.
+    """
+    braced, w0 = _check(braced, gravity, wrench)
+    p = as_number(preload, "the preload (the contact pushes)", nonnegative=True, unit="N")
+    st = braced.state(q, hessians=True)
+    k_t = tangent_stiffness(st, p, gravity=gravity, wrench=w0)
+    k_env = braced.brace.environment_stiffness
+    return _kkt_compliance(st, k_t, _loaded_directions(st, k_env), k_env, not w0[3:].any())
+
+
+def loaded_free_space_compliance(
+    braced: BracedRobot, q: ArrayLike, *, gravity: bool = False, wrench: ArrayLike | None = None
+) -> Array:
+    """Tip compliance of the unbraced robot about its loaded equilibrium at q: J_e K_t⁻¹ J_eᵀ (6×6, world axes).
+
+    K_t = K + ∂g/∂q − ∂(J_eᵀ w0)/∂q (:func:`tangent_stiffness` with P = 0); the brace is ignored. Equals
+    ``free_space_compliance`` without gravity and wrench. Non-symmetric when w0 has a moment (see
+    :func:`preloaded_compliance`). Raises SingularityError or NumericalError as :func:`preloaded_compliance`.
+    """
+    braced, w0 = _check(braced, gravity, wrench)
+    st = braced.state(q, hessians=True)
+    k_t = tangent_stiffness(st, 0.0, gravity=gravity, wrench=w0)
+    return _kkt_compliance(st, k_t, np.zeros((6, 0)), None, not w0[3:].any())

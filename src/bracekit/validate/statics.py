@@ -6,8 +6,9 @@ Two independent references, both on a plain Pinocchio model whose joints are all
 * :func:`lagrange_compliance` — the first-order equilibrium compliance of the spring-jointed chain with a
   bilateral constraint, from the bordered (KKT) system, not from the closed formula.
 * :func:`solve_static_equilibrium` — the nonlinear static equilibrium of the chain under a dead tip wrench
-  with a frictionless point contact of the brace point {b} on a plane (Newton on the KKT system with the
-  analytic derivative of the Jacobians).
+  with a contact of the brace point {b} on a plane (frictionless point by default, any constraint wrenches X;
+  rigid or a penalty spring), optionally with gravity and a base tip wrench (Newton on the KKT system with
+  the analytic derivatives of the Jacobians and of the gravity torque).
 
 Conventions (SI): wrench w = [f; m] at the tip point e in world axes (N, N·m); deflection
 Δx = [Δp; Δθ] with Δp the change of the tip position (m, world) and Δθ = log3(R_e(q) R_e(q0)ᵀ)
@@ -16,7 +17,7 @@ Conventions (SI): wrench w = [f; m] at the tip point e in world axes (N, N·m); 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -35,8 +36,6 @@ __all__ = [
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 
-
-
 @dataclass(frozen=True, eq=False)
 class StaticResult:
     """Result of :func:`solve_static_equilibrium`.
@@ -44,11 +43,14 @@ class StaticResult:
     Attributes:
         q: equilibrium configuration (n,), rad.
         deflection: Δx = [Δp; Δθ] (6,) of the tip relative to q0 (m, rad; world axes).
-        contact_force: normal force the surface pushes on b (N, ≥ 0 when pressing; 0 if the contact opened).
+        contact_force: normal force the surface pushes on b, n̂ᵀ f_c (N, ≥ 0 when pressing; 0 if the contact
+            opened or there is none).
         converged: True when the scaled residual reached ``tol``.
         iterations: Newton iterations used (summed over the bilateral and the opened solve).
         residual: final scaled residual: max of |torque residual|/k_i (rad) and |gap| (m).
         contact_opened: True when ``bilateral=False`` and the contact would have pulled, so it opened.
+        contact_wrench: f_c = X λ (6,), the wrench [f; m] the surface exerts on the robot at b (world axes;
+            N, N·m); zeros when the contact opened or there is none.
     """
 
     q: np.ndarray
@@ -58,6 +60,7 @@ class StaticResult:
     iterations: int
     residual: float
     contact_opened: bool = False
+    contact_wrench: np.ndarray = field(default_factory=lambda: np.zeros(6))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -197,6 +200,31 @@ def _unit(v: np.ndarray, name: str) -> np.ndarray:
     return v / nrm
 
 
+def _gravity(model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
+    """g(q) (n,), N·m: Pinocchio's generalized gravity (the joint torques that hold the chain against gravity)."""
+    return np.array(pin.computeGeneralizedGravity(model, data, q), dtype=float)
+
+
+def _set_points(
+    model: pin.Model,
+    data: pin.Data,
+    q0: np.ndarray,
+    K: np.ndarray,
+    brace_frame_id: int,
+    tip_frame_id: int,
+    contact_wrench: np.ndarray,
+    base_wrench: np.ndarray,
+    gravity: bool,
+) -> np.ndarray:
+    """q_s = q0 + K⁻¹ (g(q0) − J_e(q0)ᵀ w0 − J_b(q0)ᵀ f_c0): the spring set points that make q0 an equilibrium."""
+    _kinematics(model, data, q0)
+    tau = -pin.getFrameJacobian(model, data, brace_frame_id, _LWA).T @ contact_wrench
+    tau -= pin.getFrameJacobian(model, data, tip_frame_id, _LWA).T @ base_wrench
+    if gravity:
+        tau += _gravity(model, data, q0)
+    return q0 + tau / K
+
+
 def preload_rest_configuration(
     model: pin.Model,
     q0: np.ndarray,
@@ -204,70 +232,101 @@ def preload_rest_configuration(
     brace_frame_id: int,
     surface_normal: np.ndarray,
     preload: float,
+    *,
+    gravity: bool = False,
+    tip_frame_id: int | None = None,
+    base_wrench: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Spring rest configuration that makes q0 the equilibrium under a contact force ``preload`` (N) along n̂.
+    """Spring set points that make q0 the equilibrium under a contact force ``preload`` (N) along n̂.
 
-    rest = q0 − K⁻¹ J_b,v(q0)ᵀ n̂ P (rad, shape (n,)).
+    rest = q0 + K⁻¹ (g(q0) − J_e(q0)ᵀ w0 − J_b,v(q0)ᵀ n̂ P) (rad, shape (n,)); without gravity and base wrench
+    w0 (the defaults) this is q0 − K⁻¹ J_b,vᵀ n̂ P. ``base_wrench`` [f; m] (at the tip, world axes) needs
+    ``tip_frame_id``.
     """
-    data = model.createData()
-    pin.computeJointJacobians(model, data, q0)
-    pin.updateFramePlacements(model, data)
-    Jb = pin.getFrameJacobian(model, data, brace_frame_id, _LWA)[:3, :]
-    return np.asarray(q0, dtype=float) - (Jb.T @ surface_normal) * preload / stiffness
+    q0 = np.asarray(q0, dtype=float).reshape(-1)
+    K = np.asarray(stiffness, dtype=float).reshape(-1)
+    nhat = np.asarray(surface_normal, dtype=float).reshape(3)
+    if base_wrench is not None and tip_frame_id is None:
+        raise InputError("a base_wrench needs the tip_frame_id of the frame it acts at")
+    w0 = np.zeros(6) if base_wrench is None else np.asarray(base_wrench, dtype=float).reshape(6)
+    tip = brace_frame_id if tip_frame_id is None else tip_frame_id
+    fc0 = np.concatenate([preload * nhat, np.zeros(3)])
+    return _set_points(model, model.createData(), q0, K, brace_frame_id, tip, fc0, w0, gravity)
 
 
 # --------------------------------------------------------------------------------------------------
 # Nonlinear static equilibrium
 # --------------------------------------------------------------------------------------------------
-def _newton(
-    model: pin.Model,
-    data: pin.Data,
-    x0: np.ndarray,
-    rest: np.ndarray,
-    K: np.ndarray,
-    brace_frame_id: int,
-    tip_frame_id: int,
-    s: np.ndarray,
-    nhat: np.ndarray,
-    w: np.ndarray,
-    contact: bool,
-    tol: float,
-    max_iter: int,
-) -> tuple[np.ndarray, int, float]:
-    """Damped Newton on the (scaled) KKT residual. Returns (x, iterations, residual)."""
-    n = model.nv
+@dataclass(frozen=True, eq=False)
+class _Problem:
+    """The static problem: K (q − q_s) + g(q) − J_eᵀ w − J_bᵀ X λ = 0 with the contact rows.
 
-    def residual_and_tangent(x: np.ndarray, need_tangent: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    Contact rows: φ(q) = 0 (rigid) or φ(q) + (λ − λ0)/k_env = 0 (penalty), with
+    φ_j(q) = X_f,jᵀ (p_b(q) − p_b(q0)) + X_m,jᵀ log3(R_b(q) R_b(q0)ᵀ).
+    """
+
+    model: pin.Model
+    data: pin.Data
+    K: np.ndarray
+    rest: np.ndarray
+    brace: int
+    tip: int
+    X: np.ndarray
+    lam0: np.ndarray
+    p_b0: np.ndarray
+    R_b0: np.ndarray
+    w: np.ndarray
+    gravity: bool
+    k_env: float | None
+
+    def residual_and_tangent(
+        self, x: np.ndarray, contact: bool, need_tangent: bool
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Scaled residual (torque rows / k_i in rad, contact rows in m or rad) and its derivative."""
+        model, data, K = self.model, self.data, self.K
+        n = model.nv
         q = x[:n]
         _kinematics(model, data, q)
-        Je = pin.getFrameJacobian(model, data, tip_frame_id, _LWA)
+        Je = pin.getFrameJacobian(model, data, self.tip, _LWA)
         F = np.empty(x.size)
-        F[:n] = K * (q - rest) - Je.T @ w
+        F[:n] = K * (q - self.rest) - Je.T @ self.w
         T = None
         if need_tangent:
-            dJe = frame_jacobian_derivative(model, data, tip_frame_id)
             T = np.zeros((x.size, x.size))
-            T[:n, :n] = np.diag(K) - np.einsum("r,rik->ik", w, dJe)
+            T[:n, :n] = np.diag(K) - np.einsum("r,rik->ik", self.w, frame_jacobian_derivative(model, data, self.tip))
+        if self.gravity:
+            F[:n] += _gravity(model, data, q)
+            if T is not None:
+                T[:n, :n] += pin.computeGeneralizedGravityDerivatives(model, data, q)
         if contact:
-            lam = x[n]
-            Jb = pin.getFrameJacobian(model, data, brace_frame_id, _LWA)[:3, :]
-            a = Jb.T @ nhat
-            F[:n] -= a * lam
-            F[n] = -(nhat @ (data.oMf[brace_frame_id].translation - s))
-            if need_tangent:
-                assert T is not None
-                dJb = frame_jacobian_derivative(model, data, brace_frame_id)[:3]
-                T[:n, :n] -= lam * np.einsum("r,rik->ik", nhat, dJb)
-                T[:n, n] = -a
-                T[n, :n] = -a
-        # scale: torque rows by 1/k (→ rad), gap row stays in metres
+            lam = x[n:]
+            Jb = pin.getFrameJacobian(model, data, self.brace, _LWA)
+            A = Jb.T @ self.X  # (n, c)
+            F[:n] -= A @ lam
+            M = data.oMf[self.brace].rotation @ self.R_b0.T
+            phi = self.X[:3].T @ (data.oMf[self.brace].translation - self.p_b0) + self.X[3:].T @ pin.log3(M)
+            F[n:] = -phi
+            if self.k_env is not None:
+                F[n:] -= (lam - self.lam0) / self.k_env
+            if T is not None:
+                dJb = frame_jacobian_derivative(model, data, self.brace)
+                T[:n, :n] -= np.einsum("r,rik->ik", self.X @ lam, dJb)
+                T[:n, n:] = -A
+                T[n:, :n] = -(self.X[:3].T @ Jb[:3] + self.X[3:].T @ pin.Jlog3(M) @ M.T @ Jb[3:])
+                if self.k_env is not None:
+                    T[n:, n:] = -np.eye(lam.size) / self.k_env
         F[:n] /= K
         if T is not None:
             T[:n, :] /= K[:, None]
         return F, T
 
+
+def _newton(
+    problem: _Problem, x0: np.ndarray, contact: bool, tol: float, max_iter: int
+) -> tuple[np.ndarray, int, float]:
+    """Damped Newton on the (scaled) KKT residual. Returns (x, iterations, residual)."""
     x = x0.copy()
-    F, T = residual_and_tangent(x, True)
+    F, T = problem.residual_and_tangent(x, contact, True)
     res = float(np.max(np.abs(F)))
     it = 0
     while res > tol and it < max_iter:
@@ -284,17 +343,42 @@ def _newton(
         step = 1.0
         while True:  # backtracking on the scaled residual
             x_try = x + step * dx
-            F_try, _ = residual_and_tangent(x_try, False)
+            F_try, _ = problem.residual_and_tangent(x_try, contact, False)
             res_try = float(np.max(np.abs(F_try)))
             if res_try < res or step < 1e-4:
                 break
             step *= 0.5
         x = x_try
-        F, T = residual_and_tangent(x, True)
+        F, T = problem.residual_and_tangent(x, contact, True)
         res = float(np.max(np.abs(F)))
         if not np.isfinite(res):
             raise StaticSolveError(f"static equilibrium diverged (non-finite residual at iteration {it})")
     return x, it, res
+
+
+def _wrench(value: np.ndarray | None, name: str) -> np.ndarray:
+    if value is None:
+        return np.zeros(6)
+    w = np.asarray(value, dtype=float).reshape(-1)
+    if w.size != 6 or not np.all(np.isfinite(w)):
+        raise InputError(f"{name} must be 6 finite numbers [f; m] (N, N·m), got shape {w.shape}")
+    return w
+
+
+def _constraint_wrenches(value: np.ndarray | None, nhat: np.ndarray, preload: float) -> tuple[np.ndarray, np.ndarray]:
+    """X (6×c) and λ0 with X λ0 = [P n̂; 0]; X defaults to the frictionless point's [n̂; 0]."""
+    if value is None:
+        return np.concatenate([nhat, np.zeros(3)])[:, None], np.array([preload])
+    X = np.asarray(value, dtype=float)
+    if X.ndim != 2 or X.shape[0] != 6 or not 1 <= X.shape[1] <= 6 or not np.all(np.isfinite(X)):
+        raise InputError(f"constraint_wrenches must be a finite 6×c matrix (1 ≤ c ≤ 6), got shape {X.shape}")
+    if np.linalg.matrix_rank(X) < X.shape[1]:
+        raise InputError("constraint_wrenches must have independent columns")
+    normal = np.concatenate([nhat, np.zeros(3)])
+    coeff = np.linalg.lstsq(X, normal, rcond=None)[0]
+    if np.linalg.norm(X @ coeff - normal) > 1e-9:
+        raise InputError("constraint_wrenches must transmit the normal force [n̂; 0] (every contact type does)")
+    return X, preload * coeff
 
 
 def solve_static_equilibrium(
@@ -311,12 +395,26 @@ def solve_static_equilibrium(
     preload: float = 0.0,
     tol: float = 1e-12,
     max_iter: int = 50,
+    gravity: bool = False,
+    base_wrench: np.ndarray | None = None,
+    environment_stiffness: float | None = None,
+    constraint_wrenches: np.ndarray | None = None,
+    contact: bool = True,
 ) -> StaticResult:
-    """Nonlinear static equilibrium of the spring-jointed chain, brace point b on a frictionless plane.
+    """Nonlinear static equilibrium of the spring-jointed chain, brace point b on a plane.
 
-    Solves for (q, λ): K (q − rest) = J_e(q)ᵀ w + J_b,v(q)ᵀ n̂ λ and n̂ᵀ(p_b(q) − surface_point) = 0, with
-    rest = q0 − K⁻¹ J_b,v(q0)ᵀ n̂ P (the springs are set so that q0 is the equilibrium under the preload P
-    and no wrench). The wrench is a dead load: a constant world wrench at the moving tip point.
+    Solves for (q, λ):
+
+        K (q − q_s) + g(q) − J_e(q)ᵀ (w0 + w) − J_b(q)ᵀ X λ = 0,   φ(q) = 0 (rigid contact),
+
+    the joint torques τ = K (q_s − q) balancing gravity g (Pinocchio's generalized gravity, with the model's
+    gravity vector), the dead tip wrench and the contact wrench X λ that the surface exerts on the robot at b
+    (world axes). The set points q_s = q0 + K⁻¹ (g(q0) − J_e(q0)ᵀ w0 − J_b(q0)ᵀ [P n̂; 0]) make q0 the
+    equilibrium under gravity, the base wrench w0 and the preload P, so the deflection is the response to
+    ``wrench`` about that loaded equilibrium. The loads are dead: constant world wrenches at the moving tip.
+    The contact keeps b on the constraint manifold φ_j(q) = X_f,jᵀ (p_b(q) − p_b(q0)) + X_m,jᵀ
+    log3(R_b(q) R_b(q0)ᵀ) = 0; with a finite environment stiffness it is a penalty spring instead:
+    X λ with λ = λ0 − k_env φ(q), where X λ0 = [P n̂; 0].
 
     Args:
         model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
@@ -326,12 +424,19 @@ def solve_static_equilibrium(
         tip_frame_id: Pinocchio frame id of {e}.
         surface_point: (3,) m, a point of the plane (world).
         surface_normal: (3,) unit normal, pointing out of the surface toward the robot.
-        wrench: (6,) [f; m] at e, world axes (N, N·m).
-        bilateral: keep the contact even if it pulls (λ < 0). With False, a pulling contact opens and
-            the free-chain equilibrium is returned with ``contact_opened=True``.
-        preload: contact force P ≥ 0 (N) at q0 before the wrench is applied.
-        tol: convergence tolerance on the scaled residual (rad for torques/k_i, m for the gap).
+        wrench: (6,) [f; m] at e, world axes (N, N·m), applied on top of ``base_wrench``.
+        bilateral: keep the contact even if it pulls (normal force < 0). With False, a pulling contact opens
+            and the free-chain equilibrium is returned with ``contact_opened=True``.
+        preload: contact force P ≥ 0 (N) along n̂ at q0 before the wrench is applied.
+        tol: convergence tolerance on the scaled residual (rad for torques/k_i, m or rad for the contact).
         max_iter: Newton iteration limit (per solve).
+        gravity: include gravity (the model's ``gravity`` vector, default 9.81 m/s² along −z, and its masses).
+        base_wrench: (6,) [f; m] dead wrench at e (world axes) already acting at q0; default none.
+        environment_stiffness: k_env > 0 (N/m along constraint forces, N·m/rad along constraint moments) for a
+            penalty contact; None (default) for a rigid one.
+        constraint_wrenches: X (6×c), the contact's constraint wrenches at b (world axes; e.g.
+            ``Brace.X()``); it must transmit [n̂; 0]. Default [n̂; 0], the frictionless point.
+        contact: False for the free chain (no contact at all; ``preload`` must then be 0).
 
     Returns:
         :class:`StaticResult` (deflection relative to q0).
@@ -352,63 +457,78 @@ def solve_static_equilibrium(
         raise InputError(f"q0 and stiffness must have shape ({n},), got {q0.shape} and {K.shape}")
     if w.size != 6:
         raise InputError(f"wrench must have shape (6,), got {w.shape}")
+    w0 = _wrench(base_wrench, "base_wrench")
     if not np.all(np.isfinite(K)) or np.any(K <= 0.0):
         raise InputError("joint stiffnesses must be finite and > 0")
     if not (np.isfinite(preload) and preload >= 0.0):
         raise InputError(f"preload must be a finite force >= 0 N, got {preload}")
+    if not contact and preload != 0.0:
+        raise InputError(f"the free chain (contact=False) carries no preload, got preload={preload}")
+    k_env = environment_stiffness
+    if k_env is not None and not (np.isfinite(k_env) and k_env > 0.0):
+        raise InputError(f"environment_stiffness must be a finite stiffness > 0 (or None if rigid), got {k_env}")
     for fid in (brace_frame_id, tip_frame_id):
         if not 0 <= fid < model.nframes:
             raise InputError(f"frame id {fid} out of range (model has {model.nframes} frames)")
+    X, lam0 = _constraint_wrenches(constraint_wrenches, nhat, preload)
 
     data = model.createData()
     _kinematics(model, data, q0)
-    gap0 = float(nhat @ (data.oMf[brace_frame_id].translation - s))
-    if abs(gap0) > 1e-8:
-        raise InputError(f"brace point is not on the surface at q0 (gap {gap0:.3e} m)")
-    Jb0 = pin.getFrameJacobian(model, data, brace_frame_id, _LWA)[:3, :]
-    a0 = Jb0.T @ nhat
-    Je0 = pin.getFrameJacobian(model, data, tip_frame_id, _LWA)
-    if float(np.linalg.norm(a0 / np.sqrt(K))) <= 1e-12 * max(float(np.linalg.norm(Je0 / np.sqrt(K))), 1.0):
-        raise StaticSolveError(
-            "the joints cannot move the brace point along the surface normal (J_b,vᵀ n̂ = 0): "
-            "the contact carries no load and the constrained equilibrium is undefined"
-        )
-    rest = q0 - a0 * preload / K
-
-    x0 = np.concatenate([q0, [preload]])
-    x, it, res = _newton(model, data, x0, rest, K, brace_frame_id, tip_frame_id, s, nhat, w, True, tol, max_iter)
-    if res > tol:
-        raise StaticSolveError(
-            f"static equilibrium did not converge in {max_iter} Newton iterations "
-            f"(scaled residual {res:.3e} > tol {tol:.1e}); the load may be too large"
-        )
-    q, lam = x[:n], float(x[n])
-    opened = False
-    if not bilateral and lam < 0.0:
-        xf, it2, res = _newton(
-            model, data, q.copy(), rest, K, brace_frame_id, tip_frame_id, s, nhat, w, False, tol, max_iter
-        )
-        it += it2
-        if res > tol:
+    p_b0 = data.oMf[brace_frame_id].translation.copy()
+    R_b0 = data.oMf[brace_frame_id].rotation.copy()
+    if contact:
+        gap0 = float(nhat @ (p_b0 - s))
+        if abs(gap0) > 1e-8:
+            raise InputError(f"brace point is not on the surface at q0 (gap {gap0:.3e} m)")
+        A0 = pin.getFrameJacobian(model, data, brace_frame_id, _LWA).T @ X
+        Je0 = pin.getFrameJacobian(model, data, tip_frame_id, _LWA)
+        sv = np.linalg.svd(A0 / np.sqrt(K)[:, None], compute_uv=False)
+        if sv[-1] <= 1e-12 * max(float(np.linalg.norm(Je0 / np.sqrt(K))), 1.0):
             raise StaticSolveError(
-                f"free (opened-contact) equilibrium did not converge in {max_iter} Newton iterations "
-                f"(scaled residual {res:.3e} > tol {tol:.1e})"
+                "the joints cannot move the brace point along a constraint direction (J_bᵀ X rank deficient, e.g. "
+                "J_b,vᵀ n̂ = 0): the contact carries no load and the constrained equilibrium is undefined"
             )
-        q = xf
+    rest = _set_points(model, data, q0, K, brace_frame_id, tip_frame_id, X @ lam0, w0, gravity)
+    problem = _Problem(model, data, K, rest, brace_frame_id, tip_frame_id, X, lam0, p_b0, R_b0, w0 + w, gravity, k_env)
+
+    if not contact:
+        q, it, res = _newton(problem, q0.copy(), False, tol, max_iter)
+        _check_converged(res, tol, max_iter, "free-chain ")
+        return StaticResult(q, _tip_deflection(model, data, q, q0, tip_frame_id), 0.0, True, it, res, False)
+    x, it, res = _newton(problem, np.concatenate([q0, lam0]), True, tol, max_iter)
+    _check_converged(res, tol, max_iter, "")
+    q, lam = x[:n], x[n:]
+    fc = X @ lam
+    opened = False
+    if not bilateral and float(nhat @ fc[:3]) < 0.0:
+        normal_force = float(nhat @ fc[:3])
+        q, it2, res = _newton(problem, q.copy(), False, tol, max_iter)
+        it += it2
+        _check_converged(res, tol, max_iter, "free (opened-contact) ")
         _kinematics(model, data, q)
         gap = float(nhat @ (data.oMf[brace_frame_id].translation - s))
-        if gap < -tol:
+        surface = 0.0 if k_env is None else preload / k_env  # where the undeformed (penalty) surface lies
+        if gap < surface - tol:
             raise StaticSolveError(
-                f"unilateral contact is inconsistent: the bilateral solution pulls (λ = {lam:.3e} N) but "
-                f"the opened solution penetrates the surface (gap {gap:.3e} m)"
+                f"unilateral contact is inconsistent: the bilateral solution pulls (normal force "
+                f"{normal_force:.3e} N) but the opened solution penetrates the surface (gap {gap - surface:.3e} m)"
             )
-        lam, opened = 0.0, True
+        fc, opened = np.zeros(6), True
     return StaticResult(
         q=q,
         deflection=_tip_deflection(model, data, q, q0, tip_frame_id),
-        contact_force=lam,
+        contact_force=float(nhat @ fc[:3]),
         converged=True,
         iterations=it,
         residual=res,
         contact_opened=opened,
+        contact_wrench=fc,
     )
+
+
+def _check_converged(res: float, tol: float, max_iter: int, which: str) -> None:
+    if res > tol:
+        raise StaticSolveError(
+            f"{which}static equilibrium did not converge in {max_iter} Newton iterations "
+            f"(scaled residual {res:.3e} > tol {tol:.1e}); the load may be too large"
+        )
