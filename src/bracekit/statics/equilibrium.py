@@ -248,9 +248,9 @@ def contact_responses(
         c1_trace = np.einsum("nri,nir->n", j_b, kj_b)  # tr(J_b K⁻¹ J_bᵀ): the scale of "unloaded"
         if k_env is None:
             gain, unloaded = loaded_gain(schur, c1_trace)
-        else:  # the augmented surface is softer: 1/k' = 1/k_env − ρ... per configuration
+        else:  # with ρ a aᵀ in the stiffness, the surface's stiffness seen by the multiplier is k_env − ρ
             inv_k = 1.0 / (k_env - rho)
-            gain = np.linalg.inv(schur + inv_k[:, None, None] * np.eye(c))
+            gain = np.asarray(np.linalg.inv(schur + inv_k[:, None, None] * np.eye(c)), dtype=np.float64)
             unloaded = np.zeros(count, dtype=int)
         mult = -gain @ (np.swapaxes(a, 1, 2) @ kj_e)  # (N, c, 6): the augmented multiplier per unit w
         joint_gain = kj_e + ka @ mult
