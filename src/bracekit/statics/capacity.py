@@ -1,0 +1,275 @@
+"""Load capacity of the preloaded brace: how far each listed tool wrench can be scaled before the brace fails.
+
+For a tool wrench w (6,) scaled by s ≥ 0, the first-order response of :mod:`bracekit.statics.equilibrium` gives
+f_c(s) = f_c0 + s δf_c(w) and τ(s) = τ0 + s δτ(w) (conventions there: f_c by the surface on the robot at b,
+f_n = n̂ᵀ f_c[:3] ≥ 0 pressing). The capacity is the largest s before:
+
+* lift-off: f_n(s) < 0 (the surface would have to pull);
+* slip (only when μ is given): ‖f_t(s)‖ > μ f_n(s), the Coulomb cone on the contact force. A ``soft_finger``
+  contact's normal moment (and any contact moment) is carried without limit: only its force meets the cone;
+* saturation: |τ_i(s)| > effort_i for some joint. Joints whose URDF effort is 0 or inf are unlimited.
+
+Each limit is an exact closed form of the first-order model (linear in s, or quadratic for the cone): inf when the
+load never reaches it, 0 when it is already violated at s = 0 (or is violated by any s > 0, e.g. lift-off from
+P = 0 under a pulling load). Rates below RATE_RTOL of the load's response are taken as zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit._linalg import as_array, show
+from bracekit.errors import InputError
+from bracekit.kinematics import BracedRobot
+from bracekit.model.robot import Robot
+from bracekit.statics.equilibrium import ContactResponses, contact_responses, wrench_list
+
+Array = NDArray[np.float64]
+
+#: A rate of change (per unit scale) below this fraction of the load's response is taken as zero (round-off).
+RATE_RTOL = 1e-12
+
+
+def effort_limits(robot: Robot, effort: ArrayLike | None = None) -> Array:
+    """Actuator limits (n,), N·m (N for a prismatic joint), in chain order; inf for an unlimited joint.
+
+    Args:
+        robot: the robot; its URDF ``<limit effort>`` values (``model.effortLimit``) are used when `effort`
+            is None, with 0 (a URDF without effort, e.g. a continuous joint) read as unlimited.
+        effort: limits to use instead (n,), each > 0 or inf.
+    """
+    if effort is None:
+        e = np.asarray(robot.model.effortLimit, dtype=float).copy()
+        return np.where((e > 0.0) & np.isfinite(e), e, np.inf)
+    a = as_array(effort, "the effort limits (N·m)", finite=False).reshape(-1)
+    if a.size != robot.n or not np.all(a > 0.0):  # also refuses NaN
+        raise InputError(f"the effort limits must be {robot.n} numbers > 0 (inf: unlimited), got {show(a)}")
+    return a
+
+
+def peak_ratio(tau: ArrayLike, effort: Array) -> Array:
+    """max_i |τ_i| / effort_i over the last axis of `tau` (…, n); 0 where no joint is limited."""
+    t = np.abs(np.asarray(tau, dtype=float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(np.isfinite(effort), t / effort, 0.0)
+    return np.asarray(np.max(r, axis=-1), dtype=float)
+
+
+def liftoff_scale(f_n0: ArrayLike, d_n: ArrayLike, scale: ArrayLike = 1.0) -> Array:
+    """Largest s with f_n0 + s d_n ≥ 0 on [0, s]: f_n0/(−d_n) if d_n < 0, else inf; 0 if f_n0 < 0.
+
+    Rates |d_n| ≤ RATE_RTOL·`scale` (the size of the load's response, N) count as zero.
+    """
+    f0, d = np.broadcast_arrays(np.asarray(f_n0, dtype=float), np.asarray(d_n, dtype=float))
+    falling = d < -RATE_RTOL * np.asarray(scale, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(falling, f0 / np.where(falling, -d, 1.0), np.inf)
+    return np.where(f0 < 0.0, 0.0, np.maximum(s, 0.0))
+
+
+def slip_scale(
+    f_t0: ArrayLike, d_t: ArrayLike, f_n0: ArrayLike, d_n: ArrayLike, mu: float, scale: ArrayLike = 1.0
+) -> Array:
+    """Largest s with ‖f_t0 + s d_t‖ ≤ μ (f_n0 + s d_n) on [0, s]: the exit of a line from the Coulomb cone.
+
+    f_t0, d_t (…, 3) are tangential forces and f_n0, d_n (…) normal forces. The cone is convex, so the
+    admissible scales form an interval [0, s*]: s* = inf if the rate (d_t, d_n) lies in the cone, else the
+    largest root of μ²f_n(s)² − ‖f_t(s)‖² = 0 with f_n ≥ 0 (the quadratic's stable roots). 0 if (f_t0, f_n0)
+    is outside the cone. Rates below RATE_RTOL·`scale` count as zero.
+    """
+    ft0, dt = np.asarray(f_t0, dtype=float), np.asarray(d_t, dtype=float)
+    fn0, dn = np.broadcast_arrays(np.asarray(f_n0, dtype=float), np.asarray(d_n, dtype=float))
+    tol = RATE_RTOL * np.asarray(scale, dtype=float)
+    nt0, ndt = np.linalg.norm(ft0, axis=-1), np.linalg.norm(dt, axis=-1)
+    inside0 = (fn0 >= 0.0) & (nt0 <= mu * fn0 + tol)
+    inside_rate = mu * dn >= ndt - tol
+    a = mu * mu * dn * dn - ndt * ndt
+    b = 2.0 * (mu * mu * fn0 * dn - np.sum(ft0 * dt, axis=-1))
+    c = np.maximum(mu * mu * fn0 * fn0 - nt0 * nt0, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
+        qq = -0.5 * (b + np.where(b >= 0.0, root, -root))
+        r1 = np.where(a != 0.0, qq / a, np.where(b < 0.0, -c / b, -np.inf))
+        r2 = np.where(qq != 0.0, c / qq, -np.inf)
+        best = np.full(np.shape(a), 0.0)
+        for r in (r1, r2):
+            ok = np.isfinite(r) & (r >= 0.0) & (fn0 + r * dn >= -tol * np.maximum(r, 1.0))
+            best = np.where(ok, np.maximum(best, r), best)
+    return np.where(~inside0, 0.0, np.where(inside_rate, np.inf, best))
+
+
+def saturation_scale(tau0: ArrayLike, d_tau: ArrayLike, effort: Array, scale: ArrayLike = 1.0) -> Array:
+    """Largest s with |τ0_i + s dτ_i| ≤ effort_i for every joint (last axis n); 0 if one is already beyond.
+
+    Unlimited joints (effort inf) never saturate; rates below RATE_RTOL·`scale` (N·m) count as zero.
+    """
+    t0, d = np.broadcast_arrays(np.asarray(tau0, dtype=float), np.asarray(d_tau, dtype=float))
+    tol = RATE_RTOL * np.asarray(scale, dtype=float)[..., None]
+    room = np.where(d > 0.0, effort - t0, effort + t0)  # distance to the limit the joint moves toward
+    moving = np.isfinite(effort) & (np.abs(d) > tol)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(moving, room / np.where(moving, np.abs(d), 1.0), np.inf)
+    s = np.where(np.abs(t0) > effort, 0.0, np.maximum(s, 0.0))
+    return np.asarray(np.min(s, axis=-1), dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class Capacity:
+    """Load capacity at one configuration for m listed tool wrenches (scales are dimensionless multipliers).
+
+    Attributes:
+        liftoff: scale of each wrench at which the contact would pull (m,).
+        slip: scale at which the contact force leaves the Coulomb cone (m,); None without μ.
+        torque: scale at which an actuator saturates (m,).
+        liftoff_margin, slip_margin, torque_margin: their minima over the wrenches (slip: None without μ).
+        peak_unloaded: max_i |τ0_i| / effort_i without tool load (0 if no joint is limited).
+        peak_loaded: max_i |τ_i| / effort_i under each wrench at scale 1 (m,).
+        normal_force: f_n under each wrench at scale 1 (m,), N.
+        tangential_force: ‖f_t‖ under each wrench at scale 1 (m,), N.
+        contact_wrench: f_c under each wrench at scale 1 (m×6), N and N·m.
+    """
+
+    liftoff: Array
+    slip: Array | None
+    torque: Array
+    liftoff_margin: float
+    slip_margin: float | None
+    torque_margin: float
+    peak_unloaded: float
+    peak_loaded: Array
+    normal_force: Array
+    tangential_force: Array
+    contact_wrench: Array
+
+
+@dataclass(frozen=True, eq=False)
+class CapacityAlong:
+    """:class:`Capacity` at N configurations: per-wrench fields (N×m), margins and peak_unloaded (N,)."""
+
+    liftoff: Array
+    slip: Array | None
+    torque: Array
+    liftoff_margin: Array
+    slip_margin: Array | None
+    torque_margin: Array
+    peak_unloaded: Array
+    peak_loaded: Array
+    normal_force: Array
+    tangential_force: Array
+    contact_wrench: Array
+
+    def __len__(self) -> int:
+        return int(self.liftoff.shape[0])
+
+    def at(self, i: int) -> Capacity:
+        """The capacity at configuration i."""
+        return Capacity(
+            liftoff=self.liftoff[i],
+            slip=None if self.slip is None else self.slip[i],
+            torque=self.torque[i],
+            liftoff_margin=float(self.liftoff_margin[i]),
+            slip_margin=None if self.slip_margin is None else float(self.slip_margin[i]),
+            torque_margin=float(self.torque_margin[i]),
+            peak_unloaded=float(self.peak_unloaded[i]),
+            peak_loaded=self.peak_loaded[i],
+            normal_force=self.normal_force[i],
+            tangential_force=self.tangential_force[i],
+            contact_wrench=self.contact_wrench[i],
+        )
+
+
+def capacity_of(responses: ContactResponses, wrenches: ArrayLike, effort: Array) -> CapacityAlong:
+    """The capacity from contact responses already computed (N configurations) for wrenches (m×6).
+
+    `effort` (n,) is :func:`effort_limits` (inf: unlimited). The slip limit is evaluated when the responses
+    carry a friction coefficient.
+    """
+    ws = wrench_list(wrenches)
+    nhat = responses.normal
+    d_f = np.einsum("nij,mj->nmi", responses.contact_gain, ws)  # (N, m, 6)
+    d_tau = np.einsum("nij,mj->nmi", responses.torque_gain, ws)  # (N, m, n)
+    f0 = responses.f_c0[:, None, :]
+    fn0 = f0[..., :3] @ nhat  # (N, 1)
+    ft0 = f0[..., :3] - fn0[..., None] * nhat
+    dn = d_f[..., :3] @ nhat  # (N, m)
+    dt = d_f[..., :3] - dn[..., None] * nhat
+    force_scale = np.linalg.norm(d_f[..., :3], axis=-1)
+    liftoff = liftoff_scale(fn0, dn, force_scale)
+    mu = responses.friction
+    slip = None if mu is None else slip_scale(ft0, dt, fn0, dn, mu, force_scale)
+    tau0 = responses.tau0[:, None, :]
+    torque = saturation_scale(tau0, d_tau, effort, np.max(np.abs(d_tau), axis=-1))
+    wrench1 = f0 + d_f
+    normal = wrench1[..., :3] @ nhat
+    return CapacityAlong(
+        liftoff=liftoff,
+        slip=slip,
+        torque=torque,
+        liftoff_margin=np.min(liftoff, axis=1),
+        slip_margin=None if slip is None else np.min(slip, axis=1),
+        torque_margin=np.min(torque, axis=1),
+        peak_unloaded=peak_ratio(responses.tau0, effort),
+        peak_loaded=peak_ratio(tau0 + d_tau, effort),
+        normal_force=normal,
+        tangential_force=np.linalg.norm(wrench1[..., :3] - normal[..., None] * nhat, axis=-1),
+        contact_wrench=wrench1,
+    )
+
+
+def capacity_along(
+    braced: BracedRobot,
+    qs: ArrayLike,
+    wrenches: ArrayLike,
+    *,
+    preload: float = 0.0,
+    gravity: bool = False,
+    friction: float | None = None,
+    effort: ArrayLike | None = None,
+    geometric: bool = True,
+) -> CapacityAlong:
+    """Load capacity at each configuration of `qs` (N×n, e.g. a run's samples) for the tool wrenches (m×6).
+
+    Args:
+        braced: the braced robot.
+        qs: configurations (N×n, rad), each with {b} on the surface.
+        wrenches: tool wrenches [f; m] at e, world axes (m×6, N and N·m).
+        preload: P ≥ 0 (N), the same at every configuration.
+        gravity: include gravity torques.
+        friction: μ ≥ 0 for the slip limit (and a sticking frictionless point); None: no slip limit.
+        effort: actuator limits (n,) instead of the URDF's (:func:`effort_limits`).
+        geometric: use the tangent stiffness in the response (:func:`~bracekit.statics.contact_response`).
+    """
+    if not isinstance(braced, BracedRobot):
+        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
+    e = effort_limits(braced.robot, effort)
+    ws = wrench_list(wrenches)
+    resp = contact_responses(braced, qs, preload=preload, gravity=gravity, friction=friction, geometric=geometric)
+    return capacity_of(resp, ws, e)
+
+
+def load_capacity(
+    braced: BracedRobot,
+    q: ArrayLike,
+    wrenches: ArrayLike,
+    *,
+    preload: float = 0.0,
+    gravity: bool = False,
+    friction: float | None = None,
+    effort: ArrayLike | None = None,
+    geometric: bool = True,
+) -> Capacity:
+    """:func:`capacity_along` at one configuration q (n,)."""
+    q_row = as_array(q, "the configuration (rad)").reshape(1, -1)
+    return capacity_along(
+        braced,
+        q_row,
+        wrenches,
+        preload=preload,
+        gravity=gravity,
+        friction=friction,
+        effort=effort,
+        geometric=geometric,
+    ).at(0)
