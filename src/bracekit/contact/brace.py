@@ -26,6 +26,9 @@ class Brace:
         surface: the bracing plane.
         contact: contact type (default: the paper's frictionless point contact).
         region_radius: r_max of the circular bracing region centred at ``surface.point`` (m), or None.
+        surface_radius: the surface as an obstacle for the links: a disk of this radius about ``surface.point``
+            (m, ≥ region_radius), e.g. a table top; None: the bracing region's disk, or the whole plane when
+            there is no region either.
         environment_stiffness: stiffness of the environment along each constraint direction (N/m, or
             N·m/rad for constraint moments); None means rigid (the paper's assumption).
         pad_axis: whether the z axis of {b} is a pad direction (the brace's contact normal on the robot's
@@ -39,6 +42,7 @@ class Brace:
     region_radius: float | None = None
     environment_stiffness: float | None = None
     pad_axis: bool = True
+    surface_radius: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.frame, str) or not self.frame:
@@ -52,6 +56,15 @@ class Brace:
             radius = as_number(self.region_radius, "region_radius", positive=True, unit="m", error=ContactError)
             if not radius < 1e150:  # r_max² must stay in float64
                 raise ContactError(f"region_radius must be a length below 1e150 m, got {radius:g}")
+        if self.surface_radius is not None:
+            extent = as_number(self.surface_radius, "surface_radius", positive=True, unit="m", error=ContactError)
+            if not extent < 1e150:
+                raise ContactError(f"surface_radius must be a length below 1e150 m, got {extent:g}")
+            if self.region_radius is not None and extent < self.region_radius:
+                raise ContactError(
+                    f"surface_radius {extent:g} m is smaller than the bracing region's radius {self.region_radius:g} m; "
+                    "the region lies on the surface: give a surface at least as large"
+                )
         if self.environment_stiffness is not None:
             as_number(
                 self.environment_stiffness,
@@ -60,6 +73,11 @@ class Brace:
                 unit="N/m",
                 error=ContactError,
             )
+
+    @property
+    def obstacle_radius(self) -> float | None:
+        """Radius (m) of the disk of the plane the links must stay clear of; None: the whole plane."""
+        return self.region_radius if self.surface_radius is None else self.surface_radius
 
     @property
     def kind(self) -> ContactType:

@@ -2,9 +2,10 @@
 
 The rule: a capsule's clearance is the least signed distance from the plane (n̂ᵀ(p − point), positive on the
 robot's side) over the part of its segment p(t) = a + t (b − a), t ∈ [0, 1], that lies over the obstacle,
-minus the capsule's radius; a link's clearance is the least over its capsules. Without a bracing region the
-whole plane is the obstacle and the part is the whole segment. With a region (``Brace.region_radius`` = r_max)
-only the plane's disk of radius r_max about the surface's point c is: the segment is clipped to the infinite
+minus the capsule's radius; a link's clearance is the least over its capsules. The obstacle is the plane's disk
+of radius r_max = ``Brace.obstacle_radius`` about the surface's point c (``Brace.surface_radius``, e.g. a table
+top, else the bracing region's radius); without either the whole plane is the obstacle and the part is the whole
+segment. With a disk the segment is clipped to the infinite
 cylinder over the disk, |L (p(t) − c)| ≤ r_max with L = I − n̂n̂ᵀ, a quadratic in t whose roots bound the
 interval [t0, t1] (empty: the capsule does not count). The distance is linear in t, so its least value over
 [t0, t1] is at t0 or t1. The link carrying {b} (every capsule of the brace frame's joint) is left out: its pad
@@ -39,6 +40,8 @@ _FLAT = 1e-28
 #: cos of the angle between the segment and the cylinder's outward normal below which a clip point only grazes
 #: the cylinder: its t* is held fixed (∂t*/∂q would grow without bound).
 _GRAZE = 1e-9
+#: Tolerance on the segment parameter t of the golden-section search for the point nearest the solid.
+_T_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -75,7 +78,7 @@ class Clearance:
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
         surface = braced.brace.surface
         self._normal, self._point = surface.normal, surface.point
-        self._r_max = braced.brace.region_radius
+        self._r_max = braced.brace.obstacle_radius
         self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
 
     def _interval(self, pa: Array, d: Array, slope: float) -> tuple[float, float] | None:
@@ -107,6 +110,46 @@ class Clearance:
         t0, t1 = max(lo, 0.0), min(hi, 1.0)
         return (t0, t1) if t0 <= t1 else None
 
+    def _point_distance(self, p: Array) -> tuple[float, Array]:
+        """Distance (m) of p (3,) from the solid (the disk and the cylinder below it) and its unit ∂/∂p (3,).
+
+        Inside the solid or on its top the distance is max(h, 0) with direction n̂ (h the height over the plane).
+        """
+        n, r_max = self._normal, float(self._r_max)  # type: ignore[arg-type]
+        rel = p - self._point
+        h = float(n @ rel)
+        w = rel - n * h
+        rho = float(np.linalg.norm(w))
+        if rho <= r_max:
+            return max(h, 0.0), n
+        out = w / rho
+        if h <= 0.0:
+            return rho - r_max, out
+        dist = math.hypot(rho - r_max, h)
+        return dist, ((rho - r_max) * out + h * n) / dist
+
+    def _solid_distance(self, pa: Array, d: Array) -> tuple[float, float, Array]:
+        """(t*, distance, unit direction) of the point of the segment pa + t d nearest the solid (t ∈ [0, 1]).
+
+        The distance from a convex solid is convex along a segment: golden-section search to 1e-9 of t.
+        """
+        lo, hi = 0.0, 1.0
+        ratio = 0.5 * (math.sqrt(5.0) - 1.0)
+        x1, x2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+        f1, f2 = self._point_distance(pa + x1 * d)[0], self._point_distance(pa + x2 * d)[0]
+        while hi - lo > _T_TOL:
+            if f1 <= f2:
+                hi, x2, f2 = x2, x1, f1
+                x1 = hi - ratio * (hi - lo)
+                f1 = self._point_distance(pa + x1 * d)[0]
+            else:
+                lo, x1, f1 = x1, x2, f2
+                x2 = lo + ratio * (hi - lo)
+                f2 = self._point_distance(pa + x2 * d)[0]
+        best = min((0.0, 0.5 * (lo + hi), 1.0), key=lambda t: self._point_distance(pa + t * d)[0])
+        dist, direction = self._point_distance(pa + best * d)
+        return best, dist, direction
+
     def links(self, q: ArrayLike, gradient: bool = True) -> list[LinkDistance]:
         """Each link with a capsule segment over the region's disk: its clearance (m) and, if `gradient`, ∂/∂q (n,).
 
@@ -131,19 +174,24 @@ class Clearance:
             d = pb - pa
             slope = float(n @ d)  # n̂ᵀ(b − a): the distance's rate along the segment
             span = self._interval(pa, d, slope)
-            if span is None:
-                continue
-            t = span[1] if slope < 0.0 else span[0]
-            p = pa if t == 0.0 else pb if t == 1.0 else pa + t * d
-            value = float(n @ (p - self._point)) - cap.radius
+            t, value, direction = -1.0, math.inf, n
+            if span is not None:  # the part over the disk: its least height
+                t = span[1] if slope < 0.0 else span[0]
+                p = pa if t == 0.0 else pb if t == 1.0 else pa + t * d
+                value = float(n @ (p - self._point)) - cap.radius
+            if self._r_max is not None and (span is None or value + cap.radius >= 0.0):
+                # the segment keeps out of the solid: its distance from it (from the side, the rim or the top)
+                t, dist, direction = self._solid_distance(pa, d)
+                p = pa + t * d
+                value = dist - cap.radius
             if cap.joint in best and best[cap.joint][0] <= value:
                 continue
             grad = None
             if gradient and jac is not None:
                 arm = p - origin
-                # nᵀ∂p/∂q = nᵀ(J_v − [arm]× J_ω) = nᵀJ_v + (arm × n)ᵀ J_ω
-                grad = n @ jac[:3] + np.cross(arm, n) @ jac[3:]
-                if 0.0 < t < 1.0 and slope != 0.0:  # a clip point on the cylinder: t* moves with q
+                # uᵀ∂p/∂q = uᵀ(J_v − [arm]× J_ω) = uᵀJ_v + (arm × u)ᵀ J_ω, u = n̂ or the distance's direction
+                grad = direction @ jac[:3] + np.cross(arm, direction) @ jac[3:]
+                if direction is n and 0.0 < t < 1.0 and slope != 0.0:  # a clip point on the cylinder: t* moves
                     rel = p - self._point
                     w = rel - n * float(n @ rel)  # L (p − c), |w| = r_max
                     rate = float(w @ d)  # ½ ∂g/∂t

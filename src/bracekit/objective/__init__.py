@@ -18,12 +18,13 @@ from bracekit.objective.base import (
 
 # isort: off
 # registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d), then further terms (joint limits,
-# link clearance): the order of the sum g
+# joint-limit barrier, link clearance): the order of the sum g
 from bracekit.objective.condition_number import ConditionNumber
 from bracekit.objective.compliance_index import ComplianceIndex
 from bracekit.objective.brace_angle import BraceAngle
 from bracekit.objective.region_barrier import RegionBarrier
 from bracekit.objective.joint_limits import JointLimits
+from bracekit.objective.joint_limit_barrier import JointLimitBarrier
 from bracekit.objective.clearance import ClearanceBarrier
 
 # isort: on
@@ -34,6 +35,7 @@ __all__ = [
     "ClearanceBarrier",
     "ComplianceIndex",
     "ConditionNumber",
+    "JointLimitBarrier",
     "JointLimits",
     "Objective",
     "RegionBarrier",

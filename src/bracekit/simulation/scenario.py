@@ -253,6 +253,7 @@ def parse_scenario(
             "normal",
             "tangent",
             "region_radius",
+            "surface_radius",
             "environment_stiffness",
         ),
     )
@@ -446,6 +447,7 @@ def _brace(t: _Table, robot: Robot) -> BracedRobot:
             surface=surface,
             contact=contact_type(t.string("contact", tuple(REGISTRY), "frictionless_point")),
             region_radius=t.number("region_radius", positive=True) if t.has("region_radius") else None,
+            surface_radius=t.number("surface_radius", positive=True) if t.has("surface_radius") else None,
             environment_stiffness=t.number("environment_stiffness", positive=True)
             if t.has("environment_stiffness")
             else None,
