@@ -33,6 +33,7 @@ from bracekit.resolution import (
 )
 from bracekit.simulation import (
     Circle,
+    Holding,
     Line,
     RunResult,
     Scenario,
@@ -43,6 +44,7 @@ from bracekit.simulation import (
     simulate,
     solve_start,
 )
+from bracekit.statics import actuator_relief, capacity_along, contact_response, load_capacity
 from bracekit.studies import brace_location_study, evaluate
 
 __all__ = [
@@ -59,6 +61,7 @@ __all__ = [
     "ConditionNumber",
     "FreeSpaceMinNorm",
     "GradientProjectionStep",
+    "Holding",
     "InputError",
     "Line",
     "NumericalError",
@@ -73,9 +76,12 @@ __all__ = [
     "Trajectory",
     "Waypoints",
     "__version__",
+    "actuator_relief",
     "brace_location_study",
+    "capacity_along",
     "compliance_ellipsoids",
     "compliance_index",
+    "contact_response",
     "contact_type",
     "directional_compliance",
     "end_effector_compliance",
@@ -83,6 +89,7 @@ __all__ = [
     "evaluate_batch",
     "free_space_compliance",
     "frobenius_condition",
+    "load_capacity",
     "load_model",
     "load_scenario",
     "preloaded_compliance",

@@ -96,5 +96,9 @@ class ChainSingularWarning(BracekitWarning):
     """Chain 1 is singular (J1 loses rank): it realises fewer braced motions of {b} than the contact allows."""
 
 
+class HoldingWarning(BracekitWarning):
+    """The brace would lift off or slip, or an actuator saturate, under the listed loads or unloaded."""
+
+
 class ClearanceWarning(BracekitWarning):
     """A link of the robot passed through the bracing plane inside the bracing region (negative clearance)."""

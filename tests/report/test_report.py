@@ -72,9 +72,17 @@ def test_json_refuses_non_finite_numbers() -> None:
     assert json.loads(out_mod.to_json({"a": np.float64(1.5), "b": np.arange(2)})) == {"a": 1.5, "b": [0, 1]}
 
 
-def test_table_holds_the_paper_rows_and_ours_for_both_models(short_run) -> None:
-    md = table_markdown(short_run.summaries, "short")
+def test_table_holds_the_paper_rows_only_for_the_paper_scenario_and_ours_for_both_models(short_run) -> None:
+    md = table_markdown(short_run.summaries, "paper")
     assert "0.02490" in md and "49.7 %" in md and "59.2 %" in md  # the paper's, converted to m/N
+    other = table_markdown(short_run.summaries, "short")
+    assert "0.02490" not in other and "| paper |" not in other and "| bracekit |" in other
+    for text in (md, other):  # the run checks follow Table I, one row per model and strategy
+        checks = text.split("## Run checks", 1)[1]
+        assert checks.count("| constrained |") == 3 and checks.count("| projection |") == 3
+        assert "redundancy" in checks and "min link clearance [m]" in checks
+        assert "lift-off" not in checks  # no statics without gravity, preload or loads
+    assert len(table_csv(short_run.summaries, "short").strip().splitlines()) == 1 + 3 * 2
     csv = table_csv(short_run.summaries)
     lines = csv.strip().splitlines()
     assert len(lines) == 1 + 3 + 3 * 2

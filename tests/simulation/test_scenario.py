@@ -22,7 +22,15 @@ def test_paper_scenario_matches_the_paper_setup() -> None:
     assert np.allclose(sc.braced.brace.surface.normal, [0, 0, 1])  # horizontal plane
     assert isinstance(sc.task, Circle) and abs(sc.task.normal[2]) < 1e-12  # vertical circle
     assert sc.alpha == -1.0
-    assert sc.weights == {"k": 0.5, "Ci": 100.0, "theta_z": 0.6, "d": 0.01, "joint_limits": 0.0, "joint_limit_barrier": 0.0, "clearance": 0.0}
+    assert sc.weights == {
+        "k": 0.5,
+        "Ci": 100.0,
+        "theta_z": 0.6,
+        "d": 0.01,
+        "joint_limits": 0.0,
+        "joint_limit_barrier": 0.0,
+        "clearance": 0.0,
+    }
     # radial β_x: unit, in the circle plane, pointing from the centre to the desired point
     for t in (0.0, 5.0, 12.5):
         beta = sc.beta_x(t)

@@ -62,8 +62,8 @@ class Brace:
                 raise ContactError(f"surface_radius must be a length below 1e150 m, got {extent:g}")
             if self.region_radius is not None and extent < self.region_radius:
                 raise ContactError(
-                    f"surface_radius {extent:g} m is smaller than the bracing region's radius {self.region_radius:g} m; "
-                    "the region lies on the surface: give a surface at least as large"
+                    f"surface_radius {extent:g} m is smaller than the bracing region's radius "
+                    f"{self.region_radius:g} m; the region lies on the surface: give a surface at least as large"
                 )
         if self.environment_stiffness is not None:
             as_number(

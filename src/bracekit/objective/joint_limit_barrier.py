@@ -15,7 +15,7 @@ import numpy as np
 
 from bracekit.errors import BarrierError
 from bracekit.kinematics import BracedState
-from bracekit.objective.base import Array, Term, TermContext, register_term
+from bracekit.objective.base import Array, TermContext, register_term
 from bracekit.objective.fused import FusedGradient, FusedKinematics
 from bracekit.objective.joint_limits import JointLimits
 

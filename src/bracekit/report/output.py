@@ -645,7 +645,7 @@ def write_run(
         ("summary.json", lambda p: p.write_text(to_json(result.summary) + "\n", encoding="utf-8")),
         ("summary_all_models.json", lambda p: p.write_text(to_json(result.summaries) + "\n", encoding="utf-8")),
         ("table.md", lambda p: p.write_text(table_markdown(result.summaries, result.scenario.name), encoding="utf-8")),
-        ("table.csv", lambda p: p.write_text(table_csv(result.summaries), encoding="utf-8")),
+        ("table.csv", lambda p: p.write_text(table_csv(result.summaries, result.scenario.name), encoding="utf-8")),
         ("trajectories.npz", lambda p: save_trajectories(result, p)),
     ]
     if figures:

@@ -22,11 +22,33 @@ PAPER_TABLE_I: dict[str, dict[str, float]] = {
 }
 PAPER_REDUCTIONS = {"braced_min_norm": 0.497, "braced_gradient_projection": 0.592}
 
+#: The run checks beside Table I: summary key → (header, format). Statics columns appear only when computed.
+CHECKS: dict[str, tuple[str, str]] = {
+    "task_space": ("task space", "s"),
+    "redundancy": ("redundancy", "d"),
+    "max_joint_limit_violation_rad": ("max limit violation [rad]", ".2g"),
+    "min_link_clearance_m": ("min link clearance [m]", ".4f"),
+    "max_region_radius_m": ("max r [m]", ".4f"),
+    "max_torque_ratio": ("max τ/effort", ".3f"),
+    "max_contact_force_N": ("max contact force [N]", ".2f"),
+    "min_liftoff_margin": ("min lift-off margin", ".3g"),
+    "min_slip_margin": ("min slip margin", ".3g"),
+    "min_torque_margin": ("min torque margin", ".3g"),
+}
+#: Checks shown only when some strategy has a value (the statics of a run with gravity, preload or loads).
+OPTIONAL_CHECKS = (
+    "max_torque_ratio",
+    "max_contact_force_N",
+    "min_liftoff_margin",
+    "min_slip_margin",
+    "min_torque_margin",
+)
 
-def table_rows(summaries: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
-    """Rows of the table: the paper's, then ours under each compliance model."""
+
+def table_rows(summaries: dict[str, dict[str, Any]], paper: bool = True) -> list[dict[str, Any]]:
+    """Rows of the table: the paper's (if `paper`), then ours under each compliance model."""
     rows: list[dict[str, Any]] = []
-    for name, values in PAPER_TABLE_I.items():
+    for name, values in PAPER_TABLE_I.items() if paper else ():
         rows.append(
             {
                 "source": "paper",
@@ -49,6 +71,7 @@ def table_rows(summaries: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
                     **{c: values[c] for c in COLUMNS},
                     "Ci_mean_reduction": red,
                     "completed": values["completed"],
+                    **{c: values.get(c) for c in CHECKS},
                 }
             )
     return rows
@@ -64,34 +87,69 @@ def _fmt(v: Any, col: str) -> str:
     return f"{v:.3f}"
 
 
+PRINTED = " (the paper prints 10⁻³ m/N, i.e. mm/N; its values are converted here)."
+
+
+def _check(v: Any, spec: str) -> str:
+    if v is None:
+        return "–"
+    return str(v) if spec == "s" else format(v, spec)
+
+
+def checks_markdown(summaries: dict[str, dict[str, Any]]) -> list[str]:
+    """The run checks of every strategy (task space, redundancy, limits, clearance, region; statics if any)."""
+    rows = [
+        (model, name, values) for model, summary in summaries.items() for name, values in summary["strategies"].items()
+    ]
+    keys = [k for k in CHECKS if k not in OPTIONAL_CHECKS or any(v.get(k) is not None for _, _, v in rows)]
+    lines = [
+        "## Run checks",
+        "",
+        "Limits, clearance of the links from the surface, the brace's region; with gravity, a preload or tool loads",
+        "also the peak joint torque over its effort limit and the load margins (a scale of the listed loads: > 1",
+        "holds; – where nothing limits it or it does not apply).",
+        "",
+        "| compliance model | strategy | completed | " + " | ".join(CHECKS[k][0] for k in keys) + " |",
+        "|" + "---|" * (len(keys) + 3),
+    ]
+    for model, name, values in rows:
+        cells = [model, STRATEGY_LABELS.get(name, name), "yes" if values.get("completed") else "no"]
+        cells += [_check(values.get(k), CHECKS[k][1]) for k in keys]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
+    return lines
+
+
 def table_markdown(summaries: dict[str, dict[str, Any]], scenario: str = "paper") -> str:
-    """Table I (paper beside bracekit) as Markdown, SI units."""
+    """Table I as Markdown, SI units (the paper's printed rows beside ours for the paper scenario), and run checks."""
+    paper = scenario == "paper"
     lines = [
         f"# Table I: scenario `{scenario}`",
         "",
-        "SI units: C_i in m/N (the paper prints 10⁻³ m/N, i.e. mm/N; its values are converted here).",
+        "SI units: C_i in m/N" + (PRINTED if paper else "."),
         "Πσ, σ_min and k are those of the braced Jacobian J̃ (eq:J_wave) along each strategy's own path;",
         "the free-space run's C_i uses the free-space compliance J K⁻¹ Jᵀ, the braced runs C_e of the model.",
         "",
         "| source | compliance model | strategy | " + " | ".join(HEADERS) + " | mean C_i reduction vs free space |",
         "|" + "---|" * (len(HEADERS) + 4),
     ]
-    for row in table_rows(summaries):
+    for row in table_rows(summaries, paper):
         cells = [row["source"], row["model"], STRATEGY_LABELS.get(row["strategy"], row["strategy"])]
         cells += [_fmt(row[c], c) for c in COLUMNS] + [_fmt(row["Ci_mean_reduction"], "Ci_mean_reduction")]
         if row.get("completed") is False:
             cells[2] += " (did not complete)"
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
+    lines += checks_markdown(summaries)
     return "\n".join(lines)
 
 
-def table_csv(summaries: dict[str, dict[str, Any]]) -> str:
-    """Table I as CSV (SI units, reductions as fractions)."""
+def table_csv(summaries: dict[str, dict[str, Any]], scenario: str = "paper") -> str:
+    """Table I and the run checks as CSV (SI units, reductions as fractions; paper rows for the paper scenario)."""
     buf = io.StringIO()
-    fields = ["source", "model", "strategy", *COLUMNS, "Ci_mean_reduction"]
+    fields = ["source", "model", "strategy", *COLUMNS, "Ci_mean_reduction", "completed", *CHECKS]
     writer = csv.DictWriter(buf, fieldnames=fields, extrasaction="ignore", lineterminator="\n")
     writer.writeheader()
-    for row in table_rows(summaries):
+    for row in table_rows(summaries, scenario == "paper"):
         writer.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in fields})
     return buf.getvalue()

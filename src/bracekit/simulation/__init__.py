@@ -1,5 +1,6 @@
 """Kinematic simulation along a task (Section VI): tasks, the integrator, scenario files and the whole run."""
 
+from bracekit.simulation.holding import Holding
 from bracekit.simulation.run import RunResult, run_scenario
 from bracekit.simulation.scenario import Scenario, load_scenario, shipped_scenarios
 from bracekit.simulation.simulate import Trajectory, simulate, solve_start
@@ -7,6 +8,7 @@ from bracekit.simulation.tasks import Circle, Line, Task, Waypoints
 
 __all__ = [
     "Circle",
+    "Holding",
     "Line",
     "RunResult",
     "Scenario",

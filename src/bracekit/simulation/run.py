@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -12,11 +13,13 @@ from numpy.typing import NDArray
 
 from bracekit._linalg import show
 from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel, check_model
-from bracekit.errors import InputError
+from bracekit.errors import HoldingWarning, InputError
 from bracekit.kinematics import BracedState
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
+from bracekit.simulation.holding import holding_measures, holding_summary, holding_warnings, relief_summary
 from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.simulation.simulate import Trajectory, simulate, solve_start
+from bracekit.statics import effort_limits
 
 Array = NDArray[np.float64]
 
@@ -48,8 +51,13 @@ class RunResult:
 
 
 def _summaries(result: RunResult) -> None:
+    sc = result.scenario
     for model, runs in result.trajectories.items():
         strategies = {name: tr.summary(check_model(model)) for name, tr in runs.items()}
+        for name, tr in runs.items():
+            strategies[name].update(holding_summary(tr.measures))
+            if sc.holding.active and tr.braced and tr.q.shape[0] and _has_limits(sc):
+                strategies[name]["actuator_relief"] = relief_summary(sc.braced, tr.q, sc.holding)
         out: dict[str, Any] = {
             "scenario": result.scenario.name,
             "compliance_model": model,
@@ -66,6 +74,20 @@ def _summaries(result: RunResult) -> None:
             }
         out["warnings"] = [w for tr in runs.values() for w in tr.warnings]
         result.summaries[model] = out
+
+
+def _has_limits(sc: Scenario) -> bool:
+    """Whether any joint of the scenario's robot has an effort limit (needed for torque ratios)."""
+    return bool(np.any(np.isfinite(effort_limits(sc.robot))))
+
+
+def _add_holding(sc: Scenario, tr: Trajectory) -> None:
+    """The statics measures of a run's samples (:mod:`bracekit.simulation.holding`) into its measures."""
+    if sc.holding.active and tr.q.shape[0]:
+        tr.measures.update(holding_measures(sc.braced, tr.q, sc.holding, tr.braced))
+        for line in holding_warnings(tr.strategy, tr.t, tr.measures):
+            tr.warnings.append(line)
+            warnings.warn(line, HoldingWarning, stacklevel=3)
 
 
 def run_scenario(
@@ -121,6 +143,7 @@ def run_scenario(
                 feedback_gain=sc.feedback_gain,
                 progress=progress,
             )
+            _add_holding(sc, tr)
             trajectories[m][name] = tr
             if name != "braced_gradient_projection":
                 shared[name] = tr

@@ -10,7 +10,7 @@ import math
 import os
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, cast
@@ -35,6 +35,7 @@ from bracekit.resolution.strategies import (
     Strategy,
 )
 from bracekit.resolution.task_space import POSE, TASK_SPACES, TaskSpace
+from bracekit.simulation.holding import Holding
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
 from bracekit.spatial import rotation_with_z, unit
 from bracekit.tolerances import MAX_STEPS
@@ -101,14 +102,19 @@ class _Table:
             raise ScenarioError(f"'{self.key(name)}' must be {want}, got {show(v)}")
         return np.asarray(values, dtype=float)
 
-    def points(self, name: str) -> Array:
-        """A list of at least two [x, y, z] points (k×3)."""
+    def points(self, name: str, width: int = 3) -> Array:
+        """A list of at least two [x, y, z] points (k×3); with width 6, of at least one [fx, fy, fz, mx, my, mz]."""
         v = self.raw(name)
         rows: list[list[float | None]] = [[None]]
         if isinstance(v, list):
-            rows = [[_float(x) for x in p] if isinstance(p, list) and len(p) == 3 else [None] for p in v]
-        if len(rows) < 2 or any(None in r for r in rows):
-            want = "a list of at least two [x, y, z] points (m)"
+            rows = [[_float(x) for x in p] if isinstance(p, list) and len(p) == width else [None] for p in v]
+        least = 2 if width == 3 else 1
+        if len(rows) < least or any(None in r for r in rows):
+            want = (
+                "a list of at least two [x, y, z] points (m)"
+                if width == 3
+                else "a list of wrenches [fx, fy, fz, mx, my, mz] (N, N·m, world axes)"
+            )
             raise ScenarioError(f"'{self.key(name)}' must be {want}, got {show(v)}")
         return np.asarray(rows, dtype=float)
 
@@ -163,6 +169,7 @@ class Scenario:
     source: Path | None = None
     task_space: TaskSpace = POSE
     start_theta_weight: float = 0.0
+    holding: Holding = field(default_factory=Holding)
 
     @property
     def robot(self) -> Robot:
@@ -238,9 +245,21 @@ def parse_scenario(
     top = _Table(
         data,
         "",
-        ("name", "description", "robot", "brace", "task", "start", "compliance", "gradient_projection", "simulation"),
+        (
+            "name",
+            "description",
+            "robot",
+            "brace",
+            "task",
+            "start",
+            "compliance",
+            "gradient_projection",
+            "simulation",
+            "loads",
+        ),
     )
-    robot = _robot(top.table("robot", ("model", "urdf", "tip", "stiffness")), base)
+    robot_t = top.table("robot", ("model", "urdf", "tip", "stiffness", "gravity"))
+    robot = _robot(robot_t, base)
     brace_t = top.table(
         "brace",
         (
@@ -255,9 +274,12 @@ def parse_scenario(
             "region_radius",
             "surface_radius",
             "environment_stiffness",
+            "preload",
+            "friction",
         ),
     )
     braced = _brace(brace_t, robot)
+    holding = _holding(robot_t, brace_t, top.table("loads", ("wrenches",), {}))
     robot, brace = braced.robot, braced.brace
     task_t = top.table(
         "task",
@@ -366,6 +388,7 @@ def parse_scenario(
         source=source,
         task_space=task_space,
         start_theta_weight=theta_weight,
+        holding=holding,
     )
 
 
@@ -458,6 +481,24 @@ def _brace(t: _Table, robot: Robot) -> BracedRobot:
         raise
     except BracekitError as exc:
         raise ScenarioError(f"'{t.key('link' if t.has('link') else 'frame')}': {exc}") from exc
+
+
+def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
+    """``[robot] gravity``, ``[brace] preload`` and ``friction``, ``[loads] wrenches``: what the brace must hold."""
+    gravity = robot_t.raw("gravity", False)
+    if not isinstance(gravity, bool):
+        raise ScenarioError(f"'robot.gravity' must be true or false, got {show(gravity)}")
+    preload = brace_t.number("preload", 0.0)
+    if preload < 0.0:
+        raise ScenarioError(f"'brace.preload' must be a force ≥ 0 (N, the brace pressing), got {preload:g}")
+    friction = brace_t.number("friction") if brace_t.has("friction") else None
+    if friction is not None and friction < 0.0:
+        raise ScenarioError(f"'brace.friction' must be a coefficient μ ≥ 0, got {friction:g}")
+    wrenches = loads_t.points("wrenches", 6) if loads_t.has("wrenches") else None
+    try:
+        return Holding(gravity=gravity, preload=preload, friction=friction, wrenches=wrenches)
+    except BracekitError as exc:
+        raise ScenarioError(f"[loads]: {exc}") from exc
 
 
 def _task(t: _Table) -> Task:

@@ -1,0 +1,219 @@
+"""Whether the brace holds along a run: joint torques, contact forces and load capacity at every sample.
+
+A run's samples q(t) are the commanded configurations. With :class:`Holding` (gravity, preload P, friction μ,
+tool wrenches w_j) each sample gets the static equilibrium of the spring-jointed chain whose set points make the
+contact carry P·n̂ (:mod:`bracekit.statics.equilibrium`): τ0 = g(q) − J_bᵀ[P n̂; 0]. Under each listed tool
+wrench (N, N·m, world axes, at the tip) the first-order response gives the largest scale before lift-off, slip
+(Coulomb cone, with μ) or actuator saturation (|τ_i| > URDF effort_i) (:mod:`bracekit.statics.capacity`).
+In free space τ = g(q) − J_eᵀ w. Sign conventions: the contact wrench acts on the robot, its normal force is
+positive when pressing; a margin is a scale factor on the listed load (> 1: it holds at that load).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit._linalg import as_array, as_number, show
+from bracekit.errors import InputError
+from bracekit.kinematics import BracedRobot
+from bracekit.statics import (
+    actuator_relief,
+    capacity_along,
+    effort_limits,
+    gravity_torque,
+    peak_ratio,
+    saturation_scale,
+)
+
+Array = NDArray[np.float64]
+
+#: Per-sample measure names a braced run gets from :func:`holding_measures` (a free-space run: torque only).
+BRACED_MEASURES = (
+    "torque_ratio",
+    "torque_ratio_loaded",
+    "contact_force_N",
+    "liftoff_margin",
+    "slip_margin",
+    "torque_margin",
+)
+
+
+@dataclass(frozen=True)
+class Holding:
+    """What the brace must hold: gravity, the preload, friction and the tool wrenches to check.
+
+    Attributes:
+        gravity: gravity along −z of the world with the URDF's masses and inertias.
+        preload: the normal force chain 1 presses the brace with, N (≥ 0).
+        friction: Coulomb friction coefficient μ of the contact (None: frictionless, no slip check).
+        wrenches: tool wrenches to check (m×6: [fx, fy, fz, mx, my, mz], N and N·m, world axes), or None.
+    """
+
+    gravity: bool = False
+    preload: float = 0.0
+    friction: float | None = None
+    wrenches: Array | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.gravity, bool):
+            raise InputError(f"gravity must be true or false, got {show(self.gravity)}")
+        object.__setattr__(self, "preload", as_number(self.preload, "the preload", nonnegative=True, unit="N"))
+        if self.friction is not None:
+            object.__setattr__(
+                self, "friction", as_number(self.friction, "the friction coefficient μ", nonnegative=True)
+            )
+        if self.wrenches is not None:
+            w = as_array(self.wrenches, "the tool wrenches (N, N·m)")
+            if w.ndim == 1:
+                w = w.reshape(1, -1)
+            if w.ndim != 2 or w.shape[1] != 6 or w.shape[0] == 0:
+                raise InputError(
+                    f"the tool wrenches must be a list of [fx, fy, fz, mx, my, mz] (N, N·m), got shape {w.shape}"
+                )
+            object.__setattr__(self, "wrenches", w)
+
+    @property
+    def active(self) -> bool:
+        """Whether there is anything to compute (gravity, a preload, friction or a load)."""
+        return self.gravity or self.preload > 0.0 or self.friction is not None or self.wrenches is not None
+
+    @property
+    def loads(self) -> Array:
+        """The listed wrenches (m×6), or one zero wrench when none is listed."""
+        return np.zeros((1, 6)) if self.wrenches is None else self.wrenches
+
+
+def holding_measures(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) -> dict[str, Array]:
+    """Per-sample statics along the samples qs (N×n) of a run.
+
+    Returns (N,) arrays: ``torque_ratio`` (peak |τ_i|/effort_i unloaded), ``torque_ratio_loaded`` (the same,
+    worst listed wrench at scale 1), ``torque_margin``; for a braced run also ``contact_force_N`` (largest
+    ‖f_c‖ unloaded or under a listed wrench at scale 1), ``liftoff_margin`` and ``slip_margin`` (inf without μ).
+    Margins are inf where nothing limits the scale.
+    """
+    qs = np.atleast_2d(np.asarray(qs, dtype=float))
+    effort = effort_limits(braced.robot)
+    loads = holding.loads
+    if not is_braced:
+        tau0 = np.array([gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size) for q in qs])
+        jac = np.array([braced.state(q).J_e for q in qs])  # N×6×n
+        d_tau = -np.einsum("kri,mr->kmi", jac, loads)  # N×m×n: τ = g − J_eᵀ w
+        ratio0 = peak_ratio(tau0, effort)
+        loaded = np.max(peak_ratio(tau0[:, None, :] + d_tau, effort), axis=1)
+        margin = np.array([np.min(saturation_scale(tau0[k][None, :], d_tau[k], effort)) for k in range(qs.shape[0])])
+        return {"torque_ratio": ratio0, "torque_ratio_loaded": loaded, "torque_margin": margin}
+    cap = capacity_along(
+        braced, qs, loads, preload=holding.preload, gravity=holding.gravity, friction=holding.friction, effort=effort
+    )
+    unloaded_force = np.full(qs.shape[0], holding.preload)
+    loaded_force = np.max(np.linalg.norm(cap.contact_wrench[..., :3], axis=-1), axis=1)
+    slip = cap.slip_margin if cap.slip_margin is not None else np.full(qs.shape[0], np.inf)
+    return {
+        "torque_ratio": np.asarray(cap.peak_unloaded, dtype=float),
+        "torque_ratio_loaded": np.max(cap.peak_loaded, axis=1),
+        "contact_force_N": np.maximum(unloaded_force, loaded_force),
+        "liftoff_margin": np.asarray(cap.liftoff_margin, dtype=float),
+        "slip_margin": np.asarray(slip, dtype=float),
+        "torque_margin": np.asarray(cap.torque_margin, dtype=float),
+    }
+
+
+#: measure → what falls short when it is below 1 (a margin) or above 1 (a torque ratio).
+_LIMITS = (
+    ("liftoff_margin", "the brace lifts off under a listed load", "lift-off margin"),
+    ("slip_margin", "the brace slips under a listed load", "slip margin"),
+    ("torque_margin", "an actuator saturates under a listed load", "torque margin"),
+)
+
+
+def holding_warnings(name: str, t: Array, measures: dict[str, Array]) -> list[str]:
+    """One line per way the brace fails to hold along a run (margins below 1, unloaded torque beyond effort)."""
+    out = []
+    if "torque_ratio" in measures:
+        over = measures["torque_ratio"] > 1.0
+        if np.any(over):
+            k = int(np.argmax(measures["torque_ratio"]))
+            out.append(
+                f"{name}: an actuator exceeds its effort limit with no tool load at {int(over.sum())} of {t.size} "
+                f"samples (peak |τ|/effort {measures['torque_ratio'][k]:.3g} at t = {t[k]:.2f} s); lower the preload "
+                "or move the task"
+            )
+    for key, what, label in _LIMITS:
+        if key not in measures:
+            continue
+        short = measures[key] < 1.0
+        if np.any(short):
+            k = int(np.argmin(measures[key]))
+            out.append(
+                f"{name}: {what} at {int(short.sum())} of {t.size} samples (least {label} {measures[key][k]:.3g} "
+                f"at t = {t[k]:.2f} s: it holds only that fraction of the load)"
+            )
+    return out
+
+
+def holds(measures: dict[str, Array]) -> bool | None:
+    """Whether the brace holds along the run (None without statics): margins ≥ 1, unloaded torque within effort."""
+    if "torque_ratio" not in measures:
+        return None
+    ok = bool(np.all(measures["torque_ratio"] <= 1.0))
+    return ok and all(bool(np.all(measures[k] >= 1.0)) for k, _, _ in _LIMITS if k in measures)
+
+
+def _least(values: Array) -> float | None:
+    low = float(np.min(values))
+    return low if np.isfinite(low) else None
+
+
+def holding_summary(measures: dict[str, Array]) -> dict[str, Any]:
+    """Summary keys of a run from its :func:`holding_measures` (None where a quantity does not apply)."""
+    out: dict[str, Any] = {
+        "holds": holds(measures),
+        "min_liftoff_margin": None,
+        "min_slip_margin": None,
+        "min_torque_margin": None,
+        "max_contact_force_N": None,
+        "max_torque_ratio": None,
+    }
+    if "torque_ratio" not in measures:
+        return out
+    out["min_torque_margin"] = _least(measures["torque_margin"])
+    out["max_torque_ratio"] = float(max(np.max(measures["torque_ratio"]), np.max(measures["torque_ratio_loaded"])))
+    if "liftoff_margin" in measures:
+        out["min_liftoff_margin"] = _least(measures["liftoff_margin"])
+        out["min_slip_margin"] = _least(measures["slip_margin"])
+        out["max_contact_force_N"] = float(np.max(measures["contact_force_N"]))
+    return out
+
+
+def relief_summary(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Any]:
+    """Actuator relief along a braced run's samples: peak |τ_i|/effort_i free against braced (best preload).
+
+    The free-space peak is at the same configurations without the brace; the braced peaks with the run's
+    preload and with the constant preload that minimises the peak over the samples and listed wrenches (LP).
+    """
+    rel = actuator_relief(braced, qs, holding.wrenches, gravity=holding.gravity)
+    effort = effort_limits(braced.robot)
+    at_preload = _peak_with_preload(braced, qs, holding, effort)
+    return {
+        "free_peak_torque_ratio": float(rel.free_peak),
+        "braced_peak_torque_ratio": at_preload,
+        "best_preload_N": float(rel.preload),
+        "best_braced_peak_torque_ratio": float(rel.braced_peak),
+        "best_relief": float(rel.ratio),
+    }
+
+
+def _peak_with_preload(braced: BracedRobot, qs: Array, holding: Holding, effort: Array) -> float:
+    """Peak |τ_i|/effort_i over samples and listed wrenches with the run's preload (rigid statics)."""
+    nhat = braced.brace.surface.normal
+    peak = 0.0
+    for q in qs:
+        st = braced.state(q)
+        g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
+        tau = g[None, :] - holding.loads @ st.J_e - holding.preload * (st.J_b[:3].T @ nhat)[None, :]
+        peak = max(peak, float(np.max(peak_ratio(tau, effort))))
+    return peak
