@@ -54,6 +54,44 @@ def test_negative_joint_values_work_in_both_forms(capsys, form: list[str]) -> No
     assert code == 0 and json.loads(out)["q"][0] == -0.1
 
 
+def test_evaluate_statics_match_the_library_and_print_for_a_person(capsys) -> None:
+    import bracekit as bk
+    from bracekit.statics import load_capacity
+
+    flags = [
+        "--gravity",
+        "--preload",
+        "20",
+        "--friction",
+        "0.5",
+        "--wrench",
+        "0,0,-10,0,0,0",
+        "--wrench",
+        "10,0,0,0,0,0",
+    ]
+    code, out, _ = _run(["evaluate", "--model", "paper-robot", "--q", Q, *flags, "--json"], capsys)
+    assert code == 0
+    data = json.loads(out)
+    robot = bk.load_model("paper-robot")
+    braced = bk.BracedRobot(robot, bk.Brace("brace", bk.Surface(np.array(data["b"]), np.array([0.0, 0.0, 1.0]))))
+    w = np.array([[0, 0, -10, 0, 0, 0], [10, 0, 0, 0, 0, 0]], dtype=float)
+    cap = load_capacity(braced, np.array(data["q"]), w, preload=20.0, gravity=True, friction=0.5)
+    assert data["slip"] == pytest.approx(list(cap.slip)) and data["torque"] == pytest.approx(list(cap.torque))
+    assert data["slip_margin"] == pytest.approx(cap.slip_margin) and data["liftoff"] == [None, None]  # never lifts
+    assert np.array(data["C_e_preloaded"]).shape == (6, 6) and len(data["tau0"]) == 11
+    code, out, _ = _run(["evaluate", "--model", "paper-robot", "--q", Q, *flags], capsys)
+    assert code == 0 and "statics: gravity on, preload 20 N, μ = 0.5" in out and "slip" in out
+
+
+@pytest.mark.parametrize(
+    ("flags", "match"),
+    [(["--preload", "-1"], "preload"), (["--wrench", "1,2"], "--wrench"), (["--friction", "x"], "--friction")],
+)
+def test_evaluate_refuses_bad_statics_flags_in_one_line(capsys, flags: list[str], match: str) -> None:
+    code, _, err = _run(["evaluate", "--model", "paper-robot", "--q", Q, *flags], capsys)
+    assert code == 2 and match in err and len(err.strip().splitlines()) == 1
+
+
 def test_evaluate_text_summary_for_a_person(capsys) -> None:
     code, out, _ = _run(["evaluate", "--model", "paper-robot", "--q", Q], capsys)
     assert code == 0

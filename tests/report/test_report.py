@@ -107,3 +107,30 @@ def test_the_current_folder_is_not_an_output_folder(short_run, bad: str) -> None
 
     with pytest.raises(InputError):
         write_run(short_run, Path(bad) if bad else bad)  # type: ignore[arg-type]
+
+
+def test_capacity_figure_is_drawn_for_a_run_with_statics(tmp_path: Path) -> None:
+    import re
+
+    import matplotlib.image as mpimg
+
+    import bracekit as bk
+    from bracekit.report import figures
+    from helpers import scenario_text
+
+    text = scenario_text(turns=0.05, dt=0.1)
+    text = re.sub(r"(?m)^stiffness = .*$", "stiffness = 170.0\ngravity = true", text, count=1)
+    text = re.sub(r"(?m)^region_radius = .*$", "region_radius = 0.15\npreload = 20.0\nfriction = 0.5", text, count=1)
+    path = tmp_path / "hold.toml"
+    path.write_text(text + "\n[loads]\nwrenches = [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0]]\n", encoding="utf-8")
+    with pytest.warns(bk.BracekitWarning):
+        result = bk.run_scenario(path, both_models=False)
+    assert figures.has_capacity(result)
+    png = tmp_path / "cap.png"
+    figures.figure_capacity(result, png)
+    img = mpimg.imread(png)[..., :3]
+    h, w = img.shape[:2]
+    for rows, cols in ((slice(0, h // 2), slice(0, w // 2)), (slice(h // 2, h), slice(w // 2, w))):
+        panel = img[rows, cols]
+        coloured = panel.max(axis=-1) - panel.min(axis=-1) > 0.3  # the strategies' coloured lines
+        assert coloured.sum() > 200  # curves are drawn in the lift-off and the torque panels

@@ -124,6 +124,18 @@ def test_a_run_reports_statics_in_summary_table_and_warns_when_the_brace_slips(t
     assert "min slip margin" in md and "max τ/effort" in md
 
 
+def test_preloaded_ci_is_the_preloaded_compliance_along_beta(tmp_path: Path) -> None:
+    sc = _scenario(tmp_path, _holding_text())
+    st = bk.solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
+    beta = np.array([sc.beta_x(0.0)])
+    got = holding_measures(sc.braced, st.q[None, :], sc.holding, True, beta)["Ci_preloaded"][0]
+    c = bk.preloaded_compliance(sc.braced, st.q, 20.0, gravity=True)
+    assert got == pytest.approx(bk.compliance_index(c, beta[0]), rel=1e-12)
+    assert got != pytest.approx(bk.compliance_index(bk.end_effector_compliance(st), beta[0]), rel=1e-3)
+    none = holding_measures(sc.braced, st.q[None, :], Holding(friction=0.5), True, beta)
+    assert "Ci_preloaded" not in none  # no preload, no gravity: the first-order models are exact
+
+
 def test_holds_needs_every_margin_at_least_one() -> None:
     ok = {"torque_ratio": np.array([0.5]), "torque_margin": np.array([2.0]), "liftoff_margin": np.array([np.inf])}
     assert holds(ok) is True

@@ -90,10 +90,16 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--q", required=True, help="joint values in chain order, base to tip: Q1,...,Qn (rad)")
     ev.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
     ev.add_argument("--normal", default="0,0,1", help="surface normal NX,NY,NZ (world), the surface passes through b")
-    ev.add_argument(
-        "--contact", default="frictionless_point", help=" | ".join(contact_registry())
-    )
+    ev.add_argument("--contact", default="frictionless_point", help=" | ".join(contact_registry()))
     ev.add_argument("--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the normal)")
+    ev.add_argument("--gravity", action="store_true", help="statics with gravity (URDF masses)")
+    ev.add_argument("--preload", default="0", help="normal force the brace presses with, N (default 0)")
+    ev.add_argument("--friction", help="friction coefficient μ of the contact (default: frictionless)")
+    ev.add_argument(
+        "--wrench",
+        action="append",
+        help="a tool wrench FX,FY,FZ,MX,MY,MZ to check (N, N·m, world axes; repeat for several)",
+    )
     ev.add_argument("--json", action="store_true", help="print one JSON object (SI units)")
 
     st = sub.add_parser("study", help="where to brace: tip compliance for bracing points along the robot")
@@ -217,7 +223,10 @@ def _evaluate(args: argparse.Namespace) -> int:
         raise InputError("name the bracing frame with --brace FRAME (or --brace-link LINK --brace-offset X,Y,Z)")
     q = _floats(args.q, "--q")
     beta = None if args.beta_x is None else _floats(args.beta_x, "--beta-x")
-    report = evaluate(robot, brace, q, normal=_floats(args.normal, "--normal"), contact=args.contact, beta_x=beta)
+    holding = _holding(args)
+    report = evaluate(
+        robot, brace, q, normal=_floats(args.normal, "--normal"), contact=args.contact, beta_x=beta, holding=holding
+    )
     if args.json:
         from bracekit.report.output import to_json
 
@@ -225,6 +234,46 @@ def _evaluate(args: argparse.Namespace) -> int:
     else:
         print(_evaluate_text(report))
     return 0
+
+
+def _holding(args: argparse.Namespace) -> Any:
+    """The statics of --gravity, --preload, --friction and --wrench (None when none is given)."""
+    from bracekit.simulation.holding import Holding
+
+    preload = float(_floats(args.preload, "--preload")[0])
+    friction = None if args.friction is None else float(_floats(args.friction, "--friction")[0])
+    wrenches = None if not args.wrench else np.array([_floats(w, "--wrench") for w in args.wrench], dtype=object)
+    if wrenches is not None:
+        if any(np.size(w) != 6 for w in wrenches):
+            raise InputError("--wrench needs 6 numbers FX,FY,FZ,MX,MY,MZ (N, N·m, world axes)")
+        wrenches = np.array([np.asarray(w, dtype=float) for w in wrenches])
+    holding = Holding(gravity=bool(args.gravity), preload=preload, friction=friction, wrenches=wrenches)
+    return holding if holding.active else None
+
+
+def _scale(x: float | None) -> str:
+    return "∞" if x is None else f"{x:.3g}"
+
+
+def _statics_text(r: dict[str, Any]) -> str:
+    """The statics lines of evaluate's text output."""
+    mu = "frictionless" if r["friction"] is None else f"μ = {r['friction']:g}"
+    lines = [
+        f"statics: gravity {'on' if r['gravity'] else 'off'}, preload {r['preload_N']:g} N, {mu}; "
+        f"peak |τ|/effort unloaded {r['torque_ratio']:.3f}",
+        "τ0 [N·m] = " + ", ".join(f"{t:.3g}" for t in r["tau0"]),
+    ]
+    if "Ci_preloaded" in r:
+        lines.append(
+            f"C_i preloaded = {1e3 * r['Ci_preloaded']:.4f} mm/N (constrained {1e3 * r['Ci_constrained']:.4f})"
+        )
+    if "wrenches" in r:
+        lines.append("largest scale of each tool wrench before the brace lifts off, slips or an actuator saturates:")
+        slip = r["slip"] or [None] * len(r["liftoff"])
+        for w, a, b, c in zip(r["wrenches"], r["liftoff"], slip, r["torque"], strict=True):
+            sl = _scale(b) if r["slip"] else "– (no friction given)"
+            lines.append(f"  {np.round(w, 3).tolist()}: lift-off {_scale(a)}, slip {sl}, torque {_scale(c)}")
+    return "\n".join(lines)
 
 
 def _pct(x: float | None) -> str:
@@ -269,6 +318,8 @@ def _evaluate_text(r: dict[str, Any]) -> str:
         f"  largest translational compliance: free {1e3 * r['max_translational_free']:.4f} mm/N → braced "
         f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
     ]
+    if "tau0" in r:
+        lines += ["", _statics_text(r)]
     return "\n".join(lines)
 
 

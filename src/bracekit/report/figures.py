@@ -182,6 +182,55 @@ def figure_measures(result: RunResult, path: Path) -> None:
     plt.close(fig)
 
 
+def has_capacity(result: RunResult) -> bool:
+    """Whether the run computed statics (gravity, a preload or tool loads): then it has a capacity figure."""
+    return any("torque_ratio" in tr.measures for runs in result.trajectories.values() for tr in runs.values())
+
+
+def figure_capacity(result: RunResult, path: Path) -> None:
+    """Capacity along the task: the load margins of each braced run and the peak |τ_i|/effort_i of every run.
+
+    Margins are scales of the listed tool wrenches (> 1: the brace holds the listed load), on a log axis clipped
+    to [0.01, 100]; the dashed line is 1. Margins beyond 100 (or infinite: nothing limits the load) are drawn at
+    the top of the axis.
+    """
+    runs = result.trajectories[result.compliance_model]
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    panels = [
+        ("liftoff_margin", "(a) lift-off margin (scale of the listed load)"),
+        ("slip_margin", "(b) slip margin (scale of the listed load)"),
+        ("torque_margin", "(c) actuator margin (scale of the listed load)"),
+        ("torque_ratio", "(d) peak |τ_i| / effort_i, no tool load"),
+    ]
+    for ax, (key, title) in zip(axes.flat, panels, strict=True):
+        margin = key != "torque_ratio"
+        for name, tr in runs.items():
+            if key not in tr.measures:
+                continue
+            y = np.clip(tr.measures[key], 1e-2, 1e2) if margin else tr.measures[key]
+            ax.plot(tr.t, y, color=COLORS.get(name), label=STRATEGY_LABELS.get(name, name))
+        ax.axhline(1.0, color="0.3", linestyle="--", linewidth=0.8)
+        if margin:
+            ax.set_yscale("log")
+            ax.set_ylim(1e-2, 1.2e2)
+        else:
+            ax.set_ylim(0.0, max(1.2, *(float(np.max(tr.measures[key])) * 1.1 for tr in runs.values())))
+        ax.set_title(title, fontsize=10)
+        ax.grid(alpha=0.3)
+    for ax in axes[1]:
+        ax.set_xlabel("time along the task [s]")
+    axes[1, 1].legend(fontsize=8)
+    h = result.scenario.holding
+    mu = "frictionless" if h.friction is None else f"μ = {h.friction:g}"
+    fig.suptitle(
+        f"Brace capacity along the task: gravity {'on' if h.gravity else 'off'}, preload {h.preload:g} N, {mu}, "
+        f"{0 if h.wrenches is None else len(h.wrenches)} listed tool wrench(es)"
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def animate(result: RunResult, path: Path, frames: int = 60, fps: int = 12) -> None:
     """The gradient-projection run as an animated GIF (Pillow writer)."""
     tr = _main_run(result)

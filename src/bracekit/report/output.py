@@ -54,6 +54,7 @@ FILES = (
     "fig3_ellipsoids.png",
     "fig4_measures.png",
     "animation.gif",
+    "fig_capacity.png",
 )
 #: The manifest bracekit writes into each output folder: the files it wrote, the command and the version.
 MANIFEST = ".bracekit-output.json"
@@ -663,6 +664,8 @@ def write_run(
             ("fig4_measures.png", lambda p: fig.figure_measures(result, p)),
             ("animation.gif", lambda p: fig.animate(result, p)),
         ]
+        if fig.has_capacity(result):
+            steps.append(("fig_capacity.png", lambda p: fig.figure_capacity(result, p)))
     names = [name for name, _ in steps]
     with atomic_directory(out, overwrite=overwrite, files=names, command="bracekit.report.write_run") as tmp:
         for name, write in steps:

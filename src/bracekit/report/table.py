@@ -29,6 +29,7 @@ CHECKS: dict[str, tuple[str, str]] = {
     "max_joint_limit_violation_rad": ("max limit violation [rad]", ".2g"),
     "min_link_clearance_m": ("min link clearance [m]", ".4f"),
     "max_region_radius_m": ("max r [m]", ".4f"),
+    "Ci_preloaded_mean": ("mean C_i preloaded [m/N]", ".5f"),
     "max_torque_ratio": ("max τ/effort", ".3f"),
     "max_contact_force_N": ("max contact force [N]", ".2f"),
     "min_liftoff_margin": ("min lift-off margin", ".3g"),
@@ -37,6 +38,7 @@ CHECKS: dict[str, tuple[str, str]] = {
 }
 #: Checks shown only when some strategy has a value (the statics of a run with gravity, preload or loads).
 OPTIONAL_CHECKS = (
+    "Ci_preloaded_mean",
     "max_torque_ratio",
     "max_contact_force_N",
     "min_liftoff_margin",

@@ -18,6 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit._linalg import as_array, as_number, show
+from bracekit.compliance.first_order import compliance_index
+from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.statics import (
@@ -87,14 +89,33 @@ class Holding:
         return np.zeros((1, 6)) if self.wrenches is None else self.wrenches
 
 
-def holding_measures(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) -> dict[str, Array]:
+def holding_measures(
+    braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool, beta: Array | None = None
+) -> dict[str, Array]:
     """Per-sample statics along the samples qs (N×n) of a run.
 
     Returns (N,) arrays: ``torque_ratio`` (peak |τ_i|/effort_i unloaded), ``torque_ratio_loaded`` (the same,
     worst listed wrench at scale 1), ``torque_margin``; for a braced run also ``contact_force_N`` (largest
     ‖f_c‖ unloaded or under a listed wrench at scale 1), ``liftoff_margin`` and ``slip_margin`` (inf without μ).
-    Margins are inf where nothing limits the scale.
+    Margins are inf where nothing limits the scale. With `beta` (N×6, the unit twists of C_i) and gravity or a
+    preload, also ``Ci_preloaded``: C_i of the preloaded compliance (:func:`preloaded_compliance` for a braced
+    run with the brace's own contact, :func:`loaded_free_space_compliance` in free space; no tool load).
     """
+    out = _statics(braced, qs, holding, is_braced)
+    if beta is not None and (holding.gravity or holding.preload > 0.0):
+        ci = []
+        for q, b in zip(qs, beta, strict=True):
+            if is_braced:
+                c = preloaded_compliance(braced, q, holding.preload, gravity=holding.gravity)
+            else:
+                c = loaded_free_space_compliance(braced, q, gravity=holding.gravity)
+            ci.append(compliance_index(c, b))
+        out["Ci_preloaded"] = np.array(ci)
+    return out
+
+
+def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) -> dict[str, Array]:
+    """Torques, contact forces and margins of :func:`holding_measures`."""
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
     effort = effort_limits(braced.robot)
     loads = holding.loads
@@ -172,6 +193,7 @@ def holding_summary(measures: dict[str, Array]) -> dict[str, Any]:
     """Summary keys of a run from its :func:`holding_measures` (None where a quantity does not apply)."""
     out: dict[str, Any] = {
         "holds": holds(measures),
+        "Ci_preloaded_mean": float(np.mean(measures["Ci_preloaded"])) if "Ci_preloaded" in measures else None,
         "min_liftoff_margin": None,
         "min_slip_margin": None,
         "min_torque_margin": None,

@@ -84,7 +84,8 @@ def _has_limits(sc: Scenario) -> bool:
 def _add_holding(sc: Scenario, tr: Trajectory) -> None:
     """The statics measures of a run's samples (:mod:`bracekit.simulation.holding`) into its measures."""
     if sc.holding.active and tr.q.shape[0]:
-        tr.measures.update(holding_measures(sc.braced, tr.q, sc.holding, tr.braced))
+        beta = np.array([sc.beta_x(float(t)) for t in tr.t])
+        tr.measures.update(holding_measures(sc.braced, tr.q, sc.holding, tr.braced, beta))
         for line in holding_warnings(tr.strategy, tr.t, tr.measures):
             tr.warnings.append(line)
             warnings.warn(line, HoldingWarning, stacklevel=3)

@@ -18,11 +18,14 @@ from bracekit.compliance.first_order import (
     unit6,
 )
 from bracekit.compliance.measures import frobenius_condition, singular_value_measures, theta_z
+from bracekit.compliance.preloaded import preloaded_compliance
 from bracekit.contact import Brace, ContactType, Surface, contact_type
 from bracekit.errors import ChainSingularWarning, ContactError, InputError
 from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
 from bracekit.model.robot import Robot
+from bracekit.simulation.holding import Holding
 from bracekit.spatial import unit
+from bracekit.statics import contact_response, load_capacity
 from bracekit.tolerances import J1_COND_LIMIT
 
 
@@ -83,8 +86,15 @@ def evaluate(
     normal: ArrayLike = (0.0, 0.0, 1.0),
     contact: str | ContactType = "frictionless_point",
     beta_x: ArrayLike | None = None,
+    holding: Holding | None = None,
 ) -> dict[str, Any]:
     """The braced model at q with a surface through b of the given normal (world).
+
+    With `holding` (gravity, preload, friction, tool wrenches) also the statics at q: ``tau0`` (N·m, unloaded
+    joint torques, set points holding the preload), ``q_s``, ``torque_ratio`` (peak |τ_i|/effort_i), per listed
+    wrench ``liftoff``, ``slip``, ``torque`` (scales), ``contact_wrench_loaded`` and the margins
+    ``liftoff_margin``, ``slip_margin``, ``torque_margin`` (None: nothing limits the scale), and with gravity or
+    a preload ``C_e_preloaded`` and ``Ci_preloaded``.
 
     Keys (SI; matrices as nested lists row-major; twists [v; ω] and wrenches [f; m] at the tip point,
     world axes): J, J1, J2, H, X, A, J_braced, C_free, C_e_projection, C_e_constrained, k, k_braced,
@@ -124,7 +134,7 @@ def evaluate(
             ChainSingularWarning,
             stacklevel=2,
         )
-    return {
+    out = {
         "n": robot.n,
         "n1": braced.n1,
         "n2": braced.n2,
@@ -166,3 +176,50 @@ def evaluate(
         "ellipsoid_projection": _ellipsoids(c_proj),
         "units": "m, rad, N, N·m; compliances in m/N, 1/N, rad/N, rad/(N·m)",
     }
+    if holding is not None:
+        out.update(_statics(braced, qa, holding, beta))
+    return out
+
+
+def _finite(x: float | None) -> float | None:
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def _statics(
+    braced: BracedRobot, q: NDArray[np.float64], holding: Holding, beta: NDArray[np.float64]
+) -> dict[str, Any]:
+    """The statics keys of :func:`evaluate` (see its docstring)."""
+    if not isinstance(holding, Holding):
+        raise InputError(f"holding must be a bracekit Holding, got {type(holding).__name__}")
+    resp = contact_response(braced, q, preload=holding.preload, gravity=holding.gravity, friction=holding.friction)
+    cap = load_capacity(
+        braced, q, holding.loads, preload=holding.preload, gravity=holding.gravity, friction=holding.friction
+    )
+    out: dict[str, Any] = {
+        "tau0": resp.tau0,
+        "q_s": resp.q_s,
+        "contact_wrench": resp.f_c0,
+        "torque_ratio": float(cap.peak_unloaded),
+        "gravity": holding.gravity,
+        "preload_N": holding.preload,
+        "friction": holding.friction,
+    }
+    if holding.wrenches is not None:
+        out.update(
+            {
+                "wrenches": holding.wrenches,
+                "liftoff": [_finite(x) for x in cap.liftoff],
+                "slip": None if cap.slip is None else [_finite(x) for x in cap.slip],
+                "torque": [_finite(x) for x in cap.torque],
+                "contact_wrench_loaded": cap.contact_wrench,
+                "torque_ratio_loaded": [float(x) for x in cap.peak_loaded],
+                "liftoff_margin": _finite(cap.liftoff_margin),
+                "slip_margin": _finite(cap.slip_margin),
+                "torque_margin": _finite(cap.torque_margin),
+            }
+        )
+    if holding.gravity or holding.preload > 0.0:
+        c = preloaded_compliance(braced, q, holding.preload, gravity=holding.gravity)
+        out["C_e_preloaded"] = c
+        out["Ci_preloaded"] = compliance_index(c, beta)
+    return out
