@@ -21,7 +21,9 @@ PUMA 560 (both files)
       centre, since row 6 is all zero).
   P4. Joint limits (deg): +-160, -45..225, -225..45, -110..170, +-100, +-266.
   P5. Effort/velocity limits are nominal placeholders for a PUMA 560, not
-      datasheet values; bracekit does not use them.
+      datasheet values (no published source gives its joint torque limits);
+      bracekit's torque ratios and actuator margins on the PUMA joints are
+      therefore indicative only; give measured limits with effort=[...].
   P6. Inertials: Armstrong et al. (1986) as in Corke's toolbox (also KDL's
       puma560 model), moved from DH frame i into the URDF link frame. Two
       edits make the tensors physically valid (simulators reject others):
@@ -41,7 +43,9 @@ HEBI arm of the paper robot (paper_robot.urdf only)
       0.5 kg with the centre of mass and inertia of HEBI's hebi_description
       X8 model. Joint limits +-2 pi (the module turns without limit; a
       finite range keeps the joint revolute, and two turns keep a path from
-      being stopped by an artificial limit at +-pi), effort 38 Nm (peak), velocity
+      being stopped by an artificial limit at +-pi), effort 38 Nm (peak; HEBI
+      X-Series documentation, docs.hebi.us/hardware.html: X8-16 16 Nm
+      continuous, 38 Nm peak), velocity
       1.571 rad/s (hebi_description value for the X8-16).
   H3. Tube link (extension L, twist tau): output = translation
       (L, -0.0175 sin tau, 0.0175 (1 + cos tau)) then Rx(tau).
