@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -75,11 +75,16 @@ class Term:
 
 @dataclass(frozen=True)
 class TermContext:
-    """What a scenario gives a term: the braced robot, β_x (6,) and the compliance model."""
+    """What a scenario gives a term: the braced robot, β_x (6,), the compliance model and the statics.
+
+    ``holding`` is the scenario's :class:`bracekit.simulation.holding.Holding` (gravity, preload, friction,
+    tool wrenches) or None.
+    """
 
     braced: BracedRobot
     beta_x: Array
     compliance_model: str
+    holding: Any = None
 
 
 #: weight key → term class, filled by :func:`register_term` (the keys of ``[gradient_projection.weights]``).

@@ -179,7 +179,7 @@ class Scenario:
     def objective(self, model: ComplianceModel | None = None, beta_x: Array | None = None) -> Objective:
         """G of eq:objective with this scenario's weights (β_x at t = 0 unless given)."""
         beta = self.beta_x(0.0) if beta_x is None else beta_x
-        context = TermContext(self.braced, beta, model or self.compliance_model)
+        context = TermContext(self.braced, beta, model or self.compliance_model, self.holding)
         keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
         kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in keys]
         return Objective([t for t, _ in kept], [w for _, w in kept])
