@@ -6,6 +6,8 @@ point {b} touching a plane, and a site at the tip point {e}. :func:`mujoco_stati
 contact, settles, adds a dead tip wrench (applied at the tip point with ``mj_applyFT``), settles again and
 returns the tip deflection relative to the preloaded state, in the conventions of
 :mod:`bracekit.validate.statics`: Δx = [Δp; Δθ], Δθ = log3(R_e R_e,preᵀ) (world axes; m, rad).
+With ``friction`` (condim 3, elliptic Coulomb cone), ``gravity`` and ``set_points`` the same model serves the
+check of the holding statics, :mod:`bracekit.validate.holding_check`.
 
 Settings that matter for ~1e-7 agreement with the Pinocchio statics (measured, see the tests):
 
@@ -247,10 +249,11 @@ def build_mujoco_model(
     spring model of :func:`bracekit.validate.statics.solve_static_equilibrium`).
     The sphere (radius ``sphere_radius``, m) is fixed to b's parent body with its centre at b + r n̂ at q0,
     so it touches the plane at b; the plane passes through ``surface_point`` with unit normal n̂ (toward the
-    robot). Only sphere and plane collide (condim 1, solref 0.002 1, solimp 0.9999 0.9999 0.001). Site
-    ``tip`` is at the tip frame, same orientation. Bodies get 1 kg and 0.01 kg·m² unless ``gravity``, which
-    uses Pinocchio's inertias (floored at 1 g, 1e-6 kg·m²) and g = 9.81 m/s² along −z (the statics has no
-    gravity: use it for visual checks only).
+    robot). Only sphere and plane collide (condim 1, or condim 3 with ``friction``; solref 0.002 1, solimp
+    0.9999 0.9999 0.001). Site ``tip`` is at the tip frame, same orientation. Bodies get 1 kg and 0.01 kg·m²
+    unless ``gravity``, which uses Pinocchio's inertias (floored at 1 g, 1e-6 kg·m²) and g = 9.81 m/s² along
+    −z; with gravity, give the set points that hold it (``set_points``, e.g. from
+    :func:`bracekit.statics.contact_response`), as :mod:`bracekit.validate.holding_check` does.
 
     Args:
         model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
@@ -312,14 +315,13 @@ def build_mujoco_model(
     else:
         rest = q0
     args = (model, q0, K, rest, brace_frame_id, tip_frame_id, s, nhat, sphere_radius, gravity)
-    opts = {"friction": friction, "cone": cone, "impratio": impratio}
     if damping_time is None:
-        damping_time = _slowest_time_constant(_mjcf(*args, 0.0, _MAX_TIMESTEP, **opts), q0, K)
+        damping_time = _slowest_time_constant(_mjcf(*args, 0.0, _MAX_TIMESTEP, friction, cone, impratio), q0, K)
     if timestep is None:
         timestep = min(_MAX_TIMESTEP, damping_time / 20.0)
     if not (damping_time > 0.0 and timestep > 0.0):
         raise InputError("damping_time and timestep must be > 0 s")
-    return _mjcf(*args, damping_time, timestep, **opts)
+    return _mjcf(*args, damping_time, timestep, friction, cone, impratio)
 
 
 # --------------------------------------------------------------------------------------------------
