@@ -6,6 +6,8 @@ point {b} touching a plane, and a site at the tip point {e}. :func:`mujoco_stati
 contact, settles, adds a dead tip wrench (applied at the tip point with ``mj_applyFT``), settles again and
 returns the tip deflection relative to the preloaded state, in the conventions of
 :mod:`bracekit.validate.statics`: Δx = [Δp; Δθ], Δθ = log3(R_e R_e,preᵀ) (world axes; m, rad).
+With ``friction`` (condim 3, elliptic Coulomb cone), ``gravity`` and ``set_points`` the same model serves the
+check of the holding statics, :mod:`bracekit.validate.holding_check`.
 
 Settings that matter for ~1e-7 agreement with the Pinocchio statics (measured, see the tests):
 
@@ -26,6 +28,7 @@ Settings that matter for ~1e-7 agreement with the Pinocchio statics (measured, s
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 from xml.sax.saxutils import quoteattr
 
 import mujoco
@@ -47,8 +50,6 @@ _LINK_INERTIA = 1e-2  # kg·m², principal inertias of each moving body when gra
 _SOLREF = "0.002 1"  # stiff, critically damped contact
 _SOLIMP = "0.9999 0.9999 0.001"  # maximal impedance from zero penetration on (MuJoCo caps it at 0.9999)
 _CHUNK = 10  # steps between updates of the tip-wrench application point and settling checks
-
-
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,6 +124,9 @@ def _mjcf(
     gravity: bool,
     damping_time: float,
     timestep: float,
+    friction: float | None = None,
+    cone: str = "pyramidal",
+    impratio: float = 1.0,
 ) -> str:
     bjid = model.frames[brace_frame_id].parentJoint
     tjid = model.frames[tip_frame_id].parentJoint
@@ -135,7 +139,10 @@ def _mjcf(
     children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
-    contact_attrs = f'condim="1" solref="{_SOLREF}" solimp="{_SOLIMP}"'
+    if friction is None:
+        contact_attrs = f'condim="1" solref="{_SOLREF}" solimp="{_SOLIMP}"'
+    else:  # sliding friction μ only; condim 3 has no torsional or rolling friction
+        contact_attrs = f'condim="3" friction="{_fmt(friction)} 0 0" solref="{_SOLREF}" solimp="{_SOLIMP}"'
     lines: list[str] = []
 
     def body(jid: int, indent: str) -> None:
@@ -185,12 +192,13 @@ def _mjcf(
     for c in children[0]:
         body(c, "    ")
     g = "0 0 -9.81" if gravity else "0 0 0"
+    cone_attrs = 'cone="pyramidal" ' if friction is None else f'cone="{cone}" impratio="{_fmt(impratio)}" '
     head = [
         '<mujoco model="bracekit_brace_check">',
         '  <compiler angle="radian" inertiafromgeom="false"/>',
         (
             f'  <option timestep="{_fmt(timestep)}" gravity="{g}" integrator="implicitfast" '
-            'solver="Newton" cone="pyramidal" tolerance="1e-14" iterations="200" ls_iterations="100"/>'
+            f'solver="Newton" {cone_attrs}tolerance="1e-14" iterations="200" ls_iterations="100"/>'
         ),
         "  <worldbody>",
         (
@@ -228,8 +236,12 @@ def build_mujoco_model(
     preload: float = 0.0,
     damping_time: float | None = None,
     timestep: float | None = None,
+    friction: float | None = None,
+    cone: Literal["elliptic", "pyramidal"] = "elliptic",
+    impratio: float = 1.0,
+    set_points: np.ndarray | None = None,
 ) -> str:
-    """MJCF string of the spring-jointed chain with a frictionless sphere contact at {b} on a plane.
+    """MJCF string of the spring-jointed chain with a sphere contact at {b} on a plane (frictionless by default).
 
     Bodies mirror ``model.jointPlacements`` (MuJoCo qpos = Pinocchio q). Hinge i has stiffness k_i
     (N·m/rad), damping τ·k_i (N·m·s/rad) and springref = q0_i — or, when ``preload`` P > 0 (N), the
@@ -237,10 +249,11 @@ def build_mujoco_model(
     spring model of :func:`bracekit.validate.statics.solve_static_equilibrium`).
     The sphere (radius ``sphere_radius``, m) is fixed to b's parent body with its centre at b + r n̂ at q0,
     so it touches the plane at b; the plane passes through ``surface_point`` with unit normal n̂ (toward the
-    robot). Only sphere and plane collide (condim 1, solref 0.002 1, solimp 0.9999 0.9999 0.001). Site
-    ``tip`` is at the tip frame, same orientation. Bodies get 1 kg and 0.01 kg·m² unless ``gravity``, which
-    uses Pinocchio's inertias (floored at 1 g, 1e-6 kg·m²) and g = 9.81 m/s² along −z (the statics has no
-    gravity: use it for visual checks only).
+    robot). Only sphere and plane collide (condim 1, or condim 3 with ``friction``; solref 0.002 1, solimp
+    0.9999 0.9999 0.001). Site ``tip`` is at the tip frame, same orientation. Bodies get 1 kg and 0.01 kg·m²
+    unless ``gravity``, which uses Pinocchio's inertias (floored at 1 g, 1e-6 kg·m²) and g = 9.81 m/s² along
+    −z; with gravity, give the set points that hold it (``set_points``, e.g. from
+    :func:`bracekit.statics.contact_response`), as :mod:`bracekit.validate.holding_check` does.
 
     Args:
         model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
@@ -255,6 +268,14 @@ def build_mujoco_model(
         preload: contact force P ≥ 0 at q0, N.
         damping_time: τ (s); default 2√λ_max(K⁻¹M(q0)) (heaviest mode critically damped).
         timestep: s; default min(1 ms, τ/20).
+        friction: Coulomb coefficient μ ≥ 0 of the sphere–plane contact: condim 3 (sliding friction only,
+            ``friction="μ 0 0"``) instead of the frictionless condim 1.
+        cone: MuJoCo's friction cone with ``friction``: ``"elliptic"`` is the Coulomb cone ‖f_t‖ ≤ μ f_n
+            bracekit models; ``"pyramidal"`` approximates it with 4 facets.
+        impratio: MuJoCo's ratio of frictional to normal constraint impedance (> 1 reduces tangential creep),
+            used with ``friction``.
+        set_points: spring set points (springref) q_s (n,), rad, instead of those derived from ``preload``,
+            e.g. ``bracekit.statics.contact_response(...).q_s`` for a preload with gravity.
 
     Raises:
         InputError: unsupported joints, bad shapes, or a brace/tip frame fixed to the world.
@@ -279,15 +300,28 @@ def build_mujoco_model(
         if model.frames[fid].parentJoint == 0:
             raise InputError(f"frame {model.frames[fid].name!r} is fixed to the world; it must move with a joint")
 
-    rest = preload_rest_configuration(model, q0, K, brace_frame_id, nhat, preload) if preload > 0 else q0
+    if friction is not None and not (np.isfinite(friction) and friction >= 0.0):
+        raise InputError(f"friction must be a coefficient μ >= 0, got {friction}")
+    if cone not in ("elliptic", "pyramidal"):
+        raise InputError(f"cone must be 'elliptic' or 'pyramidal', got {cone!r}")
+    if not (np.isfinite(impratio) and impratio >= 1.0):
+        raise InputError(f"impratio must be a finite number >= 1, got {impratio}")
+    if set_points is not None:
+        rest = np.asarray(set_points, dtype=float).reshape(-1)
+        if rest.size != n or not np.all(np.isfinite(rest)):
+            raise InputError(f"set_points must be {n} finite joint values (rad), got shape {rest.shape}")
+    elif preload > 0:
+        rest = preload_rest_configuration(model, q0, K, brace_frame_id, nhat, preload)
+    else:
+        rest = q0
     args = (model, q0, K, rest, brace_frame_id, tip_frame_id, s, nhat, sphere_radius, gravity)
     if damping_time is None:
-        damping_time = _slowest_time_constant(_mjcf(*args, 0.0, _MAX_TIMESTEP), q0, K)
+        damping_time = _slowest_time_constant(_mjcf(*args, 0.0, _MAX_TIMESTEP, friction, cone, impratio), q0, K)
     if timestep is None:
         timestep = min(_MAX_TIMESTEP, damping_time / 20.0)
     if not (damping_time > 0.0 and timestep > 0.0):
         raise InputError("damping_time and timestep must be > 0 s")
-    return _mjcf(*args, damping_time, timestep)
+    return _mjcf(*args, damping_time, timestep, friction, cone, impratio)
 
 
 # --------------------------------------------------------------------------------------------------

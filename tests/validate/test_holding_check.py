@@ -1,0 +1,167 @@
+"""Tests of bracekit.validate.holding_check: the holding statics (gravity, preload, friction) against MuJoCo."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+import bracekit as bk
+from bracekit.errors import InputError
+from bracekit.simulation.holding import Holding
+from bracekit.statics import contact_response, load_contact_wrenches
+from bracekit.validate.holding_check import FAIL_ABOVE, HOLD_BELOW, HoldingCheck, mujoco_holding_check
+from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, build_mujoco_model
+from bracekit.validate.runner import run_holding_validation, validation_configurations
+from bracekit.validate.statics import solve_static_equilibrium
+from helpers import scenario_text
+
+LOADS = "\n[loads]\nwrenches = [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0], [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]]\n"
+
+
+def _holding_text() -> str:
+    """The paper scenario with gravity, P = 20 N, μ = 0.5 and two tool wrenches (k = 170 N·m/rad)."""
+    text = scenario_text(turns=0.05, dt=0.1)
+    text = re.sub(r"(?m)^stiffness = .*$", "stiffness = 170.0\ngravity = true", text, count=1)
+    text = re.sub(r"(?m)^region_radius = .*$", "region_radius = 0.15\npreload = 20.0\nfriction = 0.5", text, count=1)
+    return text + LOADS
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    path = tmp_path_factory.mktemp("hold") / "hold.toml"
+    path.write_text(_holding_text(), encoding="utf-8")
+    sc = bk.load_scenario(path)
+    return {"path": path, "sc": sc, "q": validation_configurations(sc, 1)[0]}
+
+
+@pytest.fixture(scope="module")
+def down(setup: dict) -> HoldingCheck:
+    """The check of the listed downward 10 N force (predicted to slip first) at the start configuration."""
+    sc = setup["sc"]
+    return mujoco_holding_check(sc.braced, setup["q"], sc.holding, sc.holding.wrenches[0])
+
+
+def test_mjcf_has_the_coulomb_cone_friction_gravity_and_the_statics_set_points(setup: dict) -> None:
+    sc, q = setup["sc"], setup["q"]
+    robot, surface = sc.robot, sc.braced.brace.surface
+    resp = contact_response(sc.braced, q, preload=20.0, gravity=True, friction=0.5)
+    xml = build_mujoco_model(
+        robot.model, q, robot.stiffness, sc.braced.brace_id, robot.tip_id, surface.point, surface.normal,
+        gravity=True, friction=0.5, impratio=10.0, set_points=resp.q_s,
+    )  # fmt: skip
+    m = mujoco.MjModel.from_xml_string(xml)
+    assert m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC and m.opt.impratio == 10.0
+    pair = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in (BRACE_GEOM, SURFACE_GEOM)]
+    assert np.all(m.geom_condim[pair] == 3) and np.allclose(m.geom_friction[pair, 0], 0.5)
+    np.testing.assert_allclose(m.qpos_spring, resp.q_s, atol=1e-15)
+    np.testing.assert_allclose(m.opt.gravity, [0.0, 0.0, -9.81])
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    mujoco.mj_forward(m, d)
+    # with the robot at rest, MuJoCo's bias force is gravity: it matches Pinocchio's g(q) = τ0 + J_bᵀ f_c0
+    st = sc.braced.state(q)
+    np.testing.assert_allclose(d.qfrc_bias, resp.tau0 + st.J_b.T @ resp.f_c0, atol=1e-9)
+
+
+def test_unloaded_contact_force_is_the_preload_with_no_tangential_force(down: HoldingCheck) -> None:
+    assert down.unloaded_normal_rel_err < 0.02
+    assert down.unloaded_tangential < 0.01 * 20.0
+    assert down.preload == 20.0 and down.friction == 0.5 and down.gravity
+
+
+def test_loaded_contact_force_and_torques_match_the_first_order_response_below_the_margin(down: HoldingCheck) -> None:
+    held = [c for c in down.cases if c.fraction is not None and c.fraction <= 0.5]
+    assert len(held) == 2
+    for c in held:
+        assert c.outcome == "held"
+        assert c.rel_err < 0.01 and c.torque_rel_err < 0.01
+        assert abs(c.mujoco_normal - c.predicted_normal) < 0.01 * c.predicted_normal
+        assert abs(c.mujoco_tangential - c.predicted_tangential) < 0.02 * c.predicted_tangential + 0.05
+    # the first-order error grows with the load (second order in s): the larger scale is further off
+    assert held[1].rel_err > held[0].rel_err
+
+
+def test_mujoco_and_first_order_forces_match_the_nonlinear_sticking_statics(setup: dict, down: HoldingCheck) -> None:
+    sc, q = setup["sc"], setup["q"]
+    robot, surface = sc.robot, sc.braced.brace.surface
+    case = next(c for c in down.cases if c.fraction is not None and abs(c.fraction - 0.5) < 1e-9)
+    exact = solve_static_equilibrium(
+        robot.model, q, robot.stiffness, sc.braced.brace_id, robot.tip_id, surface.point, surface.normal,
+        case.wrench, preload=20.0, gravity=True, constraint_wrenches=load_contact_wrenches(sc.braced.brace, 0.5),
+    )  # fmt: skip
+    f_exact = exact.contact_wrench[:3]
+    mj_err = np.linalg.norm(case.mujoco_force - f_exact) / np.linalg.norm(f_exact)
+    first_err = np.linalg.norm(case.predicted_force - f_exact) / np.linalg.norm(f_exact)
+    assert mj_err < 0.005 and first_err < 0.01
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_mujoco_slips_only_beyond_the_predicted_slip_margin(setup: dict, down: HoldingCheck, index: int) -> None:
+    sc = setup["sc"]
+    chk = down if index == 0 else mujoco_holding_check(sc.braced, setup["q"], sc.holding, sc.holding.wrenches[1])
+    assert chk.mode == "slipped" and np.isfinite(chk.margin) and chk.liftoff_margin > chk.margin
+    below = [c for c in chk.cases if c.fraction <= HOLD_BELOW + 1e-9]
+    above = [c for c in chk.cases if c.fraction >= FAIL_ABOVE - 1e-9]
+    assert below and above
+    assert all(c.outcome == "held" and c.agrees for c in below)
+    assert all(c.outcome == "slipped" and c.agrees for c in above)
+    # sticking creeps a little; slipping moves b by far more
+    assert max(c.slip_displacement for c in below) < 0.1 * min(c.slip_displacement for c in above)
+    assert max(c.cone_ratio for c in below) < 1.0
+    # at 0.8× the margin the first-order contact force is still within a few %
+    assert max(c.rel_err for c in below) < 0.04
+
+
+def test_frictionless_brace_lifts_off_only_beyond_the_predicted_liftoff_margin(setup: dict) -> None:
+    sc = setup["sc"]
+    chk = mujoco_holding_check(sc.braced, setup["q"], Holding(gravity=True, preload=20.0), [0.0, 0.0, 10.0, 0, 0, 0])
+    assert chk.mode == "lifted_off" and chk.slip_margin is None
+    for c in chk.cases:
+        if c.fraction <= HOLD_BELOW + 1e-9:
+            assert c.outcome == "held" and c.mujoco_normal > 0.0
+        else:
+            assert c.outcome == "lifted_off" and c.mujoco_normal == 0.0 and c.predicted_normal < 0.0
+    lightly = chk.cases[0]
+    assert abs(lightly.mujoco_normal - lightly.predicted_normal) < 0.01 * lightly.predicted_normal
+
+
+def test_holding_validation_report_is_json_and_agrees(setup: dict) -> None:
+    report = run_holding_validation(setup["path"], [setup["q"]], fractions=(0.5, 1.2))
+    js = json.loads(json.dumps(report.to_json(), allow_nan=False))
+    s = js["summary"]
+    assert s["counts"] == {"ok": 2, "failed": 0}
+    assert s["margin_cases"] == 4 and s["margin_agree"] == 4 and s["margin_disagreements"] == []
+    assert s["unloaded_normal_max_rel_err"] < 0.02 and s["force_max_rel_err"] < 0.02
+    assert js["holding"] == {
+        "gravity": True,
+        "preload_N": 20.0,
+        "friction": 0.5,
+        "wrenches": [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0], [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]],
+    }
+    assert "4 of 4 agree" in report.table_text()
+
+
+def test_holding_validation_refuses_a_scenario_without_holding_and_bad_inputs(setup: dict) -> None:
+    with pytest.raises(InputError, match="no holding statics"):
+        run_holding_validation("paper", [setup["q"]])
+    sc = setup["sc"]
+    with pytest.raises(InputError, match="tool wrench"):
+        mujoco_holding_check(sc.braced, setup["q"], sc.holding, [1.0, 2.0])
+    with pytest.raises(InputError, match="impratio"):
+        mujoco_holding_check(sc.braced, setup["q"], sc.holding, np.zeros(6), impratio=0.5)
+    with pytest.raises(InputError, match="holding"):
+        mujoco_holding_check(sc.braced, setup["q"], {"preload": 20.0}, np.zeros(6))  # type: ignore[arg-type]
+
+
+def test_wrench_free_scenario_checks_the_unloaded_state_only(tmp_path: Path, setup: dict) -> None:
+    path = tmp_path / "noload.toml"
+    path.write_text(_holding_text().replace(LOADS, "\n"), encoding="utf-8")
+    report = run_holding_validation(path, [setup["q"]])
+    (check,) = report.checks
+    assert check["status"] == "ok" and check["check"]["cases"] == []
+    assert check["check"]["unloaded_normal_rel_err"] < 0.02
