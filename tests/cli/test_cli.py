@@ -259,6 +259,22 @@ def test_validate_json_has_the_required_keys(capsys, tmp_path: Path) -> None:
     assert (out / "validation.png").stat().st_size > 0 and (out / "validation.json").is_file()
 
 
+def test_validate_checks_the_holding_statics_in_mujoco_when_the_scenario_has_them(capsys, tmp_path: Path) -> None:
+    import re
+
+    from helpers import scenario_text
+
+    text = re.sub(r"(?m)^stiffness = .*$", "stiffness = 170.0\ngravity = true", scenario_text(), count=1)
+    text = re.sub(r"(?m)^region_radius = .*$", "region_radius = 0.15\npreload = 20.0\nfriction = 0.5", text, count=1)
+    path = tmp_path / "hold.toml"
+    path.write_text(text + "\n[loads]\nwrenches = [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0]]\n", encoding="utf-8")
+    code, stdout, _ = _run(["validate", str(path), "--configs", "1", "--json"], capsys)
+    assert code == 0
+    s = json.loads(stdout)["holding"]["summary"]
+    assert s["unloaded_normal_max_rel_err"] < 0.02 and s["force_median_rel_err"] < 0.02
+    assert s["margin_cases"] > 0 and s["margin_agree"] == s["margin_cases"]
+
+
 def test_validate_rejects_zero_configurations(capsys) -> None:
     code, _, err = _run(["validate", "--configs", "0"], capsys)
     assert code == 2 and "--configs" in err

@@ -462,14 +462,26 @@ def _validate(args: argparse.Namespace) -> int:
             if bar is not None:
                 bar.close()
         data = report.to_json()
+        holding = None
+        if scenario.holding.active:
+            from bracekit.validate.runner import run_holding_validation
+
+            holding = run_holding_validation(scenario, configs=args.configs)
+            data["holding"] = holding.to_json()
         if plan is not None:
             with atomic_directory(plan) as tmp:
                 (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
                 figure_validation(report, tmp / "validation.png")
     print(to_json(data) if args.json else report.table_text())
+    if holding is not None and not args.json:
+        print(holding.table_text())
     counts = report.counts()
-    if counts.get("failed", 0) > 0 or report.model_stats("constrained")["n_cases"] == 0:
-        print(f"bracekit: error: {counts.get('failed', 0)} validation case(s) failed", file=sys.stderr)
+    failed = counts.get("failed", 0)
+    if holding is not None:
+        s = holding.summary()
+        failed += s["counts"]["failed"] + len(s["margin_disagreements"])
+    if failed > 0 or report.model_stats("constrained")["n_cases"] == 0:
+        print(f"bracekit: error: {failed} validation case(s) failed", file=sys.stderr)
         return 1
     return 0
 

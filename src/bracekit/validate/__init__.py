@@ -4,6 +4,7 @@ The first-order Lagrange (KKT) compliance, the nonlinear static equilibrium (Pin
 braced chain, and the runner that compares the first-order models with both.
 """
 
+from bracekit.validate.holding_check import HoldingCase, HoldingCheck, mujoco_holding_check
 from bracekit.validate.mujoco_check import (
     MujocoResult,
     MujocoValidationError,
@@ -11,8 +12,10 @@ from bracekit.validate.mujoco_check import (
     mujoco_static_deflection,
 )
 from bracekit.validate.runner import (
+    HoldingValidationReport,
     ValidationReport,
     preload_study,
+    run_holding_validation,
     run_validation,
     validation_configurations,
 )
@@ -26,6 +29,9 @@ from bracekit.validate.statics import (
 )
 
 __all__ = [
+    "HoldingCase",
+    "HoldingCheck",
+    "HoldingValidationReport",
     "MujocoResult",
     "MujocoValidationError",
     "StaticResult",
@@ -34,9 +40,11 @@ __all__ = [
     "build_mujoco_model",
     "frame_jacobian_derivative",
     "lagrange_compliance",
+    "mujoco_holding_check",
     "mujoco_static_deflection",
     "preload_rest_configuration",
     "preload_study",
+    "run_holding_validation",
     "run_validation",
     "solve_static_equilibrium",
     "validation_configurations",
