@@ -186,3 +186,24 @@ def test_fused_step_with_the_term_equals_the_reference(model: str) -> None:
         np.testing.assert_allclose(step(q, xdot), ref, rtol=1e-10, atol=1e-12 * np.max(np.abs(ref)))
         np.testing.assert_allclose(step.gradient(q), strategy.objective.gradient(st), rtol=1e-10, atol=1e-12)
         assert step.value(q) == pytest.approx(strategy.objective.value(st), rel=1e-13)
+
+
+@pytest.mark.parametrize(("contact", "k_env"), [("soft_finger", None), ("frictionless_point", 2e3)])
+def test_other_contacts_and_a_compliant_surface_match_the_capacity_and_differences(
+    contact: str, k_env: float | None
+) -> None:
+    braced = bk.load_scenario("paper").braced
+    brace = braced.brace
+    other = bk.BracedRobot(
+        braced.robot, bk.Brace(brace.frame, brace.surface, contact=contact, environment_stiffness=k_env)
+    )
+    term = BraceMargin(other, WRENCHES, PRELOAD, MU, margin=12.0)
+    for q in _configurations(2, seed=5):
+        st = other.state(q, hessians=True)
+        cap = load_capacity(other, q, WRENCHES, preload=PRELOAD, friction=MU, geometric=False)
+        f_n, f_t = term.forces(st)
+        np.testing.assert_allclose(f_n, cap.normal_force, rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(f_t, cap.tangential_force, rtol=1e-10, atol=1e-9)
+        assert term.value(st) > 0.0
+        fd = finite_difference_gradient(other, term.value, q, 1e-6)
+        np.testing.assert_allclose(term.gradient(st), fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
