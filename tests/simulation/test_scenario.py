@@ -29,6 +29,7 @@ def test_paper_scenario_matches_the_paper_setup() -> None:
         "d": 0.01,
         "joint_limits": 0.0,
         "joint_limit_barrier": 0.0,
+        "brace_margin": 0.0,
         "clearance": 0.0,
     }
     # radial β_x: unit, in the circle plane, pointing from the centre to the desired point
