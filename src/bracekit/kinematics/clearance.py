@@ -10,8 +10,9 @@ A capsule is a segment p(t) = a + t (b − a), t ∈ [0, 1], of radius r. Its cl
 
 - half-space (no radius): the least height of the segment, min(h(a), h(b)) (h is linear in t).
 - (a) penetration: if part of the segment lies over the disk (ρ ≤ r_max: the interval [t0, t1] between the
-  roots of the quadratic ρ(p(t))² = r_max²) below the plane, the least height over that part, at t0 or t1: minus
-  the depth below the top (also for a segment that entered the body from the side).
+  roots of the quadratic ρ(p(t))² = r_max²; a line tangent to the cylinder within rounding touches it) below
+  the plane, the least height over that part, at t0 or t1: minus the depth below the top. Also for a segment
+  that entered the body from the side: there the clearance jumps from −r to minus the depth, minus r.
 - (b) otherwise: the Euclidean distance D from the segment to S (0 when it touches), with
   D(p) = |(max(ρ − r_max, 0), max(h, 0))|: from the top over the disk, from the rim circle beside and above
   it, from the side below it. D is convex along the segment (S is convex); its least point t* solves
@@ -19,7 +20,11 @@ A capsule is a segment p(t) = a + t (b − a), t ∈ [0, 1], of radius r. Its cl
 
 A link's clearance is the least over its capsules; negative is penetration. With a disk every link counts (its
 clearance is finite); only the link carrying {b} (every capsule of the brace frame's joint) is left out: its
-pad touches the plane by design.
+pad touches the plane by design. The ends of all capsules are placed at once, in plane coordinates, with a
+lower bound each (min(h(a), h(b)) where the segment may dip below the top over the disk, else
+|(max(ρ_min − r_max, 0), max(min(h(a), h(b)), 0))|, ρ_min the segment's least lateral distance); a capsule is
+searched exactly only while its bound is below the least clearance found (of its link, or of all links for
+:meth:`Clearance.minimum`).
 
 The gradient at the least point p(t*) is uᵀ∂p/∂q with ∂p/∂q = (1 − t*) J_a + t* J_b, the linear rows of the
 point Jacobian (LOCAL_WORLD_ALIGNED) at p(t*): the joint's Jacobian shifted to the point,
@@ -54,6 +59,8 @@ _FLAT = 1e-28
 _GRAZE = 1e-9
 #: Slack (m) on the lower bound of a capsule's distance below which it is computed exactly (rounding guard).
 _SLACK = 1e-9
+#: Relative rounding of the discriminant within which a segment's line touches the cylinder (tangent).
+_ROUND = 8.0 * 2.0**-52
 #: Iteration cap of the bracketed Newton search for t* (bisection alone needs about 55 to reach rounding).
 _ITERATIONS = 200
 
@@ -71,25 +78,6 @@ class LinkDistance:
     joint: int
     clearance: float
     gradient: Array
-
-
-@dataclass(frozen=True)
-class _Screen:
-    """Every capsule's end points and what is known of its clearance before the exact search (world frame, m).
-
-    Attributes:
-        pa, pb: end points (k, 3).
-        value: the clearance where it is known exactly (half-space, case (a)), else the lower bound
-            |(max(ρ_min − r_max, 0), max(min(h(a), h(b)), 0))| − r of case (b) (k,).
-        t: the least point's segment parameter where known (k,).
-        exact: whether `value` is exact (k,).
-    """
-
-    pa: Array
-    pb: Array
-    value: Array
-    t: Array
-    exact: NDArray[np.bool_]
 
 
 def _least_t(h0: float, slope: float, quad: float, half: float, gam: float, r_max: float) -> float:
@@ -159,12 +147,20 @@ class Clearance:
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
         self._slot = np.array([joints.index(c.joint) for c in self.capsules], dtype=np.intp)
-        self._a = np.array([c.a for c in self.capsules], dtype=float).reshape(-1, 3, 1)
-        self._b = np.array([c.b for c in self.capsules], dtype=float).reshape(-1, 3, 1)
+        self._slots = [int(k) for k in self._slot]
+        #: each capsule's ends a, b as the columns of a 3×2 matrix in its joint's frame (k, 3, 2)
+        self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
         self._radius = np.array([c.radius for c in self.capsules], dtype=float)
+        self._radii = [float(c.radius) for c in self.capsules]
         surface = braced.brace.surface
         self._normal, self._point = surface.normal, surface.point
-        self._r_max = braced.brace.obstacle_radius
+        n = self._normal
+        e1 = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
+        e1 /= np.linalg.norm(e1)
+        #: rows: the plane's axes x, y and its normal n̂; plane coordinates are basis (p − c)
+        self._basis = np.array([e1, np.cross(n, e1), n])
+        r_max = braced.brace.obstacle_radius
+        self._r_max = None if r_max is None else float(r_max)
         self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
 
     def _placements(self, qa: Array, gradient: bool) -> tuple[Array, list[Array] | None]:
@@ -178,140 +174,150 @@ class Clearance:
         pin.updateFramePlacements(model, data)
         return np.array([data.oMf[f].homogeneous for f in self._frames]), None
 
-    def _screen(self, placements: Array) -> _Screen:
-        """The capsules' end points and their exact clearance or case-(b) lower bound, vectorised over capsules."""
-        m = placements[self._slot]
-        rot, origin = m[:, :3, :3], m[:, :3, 3]
-        pa = (rot @ self._a)[:, :, 0] + origin
-        pb = (rot @ self._b)[:, :, 0] + origin
-        n, c, radius = self._normal, self._point, self._radius
-        ha, hb = (pa - c) @ n, (pb - c) @ n
-        d = pb - pa
-        slope = d @ n
-        low_b = slope < 0.0  # the least height of the segment (or of its part over the disk) is at its b side
+    def _screen(self, placements: Array) -> tuple[list[list[list[float]]], list[float]]:
+        """(Each capsule's ends in plane coordinates, [[x_a, x_b], [y_a, y_b], [h_a, h_b]] (m); lower bounds (m)).
+
+        The lower bound of a capsule's clearance, vectorised over capsules: min(h_a, h_b) − r without a radius
+        (exact) or where the segment may pass below the top over the disk (h_min < 0 and ρ_min ≤ r_max); else
+        |(max(ρ_min − r_max, 0), max(h_min, 0))| − r (D ≥ it along the whole segment).
+        """
+        basis = self._basis
+        rot = basis @ placements[:, :3, :3]
+        origin = (placements[:, :3, 3] - self._point) @ basis.T
+        pts = rot[self._slot] @ self._ends + origin[self._slot][:, :, None]
+        low = pts[:, 2].min(axis=1)
         r_max = self._r_max
         if r_max is None:
-            value = np.where(low_b, hb, ha) - radius
-            return _Screen(pa, pb, value, low_b.astype(float), np.ones(len(radius), bool))
-        u = pa - c
-        u -= np.outer(u @ n, n)  # L (a − c)
-        v = d - np.outer(slope, n)  # L d
-        quad = np.einsum("ij,ij->i", v, v)
-        half = np.einsum("ij,ij->i", u, v)
-        gam = np.einsum("ij,ij->i", u, u)
-        const = gam - r_max * r_max
-        flat = quad <= _FLAT
+            return pts.tolist(), (low - self._radius).tolist()
+        xa, ya = pts[:, 0, 0], pts[:, 1, 0]
+        dx, dy = pts[:, 0, 1] - xa, pts[:, 1, 1] - ya
+        quad = dx * dx + dy * dy
+        half = xa * dx + ya * dy
         with np.errstate(invalid="ignore", divide="ignore"):
-            disc = half * half - quad * const
-            qq = -(half + np.copysign(np.sqrt(np.maximum(disc, 0.0)), half))
-            r1 = np.where(qq != 0.0, qq / quad, 0.0)
-            r2 = np.where(qq != 0.0, const / qq, 0.0)
-            t0 = np.where(flat, 0.0, np.maximum(np.minimum(r1, r2), 0.0))
-            t1 = np.where(flat, 1.0, np.minimum(np.maximum(r1, r2), 1.0))
-            over = np.where(flat, const <= 0.0, (disc >= 0.0) & (t0 <= t1))
-            t = np.where(low_b, t1, t0)
-            height = np.where(t == 0.0, ha, np.where(t == 1.0, hb, ha + t * slope))
-            inside = over & (height < 0.0)  # case (a)
-            tm = np.where(flat, 0.0, np.clip(-half / quad, 0.0, 1.0))  # the segment's least lateral distance
-        rho = np.sqrt(np.maximum((quad * tm + 2.0 * half) * tm + gam, 0.0))
-        bound = np.hypot(np.maximum(rho - r_max, 0.0), np.maximum(np.minimum(ha, hb), 0.0))
-        value = np.where(inside, height, bound) - radius
-        return _Screen(pa, pb, value, t, inside)
+            tm = np.where(quad > _FLAT, np.clip(-half / quad, 0.0, 1.0), 0.0)  # the least lateral distance's t
+        rho = np.sqrt(np.maximum((quad * tm + 2.0 * half) * tm + xa * xa + ya * ya, 0.0))
+        side = rho - r_max
+        bound = np.where((low < 0.0) & (side <= _SLACK), low, np.hypot(np.maximum(side, 0.0), np.maximum(low, 0.0)))
+        return pts.tolist(), (bound - self._radius).tolist()
 
-    def _exact(self, screen: _Screen, i: int) -> tuple[float, float, Array]:
-        """(clearance m, t*, unit direction u) of capsule i, case (b) (the distance to the solid minus r)."""
-        n, c = self._normal, self._point
-        r_max = float(self._r_max)  # type: ignore[arg-type]
-        pa, d = screen.pa[i], screen.pb[i] - screen.pa[i]
-        rel = pa - c
-        h0, slope = float(rel @ n), float(d @ n)
-        u, v = rel - n * h0, d - n * slope
-        t = _least_t(h0, slope, float(v @ v), float(u @ v), float(u @ u), r_max)
-        p = screen.pb[i] if t == 1.0 else pa + t * d
-        rel = p - c
-        h = float(rel @ n)
-        w = rel - n * h
-        rho = math.sqrt(float(w @ w))
+    def _capsule(self, ends: list[list[float]], radius: float) -> tuple[float, float, tuple[float, float, float], bool]:
+        """(Clearance m, t*, unit direction u in plane coordinates, whether t* is a moving clip point) of a capsule.
+
+        `ends` are its ends in plane coordinates, as :meth:`_screen` gives them; the rule is the module's.
+        """
+        (x0, x1), (y0, y1), (h0, h1) = ends
+        dx, dy, slope = x1 - x0, y1 - y0, h1 - h0
+        up = (0.0, 0.0, 1.0)
+        r_max = self._r_max
+        if r_max is None:
+            return (h1 - radius, 1.0, up, False) if slope < 0.0 else (h0 - radius, 0.0, up, False)
+        quad, half, gam = dx * dx + dy * dy, x0 * dx + y0 * dy, x0 * x0 + y0 * y0
+        # the part over the disk, ρ(t)² = quad t² + 2 half t + gam ≤ r_max²: [t0, t1] from the stable roots
+        const = gam - r_max * r_max
+        span: tuple[float, float] | None = None
+        if quad <= _FLAT:
+            span = (0.0, 1.0) if const <= 0.0 else None
+        elif (disc := half * half - quad * const) >= -_ROUND * (half * half + quad * (gam + r_max * r_max)):
+            # a line tangent to the cylinder within rounding touches it: its tangent point is over the disk
+            qq = -(half + math.copysign(math.sqrt(max(disc, 0.0)), half))
+            lo, hi = (qq / quad, const / qq) if qq != 0.0 else (0.0, 0.0)
+            lo, hi = max(min(lo, hi), 0.0), min(max(lo, hi), 1.0)
+            span = (lo, hi) if lo <= hi else None
+        if span is not None:
+            t = span[1] if slope < 0.0 else span[0]
+            height = h0 if t == 0.0 else h1 if t == 1.0 else h0 + t * slope
+            if height < 0.0:  # (a): the least height over the disk, below the top
+                return height - radius, t, up, 0.0 < t < 1.0 and slope != 0.0
+        # (b): the distance from the solid
+        t = _least_t(h0, slope, quad, half, gam, r_max)
+        x, y, h = (x1, y1, h1) if t == 1.0 else (x0 + t * dx, y0 + t * dy, h0 + t * slope)
+        rho = math.hypot(x, y)
         side, top = max(rho - r_max, 0.0), max(h, 0.0)
         dist = math.hypot(side, top)
-        direction = n if side == 0.0 or dist == 0.0 else (side / rho * w + top * n) / dist
-        return dist - float(self._radius[i]), t, direction
+        if side == 0.0 or dist == 0.0:
+            return dist - radius, t, up, False
+        out = side / (rho * dist)
+        return dist - radius, t, (out * x, out * y, top / dist), False
 
-    def _gradient(self, screen: _Screen, i: int, t: float, direction: Array, jac: Array, origin: Array) -> Array:
-        """uᵀ∂p/∂q (n,) at capsule i's least point t (with a clip point's motion in case (a))."""
-        n = self._normal
-        pa, pb = screen.pa[i], screen.pb[i]
-        d = pb - pa
-        p = pa if t == 0.0 else pb if t == 1.0 else pa + t * d
-        arm = p - origin
-        # uᵀ∂p/∂q = uᵀ(J_v − [arm]× J_ω) = uᵀJ_v + (arm × u)ᵀ J_ω
-        grad: Array = direction @ jac[:3] + np.cross(arm, direction) @ jac[3:]
-        slope = float(n @ d)
-        if screen.exact[i] and self._r_max is not None and 0.0 < t < 1.0 and slope != 0.0:  # (a): t* moves
-            rel = p - self._point
-            w = rel - n * float(n @ rel)  # L (p − c), |w| = r_max
-            rate = float(w @ d)  # ½ ∂g/∂t
-            if abs(rate) > _GRAZE * float(np.linalg.norm(w)) * float(np.linalg.norm(d)):
-                dw = w @ jac[:3] + np.cross(arm, w) @ jac[3:]  # wᵀ∂p/∂q = ½ ∂g/∂q
+    def _gradient(
+        self,
+        ends: list[list[float]],
+        t: float,
+        direction: tuple[float, float, float],
+        clip: bool,
+        jac: Array,
+        origin: Array,
+    ) -> Array:
+        """uᵀ∂p/∂q (n,) at the least point t of a capsule (plane coordinates), with a clip point's motion."""
+        (x0, x1), (y0, y1), (h0, h1) = ends
+        at = (x1, y1, h1) if t == 1.0 else (x0 + t * (x1 - x0), y0 + t * (y1 - y0), h0 + t * (h1 - h0))
+        basis = self._basis
+        arm = self._point + np.array(at) @ basis - origin
+        grad = _point_row(np.array(direction) @ basis, arm, jac)
+        if clip:  # (a) at a clip point on the cylinder: t* moves with q
+            dx, dy, slope = x1 - x0, y1 - y0, h1 - h0
+            w = (at[0], at[1])  # L (p − c), |w| = r_max
+            rate = w[0] * dx + w[1] * dy  # ½ ∂g/∂t
+            if abs(rate) > _GRAZE * math.hypot(*w) * math.sqrt(dx * dx + dy * dy + slope * slope):
+                dw = _point_row(w[0] * basis[0] + w[1] * basis[1], arm, jac)  # wᵀ∂p/∂q = ½ ∂g/∂q
                 grad = grad - (slope / rate) * dw
         return grad
 
     def links(self, q: ArrayLike, gradient: bool = True, below: float = math.inf) -> list[LinkDistance]:
         """Each link's clearance (m) and, if `gradient`, its ∂/∂q (n,), in chain order.
 
-        With a radius every link with a capsule is listed (the brace's link excepted); without capsules the
-        list is empty. Only links whose clearance is below `below` (m) are listed (the rest are not computed).
+        Every link with a capsule is listed (the brace's link excepted; its clearance is finite), or only those
+        whose clearance is below `below` (m; the others are not searched exactly). Without capsules: empty.
         """
         qa = self.braced.robot.check_q(q)
         if not self.capsules:
             return []
         placements, jacs = self._placements(qa, gradient)
-        screen = self._screen(placements)
-        best: dict[int, tuple[float, int, float, Array]] = {}
-        n = self._normal
-        order = sorted(range(len(self.capsules)), key=lambda k: (self._slot[k], screen.value[k]))
-        for i in order:
-            slot = int(self._slot[i])
-            bound = float(screen.value[i])
+        ends, bounds = self._screen(placements)
+        slots, radii = self._slots, self._radii
+        best: dict[int, tuple[float, int, float, tuple[float, float, float], bool]] = {}
+        for i in sorted(range(len(slots)), key=lambda k: (slots[k], bounds[k])):
+            slot = slots[i]
             held = best[slot][0] if slot in best else below
-            if bound - (0.0 if screen.exact[i] else _SLACK) >= held:
+            if bounds[i] - _SLACK >= held:
                 continue
-            if screen.exact[i]:
-                value, t, direction = bound, float(screen.t[i]), n
-            else:
-                value, t, direction = self._exact(screen, i)
+            value, t, direction, clip = self._capsule(ends[i], radii[i])
             if value < held:
-                best[slot] = (value, i, t, direction)
+                best[slot] = (value, i, t, direction, clip)
         out = []
-        for slot, (value, i, t, direction) in sorted(best.items()):
+        for slot, (value, i, t, direction, clip) in sorted(best.items()):
             grad = np.zeros(0)
             if jacs is not None:
-                grad = self._gradient(screen, i, t, direction, jacs[slot], placements[slot, :3, 3])
+                grad = self._gradient(ends[i], t, direction, clip, jacs[slot], placements[slot, :3, 3])
             out.append(LinkDistance(self._joints[slot] - 1, value, grad))
         return out
 
     def minimum(self, q: ArrayLike) -> tuple[float, int]:
         """(The least clearance, m; its link's joint in chain order); (inf, −1) only when there are no capsules.
 
-        Exact: capsules are searched in the order of their lower bounds, until the bound passes the least found.
+        Exact: capsules are evaluated in the order of their lower bounds until the bound passes the least found.
         """
         qa = self.braced.robot.check_q(q)
         if not self.capsules:
             return math.inf, -1
         placements, _ = self._placements(qa, False)
-        screen = self._screen(placements)
+        ends, bounds = self._screen(placements)
         low, link = math.inf, -1
-        for i in np.lexsort((self._slot, screen.value)):
-            bound, joint = float(screen.value[i]), self._joints[self._slot[i]] - 1
-            if screen.exact[i]:
-                value = bound
-            elif bound - _SLACK > low:
+        for i in sorted(range(len(bounds)), key=bounds.__getitem__):
+            if bounds[i] - _SLACK > low:
                 break
-            else:
-                value = self._exact(screen, int(i))[0]
+            value = self._capsule(ends[i], self._radii[i])[0]
+            joint = self._joints[self._slots[i]] - 1
             if (value, joint) < (low, link):
                 low, link = value, joint
         return low, link
+
+
+def _point_row(u: Array, arm: Array, jac: Array) -> Array:
+    """uᵀ∂p/∂q = uᵀ(J_v − [arm]× J_ω) = uᵀJ_v + (arm × u)ᵀ J_ω (n,) for the point at `arm` from the joint (m)."""
+    ax, ay, az = arm.tolist()
+    ux, uy, uz = u.tolist()
+    return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
 
 
 def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[float, int]:
