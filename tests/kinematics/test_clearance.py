@@ -401,6 +401,13 @@ def test_segments_along_the_normal_grazing_the_cylinder_or_of_zero_length_give_f
             assert d.clearance == pytest.approx(brute[d.joint][0], abs=1e-6)
         value, _ = link_clearance(b.state(q))
         assert np.isfinite(value) and np.all(np.isfinite(link_clearance_gradient(b.state(q))))
+    # a link along the normal on the rim, across the plane: penetration by its lower end's depth
+    length = float(np.linalg.norm(pb - pa))
+    cap_link = max(Clearance(braced).capsules, key=lambda c: np.linalg.norm(c.b - c.a))
+    for r_max in np.linspace(0.05, 0.3, 11):
+        rim = _chain_braced(Surface(0.5 * (pa + pb) + r_max * side, (pb - pa) / length), None, float(r_max))
+        found = {d.joint: d.clearance for d in Clearance(rim).links(q)}
+        assert found[cap_link.joint - 1] == pytest.approx(-0.5 * length - cap_link.radius, abs=1e-12)
     # the sphere capsule of l2 (a = b) over a disk about it counts as its centre
     model = braced.robot.model
     data = model.createData()

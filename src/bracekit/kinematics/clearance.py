@@ -59,7 +59,7 @@ _FLAT = 1e-28
 _GRAZE = 1e-9
 #: Slack (m) on the lower bound of a capsule's distance below which it is computed exactly (rounding guard).
 _SLACK = 1e-9
-#: Relative rounding of the discriminant within which a segment's line touches the cylinder (tangent).
+#: Relative rounding within which a segment's line touches the cylinder (tangent to it or lying on it).
 _ROUND = 8.0 * 2.0**-52
 #: Iteration cap of the bracketed Newton search for t* (bisection alone needs about 55 to reach rounding).
 _ITERATIONS = 200
@@ -215,8 +215,8 @@ class Clearance:
         # the part over the disk, ρ(t)² = quad t² + 2 half t + gam ≤ r_max²: [t0, t1] from the stable roots
         const = gam - r_max * r_max
         span: tuple[float, float] | None = None
-        if quad <= _FLAT:
-            span = (0.0, 1.0) if const <= 0.0 else None
+        if quad <= _FLAT:  # no lateral extent: over the disk whole (on the rim within rounding) or not at all
+            span = (0.0, 1.0) if const <= _ROUND * (gam + r_max * r_max) else None
         elif (disc := half * half - quad * const) >= -_ROUND * (half * half + quad * (gam + r_max * r_max)):
             # a line tangent to the cylinder within rounding touches it: its tangent point is over the disk
             qq = -(half + math.copysign(math.sqrt(max(disc, 0.0)), half))
