@@ -1,8 +1,9 @@
 """Tests of the link capsules (bracekit.model.geometry) and the link clearance (bracekit.kinematics.clearance).
 
 References: capsules read off the URDF text by hand, the plane distance of end points placed by an independent
-Pinocchio model, a brute-force clearance from 2001 points sampled along each capsule segment (the disk's edge
-found by bisection), and central finite differences of the clearance.
+Pinocchio model, a brute-force clearance from 2001 points sampled along each capsule segment (their distance
+from the solid computed here from the nearest point of the top, rim circle or side; the disk's edge found by
+bisection for penetration), and central finite differences of the clearance.
 """
 
 from __future__ import annotations
@@ -83,14 +84,15 @@ def test_clearance_is_the_lowest_capsule_end_over_the_plane_and_its_gradient_mat
     model, data = braced.robot.model, braced.robot.model.createData()
     pin.forwardKinematics(model, data, q)
     skip = model.frames[braced.brace_id].parentJoint
-    expected = min(
+    ends = [
         (data.oMi[c.joint].act(end)[2] + 0.2 - c.radius, c.joint - 1)
         for c in braced.robot.link_capsules()
         if c.joint != skip
         for end in (c.a, c.b)
-    )
+    ]
+    expected = min(ends)
     assert value == pytest.approx(expected[0], abs=1e-12)
-    assert link == expected[1]
+    assert link in {j for v, j in ends if v <= expected[0] + 1e-12}  # links meeting at a joint tie
     fd = central_difference(lambda x: link_clearance(braced.state(x))[0], q, 1e-6)
     np.testing.assert_allclose(link_clearance_gradient(state), fd, atol=1e-7)
     clearance = Clearance(braced)
@@ -99,73 +101,110 @@ def test_clearance_is_the_lowest_capsule_end_over_the_plane_and_its_gradient_mat
         np.testing.assert_allclose(d.gradient, fd, atol=1e-7)
 
 
-def test_the_region_limits_the_obstacle_and_the_brace_link_is_excepted() -> None:
+def test_a_disk_far_from_the_arm_still_counts_every_link_and_a_huge_one_is_the_whole_plane() -> None:
     q = np.random.default_rng(0).uniform(-2.0, 2.0, 6)
-    tiny = _braced(0.5, centre=(9.0, 9.0))  # far from the arm: no link is over the region
-    assert link_clearance(tiny.state(q)) == (np.inf, -1)
-    np.testing.assert_array_equal(link_clearance_gradient(tiny.state(q)), np.zeros(6))
+    far = _braced(0.5, centre=(9.0, 9.0))  # no link is over the disk: each is seen from the rim or side
+    found = {d.joint: d.clearance for d in Clearance(far).links(q)}
+    brute = _sampled(far, q)
+    assert set(found) == set(brute) == {c.joint - 1 for c in Clearance(far).capsules}
+    for link, (value, _, kind) in brute.items():
+        assert kind in ("rim", "side") and found[link] == pytest.approx(value, abs=1e-9)
+    value, link = link_clearance(far.state(q))
+    assert (value, link) == min((v, j) for j, v in found.items())
+    assert 12.0 - 0.5 - 1.0 < value < np.inf
     whole = link_clearance(_braced(None).state(q))
     assert link_clearance(_braced(50.0).state(q)) == whole
     assert all(c.joint != 3 for c in Clearance(_braced(None)).capsules)  # the brace sits on l3 (joint 3)
 
 
-def _chain_braced(surface: Surface, region: float | None) -> BracedRobot:
+def _chain_braced(surface: Surface, region: float | None, extent: float | None = None) -> BracedRobot:
     """The 7-joint random chain (brace frame on l3, collisions on l1..l4) braced on `surface`."""
     robot = Robot.from_urdf(_with_collisions(random_chain_urdf(7, seed=4, brace_link=3)), tip="tip")
-    return BracedRobot(robot, Brace("brace", surface, region_radius=region))
+    return BracedRobot(robot, Brace("brace", surface, region_radius=region, surface_radius=extent))
 
 
-def _sampled(braced: BracedRobot, q: np.ndarray, count: int = 2001) -> dict[int, tuple[float, float, float]]:
-    """Brute force: link (chain order) → (least sampled clearance, the same with the disk's edge, its t).
+def _solid_distance(points: np.ndarray, centre: np.ndarray, normal: np.ndarray, r_max: float) -> np.ndarray:
+    """Distance (m) of each point (k, 3) from the disk of radius r_max and the cylinder below it.
 
-    `count` points along each capsule segment placed by forward kinematics; those over the disk (lateral
-    distance ≤ r_max) are kept. The second value also keeps the disk's edge points between an inside and an
-    outside sample, found by bisection on that predicate (60 halvings).
+    Over the disk: the height (0 below the top). Beside it: below the plane the distance from the side, above
+    it the distance from the rim circle's point nearest the point's lateral direction.
+    """
+    rel = points - centre
+    height = rel @ normal
+    lateral = rel - np.outer(height, normal)
+    rho = np.linalg.norm(lateral, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rim = centre + r_max * lateral / rho[:, None]
+    beside = np.where(height <= 0.0, rho - r_max, np.linalg.norm(points - rim, axis=1))
+    return np.where(rho <= r_max, np.maximum(height, 0.0), beside)
+
+
+def _sampled(braced: BracedRobot, q: np.ndarray, count: int = 2001) -> dict[int, tuple[float, float, str]]:
+    """Brute force: link (chain order) → (least clearance of its capsules, that capsule's least t, kind).
+
+    `count` points along each capsule segment placed by forward kinematics. Without a radius: the least
+    height ("plane"). With one, if a point over the disk (lateral distance ≤ r_max) lies below the plane or a
+    disk edge point between an inside and an outside sample does (found by bisection, 60 halvings): the least
+    such height ("below"). Else the least distance from the solid, resampled (`count` points) between the best
+    sample's neighbours; its kind is where that point is: "top" over the disk, "rim" beside and above it,
+    "side" beside and below it.
     """
     model = braced.robot.model
     data = model.createData()
     pin.forwardKinematics(model, data, q)
     normal, centre = braced.brace.surface.normal, braced.brace.surface.point
-    r_max = braced.brace.region_radius
+    r_max = braced.brace.obstacle_radius
     skip = model.frames[braced.brace_id].parentJoint
     ts = np.linspace(0.0, 1.0, count)
 
-    def over(p: np.ndarray) -> np.ndarray:
+    def lateral(p: np.ndarray) -> np.ndarray:
         rel = p - centre
-        lateral = rel - np.outer(rel @ normal, normal)
-        return np.ones(len(p), bool) if r_max is None else np.linalg.norm(lateral, axis=1) <= r_max
+        return np.linalg.norm(rel - np.outer(rel @ normal, normal), axis=1)
 
-    out: dict[int, tuple[float, float, float]] = {}
+    out: dict[int, tuple[float, float, str]] = {}
     for cap in braced.robot.link_capsules():
         if cap.joint == skip:
             continue
         pa, pb = data.oMi[cap.joint].act(cap.a), data.oMi[cap.joint].act(cap.b)
         points = pa + np.outer(ts, pb - pa)
-        inside = over(points)
-        if not inside.any():
-            continue
-        dist = (points - centre) @ normal - cap.radius
-        sampled = float(dist[inside].min())
-        cand_t, cand_d = list(ts[inside]), list(dist[inside])
-        for i in np.flatnonzero(inside[:-1] != inside[1:]):
-            t_in, t_out = (ts[i], ts[i + 1]) if inside[i] else (ts[i + 1], ts[i])
-            for _ in range(60):
-                mid = 0.5 * (t_in + t_out)
-                if over((pa + mid * (pb - pa))[None])[0]:
-                    t_in = mid
-                else:
-                    t_out = mid
-            cand_t.append(t_in)
-            cand_d.append(float((pa + t_in * (pb - pa) - centre) @ normal) - cap.radius)
-        k = int(np.argmin(cand_d))
+        height = (points - centre) @ normal
+        if r_max is None:
+            k = int(np.argmin(height))
+            found = (float(height[k]) - cap.radius, float(ts[k]), "plane")
+        else:
+            inside = lateral(points) <= r_max
+            cand_t, cand_h = list(ts[inside]), list(height[inside])
+            for i in np.flatnonzero(inside[:-1] != inside[1:]):
+                t_in, t_out = (ts[i], ts[i + 1]) if inside[i] else (ts[i + 1], ts[i])
+                for _ in range(60):
+                    mid = 0.5 * (t_in + t_out)
+                    if lateral((pa + mid * (pb - pa))[None])[0] <= r_max:
+                        t_in = mid
+                    else:
+                        t_out = mid
+                cand_t.append(t_in)
+                cand_h.append(float((pa + t_in * (pb - pa) - centre) @ normal))
+            if cand_h and min(cand_h) < 0.0:
+                k = int(np.argmin(cand_h))
+                found = (cand_h[k] - cap.radius, cand_t[k], "below")
+            else:
+                k = int(np.argmin(_solid_distance(points, centre, normal, r_max)))
+                fine = np.linspace(ts[max(k - 1, 0)], ts[min(k + 1, count - 1)], count)
+                near = pa + np.outer(fine, pb - pa)
+                dist = _solid_distance(near, centre, normal, r_max)
+                k = int(np.argmin(dist))
+                p = near[k]
+                rho, h = lateral(p[None])[0], float((p - centre) @ normal)
+                kind = "top" if rho <= r_max else "rim" if h > 0.0 else "side"
+                found = (float(dist[k]) - cap.radius, float(fine[k]), kind)
         link = cap.joint - 1
-        if link not in out or cand_d[k] < out[link][1]:
-            out[link] = (min(sampled, out.get(link, (np.inf,))[0]), cand_d[k], cand_t[k])
+        if link not in out or found[0] < out[link][0]:
+            out[link] = found
     return out
 
 
 def _edge_cases(seed: int) -> tuple[BracedRobot, np.ndarray]:
-    """A q and a tilted plane with a 0.12 m region whose edge cuts the chain's links."""
+    """A q and a tilted plane with a 0.12 m region whose edge cuts a link 0.1 m below the plane."""
     rng = np.random.default_rng(seed)
     q = rng.uniform(-2.0, 2.0, 7)
     normal = rng.normal(size=3) + np.array([0.0, 0.0, 3.0])
@@ -176,7 +215,7 @@ def _edge_cases(seed: int) -> tuple[BracedRobot, np.ndarray]:
     pin.forwardKinematics(model, data, q)
     cap = Clearance(probe).capsules[rng.integers(3)]
     pa, pb = data.oMi[cap.joint].act(cap.a), data.oMi[cap.joint].act(cap.b)
-    centre = pa + 0.7 * (pb - pa) - 0.1 * normal  # the disk's edge near the segment's middle
+    centre = pa + 0.7 * (pb - pa) + 0.1 * normal  # the disk's edge near the segment's middle, above it
     return _chain_braced(Surface(centre, normal), 0.12), q
 
 
@@ -185,22 +224,12 @@ def test_clearance_over_a_region_matches_segments_sampled_brute_force(seed) -> N
     braced, q = _edge_cases(seed)
     found = {d.joint: d.clearance for d in Clearance(braced).links(q, gradient=False)}
     brute = _sampled(braced, q)
-    assert set(found) == set(brute)
-    caps = {c.joint - 1: c for c in Clearance(braced).capsules}
-    model = braced.robot.model
-    data = model.createData()
-    pin.forwardKinematics(model, data, q)
-    for link, (sampled, edged, _) in brute.items():
-        assert found[link] == pytest.approx(edged, abs=1e-9)
-        # the samples lie inside the clipped interval, at most one step (1/2000 of the segment) from its ends
-        span = max(
-            abs(braced.brace.surface.normal @ (data.oMi[c.joint].act(c.b) - data.oMi[c.joint].act(c.a)))
-            for c in caps.values()
-            if c.joint - 1 == link
-        )
-        assert found[link] - 1e-12 <= sampled <= found[link] + span / 2000 + 1e-12
+    assert set(found) == set(brute) == {c.joint - 1 for c in Clearance(braced).capsules}
+    for link, (value, _, _) in brute.items():
+        assert found[link] == pytest.approx(value, abs=1e-9)
+        assert found[link] <= value + 1e-12  # the samples can only miss the least point
     value, link = link_clearance(braced.state(q))
-    assert (value, link) == min((v, j) for j, v in found.items()) if found else (value, link) == (np.inf, -1)
+    assert (value, link) == min((v, j) for j, v in found.items())
 
 
 def test_clearance_gradient_at_clip_points_on_the_region_edge_matches_finite_differences() -> None:
@@ -214,11 +243,105 @@ def test_clearance_gradient_at_clip_points_on_the_region_edge_matches_finite_dif
                 lambda x, c=clearance, j=d.joint: {e.joint: e.clearance for e in c.links(x, False)}[j], q, 1e-6
             )
             np.testing.assert_allclose(d.gradient, fd, atol=2e-7)
-            interior += 1e-6 < brute[d.joint][2] < 1.0 - 1e-6
-        if clearance.links(q):
-            fd = central_difference(lambda x, b=braced: link_clearance(b.state(x))[0], q, 1e-6)
-            np.testing.assert_allclose(link_clearance_gradient(braced.state(q)), fd, atol=2e-7)
-    assert interior >= 8  # most checked links have their least point on the disk's edge, inside the segment
+            interior += brute[d.joint][2] == "below" and 1e-6 < brute[d.joint][1] < 1.0 - 1e-6
+        fd = central_difference(lambda x, b=braced: link_clearance(b.state(x))[0], q, 1e-6)
+        np.testing.assert_allclose(link_clearance_gradient(braced.state(q)), fd, atol=2e-7)
+    assert interior >= 6  # in half the cases a link's least point is on the disk's edge, inside the segment
+
+
+def _near_a_link(seed: int) -> tuple[BracedRobot, np.ndarray]:
+    """A q and a tilted surface whose disk (radius 0.03–0.3 m) lies within about 0.2 m of a random link point."""
+    rng = np.random.default_rng(100 + seed)
+    q = rng.uniform(-2.0, 2.0, 7)
+    normal = rng.normal(size=3)
+    normal /= np.linalg.norm(normal)
+    probe = _chain_braced(Surface([0.0, 0.0, -1.0], normal), None)
+    model = probe.robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    caps = Clearance(probe).capsules
+    cap = caps[rng.integers(len(caps))]
+    pa, pb = data.oMi[cap.joint].act(cap.a), data.oMi[cap.joint].act(cap.b)
+    centre = pa + rng.uniform(0.0, 1.0) * (pb - pa) + rng.normal(scale=0.12, size=3)
+    return _chain_braced(Surface(centre, normal), None, float(rng.uniform(0.03, 0.3))), q
+
+
+def test_distance_to_the_solid_matches_brute_force_and_its_gradient_finite_differences_on_top_rim_and_side() -> None:
+    kinds: dict[str, int] = {}
+    interior = 0
+    for seed in range(40):
+        braced, q = _near_a_link(seed)
+        clearance = Clearance(braced)
+        brute = _sampled(braced, q)
+        for d in clearance.links(q):
+            value, t, kind = brute[d.joint]
+            assert d.clearance == pytest.approx(value, abs=1e-9)
+            fd = central_difference(
+                lambda x, c=clearance, j=d.joint: {e.joint: e.clearance for e in c.links(x, False)}[j], q, 1e-6
+            )
+            np.testing.assert_allclose(d.gradient, fd, atol=2e-7)
+            kinds[kind] = kinds.get(kind, 0) + 1
+            interior += kind != "below" and 1e-3 < t < 1.0 - 1e-3
+        assert link_clearance(braced.state(q)) == min((d.clearance, d.joint) for d in clearance.links(q, False))
+    # every way of being nearest is checked: over the top, from the rim circle, from the side, and penetration
+    assert min(kinds.get(k, 0) for k in ("top", "rim", "side", "below")) >= 3, kinds
+    assert interior >= 10  # least points inside the segment (not at an end)
+
+
+@pytest.mark.parametrize("height", [0.0, 0.04])
+def test_a_link_approaching_the_table_from_the_side_is_seen_until_it_touches_the_rim(height: float) -> None:
+    q = np.random.default_rng(1).uniform(-1.0, 1.0, 7)
+    probe = _chain_braced(Surface([0.0, 0.0, -1.0], [0.0, 0.0, 1.0]), None)
+    model = probe.robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    cap = max(Clearance(probe).capsules, key=lambda c: np.linalg.norm(c.b - c.a))
+    pa, pb = data.oMi[cap.joint].act(cap.a), data.oMi[cap.joint].act(cap.b)
+    along = (pb - pa) / np.linalg.norm(pb - pa)
+    normal = np.cross(along, [0.3, -0.5, 0.8])
+    normal /= np.linalg.norm(normal)
+    side = np.cross(normal, along)  # across the link, in the table's plane
+    r_max, link = 0.2, cap.joint - 1
+    seen = []
+    for gap in (0.3, 0.1, cap.radius + 0.01, cap.radius):  # from the link's axis to the rim, in the plane
+        centre = 0.5 * (pa + pb) - (r_max + gap) * side - height * normal  # the link `height` above the top
+        braced = _chain_braced(Surface(centre, normal), None, r_max)
+        found = {d.joint: d for d in Clearance(braced).links(q)}[link]
+        assert found.clearance == pytest.approx(np.hypot(gap, height) - cap.radius, abs=1e-12)
+        assert found.clearance == pytest.approx(_sampled(braced, q)[link][0], abs=1e-9)
+        fd = central_difference(
+            lambda x, b=braced: {e.joint: e.clearance for e in Clearance(b).links(x, False)}[link], q, 1e-7
+        )
+        np.testing.assert_allclose(found.gradient, fd, atol=2e-7)
+        seen.append(found.clearance)
+    assert seen[0] > seen[1] > seen[2] > 0.0  # finite and falling as the link comes in
+    if height == 0.0:
+        assert seen[-1] == pytest.approx(0.0, abs=1e-12)  # the capsule touches the rim
+
+
+def test_inside_the_body_below_the_top_is_penetration_and_the_half_space_rule_is_unchanged() -> None:
+    braced, q, link, radius, pa, pb = _mid_through(0.3)  # a plane 2 cm above the link's middle
+    surface = braced.brace.surface
+    below = surface.point - 0.3 * surface.normal  # the same plane, lowered 0.3 m: the link 0.28 m above it
+    for centre, expected in ((surface.point, -0.02), (below, 0.28)):
+        # a post far wider than the arm: the whole link is over it; and the whole plane
+        for b in (
+            _chain_braced(Surface(centre, surface.normal), None, 10.0),
+            _chain_braced(Surface(centre, surface.normal), None),
+        ):
+            found = {d.joint: d.clearance for d in Clearance(b).links(q)}
+            assert found[link] == pytest.approx(expected - radius, abs=1e-9)
+            assert found[link] == pytest.approx(_sampled(b, q)[link][0], abs=1e-9)
+    # a post thinner than the link is long, the link across its body 2 cm below the top: penetration
+    post = _chain_braced(Surface(surface.point, surface.normal), None, 0.01)
+    found = {d.joint: d.clearance for d in Clearance(post).links(q)}
+    assert found[link] == pytest.approx(-0.02 - radius, abs=1e-9)
+    assert _sampled(post, q)[link][2] == "below"
+    # exactly on the plane (h = 0 over the disk): touching, the capsule's radius inside
+    level = _chain_braced(Surface(0.5 * (pa + pb), surface.normal), None, 0.05)
+    assert {d.joint: d.clearance for d in Clearance(level).links(q)}[link] == pytest.approx(-radius, abs=1e-12)
+    assert braced.brace.obstacle_radius == braced.brace.region_radius
+    assert _chain_braced(surface, None).brace.obstacle_radius is None
 
 
 def _mid_through(
@@ -251,7 +374,7 @@ def test_a_link_whose_middle_passes_through_the_disk_between_ends_outside_it_is_
             rel = end - surface.point
             assert np.linalg.norm(rel - surface.normal * (surface.normal @ rel)) > r_max
         found = {d.joint: d for d in Clearance(braced).links(q)}
-        assert found[link].clearance == pytest.approx(_sampled(braced, q)[link][1], abs=1e-9)
+        assert found[link].clearance == pytest.approx(_sampled(braced, q)[link][0], abs=1e-9)
         assert link_clearance(braced.state(q))[0] <= found[link].clearance <= -0.02 - radius + 1e-9
         if tilt == 0.0:  # parallel: the whole clipped segment lies 2 cm beneath the plane
             assert found[link].clearance == pytest.approx(-0.02 - radius, abs=1e-9)
@@ -275,10 +398,16 @@ def test_segments_along_the_normal_grazing_the_cylinder_or_of_zero_length_give_f
         brute = _sampled(b, q)
         for d in found:
             assert np.all(np.isfinite(d.gradient)) and np.isfinite(d.clearance)
-            if d.joint in brute:
-                assert d.clearance == pytest.approx(brute[d.joint][1], abs=1e-6)
+            assert d.clearance == pytest.approx(brute[d.joint][0], abs=1e-6)
         value, _ = link_clearance(b.state(q))
         assert np.isfinite(value) and np.all(np.isfinite(link_clearance_gradient(b.state(q))))
+    # a link along the normal on the rim, across the plane: penetration by its lower end's depth
+    length = float(np.linalg.norm(pb - pa))
+    cap_link = max(Clearance(braced).capsules, key=lambda c: np.linalg.norm(c.b - c.a))
+    for r_max in np.linspace(0.05, 0.3, 11):
+        rim = _chain_braced(Surface(0.5 * (pa + pb) + r_max * side, (pb - pa) / length), None, float(r_max))
+        found = {d.joint: d.clearance for d in Clearance(rim).links(q)}
+        assert found[cap_link.joint - 1] == pytest.approx(-0.5 * length - cap_link.radius, abs=1e-12)
     # the sphere capsule of l2 (a = b) over a disk about it counts as its centre
     model = braced.robot.model
     data = model.createData()

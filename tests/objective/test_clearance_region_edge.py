@@ -1,8 +1,8 @@
 """Tests of the clearance barrier (bracekit.objective.clearance) where the disk's edge cuts the links.
 
-The least point of a link cut by the edge is a clip point that slides along the link as q moves. References:
-central finite differences of the term, and the reference strategy (BracedGradientProjection.velocity) for the
-fused step.
+The table top lies a little below the links, so the low links beside or across the disk's edge are nearest its
+rim circle, at points that slide along the links as q moves. References: central finite differences of the
+term, and the reference strategy (BracedGradientProjection.velocity) for the fused step.
 """
 
 from __future__ import annotations

@@ -1,22 +1,39 @@
-"""Clearance of the links from the bracing plane: signed distances of the link capsules and their ∂/∂q.
+"""Clearance of the links from the bracing surface: signed distances of the link capsules and their ∂/∂q.
 
-The rule: a capsule's clearance is the least signed distance from the plane (n̂ᵀ(p − point), positive on the
-robot's side) over the part of its segment p(t) = a + t (b − a), t ∈ [0, 1], that lies over the obstacle,
-minus the capsule's radius; a link's clearance is the least over its capsules. The obstacle is the plane's disk
-of radius r_max = ``Brace.obstacle_radius`` about the surface's point c (``Brace.surface_radius``, e.g. a table
-top, else the bracing region's radius); without either the whole plane is the obstacle and the part is the whole
-segment. With a disk the segment is clipped to the infinite
-cylinder over the disk, |L (p(t) − c)| ≤ r_max with L = I − n̂n̂ᵀ, a quadratic in t whose roots bound the
-interval [t0, t1] (empty: the capsule does not count). The distance is linear in t, so its least value over
-[t0, t1] is at t0 or t1. The link carrying {b} (every capsule of the brace frame's joint) is left out: its pad
-touches the plane by design. Negative clearance is penetration.
+The obstacle. With a radius r_max = ``Brace.obstacle_radius`` (``Brace.surface_radius``, e.g. a table top or a
+post, else the bracing region's radius) it is the solid S = {p : h(p) ≤ 0, ρ(p) ≤ r_max}: the plane's disk of
+radius r_max about the surface's point c and the infinite cylinder below it (the table's or post's body). Here
+h(p) = n̂ᵀ(p − c) is the height over the plane (positive on the robot's side), ρ(p) = |L (p − c)| the lateral
+distance from c and L = I − n̂n̂ᵀ. Without a radius the obstacle is the half-space below the whole plane.
 
-The gradient at the least point p(t*) is n̂ᵀ(∂p/∂q) + n̂ᵀ(b − a) dt*/dq. ∂p/∂q = (1 − t*) J_a + t* J_b, the
-linear rows of the point Jacobian (LOCAL_WORLD_ALIGNED) at p(t*), the joint's Jacobian shifted to the point:
-J_p = J_v − [p − o]× J_ω. dt*/dq is 0 where t* is an end of the segment (0 or 1) and, where t* is a clip
-point on the cylinder, follows from g(t, q) = |L (p(t) − c)|² − r_max² = 0: dt*/dq = −(∂g/∂q)/(∂g/∂t) =
-−wᵀ(∂p/∂q) / (wᵀ(b − a)) with w = L (p(t*) − c). Where the segment only grazes the cylinder (wᵀ(b − a) ≈ 0)
-the clip point is held fixed (dt*/dq = 0).
+A capsule is a segment p(t) = a + t (b − a), t ∈ [0, 1], of radius r. Its clearance is, minus r:
+
+- half-space (no radius): the least height of the segment, min(h(a), h(b)) (h is linear in t).
+- (a) penetration: if part of the segment lies over the disk (ρ ≤ r_max: the interval [t0, t1] between the
+  roots of the quadratic ρ(p(t))² = r_max²; a line tangent to the cylinder within rounding touches it) below
+  the plane, the least height over that part, at t0 or t1: minus the depth below the top. Also for a segment
+  that entered the body from the side: there the clearance jumps from −r to minus the depth, minus r.
+- (b) otherwise: the Euclidean distance D from the segment to S (0 when it touches), with
+  D(p) = |(max(ρ − r_max, 0), max(h, 0))|: from the top over the disk, from the rim circle beside and above
+  it, from the side below it. D is convex along the segment (S is convex); its least point t* solves
+  d(D²)/dt = 0 by a Newton iteration bracketed in [0, 1] (to the rounding of t).
+
+A link's clearance is the least over its capsules; negative is penetration. With a disk every link counts (its
+clearance is finite); only the link carrying {b} (every capsule of the brace frame's joint) is left out: its
+pad touches the plane by design. The ends of all capsules are placed at once, in plane coordinates, with a
+lower bound each (min(h(a), h(b)) where the segment may dip below the top over the disk, else
+|(max(ρ_min − r_max, 0), max(min(h(a), h(b)), 0))|, ρ_min the segment's least lateral distance); a capsule is
+searched exactly only while its bound is below the least clearance found (of its link, or of all links for
+:meth:`Clearance.minimum`).
+
+The gradient at the least point p(t*) is uᵀ∂p/∂q with ∂p/∂q = (1 − t*) J_a + t* J_b, the linear rows of the
+point Jacobian (LOCAL_WORLD_ALIGNED) at p(t*): the joint's Jacobian shifted to the point,
+J_p = J_v − [p − o]× J_ω. u = n̂ for the half-space, in case (a) and in case (b) over the disk; beside the disk
+u = ∇D, the unit vector from the nearest point of S to p(t*). In case (b) t*'s own motion does not count
+(envelope theorem: t* minimises D along the segment and D is C¹ outside S). In case (a) a clip point
+t* ∈ (0, 1) on the cylinder moves with q: from g(t, q) = ρ(p(t))² − r_max² = 0,
+dt*/dq = −wᵀ(∂p/∂q) / (wᵀ(b − a)) with w = L (p(t*) − c), which adds n̂ᵀ(b − a) dt*/dq. Where the segment
+only grazes the cylinder (wᵀ(b − a) ≈ 0) the clip point is held fixed (dt*/dq = 0).
 """
 
 from __future__ import annotations
@@ -40,8 +57,12 @@ _FLAT = 1e-28
 #: cos of the angle between the segment and the cylinder's outward normal below which a clip point only grazes
 #: the cylinder: its t* is held fixed (∂t*/∂q would grow without bound).
 _GRAZE = 1e-9
-#: Tolerance on the segment parameter t of the golden-section search for the point nearest the solid.
-_T_TOL = 1e-9
+#: Slack (m) on the lower bound of a capsule's distance below which it is computed exactly (rounding guard).
+_SLACK = 1e-9
+#: Relative rounding within which a segment's line touches the cylinder (tangent to it or lying on it).
+_ROUND = 8.0 * 2.0**-52
+#: Iteration cap of the bracketed Newton search for t* (bisection alone needs about 55 to reach rounding).
+_ITERATIONS = 200
 
 
 @dataclass(frozen=True)
@@ -51,7 +72,7 @@ class LinkDistance:
     Attributes:
         joint: the link's joint in chain order (0-based).
         clearance: m, negative = penetration.
-        gradient: ∂clearance/∂q (n,).
+        gradient: ∂clearance/∂q (n,); empty when not asked for.
     """
 
     joint: int
@@ -59,11 +80,60 @@ class LinkDistance:
     gradient: Array
 
 
+def _least_t(h0: float, slope: float, quad: float, half: float, gam: float, r_max: float) -> float:
+    """t* ∈ [0, 1] minimising D² = max(ρ − r_max, 0)² + max(h, 0)² along a segment (Newton bracketed by bisection).
+
+    h = h0 + slope·t and ρ² = quad·t² + 2·half·t + gam; ½ d(D²)/dt is continuous and nondecreasing (D² convex).
+    """
+
+    def slopes(t: float) -> tuple[float, float]:
+        """(½ d(D²)/dt, ½ d²(D²)/dt²) at t."""
+        g = gg = 0.0
+        height = h0 + slope * t
+        if height > 0.0:
+            g, gg = height * slope, slope * slope
+        rho = math.sqrt(max((quad * t + 2.0 * half) * t + gam, 0.0))
+        if rho > r_max:
+            drho = (quad * t + half) / rho
+            g += (rho - r_max) * drho
+            gg += drho * drho + (rho - r_max) * max(quad - drho * drho, 0.0) / rho
+        return g, gg
+
+    g0 = slopes(0.0)[0]
+    if g0 >= 0.0:
+        return 0.0
+    g1 = slopes(1.0)[0]
+    if g1 <= 0.0:
+        return 1.0
+    lo, hi = 0.0, 1.0
+    t = g0 / (g0 - g1)  # the secant's root
+    step = previous = 1.0
+    for _ in range(_ITERATIONS):
+        g, gg = slopes(t)
+        if g == 0.0:
+            return t
+        if g < 0.0:
+            lo = t
+        else:
+            hi = t
+        newton = t - g / gg if gg > 0.0 else math.nan
+        if not lo < newton < hi or abs(2.0 * g) > abs(previous * gg):  # out of the bracket or slow: bisect
+            previous, step = step, 0.5 * (hi - lo)
+            nxt = lo + step
+        else:
+            previous, step = step, g / gg
+            nxt = newton
+        if nxt == t or abs(step) <= 1e-15:
+            return nxt
+        t = nxt
+    return t
+
+
 class Clearance:
-    """The link clearances of a braced robot (its capsules, plane and region fixed at construction).
+    """The link clearances of a braced robot (its capsules, plane and obstacle fixed at construction).
 
     Args:
-        braced: the braced robot; its brace gives the plane, the region and the excepted link.
+        braced: the braced robot; its brace gives the plane, the obstacle's radius and the excepted link.
         link_radius: radius of the default capsules, m (:data:`~bracekit.model.geometry.DEFAULT_LINK_RADIUS`).
     """
 
@@ -76,151 +146,191 @@ class Clearance:
         joints = sorted({c.joint for c in self.capsules})
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
+        self._slot = np.array([joints.index(c.joint) for c in self.capsules], dtype=np.intp)
+        self._slots = [int(k) for k in self._slot]
+        #: each capsule's ends a, b as the columns of a 3×2 matrix in its joint's frame (k, 3, 2)
+        self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
+        self._radius = np.array([c.radius for c in self.capsules], dtype=float)
+        self._radii = [float(c.radius) for c in self.capsules]
         surface = braced.brace.surface
         self._normal, self._point = surface.normal, surface.point
-        self._r_max = braced.brace.obstacle_radius
+        n = self._normal
+        e1 = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
+        e1 /= np.linalg.norm(e1)
+        #: rows: the plane's axes x, y and its normal n̂; plane coordinates are basis (p − c)
+        self._basis = np.array([e1, np.cross(n, e1), n])
+        r_max = braced.brace.obstacle_radius
+        self._r_max = None if r_max is None else float(r_max)
         self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
 
-    def _interval(self, pa: Array, d: Array, slope: float) -> tuple[float, float] | None:
-        """[t0, t1] ⊆ [0, 1] of the segment pa + t d (world, m) over the region's disk; None if no part is.
+    def _placements(self, qa: Array, gradient: bool) -> tuple[Array, list[Array] | None]:
+        """(⁰M of each capsule joint's frame (J, 4, 4); their LOCAL_WORLD_ALIGNED Jacobians (6×n) or None)."""
+        robot = self.braced.robot
+        if gradient or self._data is None:
+            kin = robot.frame_kinematics(qa, self._frames)
+            return np.array([m for m, _ in kin]), [j for _, j in kin] if gradient else None
+        model, data = robot.model, self._data  # placements only: this object's own data, no Jacobians
+        pin.forwardKinematics(model, data, qa)
+        pin.updateFramePlacements(model, data)
+        return np.array([data.oMf[f].homogeneous for f in self._frames]), None
 
-        `slope` is n̂ᵀd. Without a region it is [0, 1]. The roots of |L (pa + t d − c)|² = r_max² come from
-        the quadratic's stable form; a segment with no lateral extent (|L d|² ≤ 1e-28 m²) counts whole or not
-        at all.
+    def _screen(self, placements: Array) -> tuple[list[list[list[float]]], list[float]]:
+        """(Each capsule's ends in plane coordinates, [[x_a, x_b], [y_a, y_b], [h_a, h_b]] (m); lower bounds (m)).
+
+        The lower bound of a capsule's clearance, vectorised over capsules: min(h_a, h_b) − r without a radius
+        (exact) or where the segment may pass below the top over the disk (h_min < 0 and ρ_min ≤ r_max); else
+        |(max(ρ_min − r_max, 0), max(h_min, 0))| − r (D ≥ it along the whole segment).
         """
+        basis = self._basis
+        rot = basis @ placements[:, :3, :3]
+        origin = (placements[:, :3, 3] - self._point) @ basis.T
+        pts = rot[self._slot] @ self._ends + origin[self._slot][:, :, None]
+        low = pts[:, 2].min(axis=1)
         r_max = self._r_max
         if r_max is None:
-            return 0.0, 1.0
-        n = self._normal
-        u = pa - self._point
-        u = u - n * float(n @ u)  # L (a − c), L = I − n̂n̂ᵀ the lateral projection
-        v = d - n * slope  # L d, projected (not |d|² − slope²: exact for near-normal segments)
-        quad = float(v @ v)
-        half = float(u @ v)
-        const = float(u @ u) - r_max * r_max
-        if quad <= _FLAT:
-            return (0.0, 1.0) if const <= 0.0 else None
-        disc = half * half - quad * const
-        if disc < 0.0:
-            return None
-        qq = -(half + math.copysign(math.sqrt(disc), half))
-        lo, hi = (qq / quad, const / qq) if qq != 0.0 else (0.0, 0.0)
-        if lo > hi:
-            lo, hi = hi, lo
-        t0, t1 = max(lo, 0.0), min(hi, 1.0)
-        return (t0, t1) if t0 <= t1 else None
+            return pts.tolist(), (low - self._radius).tolist()
+        xa, ya = pts[:, 0, 0], pts[:, 1, 0]
+        dx, dy = pts[:, 0, 1] - xa, pts[:, 1, 1] - ya
+        quad = dx * dx + dy * dy
+        half = xa * dx + ya * dy
+        with np.errstate(invalid="ignore", divide="ignore"):
+            tm = np.where(quad > _FLAT, np.clip(-half / quad, 0.0, 1.0), 0.0)  # the least lateral distance's t
+        rho = np.sqrt(np.maximum((quad * tm + 2.0 * half) * tm + xa * xa + ya * ya, 0.0))
+        side = rho - r_max
+        bound = np.where((low < 0.0) & (side <= _SLACK), low, np.hypot(np.maximum(side, 0.0), np.maximum(low, 0.0)))
+        return pts.tolist(), (bound - self._radius).tolist()
 
-    def _point_distance(self, p: Array) -> tuple[float, Array]:
-        """Distance (m) of p (3,) from the solid (the disk and the cylinder below it) and its unit ∂/∂p (3,).
+    def _capsule(self, ends: list[list[float]], radius: float) -> tuple[float, float, tuple[float, float, float], bool]:
+        """(Clearance m, t*, unit direction u in plane coordinates, whether t* is a moving clip point) of a capsule.
 
-        Inside the solid or on its top the distance is max(h, 0) with direction n̂ (h the height over the plane).
+        `ends` are its ends in plane coordinates, as :meth:`_screen` gives them; the rule is the module's.
         """
-        n, r_max = self._normal, float(self._r_max)  # type: ignore[arg-type]
-        rel = p - self._point
-        h = float(n @ rel)
-        w = rel - n * h
-        rho = float(np.linalg.norm(w))
-        if rho <= r_max:
-            return max(h, 0.0), n
-        out = w / rho
-        if h <= 0.0:
-            return rho - r_max, out
-        dist = math.hypot(rho - r_max, h)
-        return dist, ((rho - r_max) * out + h * n) / dist
+        (x0, x1), (y0, y1), (h0, h1) = ends
+        dx, dy, slope = x1 - x0, y1 - y0, h1 - h0
+        up = (0.0, 0.0, 1.0)
+        r_max = self._r_max
+        if r_max is None:
+            return (h1 - radius, 1.0, up, False) if slope < 0.0 else (h0 - radius, 0.0, up, False)
+        quad, half, gam = dx * dx + dy * dy, x0 * dx + y0 * dy, x0 * x0 + y0 * y0
+        # the part over the disk, ρ(t)² = quad t² + 2 half t + gam ≤ r_max²: [t0, t1] from the stable roots
+        const = gam - r_max * r_max
+        span: tuple[float, float] | None = None
+        if quad <= _FLAT:  # no lateral extent: over the disk whole (on the rim within rounding) or not at all
+            span = (0.0, 1.0) if const <= _ROUND * (gam + r_max * r_max) else None
+        elif (disc := half * half - quad * const) >= -_ROUND * (half * half + quad * (gam + r_max * r_max)):
+            # a line tangent to the cylinder within rounding touches it: its tangent point is over the disk
+            qq = -(half + math.copysign(math.sqrt(max(disc, 0.0)), half))
+            lo, hi = (qq / quad, const / qq) if qq != 0.0 else (0.0, 0.0)
+            lo, hi = max(min(lo, hi), 0.0), min(max(lo, hi), 1.0)
+            span = (lo, hi) if lo <= hi else None
+        if span is not None:
+            t = span[1] if slope < 0.0 else span[0]
+            height = h0 if t == 0.0 else h1 if t == 1.0 else h0 + t * slope
+            if height < 0.0:  # (a): the least height over the disk, below the top
+                return height - radius, t, up, 0.0 < t < 1.0 and slope != 0.0
+        # (b): the distance from the solid
+        t = _least_t(h0, slope, quad, half, gam, r_max)
+        x, y, h = (x1, y1, h1) if t == 1.0 else (x0 + t * dx, y0 + t * dy, h0 + t * slope)
+        rho = math.hypot(x, y)
+        side, top = max(rho - r_max, 0.0), max(h, 0.0)
+        dist = math.hypot(side, top)
+        if side == 0.0 or dist == 0.0:
+            return dist - radius, t, up, False
+        out = side / (rho * dist)
+        return dist - radius, t, (out * x, out * y, top / dist), False
 
-    def _solid_distance(self, pa: Array, d: Array) -> tuple[float, float, Array]:
-        """(t*, distance, unit direction) of the point of the segment pa + t d nearest the solid (t ∈ [0, 1]).
+    def _gradient(
+        self,
+        ends: list[list[float]],
+        t: float,
+        direction: tuple[float, float, float],
+        clip: bool,
+        jac: Array,
+        origin: Array,
+    ) -> Array:
+        """uᵀ∂p/∂q (n,) at the least point t of a capsule (plane coordinates), with a clip point's motion."""
+        (x0, x1), (y0, y1), (h0, h1) = ends
+        at = (x1, y1, h1) if t == 1.0 else (x0 + t * (x1 - x0), y0 + t * (y1 - y0), h0 + t * (h1 - h0))
+        basis = self._basis
+        arm = self._point + np.array(at) @ basis - origin
+        grad = _point_row(np.array(direction) @ basis, arm, jac)
+        if clip:  # (a) at a clip point on the cylinder: t* moves with q
+            dx, dy, slope = x1 - x0, y1 - y0, h1 - h0
+            w = (at[0], at[1])  # L (p − c), |w| = r_max
+            rate = w[0] * dx + w[1] * dy  # ½ ∂g/∂t
+            if abs(rate) > _GRAZE * math.hypot(*w) * math.sqrt(dx * dx + dy * dy + slope * slope):
+                dw = _point_row(w[0] * basis[0] + w[1] * basis[1], arm, jac)  # wᵀ∂p/∂q = ½ ∂g/∂q
+                grad = grad - (slope / rate) * dw
+        return grad
 
-        The distance from a convex solid is convex along a segment: golden-section search to 1e-9 of t.
+    def links(self, q: ArrayLike, gradient: bool = True, below: float = math.inf) -> list[LinkDistance]:
+        """Each link's clearance (m) and, if `gradient`, its ∂/∂q (n,), in chain order.
+
+        Every link with a capsule is listed (the brace's link excepted; its clearance is finite), or only those
+        whose clearance is below `below` (m; the others are not searched exactly). Without capsules: empty.
         """
-        lo, hi = 0.0, 1.0
-        ratio = 0.5 * (math.sqrt(5.0) - 1.0)
-        x1, x2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-        f1, f2 = self._point_distance(pa + x1 * d)[0], self._point_distance(pa + x2 * d)[0]
-        while hi - lo > _T_TOL:
-            if f1 <= f2:
-                hi, x2, f2 = x2, x1, f1
-                x1 = hi - ratio * (hi - lo)
-                f1 = self._point_distance(pa + x1 * d)[0]
-            else:
-                lo, x1, f1 = x1, x2, f2
-                x2 = lo + ratio * (hi - lo)
-                f2 = self._point_distance(pa + x2 * d)[0]
-        best = min((0.0, 0.5 * (lo + hi), 1.0), key=lambda t: self._point_distance(pa + t * d)[0])
-        dist, direction = self._point_distance(pa + best * d)
-        return best, dist, direction
-
-    def links(self, q: ArrayLike, gradient: bool = True) -> list[LinkDistance]:
-        """Each link with a capsule segment over the region's disk: its clearance (m) and, if `gradient`, ∂/∂q (n,).
-
-        Links none of whose capsule segments passes over the region's disk are left out.
-        """
-        robot = self.braced.robot
-        qa = robot.check_q(q)
-        kin: dict[int, tuple[Array, Array | None]]
-        if gradient or self._data is None:
-            kin = dict(zip(self._joints, robot.frame_kinematics(qa, self._frames), strict=True))
-        else:  # placements only: forward kinematics with this object's own data, no Jacobians
-            model, data = robot.model, self._data
-            pin.forwardKinematics(model, data, qa)
-            pin.updateFramePlacements(model, data)
-            kin = {j: (data.oMf[f].homogeneous, None) for j, f in zip(self._joints, self._frames, strict=True)}
-        best: dict[int, tuple[float, Array | None]] = {}
-        n = self._normal
-        for cap in self.capsules:
-            m, jac = kin[cap.joint]
-            rot, origin = m[:3, :3], m[:3, 3]
-            pa, pb = origin + rot @ cap.a, origin + rot @ cap.b
-            d = pb - pa
-            slope = float(n @ d)  # n̂ᵀ(b − a): the distance's rate along the segment
-            span = self._interval(pa, d, slope)
-            t, value, direction = -1.0, math.inf, n
-            if span is not None:  # the part over the disk: its least height
-                t = span[1] if slope < 0.0 else span[0]
-                p = pa if t == 0.0 else pb if t == 1.0 else pa + t * d
-                value = float(n @ (p - self._point)) - cap.radius
-            if self._r_max is not None and (span is None or value + cap.radius >= 0.0):
-                # the segment keeps out of the solid: its distance from it (from the side, the rim or the top)
-                t, dist, direction = self._solid_distance(pa, d)
-                p = pa + t * d
-                value = dist - cap.radius
-            if cap.joint in best and best[cap.joint][0] <= value:
+        qa = self.braced.robot.check_q(q)
+        if not self.capsules:
+            return []
+        placements, jacs = self._placements(qa, gradient)
+        ends, bounds = self._screen(placements)
+        slots, radii = self._slots, self._radii
+        best: dict[int, tuple[float, int, float, tuple[float, float, float], bool]] = {}
+        for i in sorted(range(len(slots)), key=lambda k: (slots[k], bounds[k])):
+            slot = slots[i]
+            held = best[slot][0] if slot in best else below
+            if bounds[i] - _SLACK >= held:
                 continue
-            grad = None
-            if gradient and jac is not None:
-                arm = p - origin
-                # uᵀ∂p/∂q = uᵀ(J_v − [arm]× J_ω) = uᵀJ_v + (arm × u)ᵀ J_ω, u = n̂ or the distance's direction
-                grad = direction @ jac[:3] + np.cross(arm, direction) @ jac[3:]
-                if direction is n and 0.0 < t < 1.0 and slope != 0.0:  # a clip point on the cylinder: t* moves
-                    rel = p - self._point
-                    w = rel - n * float(n @ rel)  # L (p − c), |w| = r_max
-                    rate = float(w @ d)  # ½ ∂g/∂t
-                    if abs(rate) > _GRAZE * float(np.linalg.norm(w)) * float(np.linalg.norm(d)):
-                        dw = w @ jac[:3] + np.cross(arm, w) @ jac[3:]  # wᵀ∂p/∂q = ½ ∂g/∂q
-                        grad = grad - (slope / rate) * dw
-            best[cap.joint] = (value, grad)
-        return [LinkDistance(j - 1, v, g if g is not None else np.zeros(0)) for j, (v, g) in sorted(best.items())]
+            value, t, direction, clip = self._capsule(ends[i], radii[i])
+            if value < held:
+                best[slot] = (value, i, t, direction, clip)
+        out = []
+        for slot, (value, i, t, direction, clip) in sorted(best.items()):
+            grad = np.zeros(0)
+            if jacs is not None:
+                grad = self._gradient(ends[i], t, direction, clip, jacs[slot], placements[slot, :3, 3])
+            out.append(LinkDistance(self._joints[slot] - 1, value, grad))
+        return out
 
     def minimum(self, q: ArrayLike) -> tuple[float, int]:
-        """(The least clearance, m; its link's joint in chain order); (inf, −1) if no link counts."""
-        found = self.links(q, gradient=False)
-        if not found:
+        """(The least clearance, m; its link's joint in chain order); (inf, −1) only when there are no capsules.
+
+        Exact: capsules are evaluated in the order of their lower bounds until the bound passes the least found.
+        """
+        qa = self.braced.robot.check_q(q)
+        if not self.capsules:
             return math.inf, -1
-        low = min(found, key=lambda d: d.clearance)
-        return low.clearance, low.joint
+        placements, _ = self._placements(qa, False)
+        ends, bounds = self._screen(placements)
+        low, link = math.inf, -1
+        for i in sorted(range(len(bounds)), key=bounds.__getitem__):
+            if bounds[i] - _SLACK > low:
+                break
+            value = self._capsule(ends[i], self._radii[i])[0]
+            joint = self._joints[self._slots[i]] - 1
+            if (value, joint) < (low, link):
+                low, link = value, joint
+        return low, link
+
+
+def _point_row(u: Array, arm: Array, jac: Array) -> Array:
+    """uᵀ∂p/∂q = uᵀ(J_v − [arm]× J_ω) = uᵀJ_v + (arm × u)ᵀ J_ω (n,) for the point at `arm` from the joint (m)."""
+    ax, ay, az = arm.tolist()
+    ux, uy, uz = u.tolist()
+    return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
 
 
 def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[float, int]:
-    """(Minimum link clearance from the bracing plane, m; the index of that link's joint in chain order).
+    """(Minimum link clearance from the bracing surface, m; the index of that link's joint in chain order).
 
-    Negative is penetration; (inf, −1) when no link is over the bracing region. The rule is in this module's
-    docstring.
+    Negative is penetration; (inf, −1) only when the robot has no capsule besides the brace's link. The rule is
+    in this module's docstring.
     """
     return _clearance(state.braced, link_radius).minimum(state.q)
 
 
 def link_clearance_gradient(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> Array:
-    """∂/∂q (n,) of the minimum link clearance (of the link :func:`link_clearance` names); zeros if none counts."""
+    """∂/∂q (n,) of the minimum link clearance (of the link :func:`link_clearance` names); zeros without capsules."""
     found = _clearance(state.braced, link_radius).links(state.q)
     if not found:
         return np.zeros(state.q.size)

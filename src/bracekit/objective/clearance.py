@@ -1,11 +1,13 @@
 """The clearance barrier: Σ over links of φ(c) = (δ − c)² / (δ c) for 0 < c < δ, 0 for c ≥ δ.
 
-c is a link's clearance from the bracing plane (m, :mod:`bracekit.kinematics.clearance`: the least signed
-distance of its capsule segments, clipped to the cylinder over the bracing region's disk, minus the radius, the
-link carrying {b} excepted) and δ the margin (m). φ and φ' vanish at c = δ, φ grows without bound as c → 0, and
-c ≤ 0 raises BarrierError (as the region barrier d does outside the region). φ'(c) = (c² − δ²) / (δ c²), so
-∂/∂q = Σ φ'(c) ∂c/∂q, exact through the point Jacobians at the least points (with the motion of a clip point
-along its segment; no Hessian needed). The fused step adds it as an extra gradient at its q.
+c is a link's clearance from the bracing surface (m, :mod:`bracekit.kinematics.clearance`: the distance of its
+capsule segments from the obstacle, the disk of radius ``Brace.obstacle_radius`` and the cylinder below it or
+else the half-space below the plane, minus the capsule radius, negative by the depth below the top when a link
+passes into it; the link carrying {b} excepted) and δ the margin (m). φ and φ' vanish at c = δ, φ grows without
+bound as c → 0, and c ≤ 0 raises BarrierError (as the region barrier d does outside the region).
+φ'(c) = (c² − δ²) / (δ c²), so ∂/∂q = Σ φ'(c) ∂c/∂q, exact through the point Jacobians at the least points
+(no Hessian needed). Links whose clearance is δ or more are not searched exactly. The fused step adds it as an
+extra gradient at its q.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from bracekit.model.geometry import DEFAULT_LINK_RADIUS
 from bracekit.objective.base import Array, Term, TermContext, register_term
 from bracekit.objective.fused import FusedGradient, FusedKinematics
 
-#: Margin δ of the barrier (m): links farther than this from the plane add nothing.
+#: Margin δ of the barrier (m): links farther than this from the obstacle add nothing.
 DEFAULT_MARGIN = 0.10
 
 
@@ -32,7 +34,7 @@ class ClearanceBarrier(Term):
     """Σ_links φ(c_link), φ(c) = (δ − c)² / (δ c) below the margin δ (m), 0 above; dimensionless.
 
     Attributes:
-        braced: the braced robot (its capsules, plane, region and brace link).
+        braced: the braced robot (its capsules, plane, obstacle radius and brace link).
         margin: δ, m.
         link_radius: radius of the default link capsules, m.
     """
@@ -56,13 +58,13 @@ class ClearanceBarrier(Term):
         object.__setattr__(self, "_clearance", Clearance(self.braced, radius))
 
     def _links(self, q: Array, gradient: bool) -> list[LinkDistance]:
-        """The links within the margin; BarrierError if one touches or passes through the plane."""
-        found = [d for d in self._clearance.links(q, gradient) if d.clearance < self.margin]
+        """The links within the margin; BarrierError if one touches or passes into the obstacle."""
+        found = self._clearance.links(q, gradient, below=self.margin)
         for d in found:
             if not d.clearance > 0.0:
                 raise BarrierError(
-                    f"link {self.braced.robot.joint_names[d.joint]!r} reaches the bracing plane inside the region "
-                    f"(clearance {d.clearance:.4g} m)"
+                    f"link {self.braced.robot.joint_names[d.joint]!r} reaches the bracing plane's obstacle "
+                    f"(the surface's top, rim or side; clearance {d.clearance:.4g} m)"
                 )
         return found
 

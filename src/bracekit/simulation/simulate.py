@@ -601,9 +601,9 @@ def simulate(
     clearance = float(np.min(measures["link_clearance"]))
     if clearance < 0:
         notes.append(
-            f"{strategy.name}: a link passes {-clearance:.3g} m through the bracing plane inside the region "
-            f"(at {int(np.sum(measures['link_clearance'] < 0))} of {len(rows)} samples; link capsules of "
-            "bracekit.kinematics.clearance)"
+            f"{strategy.name}: a link passes {-clearance:.3g} m through the bracing plane into the obstacle "
+            f"(at {int(np.sum(measures['link_clearance'] < 0))} of {len(rows)} samples; the obstacle and the link "
+            "capsules of bracekit.kinematics.clearance)"
         )
         warnings.warn(notes[-1], ClearanceWarning, stacklevel=2)
     if substeps:
