@@ -96,6 +96,10 @@ class ChainSingularWarning(BracekitWarning):
     """Chain 1 is singular (J1 loses rank): it realises fewer braced motions of {b} than the contact allows."""
 
 
+class PadAxisWarning(BracekitWarning):
+    """The pad axis of {b} points away from the surface at the start (θ_z > π/2): likely given with the wrong sign."""
+
+
 class HoldingWarning(BracekitWarning):
     """The brace would lift off or slip, or an actuator saturate, under the listed loads or unloaded."""
 

@@ -142,3 +142,29 @@ def test_paper_run_reports_the_pose_task_space_and_its_redundancy(paper_run) -> 
     for name, s in paper_run.summary["strategies"].items():
         assert s["task_space"] == "pose" and s["redundancy"] == expected[name]
     assert not any("no redundancy" in w for w in paper_run.summary["warnings"])
+
+
+def _panda_text(tmp_path: Path, pad_axis: str | None = None) -> Path:
+    import re
+
+    from bracekit.simulation.scenario import shipped_scenarios
+
+    text = shipped_scenarios()["panda"].read_text(encoding="utf-8")
+    text = re.sub(r"(?m)^turns = .*$", "turns = 0.05", text, count=1)
+    if pad_axis is not None:
+        text = re.sub(r"(?m)^pad_axis = .*$", f"pad_axis = {pad_axis}", text, count=1)
+    path = tmp_path / "panda.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_a_pad_axis_pointing_away_from_the_surface_warns_at_the_start(tmp_path: Path) -> None:
+    from bracekit.errors import PadAxisWarning
+
+    with pytest.warns(PadAxisWarning, match="flip its sign"):
+        flipped = run_scenario(_panda_text(tmp_path, "[0.01, 0.98, -0.21]"), both_models=False)
+    assert any("θ_z at the start" in w for w in flipped.summary["warnings"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PadAxisWarning)
+        right = run_scenario(_panda_text(tmp_path), both_models=False)  # the shipped sign: no warning
+    assert not any("θ_z at the start" in w for w in right.summary["warnings"])

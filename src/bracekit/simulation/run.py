@@ -13,7 +13,8 @@ from numpy.typing import NDArray
 
 from bracekit._linalg import show
 from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel, check_model
-from bracekit.errors import HoldingWarning, InputError
+from bracekit.compliance.measures import theta_z
+from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
 from bracekit.kinematics import BracedState
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
 from bracekit.simulation.holding import holding_measures, holding_summary, holding_warnings, relief_summary
@@ -38,6 +39,7 @@ class RunResult:
     gradient: GradientMode
     trajectories: dict[str, dict[str, Trajectory]]
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
+    start_warnings: list[str] = field(default_factory=list)
 
     @property
     def summary(self) -> dict[str, Any]:
@@ -72,8 +74,24 @@ def _summaries(result: RunResult) -> None:
                 for name, s in strategies.items()
                 if name != "free_space_min_norm"
             }
-        out["warnings"] = [w for tr in runs.values() for w in tr.warnings]
+        out["warnings"] = result.start_warnings + [w for tr in runs.values() for w in tr.warnings]
         result.summaries[model] = out
+
+
+def _start_warnings(sc: Scenario, start: BracedState) -> list[str]:
+    """Warnings about the solved start: a pad axis that points away from the surface (θ_z > π/2)."""
+    if not sc.braced.brace.pad_axis:
+        return []
+    angle = theta_z(sc.braced.brace.surface.normal, start.z_b)
+    if angle <= 0.5 * np.pi:
+        return []
+    line = (
+        f"θ_z at the start is {angle:.3f} rad (> π/2): the pad axis of {{b}} points away from the surface; "
+        "z_b (a frame's z, or '[brace] pad_axis') must point from the pad into the robot, along the normal; "
+        "flip its sign"
+    )
+    warnings.warn(line, PadAxisWarning, stacklevel=3)
+    return [line]
 
 
 def _has_limits(sc: Scenario) -> bool:
@@ -125,6 +143,7 @@ def run_scenario(
     start = solve_start(
         sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
     )
+    start_warnings = _start_warnings(sc, start)
     models = COMPLIANCE_MODELS if both_models else (model,)
     shared: dict[str, Trajectory] = {}
     trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}
@@ -148,7 +167,7 @@ def run_scenario(
             trajectories[m][name] = tr
             if name != "braced_gradient_projection":
                 shared[name] = tr
-    result = RunResult(sc, start, model, grad, trajectories)
+    result = RunResult(sc, start, model, grad, trajectories, start_warnings=start_warnings)
     _summaries(result)
     return result
 
