@@ -105,4 +105,4 @@ class HoldingWarning(BracekitWarning):
 
 
 class ClearanceWarning(BracekitWarning):
-    """A link of the robot passed through the bracing plane inside the bracing region (negative clearance)."""
+    """A link of the robot entered the surface as a solid obstacle (negative clearance)."""

@@ -399,8 +399,8 @@ def measure(
 
     Also σ_min/σ_max of J1, A, J and J̃ (``sigma_ratio_<key>``), ``joint_step``, the largest |Δq_i|
     since the previous sample (rad, m for a prismatic joint; 0 at the start), and ``link_clearance``, the
-    least clearance of the link capsules from the bracing plane inside the region (m, negative = penetration,
-    inf when no link is over the region; :mod:`bracekit.kinematics.clearance`).
+    least clearance of the link capsules from the surface as a solid obstacle (m, negative = penetration; inf
+    only without capsules; :mod:`bracekit.kinematics.clearance`).
     """
     sv = singular_value_measures(state.J_braced)
     lower, upper = state.braced.robot.lower, state.braced.robot.upper
