@@ -142,3 +142,25 @@ def test_holds_needs_every_margin_at_least_one() -> None:
     assert holds({**ok, "liftoff_margin": np.array([0.9])}) is False
     assert holds({**ok, "torque_ratio": np.array([1.2])}) is False
     assert holds({}) is None
+
+
+def test_the_preloaded_model_reports_the_preloaded_ci_along_the_constrained_runs(tmp_path: Path) -> None:
+    text = _holding_text(loads="").replace('model = "constrained"', 'model = "preloaded"', 1)
+    sc = _scenario(tmp_path, text)
+    assert sc.compliance_model == "preloaded"
+    result = bk.run_scenario(sc, both_models=False)
+    assert result.summary["compliance_model"] == "preloaded"
+    runs = result.trajectories["preloaded"]
+    assert runs is result.trajectories["constrained"]  # the same runs; C_i from the statics' series
+    for name, s in result.summary["strategies"].items():
+        assert s["Ci_mean"] == pytest.approx(float(np.mean(runs[name].measures["Ci_preloaded"])))
+        assert s["Ci_mean"] != pytest.approx(result.summaries["constrained"]["strategies"][name]["Ci_mean"], rel=1e-4)
+
+
+def test_the_preloaded_model_needs_gravity_or_a_preload(tmp_path: Path) -> None:
+    text = _holding_text(gravity=False, preload=0.0, loads="")
+    text = text.replace('model = "constrained"', 'model = "preloaded"', 1)
+    with pytest.raises(ScenarioError, match="preloaded"):
+        _scenario(tmp_path, text)
+    with pytest.raises(InputError, match="gravity or a preload"):
+        bk.run_scenario("paper", compliance_model="preloaded", both_models=False)

@@ -121,7 +121,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     run.add_argument("--gradient", choices=("analytic", "finite-difference"), help="how ∇g is computed")
-    run.add_argument("--compliance-model", choices=("constrained", "projection"), help="model of summary.json")
+    run.add_argument(
+        "--compliance-model",
+        choices=("constrained", "projection", "preloaded"),
+        help="model of summary.json (preloaded: with gravity or a preload, C_i of the preloaded compliance)",
+    )
     run.add_argument("--no-figures", action="store_true", help="write the table, summary and trajectories only")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
 

@@ -15,7 +15,14 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, as_number, finite_math, show
-from bracekit.compliance.first_order import c1_unchecked, check_finite, warn_unloaded
+from bracekit.compliance.first_order import (
+    COMPLIANCE_MODELS,
+    ComplianceModel,
+    c1_unchecked,
+    check_finite,
+    check_model,
+    warn_unloaded,
+)
 from bracekit.errors import InputError, NumericalError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.tolerances import UNLOADED_TOL
@@ -177,3 +184,19 @@ def loaded_free_space_compliance(
     st = braced.state(q, hessians=True)
     k_t = tangent_stiffness(st, 0.0, gravity=gravity, wrench=w0)
     return _kkt_compliance(st, k_t, np.zeros((6, 0)), None, not w0[3:].any())
+
+
+#: Compliance models of a run: the first-order ones, and ``preloaded`` (reported along the constrained runs).
+RUN_MODELS: tuple[str, ...] = (*COMPLIANCE_MODELS, "preloaded")
+
+
+def check_run_model(model: object) -> str:
+    """A run's compliance model: one of RUN_MODELS; InputError naming them otherwise."""
+    if not isinstance(model, str) or model not in RUN_MODELS:
+        raise InputError(f"unknown compliance model {show(model)}; choose one of {', '.join(RUN_MODELS)}")
+    return model
+
+
+def simulated_model(model: str) -> ComplianceModel:
+    """The first-order model the runs of `model` simulate with (``preloaded`` runs are the constrained ones)."""
+    return check_model("constrained" if model == "preloaded" else model)

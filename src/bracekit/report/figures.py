@@ -16,7 +16,8 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from numpy.typing import NDArray
 
 from bracekit.compliance.first_order import compliance_ellipsoids, end_effector_compliance, free_space_compliance
-from bracekit.kinematics import skeleton
+from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance, simulated_model
+from bracekit.kinematics import BracedState, skeleton
 from bracekit.report.table import STRATEGY_LABELS
 
 if TYPE_CHECKING:
@@ -100,6 +101,17 @@ def figure_film_strip(result: RunResult, path: Path, frames: int = 5) -> None:
     plt.close(fig)
 
 
+def _tip_compliance(result: RunResult, st: BracedState, braced: bool) -> Array:
+    """The tip compliance (6×6) of the run's model at a state (free space for the unbraced run)."""
+    model = result.compliance_model
+    if model == "preloaded":
+        h = result.scenario.holding
+        if braced:
+            return preloaded_compliance(st.braced, st.q, h.preload, gravity=h.gravity)
+        return loaded_free_space_compliance(st.braced, st.q, gravity=h.gravity)
+    return end_effector_compliance(st, simulated_model(model)) if braced else free_space_compliance(st)
+
+
 def _model_of(result: RunResult, tr: Trajectory) -> str:
     return result.compliance_model if tr.braced else "free-space"
 
@@ -127,7 +139,7 @@ def figure_ellipsoids(result: RunResult, path: Path, points: int = 6) -> None:
         items = []
         for k in idx:
             st = braced.state(tr.q[k])
-            c = end_effector_compliance(st, result.compliance_model) if tr.braced else free_space_compliance(st)
+            c = _tip_compliance(result, st, tr.braced)
             ell = compliance_ellipsoids(c).translational
             items.append((st.e, ell))
             semis.append(ell.semi_axes.max())

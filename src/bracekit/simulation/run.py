@@ -12,8 +12,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit._linalg import show
-from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel, check_model
+from bracekit.compliance.first_order import COMPLIANCE_MODELS, check_model
 from bracekit.compliance.measures import theta_z
+from bracekit.compliance.preloaded import check_run_model, simulated_model
 from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
 from bracekit.kinematics import BracedState
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
@@ -35,7 +36,7 @@ class RunResult:
 
     scenario: Scenario
     start: BracedState
-    compliance_model: ComplianceModel
+    compliance_model: str
     gradient: GradientMode
     trajectories: dict[str, dict[str, Trajectory]]
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
@@ -55,7 +56,7 @@ class RunResult:
 def _summaries(result: RunResult) -> None:
     sc = result.scenario
     for model, runs in result.trajectories.items():
-        strategies = {name: tr.summary(check_model(model)) for name, tr in runs.items()}
+        strategies = {name: tr.summary(model) for name, tr in runs.items()}
         for name, tr in runs.items():
             strategies[name].update(holding_summary(tr.measures))
             if sc.holding.active and tr.braced and tr.q.shape[0] and _has_limits(sc):
@@ -112,7 +113,7 @@ def _add_holding(sc: Scenario, tr: Trajectory) -> None:
 def run_scenario(
     scenario: Scenario | str | os.PathLike[str],
     gradient: GradientMode | None = None,
-    compliance_model: ComplianceModel | None = None,
+    compliance_model: str | None = None,
     *,
     both_models: bool = True,
     progress: Callable[[int], None] | None = None,
@@ -122,7 +123,8 @@ def run_scenario(
     Args:
         scenario: a Scenario, a TOML path (a str or an os.PathLike) or a shipped name ('paper').
         gradient: 'analytic' (default of the scenario) or 'finite-difference' (the paper's).
-        compliance_model: 'constrained' or 'projection'; the model of ``summary``.
+        compliance_model: 'constrained', 'projection' or 'preloaded' (the constrained runs with C_i of the
+            preloaded compliance: needs gravity or a preload); the model of ``summary``.
         both_models: also run gradient projection under the other compliance model (for Table I).
         progress: called with the number of steps done, for a progress bar.
     """
@@ -135,7 +137,12 @@ def run_scenario(
     grad = sc.gradient if gradient is None else gradient
     if not isinstance(grad, str) or grad not in GRADIENT_MODES:
         raise InputError(f"unknown gradient mode {show(grad)}; choose one of {', '.join(GRADIENT_MODES)}")
-    model = check_model(sc.compliance_model if compliance_model is None else compliance_model)
+    model = check_run_model(sc.compliance_model if compliance_model is None else compliance_model)
+    if model == "preloaded" and not (sc.holding.gravity or sc.holding.preload > 0.0):
+        raise InputError(
+            "the preloaded compliance model needs gravity or a preload ('[robot] gravity = true' or "
+            "'[brace] preload' > 0); without them it is the constrained model"
+        )
     if not isinstance(both_models, bool):
         raise InputError(f"both_models must be True or False, got {show(both_models)}")
     if progress is not None and not callable(progress):
@@ -144,7 +151,7 @@ def run_scenario(
         sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
     )
     start_warnings = _start_warnings(sc, start)
-    models = COMPLIANCE_MODELS if both_models else (model,)
+    models = COMPLIANCE_MODELS if both_models else (simulated_model(model),)
     shared: dict[str, Trajectory] = {}
     trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}
     for m in models:
@@ -167,6 +174,8 @@ def run_scenario(
             trajectories[m][name] = tr
             if name != "braced_gradient_projection":
                 shared[name] = tr
+    if model == "preloaded":  # the same runs as the constrained model, C_i of the preloaded compliance
+        trajectories["preloaded"] = trajectories["constrained"]
     result = RunResult(sc, start, model, grad, trajectories, start_warnings=start_warnings)
     _summaries(result)
     return result

@@ -19,7 +19,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit._linalg import show
-from bracekit.compliance.first_order import COMPLIANCE_MODELS, ComplianceModel
+from bracekit.compliance.first_order import ComplianceModel
+from bracekit.compliance.preloaded import RUN_MODELS, simulated_model
 from bracekit.contact import REGISTRY, Brace, Surface, contact_type
 from bracekit.errors import BracekitError, FrameNotFoundError, InputError, ScenarioError
 from bracekit.kinematics import BracedRobot
@@ -156,7 +157,7 @@ class Scenario:
     braced: BracedRobot
     task: Task
     guess: Array
-    compliance_model: ComplianceModel
+    compliance_model: str
     beta_x: Callable[[float], Array]
     beta_x_spec: str
     alpha: float
@@ -179,7 +180,7 @@ class Scenario:
     def objective(self, model: ComplianceModel | None = None, beta_x: Array | None = None) -> Objective:
         """G of eq:objective with this scenario's weights (β_x at t = 0 unless given)."""
         beta = self.beta_x(0.0) if beta_x is None else beta_x
-        context = TermContext(self.braced, beta, model or self.compliance_model, self.holding)
+        context = TermContext(self.braced, beta, model or simulated_model(self.compliance_model), self.holding)
         keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
         kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in keys]
         return Objective([t for t, _ in kept], [w for _, w in kept])
@@ -305,7 +306,12 @@ def parse_scenario(
     start = top.table("start", ("guess", "theta_weight"))
     guess = start.vector("guess", robot.n)
     comp = top.table("compliance", ("model", "beta_x"), {})
-    model = comp.string("model", COMPLIANCE_MODELS, "constrained")
+    model = comp.string("model", RUN_MODELS, "constrained")
+    if model == "preloaded" and not (holding.gravity or holding.preload > 0.0):
+        raise ScenarioError(
+            "'compliance.model' = \"preloaded\" needs '[robot] gravity = true' or '[brace] preload' > 0 "
+            "(without them it is the constrained model)"
+        )
     beta_raw = comp.raw("beta_x", "radial")
     if isinstance(beta_raw, str) and beta_raw != "radial":
         want = '"radial" or 6 numbers [vx, vy, vz, wx, wy, wz]'
@@ -376,7 +382,7 @@ def parse_scenario(
         braced=braced,
         task=task,
         guess=guess,
-        compliance_model=cast(ComplianceModel, model),
+        compliance_model=model,
         beta_x=beta_x,
         beta_x_spec=spec,
         alpha=alpha,

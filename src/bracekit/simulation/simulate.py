@@ -40,7 +40,6 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit._linalg import angle_between, as_number
 from bracekit.compliance.first_order import (
     COMPLIANCE_MODELS,
-    ComplianceModel,
     compliance_index,
     end_effector_compliance,
     free_space_compliance,
@@ -353,11 +352,17 @@ class Trajectory:
         """Steps taken (samples − 1)."""
         return int(self.t.size - 1)
 
-    def ci_key(self, model: ComplianceModel) -> str:
-        """The C_i series of this run: free-space compliance for the unbraced run, else C_e of `model`."""
+    def ci_key(self, model: str) -> str:
+        """The C_i series of this run: free-space compliance for the unbraced run, else C_e of `model`.
+
+        With the run model ``preloaded`` it is ``Ci_preloaded`` for every run (the statics' own series, with
+        gravity and the preload; in free space with gravity).
+        """
+        if model == "preloaded":
+            return "Ci_preloaded"
         return f"Ci_{model}" if self.braced else "Ci_free"
 
-    def summary(self, model: ComplianceModel = "constrained") -> dict[str, Any]:
+    def summary(self, model: str = "constrained") -> dict[str, Any]:
         """The Table I metrics and run checks (SI units)."""
         m = self.measures
         ci = m[self.ci_key(model)]
