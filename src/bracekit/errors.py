@@ -44,6 +44,10 @@ class SingularityError(NumericalError):
     """A Jacobian (or J1 of the braced chain) is singular or too ill-conditioned to invert."""
 
 
+class UnstableEquilibriumError(NumericalError):
+    """The loaded static equilibrium is unstable: the tangent stiffness is not positive on the allowed motions."""
+
+
 class BarrierError(NumericalError):
     """A barrier term is at or beyond its limit (e.g. the bracing point left the bracing region)."""
 

@@ -164,3 +164,22 @@ def test_the_preloaded_model_needs_gravity_or_a_preload(tmp_path: Path) -> None:
         _scenario(tmp_path, text)
     with pytest.raises(InputError, match="gravity or a preload"):
         bk.run_scenario("paper", compliance_model="preloaded", both_models=False)
+
+
+def test_an_unstable_loaded_equilibrium_is_reported_not_raised(tmp_path: Path) -> None:
+    text = _holding_text(loads="").replace('model = "constrained"', 'model = "preloaded"', 1)
+    text = re.sub(r"(?m)^stiffness = .*$", "stiffness = 10.0", text, count=1)  # too soft to hold the PUMA up
+    sc = _scenario(tmp_path, text)
+    with pytest.warns(HoldingWarning, match="unstable"):
+        result = bk.run_scenario(sc, both_models=False)
+    s = result.summary["strategies"]["braced_min_norm"]
+    assert s["unstable_samples"] > 0 and s["holds"] is False and s["Ci_mean"] is None
+    tr = result.trajectories["preloaded"]["braced_min_norm"]
+    bad = tr.measures["unstable"] > 0
+    assert np.all(np.isinf(tr.measures["Ci_preloaded"][bad]))
+    assert np.all(tr.measures["slip_margin"][bad] == 0.0) and np.all(tr.measures["liftoff_margin"][bad] == 0.0)
+    from bracekit.report.output import to_json
+
+    to_json(result.summaries)  # no inf or NaN reaches the JSON
+    lines = result.summary["warnings"]
+    assert any("unstable" in w for w in lines) and not any("lifts off" in w for w in lines)  # reported once

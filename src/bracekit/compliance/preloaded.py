@@ -23,7 +23,7 @@ from bracekit.compliance.first_order import (
     check_model,
     warn_unloaded,
 )
-from bracekit.errors import InputError, NumericalError, SingularityError
+from bracekit.errors import InputError, SingularityError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.tolerances import UNLOADED_TOL
 
@@ -117,7 +117,7 @@ def _kkt_compliance(state: BracedState, k_t: Array, x: Array, k_env: float | Non
         else:
             reduced = k_t
         if reduced.size and not float(np.min(np.linalg.eigvals(reduced).real)) > 0.0:
-            raise NumericalError(
+            raise UnstableEquilibriumError(
                 "the loaded equilibrium is unstable here: the tangent stiffness is not positive on the motions the "
                 "contact allows (gravity, the tool wrench or the preload overcome the joint springs); reduce them"
             )

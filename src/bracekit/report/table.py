@@ -64,7 +64,11 @@ def table_rows(summaries: dict[str, dict[str, Any]], paper: bool = True) -> list
         strategies = summary["strategies"]
         free = strategies.get("free_space_min_norm")
         for name, values in strategies.items():
-            red = None if free is None or name == "free_space_min_norm" else 1.0 - values["Ci_mean"] / free["Ci_mean"]
+            red = (
+                None
+                if free is None or name == "free_space_min_norm" or None in (values["Ci_mean"], free["Ci_mean"])
+                else 1.0 - values["Ci_mean"] / free["Ci_mean"]
+            )
             rows.append(
                 {
                     "source": "bracekit",

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from bracekit._linalg import as_array, as_number, show
 from bracekit.compliance.first_order import compliance_index
 from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance
-from bracekit.errors import InputError
+from bracekit.errors import InputError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot
 from bracekit.statics import (
     actuator_relief,
@@ -100,18 +100,54 @@ def holding_measures(
     Margins are inf where nothing limits the scale. With `beta` (N×6, the unit twists of C_i) and gravity or a
     preload, also ``Ci_preloaded``: C_i of the preloaded compliance (:func:`preloaded_compliance` for a braced
     run with the brace's own contact, :func:`loaded_free_space_compliance` in free space; no tool load).
+    ``unstable`` (1.0 where the loaded equilibrium is unstable: K plus the geometric stiffness of gravity and the
+    preload is not positive on the allowed motions; there the margins are 0 and ``Ci_preloaded`` is inf).
     """
-    out = _statics(braced, qs, holding, is_braced)
+    qs = np.atleast_2d(np.asarray(qs, dtype=float))
+    try:
+        out = _statics(braced, qs, holding, is_braced)
+        out["unstable"] = np.zeros(qs.shape[0])
+    except UnstableEquilibriumError:  # sample by sample: mark the unstable ones
+        rows = [_statics_or_unstable(braced, q, holding, is_braced) for q in qs]
+        out = {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
     if beta is not None and (holding.gravity or holding.preload > 0.0):
         ci = []
-        for q, b in zip(qs, beta, strict=True):
-            if is_braced:
-                c = preloaded_compliance(braced, q, holding.preload, gravity=holding.gravity)
-            else:
-                c = loaded_free_space_compliance(braced, q, gravity=holding.gravity)
+        for k, (q, b) in enumerate(zip(qs, beta, strict=True)):
+            try:
+                if is_braced:
+                    c = preloaded_compliance(braced, q, holding.preload, gravity=holding.gravity)
+                else:
+                    c = loaded_free_space_compliance(braced, q, gravity=holding.gravity)
+            except UnstableEquilibriumError:
+                out["unstable"][k] = 1.0
+                ci.append(np.inf)
+                continue
             ci.append(compliance_index(c, b))
         out["Ci_preloaded"] = np.array(ci)
+        if np.any(out["unstable"] > 0.0):
+            for key in ("liftoff_margin", "slip_margin", "torque_margin"):
+                if key in out:
+                    out[key] = np.where(out["unstable"] > 0.0, 0.0, out[key])
     return out
+
+
+def _statics_or_unstable(braced: BracedRobot, q: Array, holding: Holding, is_braced: bool) -> dict[str, Array]:
+    """:func:`_statics` at one configuration; at an unstable one the rigid torques, margins 0, ``unstable`` 1."""
+    try:
+        out = _statics(braced, q[None, :], holding, is_braced)
+        out["unstable"] = np.zeros(1)
+        return out
+    except UnstableEquilibriumError:
+        st = braced.state(q)
+        g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
+        tau0 = g - holding.preload * (st.J_b[:3].T @ braced.brace.surface.normal)
+        ratio = peak_ratio(tau0, effort_limits(braced.robot))
+        zero = np.zeros(1)
+        rows = {"torque_ratio": np.atleast_1d(ratio), "torque_ratio_loaded": np.atleast_1d(ratio)}
+        rows |= {"torque_margin": zero, "unstable": np.ones(1)}
+        if is_braced:
+            rows |= {"contact_force_N": np.full(1, holding.preload), "liftoff_margin": zero, "slip_margin": zero}
+        return rows
 
 
 def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) -> dict[str, Array]:
@@ -154,6 +190,13 @@ _LIMITS = (
 def holding_warnings(name: str, t: Array, measures: dict[str, Array]) -> list[str]:
     """One line per way the brace fails to hold along a run (margins below 1, unloaded torque beyond effort)."""
     out = []
+    if "unstable" in measures and np.any(measures["unstable"] > 0.0):
+        bad = np.flatnonzero(measures["unstable"] > 0.0)
+        out.append(
+            f"{name}: the loaded equilibrium is unstable at {bad.size} of {t.size} samples (first at t = "
+            f"{t[bad[0]]:.2f} s): the joint springs cannot hold gravity and the preload there (K + geometric "
+            "stiffness not positive on the allowed motions); use stiffer joints or a smaller preload"
+        )
     if "torque_ratio" in measures:
         over = measures["torque_ratio"] > 1.0
         if np.any(over):
@@ -163,12 +206,13 @@ def holding_warnings(name: str, t: Array, measures: dict[str, Array]) -> list[st
                 f"samples (peak |τ|/effort {measures['torque_ratio'][k]:.3g} at t = {t[k]:.2f} s); lower the preload "
                 "or move the task"
             )
+    stable = measures["unstable"] == 0.0 if "unstable" in measures else np.ones(t.size, dtype=bool)
     for key, what, label in _LIMITS:
         if key not in measures:
             continue
-        short = measures[key] < 1.0
+        short = (measures[key] < 1.0) & stable  # unstable samples are reported above
         if np.any(short):
-            k = int(np.argmin(measures[key]))
+            k = int(np.flatnonzero(short)[np.argmin(measures[key][short])])
             out.append(
                 f"{name}: {what} at {int(short.sum())} of {t.size} samples (least {label} {measures[key][k]:.3g} "
                 f"at t = {t[k]:.2f} s: it holds only that fraction of the load)"
@@ -180,8 +224,15 @@ def holds(measures: dict[str, Array]) -> bool | None:
     """Whether the brace holds along the run (None without statics): margins ≥ 1, unloaded torque within effort."""
     if "torque_ratio" not in measures:
         return None
-    ok = bool(np.all(measures["torque_ratio"] <= 1.0))
+    ok = bool(np.all(measures["torque_ratio"] <= 1.0)) and not bool(np.any(measures.get("unstable", 0.0)))
     return ok and all(bool(np.all(measures[k] >= 1.0)) for k, _, _ in _LIMITS if k in measures)
+
+
+def _mean_or_none(values: Array | None) -> float | None:
+    """The mean, or None when absent or not finite (an unstable sample's C_i is inf)."""
+    if values is None or not np.all(np.isfinite(values)):
+        return None
+    return float(np.mean(values))
 
 
 def _least(values: Array) -> float | None:
@@ -193,7 +244,8 @@ def holding_summary(measures: dict[str, Array]) -> dict[str, Any]:
     """Summary keys of a run from its :func:`holding_measures` (None where a quantity does not apply)."""
     out: dict[str, Any] = {
         "holds": holds(measures),
-        "Ci_preloaded_mean": float(np.mean(measures["Ci_preloaded"])) if "Ci_preloaded" in measures else None,
+        "Ci_preloaded_mean": _mean_or_none(measures.get("Ci_preloaded")),
+        "unstable_samples": int(np.count_nonzero(measures["unstable"])) if "unstable" in measures else None,
         "min_liftoff_margin": None,
         "min_slip_margin": None,
         "min_torque_margin": None,

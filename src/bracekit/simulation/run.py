@@ -71,7 +71,7 @@ def _summaries(result: RunResult) -> None:
         free = strategies.get("free_space_min_norm")
         if free is not None:
             out["Ci_mean_reduction_vs_free_space"] = {
-                name: 1.0 - s["Ci_mean"] / free["Ci_mean"]
+                name: None if s["Ci_mean"] is None or free["Ci_mean"] is None else 1.0 - s["Ci_mean"] / free["Ci_mean"]
                 for name, s in strategies.items()
                 if name != "free_space_min_norm"
             }

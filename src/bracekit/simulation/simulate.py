@@ -366,9 +366,10 @@ class Trajectory:
         """The Table I metrics and run checks (SI units)."""
         m = self.measures
         ci = m[self.ci_key(model)]
+        finite = bool(np.all(np.isfinite(ci)))  # a preloaded C_i is inf where the equilibrium is unstable
         return {
-            "Ci_mean": float(np.mean(ci)),
-            "Ci_min": float(np.min(ci)),
+            "Ci_mean": float(np.mean(ci)) if finite else None,
+            "Ci_min": float(np.min(ci)) if finite else None,
             "prod_sigma_t_mean": float(np.mean(m["prod_sigma_t"])),
             "prod_sigma_o_mean": float(np.mean(m["prod_sigma_o"])),
             "sigma_t_min": float(np.min(m["sigma_t_min"])),

@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit._linalg import as_array, as_number, finite_math, show
 from bracekit.compliance.first_order import loaded_gain, warn_unloaded
 from bracekit.contact import POINT_WITH_FRICTION, Brace
-from bracekit.errors import InputError, ModelError, NumericalError
+from bracekit.errors import InputError, ModelError, NumericalError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.model.robot import Robot
@@ -330,7 +330,7 @@ def _augmentation(k_t: Array, a: Array, k_env: float | None) -> Array:
             trial = min(trial, 0.5 * k_env)
         low_aug = float(np.linalg.eigvalsh(k_t[i] + trial * a[i] @ a[i].T)[0])
         if not low_aug > 1e-9 * scale:
-            raise NumericalError(
+            raise UnstableEquilibriumError(
                 f"the braced equilibrium is unstable at configuration {int(i)}: the tangent stiffness "
                 f"K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q (smallest eigenvalue {low[i]:.3g} N·m/rad) is not positive on the "
                 "motions the contact allows; use stiffer joints, a smaller preload or geometric=False"
