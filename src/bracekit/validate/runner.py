@@ -16,6 +16,11 @@ norm ‖Δx‖_L = ‖[Δp; L·Δθ]‖ (m), L = ‖e − b‖ the lever from th
 (a rotation of the tip by Δθ about the brace moves the tip by about L·Δθ). The relative error is
 ‖Δx_pred − Δx_ref‖_L / ‖Δx_ref‖_L. Units: wrench [f; m] in N and N·m, deflections in m and rad, world axes.
 
+:func:`run_preloaded_validation` compares the preloaded compliance (tangent stiffness of gravity and the
+preload) and the ``constrained`` model with both references loaded about the gravity-loaded, preloaded
+equilibrium; :func:`run_capacity_validation` compares bracekit's lift-off and slip scales with those MuJoCo
+shows under a slow load ramp and with the nonlinear statics' scales.
+
 A case whose contact opens under the load (either reference ends with no contact force) is reported with
 status ``contact_opened`` and kept out of the error statistics: the first-order braced models assume a
 closed contact. A case where MuJoCo or the static solve fails is reported with status ``failed`` and the
