@@ -696,8 +696,9 @@ def mujoco_capacity_ramp(
     system lags the load by about τ, and the detected scale changes by < 0.3 % between 20τ and 80τ here).
     Every 10 steps the contact is checked: it has **lifted off** when no sphere–plane contact is active or its
     normal force is 0, and **slipped** when ‖f_t‖ ≥ (1 − ``cone_tol``) μ f_n (the force is on MuJoCo's
-    Coulomb cone: the sticking contact can take no more tangential force). The ramp goes on after a slip
-    until b has slid ``slide_tol`` (``slide_scale``), lifts off, or s reaches 2 s_pred.
+    Coulomb cone: the sticking contact can take no more tangential force) or b has slid ``slide_tol`` first.
+    The ramp goes on after a slip until b has slid ``slide_tol`` (``slide_scale``), lifts off, or s reaches
+    2 s_pred.
 
     The failure tested is the one the first-order statics predict first; it must have a finite scale s_pred.
     With ``static`` the nonlinear statics' scale (:func:`static_capacity_scale`) is computed too.

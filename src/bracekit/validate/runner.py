@@ -1052,7 +1052,19 @@ def run_preloaded_validation(
         },
     )
     for i, q in enumerate(qs):
-        cfg = _config(sc.braced, q, i)
+        try:
+            cfg = _config(sc.braced, q, i)
+        except InputError:
+            raise
+        except (BracekitError, np.linalg.LinAlgError) as exc:
+            for p in ps:
+                report.cases.extend(
+                    {**_preloaded_case_failed(i, p, label, d * scale, None), "message": f"configuration {i}: {exc}"}
+                    for label, d in labelled
+                )
+            if progress is not None:
+                progress(len(ps) * len(labelled))
+            continue
         for p in ps:
             comp = {"constrained": cfg.compliances["constrained"]}
             try:
@@ -1079,7 +1091,7 @@ def run_preloaded_validation(
     return report
 
 
-def _preloaded_case_failed(index: int, preload: float, label: str, w: Array, length: float) -> dict[str, Any]:
+def _preloaded_case_failed(index: int, preload: float, label: str, w: Array, length: float | None) -> dict[str, Any]:
     return {
         "config": index,
         "preload_N": preload,
