@@ -14,9 +14,16 @@ import bracekit as bk
 from bracekit.errors import InputError
 from bracekit.simulation.holding import Holding
 from bracekit.statics import contact_response, load_contact_wrenches
-from bracekit.validate.holding_check import FAIL_ABOVE, HOLD_BELOW, HoldingCheck, mujoco_holding_check
+from bracekit.validate.holding_check import (
+    FAIL_ABOVE,
+    HOLD_BELOW,
+    HoldingCheck,
+    mujoco_capacity_ramp,
+    mujoco_holding_check,
+    static_capacity_scale,
+)
 from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, build_mujoco_model
-from bracekit.validate.runner import run_holding_validation, validation_configurations
+from bracekit.validate.runner import run_capacity_validation, run_holding_validation, validation_configurations
 from bracekit.validate.statics import solve_static_equilibrium
 from helpers import scenario_text
 
@@ -165,3 +172,60 @@ def test_wrench_free_scenario_checks_the_unloaded_state_only(tmp_path: Path, set
     (check,) = report.checks
     assert check["status"] == "ok" and check["check"]["cases"] == []
     assert check["check"]["unloaded_normal_rel_err"] < 0.02
+
+
+PULL_UP = [0.0, 0.0, 10.0, 0.0, 0.0, 0.0]
+
+
+@pytest.fixture(scope="module")
+def capacity(setup: dict) -> dict:
+    """The ramp check of the listed wrenches, an upward pull (slips with μ, lifts off without) and a zero wrench."""
+    wrenches = [*setup["sc"].holding.wrenches.tolist(), PULL_UP, [0.0] * 6]
+    report = run_capacity_validation(setup["path"], [setup["q"]], wrenches=wrenches)
+    return json.loads(json.dumps(report.to_json(), allow_nan=False))
+
+
+def test_slow_ramp_slips_and_lifts_off_within_5_percent_of_the_predicted_scales(capacity: dict) -> None:
+    cases = capacity["cases"]
+    assert [(c["wrench_index"], c["variant"], c["status"]) for c in cases] == [
+        (0, "scenario", "ok"),
+        (1, "scenario", "ok"),
+        (2, "scenario", "ok"),
+        (2, "frictionless", "ok"),
+        (3, "scenario", "no_limit"),
+    ]
+    modes = [c["ramp"]["mode"] for c in cases[:4]]
+    assert modes == ["slipped", "slipped", "slipped", "lifted_off"]
+    for c in cases[:4]:
+        r = c["ramp"]
+        assert r["mujoco_outcome"] == r["mode"] and r["agrees"]
+        assert r["rel_err"] < 0.05  # bracekit's first-order scale
+        assert r["rel_err_static"] < 0.005  # the nonlinear statics along the ramp: MuJoCo's rigid-body limit
+        assert abs(r["predicted_scale"] - r["static_scale"]) / r["static_scale"] < 0.05
+    for c in cases[:3]:  # a sticking contact creeps by far less than it slides once the force is on the cone
+        assert c["ramp"]["creep_m"] < 1e-6
+    assert cases[0]["ramp"]["slide_scale"] > cases[0]["ramp"]["mujoco_scale"]
+    assert capacity["n_cases"] == 4 and capacity["max_rel_err"] < 0.05 and capacity["max_rel_err_static"] < 0.005
+    assert capacity["by_mode"]["slipped"]["n_cases"] == 3 and capacity["by_mode"]["lifted_off"]["n_cases"] == 1
+    assert capacity["counts"] == {"ok": 4, "disagrees": 0, "no_limit": 1, "failed": 0}
+
+
+def test_ramp_scale_does_not_depend_on_the_ramp_rate(setup: dict, capacity: dict) -> None:
+    sc = setup["sc"]
+    fast = mujoco_capacity_ramp(sc.braced, setup["q"], sc.holding, sc.holding.wrenches[0], ramp_time=20.0, static=False)
+    slow = capacity["cases"][0]["ramp"]
+    assert fast.mujoco_outcome == "slipped" and fast.static_scale is None
+    assert fast.rate > 1.9 * slow["rate_per_s"]
+    assert abs(fast.mujoco_scale - slow["mujoco_scale"]) < 0.005 * slow["mujoco_scale"]
+
+
+def test_capacity_checks_refuse_what_they_cannot_check(setup: dict) -> None:
+    sc, q = setup["sc"], setup["q"]
+    with pytest.raises(InputError, match="preload"):
+        run_capacity_validation("paper", [q])
+    with pytest.raises(InputError, match="neither lifts off nor slips"):
+        mujoco_capacity_ramp(sc.braced, q, sc.holding, np.zeros(6))
+    with pytest.raises(InputError, match="ramp_time"):
+        mujoco_capacity_ramp(sc.braced, q, sc.holding, PULL_UP, ramp_time=0.0)
+    with pytest.raises(InputError, match="friction"):
+        static_capacity_scale(sc.braced, q, Holding(gravity=True, preload=20.0), PULL_UP, "slipped", 1.0)

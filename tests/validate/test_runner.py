@@ -17,6 +17,7 @@ from bracekit.validate import (
     run_validation,
     validation_configurations,
 )
+from bracekit.validate.runner import run_preloaded_validation
 
 MODELS = ("constrained", "projection", "free_space")
 STAT_KEYS = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
@@ -180,3 +181,46 @@ def test_validation_accepts_a_scenario_path_of_any_os_pathlike(tmp_path: Path) -
     assert len(validation_configurations(Fspath(), 1)) == 1  # type: ignore[arg-type]
     with pytest.raises(InputError):
         validation_configurations(3.5, 1)  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def preloaded_reports(scenario: Scenario, configs: list[np.ndarray]) -> dict[float, dict]:
+    """The preloaded validation with gravity at P = 20 and 50 N, at the default load size and ten times smaller."""
+    out = {}
+    for force in (0.5, 0.05):
+        rep = run_preloaded_validation(
+            scenario, configs[:1], preloads=(20.0, 50.0), force=force, moment=force / 10.0, directions=DIRECTIONS[:3]
+        )
+        out[force] = json.loads(json.dumps(rep.to_json(), allow_nan=False))
+    return out
+
+
+def test_preloaded_compliance_with_gravity_matches_mujoco_and_the_statics_where_the_constrained_model_does_not(
+    preloaded_reports: dict[float, dict],
+) -> None:
+    big, small = preloaded_reports[0.5], preloaded_reports[0.05]
+    for js in (big, small):
+        assert js["gravity"] is True and js["counts"] == {"ok": 6, "contact_opened": 0, "failed": 0}
+        assert js["n_cases"] == 6 and js["constrained"]["n_cases"] == 6
+        assert js["mujoco_vs_static"]["max_rel_err"] < 1e-3  # both references carry gravity and the preload
+        for entry in js["by_preload"]:
+            pre, con = entry["preloaded"], entry["constrained"]
+            for ref in ("mujoco", "static"):
+                assert pre[f"median_rel_err_{ref}"] < 0.2 * con[f"median_rel_err_{ref}"], (entry["preload_N"], ref)
+                assert pre[f"max_rel_err_{ref}"] < 0.5 * con[f"max_rel_err_{ref}"], (entry["preload_N"], ref)
+                assert con[f"median_rel_err_{ref}"] > 0.01  # gravity's and the preload's geometric stiffness
+    # the preloaded model's error is the load's own nonlinearity: about ten times smaller at a tenth of the load
+    for ref in ("mujoco", "static"):
+        assert big[f"max_rel_err_{ref}"] < 0.008 and small[f"max_rel_err_{ref}"] < 0.001
+        assert small[f"max_rel_err_{ref}"] < 0.2 * big[f"max_rel_err_{ref}"]
+    # the constrained model's error does not shrink with the load: it is the neglected stiffness
+    assert small["constrained"]["median_rel_err_static"] > 0.5 * big["constrained"]["median_rel_err_static"]
+
+
+def test_preloaded_validation_refuses_bad_preloads_and_gravity(scenario: Scenario, configs: list[np.ndarray]) -> None:
+    with pytest.raises(InputError, match="preload"):
+        run_preloaded_validation(scenario, configs[:1], preloads=(-1.0,))
+    with pytest.raises(InputError, match="preloads"):
+        run_preloaded_validation(scenario, configs[:1], preloads=())
+    with pytest.raises(InputError, match="gravity"):
+        run_preloaded_validation(scenario, configs[:1], gravity="yes")  # type: ignore[arg-type]

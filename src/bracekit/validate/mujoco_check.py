@@ -408,6 +408,8 @@ def mujoco_static_deflection(
     max_steps: int = 100_000,
     tol: float = 1e-11,
     sphere_radius: float = 1e-4,
+    gravity: bool = False,
+    timestep: float | None = None,
 ) -> MujocoResult:
     """Tip deflection of the braced chain under a dead tip wrench, settled in MuJoCo.
 
@@ -430,6 +432,10 @@ def mujoco_static_deflection(
         max_steps: step budget for both phases together.
         tol: settling tolerance, rad.
         sphere_radius: m; the rolling sphere differs from a point contact in proportion to it.
+        gravity: gravity along −z with the URDF's masses and inertias; the set points then hold q0 under
+            gravity and the preload, q_s = q0 + K⁻¹ (g(q0) − J_b,vᵀ n̂ P), as in the static solve with
+            ``gravity=True``.
+        timestep: MuJoCo timestep (s); default min(1 ms, τ/20).
 
     Returns:
         :class:`MujocoResult` (deflection relative to the settled preloaded state).
@@ -447,8 +453,24 @@ def mujoco_static_deflection(
     q0 = np.asarray(q0, dtype=float).reshape(-1)
     K = np.asarray(stiffness, dtype=float).reshape(-1)
     nhat = _unit(surface_normal, "surface_normal")
+    if not isinstance(gravity, bool):
+        raise InputError(f"gravity must be True or False, got {gravity!r}")
+    set_points = None
+    if gravity:
+        set_points = preload_rest_configuration(model, q0, K, brace_frame_id, nhat, preload, gravity=True)
     xml = build_mujoco_model(
-        model, q0, K, brace_frame_id, tip_frame_id, surface_point, nhat, sphere_radius=sphere_radius, preload=preload
+        model,
+        q0,
+        K,
+        brace_frame_id,
+        tip_frame_id,
+        surface_point,
+        nhat,
+        sphere_radius=sphere_radius,
+        preload=preload,
+        gravity=gravity,
+        set_points=set_points,
+        timestep=timestep,
     )
     try:
         m = mujoco.MjModel.from_xml_string(xml)

@@ -16,6 +16,11 @@ norm ‖Δx‖_L = ‖[Δp; L·Δθ]‖ (m), L = ‖e − b‖ the lever from th
 (a rotation of the tip by Δθ about the brace moves the tip by about L·Δθ). The relative error is
 ‖Δx_pred − Δx_ref‖_L / ‖Δx_ref‖_L. Units: wrench [f; m] in N and N·m, deflections in m and rad, world axes.
 
+:func:`run_preloaded_validation` compares the preloaded compliance (tangent stiffness of gravity and the
+preload) and the ``constrained`` model with both references loaded about the gravity-loaded, preloaded
+equilibrium; :func:`run_capacity_validation` compares bracekit's lift-off and slip scales with those MuJoCo
+shows under a slow load ramp and with the nonlinear statics' scales.
+
 A case whose contact opens under the load (either reference ends with no contact force) is reported with
 status ``contact_opened`` and kept out of the error statistics: the first-order braced models assume a
 closed contact. A case where MuJoCo or the static solve fails is reported with status ``failed`` and the
@@ -46,13 +51,18 @@ from bracekit.errors import (
     StaticSolveError,
 )
 from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.simulation.holding import Holding
 from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.simulation.simulate import simulate, solve_start
+from bracekit.statics import capacity_along, effort_limits
+from bracekit.statics.equilibrium import wrench_list
 from bracekit.validate.holding_check import (
     DEFAULT_FRACTIONS,
     FAIL_ABOVE,
     HOLD_BELOW,
     HOLDING_SETTINGS,
+    RAMP_SETTINGS,
+    mujoco_capacity_ramp,
     mujoco_holding_check,
 )
 from bracekit.validate.mujoco_check import mujoco_static_deflection
@@ -62,11 +72,16 @@ __all__ = [
     "DEFAULT_DIRECTIONS",
     "FORCE_DIRECTIONS",
     "MODELS",
+    "PRELOADED_MODELS",
+    "CapacityValidationReport",
     "HoldingValidationReport",
+    "PreloadedValidationReport",
     "ValidationReport",
     "path_samples",
     "preload_study",
+    "run_capacity_validation",
     "run_holding_validation",
+    "run_preloaded_validation",
     "run_validation",
     "validation_configurations",
 ]
@@ -777,6 +792,564 @@ def run_holding_validation(
             except (MujocoValidationError, NumericalError) as exc:
                 entry["status"], entry["message"] = "failed", str(exc)
             report.checks.append(entry)
+            if progress is not None:
+                progress(1)
+    return report
+
+
+# --------------------------------------------------------------------------------------------------
+# The preloaded compliance with gravity
+# --------------------------------------------------------------------------------------------------
+#: The models of :func:`run_preloaded_validation`, in report order.
+PRELOADED_MODELS = ("preloaded", "constrained")
+
+
+@dataclass
+class PreloadedValidationReport:
+    """Result of :func:`run_preloaded_validation`.
+
+    ``cases``: one JSON-able dict per (configuration, preload, load): ``config``, ``preload_N``, ``label``,
+    ``wrench``, ``status`` (``ok`` | ``contact_opened`` | ``failed``), ``message``, ``length_scale_m``,
+    ``deflection`` {mujoco, static, preloaded, constrained} → [Δp; Δθ] (m, rad) or None, ``rel_err``
+    {model: {mujoco, static}}, ``rel_err_mujoco_vs_static``, ``contact_force_static`` / ``contact_force_mujoco``
+    (N), ``opened``, ``mujoco_steps``.
+    """
+
+    scenario: str
+    gravity: bool
+    preloads: list[float]
+    configurations: list[list[float]]
+    settings: dict[str, Any]
+    cases: list[dict[str, Any]] = field(default_factory=list)
+
+    def model_stats(self, model: str, preload: float | None = None) -> dict[str, float | int | None]:
+        """Median and max relative error of ``preloaded`` or ``constrained`` vs MuJoCo and the static solve.
+
+        Over the closed-contact cases of every preload, or of one ``preload`` (N).
+        """
+        ok = [c for c in self.cases if c["status"] == "ok" and (preload is None or c["preload_N"] == preload)]
+        med_m, max_m = _stats([c["rel_err"][model]["mujoco"] for c in ok])
+        med_s, max_s = _stats([c["rel_err"][model]["static"] for c in ok])
+        return {
+            "median_rel_err_mujoco": med_m,
+            "max_rel_err_mujoco": max_m,
+            "median_rel_err_static": med_s,
+            "max_rel_err_static": max_s,
+            "n_cases": len(ok),
+        }
+
+    def mujoco_vs_static(self) -> dict[str, float | int | None]:
+        """Agreement of the two references on every case where both ran."""
+        vals = [c["rel_err_mujoco_vs_static"] for c in self.cases if c["rel_err_mujoco_vs_static"] is not None]
+        med, mx = _stats(vals)
+        return {"median_rel_err": med, "max_rel_err": mx, "n_cases": len(vals)}
+
+    def counts(self) -> dict[str, int]:
+        """Number of cases per status."""
+        return {s: sum(c["status"] == s for c in self.cases) for s in ("ok", "contact_opened", "failed")}
+
+    def by_preload(self) -> list[dict[str, Any]]:
+        """Per preload P (N): the statistics of both models and the case counts."""
+        out = []
+        for p in self.preloads:
+            mine = [c for c in self.cases if c["preload_N"] == p]
+            out.append(
+                {
+                    "preload_N": p,
+                    **{m: self.model_stats(m, p) for m in PRELOADED_MODELS},
+                    "counts": {s: sum(c["status"] == s for c in mine) for s in ("ok", "contact_opened", "failed")},
+                }
+            )
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        """One JSON-serialisable dict (no NaN: missing numbers are None).
+
+        The ``preloaded`` model's statistics at the top level (the keys of the ``constrained`` block of
+        :class:`ValidationReport`), ``constrained`` on the same cases, ``by_preload``, ``mujoco_vs_static``,
+        ``counts``, ``settings``, ``configurations`` and ``cases``.
+        """
+        return {
+            **self.model_stats("preloaded"),
+            "constrained": self.model_stats("constrained"),
+            "by_preload": self.by_preload(),
+            "gravity": self.gravity,
+            "preloads_N": self.preloads,
+            "error_measure": (
+                "relative error ||dx_pred - dx_ref||_L / ||dx_ref||_L as in run_validation; dx_pred = C w with C the "
+                "preloaded compliance (tangent stiffness of gravity and the preload) or the constrained C_e"
+            ),
+            "mujoco_vs_static": self.mujoco_vs_static(),
+            "counts": self.counts(),
+            "settings": self.settings,
+            "configurations": self.configurations,
+            "cases": self.cases,
+        }
+
+    def table_text(self) -> str:
+        """Aligned text table: per preload, median and max error of both models vs MuJoCo and the static solve."""
+        cnt = self.counts()
+        s = self.settings
+        head = [
+            f"Validation of the preloaded compliance, scenario '{self.scenario}', gravity "
+            f"{'on' if self.gravity else 'off'}",
+            f"{len(self.configurations)} configuration(s) × {len(self.preloads)} preload(s), "
+            f"{len(self.cases)} case(s): {cnt['ok']} compared, {cnt['contact_opened']} with the contact opened, "
+            f"{cnt['failed']} failed",
+            f"loads: |f| = {s['force_N']:g} N, |m| = {s['moment_Nm']:g} N·m",
+            "",
+        ]
+        cols = ("P [N]", "model", "median vs MuJoCo", "max vs MuJoCo", "median vs static", "max vs static", "n")
+        keys = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
+        rows = []
+        for entry in self.by_preload():
+            for m in PRELOADED_MODELS:
+                st = entry[m]
+                rows.append((f"{entry['preload_N']:g}", m, *(fmt_rel(st[k]) for k in keys), str(st["n_cases"])))
+        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
+
+        def fmt(r: tuple[str, ...]) -> str:
+            return "  ".join(c.ljust(widths[i]) if i == 1 else c.rjust(widths[i]) for i, c in enumerate(r))
+
+        ms = self.mujoco_vs_static()
+        agree = (
+            f"MuJoCo vs static solve ({ms['n_cases']} cases): median {fmt_rel(ms['median_rel_err'])}, "
+            f"max {fmt_rel(ms['max_rel_err'])}"
+        )
+        fails = [
+            f"  config {c['config']}, P = {c['preload_N']:g} N, {c['label']}: {c['message']}"
+            for c in self.cases
+            if c["status"] == "failed"
+        ]
+        tail = ["", "failed cases:", *fails] if fails else []
+        return "\n".join([*head, fmt(cols), "-" * len(fmt(cols)), *map(fmt, rows), "", agree, *tail])
+
+
+def _preloaded_case(
+    braced: BracedRobot,
+    q: Array,
+    length: float,
+    comp: dict[str, Array],
+    index: int,
+    label: str,
+    w: Array,
+    preload: float,
+    gravity: bool,
+    max_steps: int,
+) -> dict[str, Any]:
+    robot, surface = braced.robot, braced.brace.surface
+    common = (robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, surface.point, surface.normal, w)
+    messages = []
+    st = mj = None
+    try:
+        st = solve_static_equilibrium(*common, bilateral=False, preload=preload, gravity=gravity)
+    except (StaticSolveError, ValueError, np.linalg.LinAlgError) as exc:
+        messages.append(f"static solve failed: {exc}")
+    try:
+        mj = mujoco_static_deflection(
+            *common,
+            preload=preload,
+            gravity=gravity,
+            max_steps=max_steps,
+            sphere_radius=MUJOCO_SETTINGS["sphere_radius_m"],
+        )
+    except (MujocoValidationError, ValueError) as exc:
+        messages.append(f"MuJoCo failed: {exc}")
+    ref = {
+        "static": None if st is None else np.asarray(st.deflection, dtype=float),
+        "mujoco": None if mj is None else np.asarray(mj.deflection, dtype=float),
+    }
+    pred = {m: comp[m] @ w for m in PRELOADED_MODELS}
+    opened = bool((st is not None and st.contact_opened) or (mj is not None and mj.contact_opened))
+    status = "failed" if messages else ("contact_opened" if opened else "ok")
+    if status == "contact_opened":
+        messages.append("the contact opened under this load (it pulls more than the preload): not in the statistics")
+    return {
+        "config": index,
+        "preload_N": preload,
+        "label": label,
+        "wrench": w.tolist(),
+        "status": status,
+        "message": "; ".join(messages) if messages else None,
+        "length_scale_m": length,
+        "deflection": {
+            **{k: (None if v is None else v.tolist()) for k, v in ref.items()},
+            **{m: pred[m].tolist() for m in PRELOADED_MODELS},
+        },
+        "rel_err": {m: {k: _rel_err(pred[m], ref[k], length) for k in ("mujoco", "static")} for m in PRELOADED_MODELS},
+        "rel_err_mujoco_vs_static": (
+            _rel_err(ref["mujoco"], ref["static"], length) if ref["mujoco"] is not None else None
+        ),
+        "contact_force_static": None if st is None else float(st.contact_force),
+        "contact_force_mujoco": None if mj is None else float(mj.contact_force),
+        "opened": opened,
+        "mujoco_steps": None if mj is None else int(mj.steps),
+    }
+
+
+def run_preloaded_validation(
+    scenario: Scenario | str | os.PathLike[str],
+    configs: int | Sequence[ArrayLike] = 3,
+    *,
+    preloads: Sequence[float] = (1.0, 5.0, 20.0, 50.0),
+    gravity: bool = True,
+    force: float = 0.5,
+    moment: float = 0.05,
+    directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike] = DEFAULT_DIRECTIONS,
+    max_steps: int = 100_000,
+    progress: Callable[[int], None] | None = None,
+) -> PreloadedValidationReport:
+    """Compare the preloaded compliance and the ``constrained`` model with MuJoCo and the nonlinear statics.
+
+    At each configuration and preload P the references are loaded about the preloaded, gravity-loaded
+    equilibrium: the springs' set points q_s = q + K⁻¹ (g(q) − J_b,vᵀ n̂ P) hold q under gravity (with
+    ``gravity``: the URDF's masses, 9.81 m/s² along −z, in MuJoCo and in the static solve) and the contact
+    force P n̂. The loads are those of :func:`run_validation` (``directions`` scaled to ``force`` / ``moment``);
+    the predictions are Δx = C w with C = :func:`~bracekit.compliance.preloaded_compliance` (K_t = K + ∂g/∂q −
+    P ∂(J_b,vᵀ n̂)/∂q) and the first-order ``constrained`` C_e (K alone). Errors in the L-weighted norm of
+    :func:`run_validation`; a case whose contact opens is reported and not compared. About 0.1 s per case
+    (MuJoCo), so 4 s per configuration with the 4 default preloads and 10 loads.
+
+    Args:
+        scenario: a Scenario, a shipped name or a TOML path; frictionless point contact, rigid surface.
+        configs: number of configurations (:func:`validation_configurations`) or the configurations.
+        preloads: contact forces P (N, ≥ 0).
+        gravity: gravity on in both references and in the preloaded model.
+        force: magnitude of the force part of each load, N (> 0).
+        moment: magnitude of the moment part, N·m (> 0).
+        directions: load directions as for :func:`run_validation`.
+        max_steps: MuJoCo step budget per case.
+        progress: called with 1 after each case.
+
+    Raises:
+        InputError: bad scenario, configs, preloads, loads or directions.
+    """
+    sc = _scenario(scenario)
+    if not isinstance(gravity, bool):
+        raise InputError(f"gravity must be True or False, got {show(gravity)}")
+    ps = [_positive(p, "each preload", "N", zero_ok=True) for p in preloads]
+    if not ps:
+        raise InputError("preloads must hold at least one contact force (N)")
+    force = _positive(force, "force", "N")
+    moment = _positive(moment, "moment", "N·m")
+    max_steps = _count(max_steps, "max_steps")
+    labelled = _directions(directions)
+    qs = _configurations(sc, configs)
+    scale = np.array([force] * 3 + [moment] * 3)
+    report = PreloadedValidationReport(
+        scenario=sc.name,
+        gravity=gravity,
+        preloads=ps,
+        configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
+        settings={
+            "force_N": force,
+            "moment_Nm": moment,
+            "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+            "length_scale": "L = |e - b| at each configuration (m)",
+            "set_points": "q_s = q + K^-1 (g(q) - J_b,v^T n P): q is the equilibrium under gravity and the preload",
+            "static_solve": "Newton on the KKT system, unilateral contact, gravity as set, tol 1e-12",
+            "mujoco": {**MUJOCO_SETTINGS, "gravity": gravity, "max_steps": max_steps},
+        },
+    )
+    for i, q in enumerate(qs):
+        try:
+            cfg = _config(sc.braced, q, i)
+        except InputError:
+            raise
+        except (BracekitError, np.linalg.LinAlgError) as exc:
+            for p in ps:
+                report.cases.extend(
+                    {**_preloaded_case_failed(i, p, label, d * scale, None), "message": f"configuration {i}: {exc}"}
+                    for label, d in labelled
+                )
+            if progress is not None:
+                progress(len(ps) * len(labelled))
+            continue
+        for p in ps:
+            comp = {"constrained": cfg.compliances["constrained"]}
+            try:
+                comp["preloaded"] = preloaded_compliance(sc.braced, q, p, gravity=gravity)
+            except NumericalError as exc:
+                report.cases.extend(
+                    {
+                        **_preloaded_case_failed(i, p, label, d * scale, cfg.length),
+                        "message": f"preloaded compliance: {exc}",
+                    }
+                    for label, d in labelled
+                )
+                if progress is not None:
+                    progress(len(labelled))
+                continue
+            for label, d in labelled:
+                report.cases.append(
+                    _preloaded_case(
+                        sc.braced, cfg.state.q, cfg.length, comp, i, label, d * scale, p, gravity, max_steps
+                    )
+                )
+                if progress is not None:
+                    progress(1)
+    return report
+
+
+def _preloaded_case_failed(index: int, preload: float, label: str, w: Array, length: float | None) -> dict[str, Any]:
+    return {
+        "config": index,
+        "preload_N": preload,
+        "label": label,
+        "wrench": w.tolist(),
+        "status": "failed",
+        "message": None,
+        "length_scale_m": length,
+        "deflection": {k: None for k in ("mujoco", "static", *PRELOADED_MODELS)},
+        "rel_err": {m: {"mujoco": None, "static": None} for m in PRELOADED_MODELS},
+        "rel_err_mujoco_vs_static": None,
+        "contact_force_static": None,
+        "contact_force_mujoco": None,
+        "opened": False,
+        "mujoco_steps": None,
+    }
+
+
+# --------------------------------------------------------------------------------------------------
+# Capacity: lift-off and slip scales under a slow load ramp
+# --------------------------------------------------------------------------------------------------
+_CAPACITY_STATUSES = ("ok", "disagrees", "no_limit", "failed")
+
+
+@dataclass
+class CapacityValidationReport:
+    """Result of :func:`run_capacity_validation`.
+
+    ``cases``: one JSON-able dict per (configuration, wrench, contact variant): ``config``, ``wrench_index``,
+    ``wrench``, ``variant`` (``scenario``: the scenario's friction; ``frictionless``: the same without μ, for a
+    lift-off that friction pre-empts), ``status`` (``ok``: MuJoCo failed the predicted way; ``disagrees``: it
+    failed otherwise or not at all; ``no_limit``: bracekit predicts neither lift-off nor slip; ``failed``),
+    ``message``, and the :meth:`CapacityRamp.to_json` fields under ``ramp`` (None unless run).
+    """
+
+    scenario: str
+    holding: dict[str, Any]
+    configurations: list[list[float]]
+    settings: dict[str, Any]
+    cases: list[dict[str, Any]] = field(default_factory=list)
+
+    def _stats_of(self, mode: str | None = None) -> dict[str, float | int | None]:
+        ok = [c["ramp"] for c in self.cases if c["status"] == "ok" and (mode is None or c["ramp"]["mode"] == mode)]
+        med, mx = _stats([r["rel_err"] for r in ok])
+        med_s, max_s = _stats([r["rel_err_static"] for r in ok])
+        return {
+            "median_rel_err": med,
+            "max_rel_err": mx,
+            "median_rel_err_static": med_s,
+            "max_rel_err_static": max_s,
+            "n_cases": len(ok),
+        }
+
+    def counts(self) -> dict[str, int]:
+        """Number of cases per status."""
+        return {s: sum(c["status"] == s for c in self.cases) for s in _CAPACITY_STATUSES}
+
+    def to_json(self) -> dict[str, Any]:
+        """One JSON-serialisable dict (no NaN: missing numbers are None).
+
+        ``median_rel_err``, ``max_rel_err`` (first-order scale vs MuJoCo), ``median_rel_err_static``,
+        ``max_rel_err_static`` (nonlinear statics vs MuJoCo), ``n_cases``, ``by_mode`` (the same per failure),
+        ``counts``, ``holding``, ``settings``, ``configurations``, ``cases``.
+        """
+        return {
+            **self._stats_of(),
+            "by_mode": {m: self._stats_of(m) for m in ("slipped", "lifted_off")},
+            "error_measure": (
+                "rel_err = |s_pred - s_mujoco| / s_mujoco with s the scale of the tool wrench at which the brace lifts "
+                "off or slips: s_pred first order (bracekit.statics), rel_err_static with the nonlinear statics' "
+                "scale; statistics over the cases where MuJoCo failed the predicted way"
+            ),
+            "counts": self.counts(),
+            "holding": self.holding,
+            "settings": self.settings,
+            "configurations": self.configurations,
+            "cases": self.cases,
+        }
+
+    def table_text(self) -> str:
+        """One line per case (scales: first order, nonlinear statics, MuJoCo) and the summary."""
+        s = self._stats_of()
+        cnt = self.counts()
+        lines = [
+            f"Lift-off and slip scales under a slow load ramp in MuJoCo, scenario '{self.scenario}'",
+            f"{len(self.cases)} case(s): {cnt['ok']} compared, {cnt['disagrees']} disagree, {cnt['no_limit']} with "
+            f"no predicted limit, {cnt['failed']} failed",
+            "",
+        ]
+        cols = ("config", "wrench", "contact", "mode", "first order", "nonlinear", "MuJoCo", "error", "error (nl)")
+        rows = []
+        for c in self.cases:
+            r = c["ramp"]
+            if r is None:
+                rows.append((str(c["config"]), str(c["wrench_index"]), c["variant"], c["status"], *("–",) * 5))
+                continue
+
+            def num(x: float | None) -> str:
+                return "n/a" if x is None else f"{x:.4g}"
+
+            mj = num(r["mujoco_scale"]) + (
+                "" if r["mujoco_outcome"] in (None, r["mode"]) else f" ({r['mujoco_outcome']})"
+            )
+            rows.append(
+                (
+                    str(c["config"]),
+                    str(c["wrench_index"]),
+                    c["variant"],
+                    r["mode"],
+                    num(r["predicted_scale"]),
+                    num(r["static_scale"]),
+                    mj,
+                    fmt_rel(r["rel_err"]),
+                    fmt_rel(r["rel_err_static"]),
+                )
+            )
+        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
+
+        def fmt(r: tuple[str, ...]) -> str:
+            return "  ".join(c.ljust(widths[i]) if i in (2, 3) else c.rjust(widths[i]) for i, c in enumerate(r))
+
+        tail = [
+            "",
+            f"first-order scale vs MuJoCo ({s['n_cases']} cases): median {fmt_rel(s['median_rel_err'])}, max "
+            f"{fmt_rel(s['max_rel_err'])}; nonlinear statics vs MuJoCo: median {fmt_rel(s['median_rel_err_static'])}, "
+            f"max {fmt_rel(s['max_rel_err_static'])}",
+        ]
+        notes = [
+            f"  config {c['config']}, wrench {c['wrench_index']} ({c['variant']}): {c['message']}"
+            for c in self.cases
+            if c["status"] in ("failed", "disagrees")
+        ]
+        return "\n".join([*lines, fmt(cols), "-" * len(fmt(cols)), *map(fmt, rows), *tail, *notes])
+
+
+def _capacity_entry(
+    braced: BracedRobot, q: Array, holding: Holding, w: Array, index: int, j: int, variant: str, ramp_time: float
+) -> dict[str, Any]:
+    entry: dict[str, Any] = {
+        "config": index,
+        "wrench_index": j,
+        "wrench": w.tolist(),
+        "variant": variant,
+        "status": "ok",
+        "message": None,
+        "ramp": None,
+    }
+    try:
+        r = mujoco_capacity_ramp(braced, q, holding, w, ramp_time=ramp_time)
+    except (MujocoValidationError, NumericalError) as exc:
+        entry["status"], entry["message"] = "failed", str(exc)
+        return entry
+    entry["ramp"] = r.to_json()
+    if r.mujoco_outcome != r.mode:
+        entry["status"] = "disagrees"
+        what = "did not fail" if r.mujoco_outcome is None else f"{r.mujoco_outcome.replace('_', ' ')}"
+        entry["message"] = (
+            f"bracekit predicts {r.mode.replace('_', ' ')} first, MuJoCo {what} up to s = {r.stop_scale:.4g}"
+        )
+    elif r.static_message is not None:
+        entry["message"] = f"nonlinear statics: {r.static_message}"
+    return entry
+
+
+def run_capacity_validation(
+    scenario: Scenario | str | os.PathLike[str],
+    configs: int | Sequence[ArrayLike] = 1,
+    *,
+    wrenches: ArrayLike | None = None,
+    frictionless_liftoff: bool = True,
+    ramp_time: float = RAMP_SETTINGS["ramp_time_tau"],
+    progress: Callable[[int], None] | None = None,
+) -> CapacityValidationReport:
+    """Check bracekit's lift-off and slip scales against MuJoCo under a slow load ramp.
+
+    For each configuration and tool wrench w, :func:`~bracekit.validate.holding_check.mujoco_capacity_ramp`
+    ramps s·w slowly (s reaches the predicted scale after ``ramp_time`` damping time constants) from the
+    settled preloaded state (the scenario's gravity, preload and friction) and records the scale at which
+    MuJoCo's contact opens or reaches the Coulomb cone; it is compared with bracekit's first-order scale
+    (:func:`bracekit.statics.capacity_of`) and with the nonlinear statics' scale. With ``frictionless_liftoff``,
+    a wrench predicted to slip before it would lift off is also ramped on the frictionless brace (same preload
+    and gravity) to check its lift-off scale. A wrench with neither limit is reported as ``no_limit``. About
+    1 s per case.
+
+    Args:
+        scenario: a Scenario, a shipped name or a TOML path; frictionless point contact, rigid surface, a
+            preload P > 0 ([brace] preload).
+        configs: number of configurations (:func:`validation_configurations`) or the configurations.
+        wrenches: tool wrenches (m×6, [f; m] at the tip, world axes, N and N·m); default the scenario's
+            [loads] wrenches.
+        frictionless_liftoff: also check lift-off without friction where friction pre-empts it.
+        ramp_time: time for s to reach the predicted scale, in damping time constants τ (> 0).
+        progress: called with 1 after each wrench.
+
+    Raises:
+        InputError: bad scenario (no preload), configs, wrenches or ramp_time; no wrenches to check.
+    """
+    sc = _scenario(scenario)
+    h = sc.holding
+    if not h.preload > 0.0:
+        raise InputError(
+            f"scenario '{sc.name}' has no preload: set [brace] preload (N) > 0 so that the brace can carry a load"
+        )
+    if wrenches is None:
+        if h.wrenches is None:
+            raise InputError(f"scenario '{sc.name}' lists no [loads] wrenches; give the tool wrenches to check")
+        ws = np.asarray(h.wrenches, dtype=float)
+    else:
+        ws = wrench_list(wrenches)
+    ramp_time = _positive(ramp_time, "ramp_time", "damping time constants")
+    if not isinstance(frictionless_liftoff, bool):
+        raise InputError(f"frictionless_liftoff must be True or False, got {show(frictionless_liftoff)}")
+    qs = _configurations(sc, configs)
+    mu = h.friction if h.friction else None
+    bare = Holding(gravity=h.gravity, preload=h.preload)
+    report = CapacityValidationReport(
+        scenario=sc.name,
+        holding={"gravity": h.gravity, "preload_N": h.preload, "friction": h.friction, "wrenches": ws.tolist()},
+        configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
+        settings={**HOLDING_SETTINGS, **RAMP_SETTINGS, "ramp_time_tau": ramp_time},
+    )
+    effort = effort_limits(sc.robot)
+    for i, q in enumerate(qs):
+        try:
+            cap = capacity_along(sc.braced, q, ws, preload=h.preload, gravity=h.gravity, friction=mu, effort=effort)
+        except NumericalError as exc:
+            report.cases.extend(
+                {
+                    "config": i,
+                    "wrench_index": j,
+                    "wrench": w.tolist(),
+                    "variant": "scenario",
+                    "status": "failed",
+                    "message": str(exc),
+                    "ramp": None,
+                }
+                for j, w in enumerate(ws)
+            )
+            continue
+        for j, w in enumerate(ws):
+            liftoff = float(cap.liftoff[0, j])
+            slip = np.inf if cap.slip is None else float(cap.slip[0, j])
+            if not np.isfinite(min(liftoff, slip)):
+                report.cases.append(
+                    {
+                        "config": i,
+                        "wrench_index": j,
+                        "wrench": w.tolist(),
+                        "variant": "scenario",
+                        "status": "no_limit",
+                        "message": "bracekit predicts neither lift-off nor slip under this wrench at any scale",
+                        "ramp": None,
+                    }
+                )
+            else:
+                report.cases.append(_capacity_entry(sc.braced, q, h, w, i, j, "scenario", ramp_time))
+            if frictionless_liftoff and mu is not None and np.isfinite(liftoff) and slip < liftoff:
+                report.cases.append(_capacity_entry(sc.braced, q, bare, w, i, j, "frictionless", ramp_time))
             if progress is not None:
                 progress(1)
     return report
