@@ -466,24 +466,42 @@ def _validate(args: argparse.Namespace) -> int:
             if bar is not None:
                 bar.close()
         data = report.to_json()
+        from bracekit.validate.runner import (
+            run_capacity_validation,
+            run_holding_validation,
+            run_preloaded_validation,
+        )
+
+        extra: list[Any] = []  # the further checks: preloaded model, holding statics, capacity ramps
+        configs = report.configurations
+        pre = run_preloaded_validation(scenario, configs=configs)
+        data["preloaded"] = pre.to_json()
+        extra.append(pre)
         holding = None
         if scenario.holding.active:
-            from bracekit.validate.runner import run_holding_validation
-
-            holding = run_holding_validation(scenario, configs=args.configs)
+            holding = run_holding_validation(scenario, configs=configs)
             data["holding"] = holding.to_json()
+            extra.append(holding)
+        capacity = None
+        if scenario.holding.preload > 0.0 and scenario.holding.wrenches is not None:
+            capacity = run_capacity_validation(scenario, configs=configs)
+            data["capacity"] = capacity.to_json()
+            extra.append(capacity)
         if plan is not None:
             with atomic_directory(plan) as tmp:
                 (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
                 figure_validation(report, tmp / "validation.png")
     print(to_json(data) if args.json else report.table_text())
-    if holding is not None and not args.json:
-        print(holding.table_text())
+    if not args.json:
+        for part in extra:
+            print(part.table_text())
     counts = report.counts()
-    failed = counts.get("failed", 0)
+    failed = counts.get("failed", 0) + pre.counts()["failed"]
     if holding is not None:
         s = holding.summary()
         failed += s["counts"]["failed"] + len(s["margin_disagreements"])
+    if capacity is not None:
+        failed += capacity.counts()["failed"] + capacity.counts()["disagrees"]
     if failed > 0 or report.model_stats("constrained")["n_cases"] == 0:
         print(f"bracekit: error: {failed} validation case(s) failed", file=sys.stderr)
         return 1

@@ -4,7 +4,14 @@ The first-order Lagrange (KKT) compliance, the nonlinear static equilibrium (Pin
 braced chain, and the runner that compares the first-order models with both.
 """
 
-from bracekit.validate.holding_check import HoldingCase, HoldingCheck, mujoco_holding_check
+from bracekit.validate.holding_check import (
+    CapacityRamp,
+    HoldingCase,
+    HoldingCheck,
+    mujoco_capacity_ramp,
+    mujoco_holding_check,
+    static_capacity_scale,
+)
 from bracekit.validate.mujoco_check import (
     MujocoResult,
     MujocoValidationError,
@@ -12,10 +19,14 @@ from bracekit.validate.mujoco_check import (
     mujoco_static_deflection,
 )
 from bracekit.validate.runner import (
+    CapacityValidationReport,
     HoldingValidationReport,
+    PreloadedValidationReport,
     ValidationReport,
     preload_study,
+    run_capacity_validation,
     run_holding_validation,
+    run_preloaded_validation,
     run_validation,
     validation_configurations,
 )
@@ -29,23 +40,30 @@ from bracekit.validate.statics import (
 )
 
 __all__ = [
+    "CapacityRamp",
+    "CapacityValidationReport",
     "HoldingCase",
     "HoldingCheck",
     "HoldingValidationReport",
     "MujocoResult",
     "MujocoValidationError",
+    "PreloadedValidationReport",
     "StaticResult",
     "StaticSolveError",
     "ValidationReport",
     "build_mujoco_model",
     "frame_jacobian_derivative",
     "lagrange_compliance",
+    "mujoco_capacity_ramp",
     "mujoco_holding_check",
     "mujoco_static_deflection",
     "preload_rest_configuration",
     "preload_study",
+    "run_capacity_validation",
     "run_holding_validation",
+    "run_preloaded_validation",
     "run_validation",
     "solve_static_equilibrium",
+    "static_capacity_scale",
     "validation_configurations",
 ]
