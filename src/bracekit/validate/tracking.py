@@ -7,26 +7,26 @@ masses and inertias, joint springs K and dampers D = τK) whose spring set point
     q_s = q + K⁻¹ g(q)                               (free space; g = 0 without gravity),
 
 so that gravity and the brace's preload P are held at the commanded q as bracekit's statics say. The set points
-move along the run at its own speed (time scale 1) and are interpolated linearly between the run's samples; the
-dampers act on q̇ − q̇_s (the set points' velocity is fed to them, as an impedance servo does), so the robot lags
-the path only through its inertia. The brace is a 0.1 mm sphere at b on the surface plane with Coulomb friction
-μ (condim 3, elliptic cone): the pad drags along the surface while the path moves it.
+follow a clamped cubic spline through the run's samples, at the run's own speed (``time_scale`` 1), updated every
+step; the dampers act on q̇ − q̇_s (D q̇_s is applied as a joint force, as an impedance servo does), so the robot
+lags the path only through its inertia. The brace is a 0.1 mm sphere at b on the surface plane; while the set
+points move it slides frictionless with a softer contact (or, with ``path_friction``, is dragged with μ).
 
-At ``points`` samples of each run (evenly spaced in time) the set points stop and a small dead tool force is
-applied along the scenario's β_x at that time, w = f β_x (β_x a unit twist; for a translational β_x a force
-along it), ramped in over 2τ. The deflection along β_x per unit force,
+At ``points`` samples of each run (evenly spaced in time) the set points stop, and a small dead tool force ±f β_x
+(β_x = ``scenario.beta_x(t)``, unit; for a translational β_x a force along it) is ramped in over 2τ from the same
+unloaded state. The compliance along β_x,
 
-    c = β_xᵀ Δx / f,   Δx = [Δp; Δθ] of the tip site, loaded minus unloaded at the same set points,
+    c = β_xᵀ (Δx₊ − Δx₋) / (2f),   Δx = [Δp; Δθ] of the tip site (m, rad), at the same set points,
 
-is compared with the first-order prediction β_xᵀ C β_x (gravity sag and the path's lag cancel in the
-difference). For a translational β_x this is the C_i-direction compliance: C_i = ‖β_xᵀ C‖ is the largest
-deflection along β_x per unit wrench, β_xᵀ C β_x (≤ C_i) the deflection along β_x per unit force along β_x.
-Each braced point is measured twice from the same state:
+is compared with the first-order prediction β_xᵀ C β_x (gravity sag and the path's lag cancel in the difference;
+the central difference removes the dead load's own first-order geometric term). C_i = ‖β_xᵀ C‖ is the largest
+deflection along β_x per unit wrench; β_xᵀ C β_x (≤ C_i) is the deflection along β_x per unit force along β_x.
+Each braced point is measured twice, at a 0.25 ms timestep with the stiff contact:
 
-* ``frictionless``: the pad first relaxes frictionless (condim 1) and is measured that way: the paper's brace,
-  compared with the ``constrained`` C_e (the C_i of the braced runs; the ``projection`` C_e is reported too);
-* ``sticking``: friction back on (condim 3, μ), the pad sticks: compared with the constrained model of a
-  sticking point (``point_with_friction``, three contact forces), with the preload's tangent stiffness
+* frictionless: the pad relaxes frictionless (condim 1) and is measured that way, the paper's brace, against
+  the ``constrained`` C_e (the model of the braced runs' C_i; the ``projection`` C_e is reported too);
+* sticking: friction back on (condim 3, μ, elliptic cone), the pad sticks: against the constrained model of a
+  sticking point (``point_with_friction``, three contact forces) on the preload's tangent stiffness
   (:func:`~bracekit.compliance.preloaded.preloaded_compliance`).
 
 Free-space runs have no contact (the sphere does not collide) and are compared with J K⁻¹ Jᵀ. The report
@@ -226,6 +226,9 @@ class TrackingStrategy:
             "max_rel_err": max((p.rel_err for p in ok), default=None),
             "predicted_projection_mean": _mean([p.predicted_projection for p in ok if p.predicted_projection]),
             "predicted_tangent_mean": _mean([p.predicted_tangent for p in ok]),
+            "max_rel_err_tangent": max(
+                (abs(p.measured - p.predicted_tangent) / p.predicted_tangent for p in ok), default=None
+            ),
             "Ci_mean": _mean([p.ci for p in ok if p.ci is not None]),
             "max_tracking_error_m": max((p.tracking_error for p in self.points), default=None),
             "wall_time_s": self.wall_time,
@@ -305,9 +308,13 @@ class TrackingReport:
             f"{s['points']} point(s) per run, tool force {s['force_N']:g} N along β_x; brace preload "
             f"P = {s['preload_N']:g} N, μ = {s['friction']:g}, gravity {'on' if s['gravity'] else 'off'}",
             "compliance along β_x per unit force (1e-3 m/N); error = |measured − predicted| / predicted",
+            "'max, K_t': worst point against the same model on the tangent stiffness of the preload and gravity",
             "",
         ]
-        cols = ("strategy", "measured", "predicted", "error", "max error", "sticking", "predicted", "error", "track")
+        cols = (
+            "strategy", "measured", "predicted", "error", "max error", "max, K_t",
+            "sticking", "predicted", "error", "track",
+        )  # fmt: skip
         rows = []
         for name, st in self.strategies.items():
             m = st.summary()
@@ -318,6 +325,7 @@ class TrackingReport:
                     _milli(m["predicted_mean"]),
                     _pct(m["rel_err_of_mean"]),
                     _pct(m["max_rel_err"]),
+                    _pct(m["max_rel_err_tangent"]),
                     _milli(m.get("measured_sticking_mean")),
                     _milli(m.get("predicted_sticking_mean")),
                     _pct(m.get("rel_err_sticking_of_mean")),
