@@ -1,0 +1,832 @@
+"""Tracking check in MuJoCo: does each strategy's path make the tool as stiff as bracekit predicts?
+
+The robot is the spring-jointed chain of :func:`~bracekit.validate.mujoco_check.build_mujoco_model` (the URDF's
+masses and inertias, joint springs K and dampers D = τK) whose spring set points q_s(t) follow a strategy's run:
+
+    q_s = q + K⁻¹ τ0,   τ0 = g(q) − J_bᵀ [P n̂; 0]   (braced; bracekit.statics.contact_response),
+    q_s = q + K⁻¹ g(q)                               (free space; g = 0 without gravity),
+
+so that gravity and the brace's preload P are held at the commanded q as bracekit's statics say. The set points
+follow a clamped cubic spline through the run's samples, at the run's own speed (``time_scale`` 1), updated every
+step; the dampers act on q̇ − q̇_s (D q̇_s is applied as a joint force, as an impedance servo does), so the robot
+lags the path only through its inertia. The brace is a 0.1 mm sphere at b on the surface plane; while the set
+points move it slides frictionless with a softer contact (or, with ``path_friction``, is dragged with μ).
+
+At ``points`` samples of each run (evenly spaced in time) the set points stop, and a small dead tool force ±f β_x
+(β_x = ``scenario.beta_x(t)``, unit; for a translational β_x a force along it) is ramped in over 2τ from the same
+unloaded state. The compliance along β_x,
+
+    c = β_xᵀ (Δx₊ − Δx₋) / (2f),   Δx = [Δp; Δθ] of the tip site (m, rad), at the same set points,
+
+is compared with the first-order prediction β_xᵀ C β_x (gravity sag and the path's lag cancel in the difference;
+the central difference removes the dead load's own first-order geometric term). C_i = ‖β_xᵀ C‖ is the largest
+deflection along β_x per unit wrench; β_xᵀ C β_x (≤ C_i) is the deflection along β_x per unit force along β_x.
+Each braced point is measured twice, at a 0.25 ms timestep with the stiff contact:
+
+* frictionless: the pad relaxes frictionless (condim 1) and is measured that way, the paper's brace, against
+  the ``constrained`` C_e (the model of the braced runs' C_i; the ``projection`` C_e is reported too);
+* sticking: friction back on (condim 3, μ, elliptic cone), the pad sticks: against the constrained model of a
+  sticking point (``point_with_friction``, three contact forces) on the preload's tangent stiffness
+  (:func:`~bracekit.compliance.preloaded.preloaded_compliance`).
+
+Free-space runs have no contact (the sphere does not collide) and are compared with J K⁻¹ Jᵀ. The report
+says, per strategy, the mean measured and predicted compliance along β_x and whether the paper's ranking
+(free space > braced minimum norm > braced gradient projection) holds in MuJoCo.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+from scipy.interpolate import CubicSpline
+
+from bracekit._linalg import as_number, show
+from bracekit.compliance.first_order import ComplianceModel, end_effector_compliance, free_space_compliance
+from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance
+from bracekit.errors import InputError, MujocoValidationError
+from bracekit.kinematics import BracedRobot
+from bracekit.simulation.run import RunResult, run_scenario
+from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.simulate import Trajectory
+from bracekit.statics import contact_response, contact_responses, gravity_torque
+from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, TIP_SITE, build_mujoco_model
+
+__all__ = [
+    "DEFAULT_FORCE",
+    "DEFAULT_FRICTION",
+    "DEFAULT_PRELOAD",
+    "PAPER_RANKING",
+    "TrackingPoint",
+    "TrackingReport",
+    "TrackingStrategy",
+    "run_tracking_validation",
+]
+
+Array = NDArray[np.float64]
+
+#: Tool force along β_x, N.
+DEFAULT_FORCE = 1.0
+#: Preload of the brace when the scenario gives none, N (keeps the contact closed under the tool force).
+DEFAULT_PRELOAD = 5.0
+#: Coulomb μ of the pad when the scenario gives none.
+DEFAULT_FRICTION = 0.8
+#: The paper's claim, most compliant first.
+PAPER_RANKING = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
+
+_SPHERE_RADIUS = 1e-4  # m
+_IMPRATIO = 10.0  # frictional-to-normal impedance ratio: less creep of a sticking contact
+_RAMP = 2.0  # ramp time of the tool force, in units of τ
+_MIN_HOLD, _MAX_HOLD = 2.0, 20.0  # settling time, in units of τ
+_SETTLE_TOL = 1e-8  # rad: remaining motion max|q̇|·τ
+_CHUNK = 10  # steps between set-point updates, re-applications of the dead load and settling checks
+_SLIP_TOL = 1e-5  # m: tangential motion of the material point b that counts as a slip
+# timestep of the measurements: at 1 ms the stiff contact on the light links chatters and a sticking pad walks
+_MEASURE_TIMESTEP = 2.5e-4
+# contact settings while the set points move: the stiff measuring contact (solref 0.002) drops out for single
+# steps while b slides (about 6 % of the steps on the paper run); these keep it closed
+_PATH_SOLREF = np.array([0.01, 1.0])
+_PATH_SOLIMP = np.array([0.99, 0.99, 0.001, 0.5, 2.0])
+_BAD_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_CONTACTFULL,
+    mujoco.mjtWarning.mjWARN_CNSTRFULL,
+    mujoco.mjtWarning.mjWARN_INERTIA,
+)
+
+
+@dataclass(frozen=True, eq=False)
+class TrackingPoint:
+    """One check point of a run: the path state, and measured against predicted compliance along β_x.
+
+    Compliances are deflections along β_x per unit force along β_x (m/N for a translational β_x).
+
+    Attributes:
+        index: sample index in the run. t: the run's time there, s.
+        q: the commanded configuration (n,), rad. beta_x: the unit twist (6,).
+        tracking_error: ‖e_MuJoCo − e(q)‖ of the tip when the path reached the point, before settling, m.
+        joint_error: max |q_MuJoCo − q| at the same moment, rad.
+        normal_force: the brace's mean normal force over the path segment that ends at the point, N (None free).
+        measured: MuJoCo, frictionless pad (braced) or no contact (free space).
+        predicted: first order: β_xᵀ C_e β_x (``constrained``) braced, β_xᵀ J K⁻¹ Jᵀ β_x free.
+        predicted_projection: β_xᵀ C_e β_x of the ``projection`` model (braced; None free).
+        predicted_tangent: the same as ``predicted`` on the tangent stiffness of the preload and gravity.
+        measured_sticking, predicted_sticking: the pad sticking with μ, and the constrained model of a sticking
+            point on the tangent stiffness (braced; None free).
+        ci: the run's C_i at the sample (‖β_xᵀ C‖, the model of the run's C_i series), m/N.
+        rel_err: |measured − predicted| / predicted. rel_err_sticking: the same for the sticking pad.
+        contact_opened: the contact opened under ±f with the frictionless pad (the point does not count).
+        slip: largest tangential motion of b under ±f, sticking pad, m (None free).
+        slipped: slip > 1e-5 m, the contact opened, or the chain still moved after 20τ with the sticking pad
+            (the sticking value does not count).
+        predicted_slip: bracekit's first-order contact force under ±f leaves the cone ‖f_t‖ ≤ μ f_n or pulls
+            (:func:`~bracekit.statics.contact_response` with μ; None free).
+    """
+
+    index: int
+    t: float
+    q: Array
+    beta_x: Array
+    tracking_error: float
+    joint_error: float
+    normal_force: float | None
+    measured: float
+    predicted: float
+    predicted_projection: float | None
+    predicted_tangent: float
+    measured_sticking: float | None
+    predicted_sticking: float | None
+    ci: float | None
+    rel_err: float
+    rel_err_sticking: float | None
+    contact_opened: bool
+    slip: float | None
+    slipped: bool
+    predicted_slip: bool | None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-able dict (no NaN)."""
+        return {
+            "index": self.index,
+            "t_s": self.t,
+            "q": self.q.tolist(),
+            "beta_x": self.beta_x.tolist(),
+            "tracking_error_m": self.tracking_error,
+            "joint_error_rad": self.joint_error,
+            "normal_force_N": self.normal_force,
+            "measured": self.measured,
+            "predicted": self.predicted,
+            "predicted_projection": self.predicted_projection,
+            "predicted_tangent": self.predicted_tangent,
+            "measured_sticking": self.measured_sticking,
+            "predicted_sticking": self.predicted_sticking,
+            "Ci": self.ci,
+            "rel_err": self.rel_err,
+            "rel_err_sticking": self.rel_err_sticking,
+            "contact_opened": self.contact_opened,
+            "slip_m": self.slip,
+            "slipped": self.slipped,
+            "predicted_slip": self.predicted_slip,
+        }
+
+
+def _mean(xs: list[float]) -> float | None:
+    return float(np.mean(xs)) if xs else None
+
+
+def _rel(a: float | None, b: float | None) -> float | None:
+    return None if a is None or b is None or b == 0.0 else abs(a - b) / abs(b)
+
+
+@dataclass(frozen=True, eq=False)
+class TrackingStrategy:
+    """The check points of one strategy's run and their means (over the points that count).
+
+    Attributes:
+        strategy: the run's name. braced: whether it is braced.
+        points: the check points. wall_time: s.
+        path: the brace's contact while the set points moved (braced): ``steps``, ``open_fraction`` (steps
+            with no contact force), ``normal_force_mean_N``, ``normal_force_max_N``, ``friction`` (μ on).
+    """
+
+    strategy: str
+    braced: bool
+    points: list[TrackingPoint]
+    wall_time: float
+    path: dict[str, Any] | None = None
+
+    def _counted(self) -> list[TrackingPoint]:
+        return [p for p in self.points if not p.contact_opened]
+
+    def _sticking(self) -> list[TrackingPoint]:
+        return [p for p in self._counted() if p.measured_sticking is not None and not p.slipped]
+
+    def summary(self) -> dict[str, Any]:
+        """Means of measured and predicted compliance along β_x, their relative error and the worst point."""
+        ok, st = self._counted(), self._sticking()
+        measured = _mean([p.measured for p in ok])
+        predicted = _mean([p.predicted for p in ok])
+        out: dict[str, Any] = {
+            "braced": self.braced,
+            "points": len(self.points),
+            "counted": len(ok),
+            "measured_mean": measured,
+            "predicted_mean": predicted,
+            "rel_err_of_mean": _rel(measured, predicted),
+            "max_rel_err": max((p.rel_err for p in ok), default=None),
+            "predicted_projection_mean": _mean([p.predicted_projection for p in ok if p.predicted_projection]),
+            "predicted_tangent_mean": _mean([p.predicted_tangent for p in ok]),
+            "max_rel_err_tangent": max(
+                (abs(p.measured - p.predicted_tangent) / p.predicted_tangent for p in ok), default=None
+            ),
+            "Ci_mean": _mean([p.ci for p in ok if p.ci is not None]),
+            "max_tracking_error_m": max((p.tracking_error for p in self.points), default=None),
+            "wall_time_s": self.wall_time,
+        }
+        if self.braced:
+            out["path_contact"] = self.path
+            ms = _mean([p.measured_sticking for p in st if p.measured_sticking is not None])
+            ps = _mean([p.predicted_sticking for p in st if p.predicted_sticking is not None])
+            out |= {
+                "sticking_counted": len(st),
+                "measured_sticking_mean": ms,
+                "predicted_sticking_mean": ps,
+                "rel_err_sticking_of_mean": _rel(ms, ps),
+                "max_rel_err_sticking": max((p.rel_err_sticking or 0.0 for p in st), default=None),
+                "slipped": sum(p.slipped for p in self.points),
+                "slip_as_predicted": sum(p.slipped == p.predicted_slip for p in self.points),
+                "min_normal_force_N": min((p.normal_force or 0.0 for p in self.points), default=None),
+            }
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-able dict: the summary and the points."""
+        return {**self.summary(), "check_points": [p.to_json() for p in self.points]}
+
+
+@dataclass(frozen=True, eq=False)
+class TrackingReport:
+    """Result of :func:`run_tracking_validation`: one :class:`TrackingStrategy` per run, and the ranking."""
+
+    scenario: str
+    compliance_model: str
+    settings: dict[str, Any]
+    strategies: dict[str, TrackingStrategy] = field(default_factory=dict)
+    wall_time: float = 0.0
+
+    def ranking(self, key: str = "measured_mean") -> dict[str, Any]:
+        """Whether the strategies of the paper's ranking are ordered as the paper says by `key` (a summary key).
+
+        Returns ``{"order": [most compliant first], "holds": bool | None, "violations": [lines]}``; ``holds``
+        is None when fewer than two of the paper's strategies have a value.
+        """
+        values = {n: s.summary().get(key) for n, s in self.strategies.items() if n in PAPER_RANKING}
+        ranked = [n for n in PAPER_RANKING if values.get(n) is not None]
+        order = sorted(ranked, key=lambda n: -float(values[n] or 0.0))
+        bad = [
+            f"{b} ({values[b]:.4g}) is not stiffer than {a} ({values[a]:.4g})"
+            for a, b in itertools.pairwise(ranked)
+            if float(values[b] or 0.0) >= float(values[a] or 0.0)
+        ]
+        return {"order": order, "holds": None if len(ranked) < 2 else not bad, "violations": bad}
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``tracking`` JSON block (no NaN)."""
+        return {
+            "scenario": self.scenario,
+            "compliance_model": self.compliance_model,
+            "quantity": (
+                "compliance along beta_x: beta_x^T dx / f under the tool force f*beta_x (m/N for a translational "
+                "beta_x); predicted beta_x^T C beta_x; rel_err = |measured - predicted| / predicted"
+            ),
+            "paper_ranking": list(PAPER_RANKING),
+            "ranking": {
+                "predicted": self.ranking("predicted_mean"),
+                "measured": self.ranking("measured_mean"),
+                "measured_sticking": self.ranking("measured_sticking_mean"),
+            },
+            "settings": self.settings,
+            "wall_time_s": self.wall_time,
+            "strategies": {n: s.to_json() for n, s in self.strategies.items()},
+        }
+
+    def table_text(self) -> str:
+        """Aligned text table: per strategy, measured and predicted mean compliance along β_x and the ranking."""
+        s = self.settings
+        head = [
+            f"Tracking check in MuJoCo, scenario '{self.scenario}' ({self.compliance_model} runs)",
+            f"{s['points']} point(s) per run, tool force {s['force_N']:g} N along β_x; brace preload "
+            f"P = {s['preload_N']:g} N, μ = {s['friction']:g}, gravity {'on' if s['gravity'] else 'off'}",
+            "compliance along β_x per unit force (1e-3 m/N); error = |measured − predicted| / predicted",
+            "'max, K_t': worst point against the same model on the tangent stiffness of the preload and gravity",
+            "",
+        ]
+        cols = (
+            "strategy", "measured", "predicted", "error", "max error", "max, K_t",
+            "sticking", "predicted", "error", "track",
+        )  # fmt: skip
+        rows = []
+        for name, st in self.strategies.items():
+            m = st.summary()
+            rows.append(
+                (
+                    name,
+                    _milli(m["measured_mean"]),
+                    _milli(m["predicted_mean"]),
+                    _pct(m["rel_err_of_mean"]),
+                    _pct(m["max_rel_err"]),
+                    _pct(m["max_rel_err_tangent"]),
+                    _milli(m.get("measured_sticking_mean")),
+                    _milli(m.get("predicted_sticking_mean")),
+                    _pct(m.get("rel_err_sticking_of_mean")),
+                    "n/a" if m["max_tracking_error_m"] is None else f"{1e3 * m['max_tracking_error_m']:.2g} mm",
+                )
+            )
+        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
+
+        def fmt(r: tuple[str, ...]) -> str:
+            return "  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(r))
+
+        lines = [*head, fmt(cols), "-" * len(fmt(cols)), *(fmt(r) for r in rows), ""]
+        for label, key in (
+            ("predicted", "predicted_mean"),
+            ("MuJoCo, frictionless pad", "measured_mean"),
+            ("MuJoCo, sticking pad", "measured_sticking_mean"),
+        ):
+            rk = self.ranking(key)
+            if rk["holds"] is None:
+                continue
+            verdict = "holds" if rk["holds"] else "does not hold: " + "; ".join(rk["violations"])
+            lines.append(f"paper's ranking, {label}: {' > '.join(rk['order'])}: {verdict}")
+        lines.append(f"wall time {self.wall_time:.1f} s")
+        return "\n".join(lines)
+
+
+def _milli(x: float | None) -> str:
+    return "n/a" if x is None else f"{1e3 * x:.4g}"
+
+
+def _pct(x: float | None) -> str:
+    return "n/a" if x is None else f"{100.0 * x:.2g} %"
+
+
+# --------------------------------------------------------------------------------------------------
+# Simulation
+# --------------------------------------------------------------------------------------------------
+@dataclass
+class _PathContact:
+    """Contact statistics of the brace while the set points move (braced runs)."""
+
+    steps: int = 0
+    open_steps: int = 0
+    force_sum: float = 0.0
+    force_max: float = 0.0
+    segment_sum: float = 0.0
+    segment_steps: int = 0
+
+    def add(self, fn: float, ncon: int) -> None:
+        self.steps += 1
+        self.segment_steps += 1
+        self.segment_sum += fn
+        self.open_steps += int(ncon == 0 or fn <= 0.0)
+        self.force_sum += fn
+        self.force_max = max(self.force_max, fn)
+
+
+class _Sim:
+    """The MuJoCo chain of one run, its data and handles; set points and dampers' reference velocity."""
+
+    def __init__(self, xml: str, braced: BracedRobot, q0: Array, contact: bool, gravity: bool) -> None:
+        try:
+            self.m = mujoco.MjModel.from_xml_string(xml)
+        except ValueError as exc:
+            raise MujocoValidationError(f"MuJoCo rejected the generated model: {exc}") from exc
+        m = self.m
+        if not gravity:  # the model carries the URDF's inertias; gravity is switched off here
+            m.opt.gravity[:] = 0.0
+        self.d = mujoco.MjData(m)
+        k = braced.robot.stiffness
+        self.tau = float(m.dof_damping[0] / k[0])  # damping = τ k_i
+        self.dt = float(m.opt.timestep)
+        self.damping = np.asarray(m.dof_damping, dtype=float).copy()
+        self.site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, TIP_SITE)
+        self.tip_body = int(m.site_bodyid[self.site])
+        self.sphere = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, BRACE_GEOM)
+        self.plane = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, SURFACE_GEOM)
+        self.geoms = [self.sphere, self.plane]
+        self.condim = int(m.geom_condim[self.sphere])
+        self.contact = contact
+        self.solref = m.geom_solref[self.sphere].copy()
+        self.solimp = m.geom_solimp[self.sphere].copy()
+        if not contact:
+            m.geom_contype[self.sphere] = 0
+            m.geom_conaffinity[self.sphere] = 0
+        self.body = int(m.geom_bodyid[self.sphere])
+        self.nhat = braced.brace.surface.normal
+        self.d.qpos[:] = q0
+        mujoco.mj_forward(m, self.d)
+        b = braced.state(q0).b
+        self.b_local = self.d.xmat[self.body].reshape(3, 3).T @ (b - self.d.xpos[self.body])
+        self.messages: list[str] = []
+
+    def contact_mode(self, condim: int, moving: bool = False) -> None:
+        """Sphere–plane pair: condim (1 frictionless, 3 with μ), timestep and contact softness.
+
+        While moving: the path's timestep and the softer path contact; otherwise the measuring timestep and the
+        stiff contact of :func:`~bracekit.validate.mujoco_check.build_mujoco_model`.
+        """
+        self.m.geom_condim[self.geoms] = condim
+        self.m.opt.timestep = self.dt if moving or not self.contact else min(self.dt, _MEASURE_TIMESTEP)
+        self.m.geom_solref[self.geoms] = _PATH_SOLREF if moving else self.solref
+        self.m.geom_solimp[self.geoms] = _PATH_SOLIMP if moving else self.solimp
+
+    def b_point(self) -> Array:
+        """World position of the material point b (m)."""
+        return np.asarray(self.d.xpos[self.body] + self.d.xmat[self.body].reshape(3, 3) @ self.b_local)
+
+    def tip(self) -> tuple[Array, Array]:
+        """Position (3,) and rotation (3×3) of the tip site, world."""
+        return self.d.site_xpos[self.site].copy(), self.d.site_xmat[self.site].reshape(3, 3).copy()
+
+    def normal_force(self) -> tuple[float, int]:
+        """Normal force of the plane on the sphere (N) and the number of active contacts."""
+        total, count, f6 = 0.0, 0, np.zeros(6)
+        for i in range(self.d.ncon):
+            c = self.d.contact[i]
+            if {int(c.geom1), int(c.geom2)} != {self.sphere, self.plane} or c.exclude != 0 or c.efc_address < 0:
+                continue
+            mujoco.mj_contactForce(self.m, self.d, i, f6)
+            total += float(f6[0])
+            count += 1
+        return total, count
+
+    def check(self, phase: str) -> None:
+        """MujocoValidationError if MuJoCo warned of an unstable state or the state is not finite."""
+        d = self.d
+        hits = [int(w) for w in _BAD_WARNINGS if d.warning[int(w)].number > 0]
+        if hits or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            said = f" MuJoCo said: {self.messages[0].strip()}" if self.messages else ""
+            raise MujocoValidationError(
+                f"MuJoCo went unstable during {phase}; reduce the tool force or the timestep.{said}"
+            )
+
+    def follow(
+        self, path: CubicSpline, rate: CubicSpline, t0: float, t1: float, scale: float, stats: _PathContact | None
+    ) -> None:
+        """Move the set points along `path` (run time t0 → t1, simulated `scale` times slower), every step.
+
+        The dampers act on q̇ − q̇_s: the set points' velocity ``rate`` / scale is applied as D q̇_s.
+        """
+        m, d = self.m, self.d
+        dt = float(m.opt.timestep)
+        steps = max(1, round(scale * (t1 - t0) / dt))
+        if stats is not None:
+            stats.segment_sum, stats.segment_steps = 0.0, 0
+        for j in range(1, steps + 1):
+            t = t0 + (t1 - t0) * j / steps
+            m.qpos_spring[:] = path(t)
+            d.qfrc_applied[:] = self.damping * rate(t) / scale
+            mujoco.mj_step(m, d)
+            if stats is not None:
+                stats.add(*self.normal_force())
+        d.qfrc_applied[:] = 0.0
+        self.check("the path")
+
+    def settle(self, q_s: Array, w: Array, phase: str, strict: bool = True) -> bool:
+        """Hold the set points q_s, ramp the dead tip wrench w in over _RAMP·τ and step until settled.
+
+        Returns whether it settled; when ``strict``, not settling raises MujocoValidationError.
+        """
+        m, d = self.m, self.d
+        m.qpos_spring[:] = q_s
+        dt = float(m.opt.timestep)
+        loaded = bool(np.any(w != 0.0))
+        ramp = int(np.ceil(_RAMP * self.tau / dt)) if loaded else 0
+        least = ramp + int(np.ceil(_MIN_HOLD * self.tau / dt))
+        most = ramp + int(np.ceil(_MAX_HOLD * self.tau / dt))
+        steps = 0
+        while steps < most:
+            self._apply(w, 1.0 if ramp == 0 else min(1.0, steps / ramp))
+            mujoco.mj_step(m, d, _CHUNK)
+            steps += _CHUNK
+            if steps >= least and float(np.max(np.abs(d.qvel))) * self.tau < _SETTLE_TOL:
+                break
+        self.check(phase)
+        rest = float(np.max(np.abs(d.qvel))) * self.tau
+        settled = rest < 100.0 * _SETTLE_TOL
+        if strict and not settled:
+            raise MujocoValidationError(
+                f"MuJoCo did not settle during {phase} within {_MAX_HOLD:g}τ (max|q̇|·τ = {rest:.2g} rad); "
+                "the brace may be slipping or chattering"
+            )
+        self._apply(w, 1.0)
+        mujoco.mj_forward(m, d)
+        return settled
+
+    def _apply(self, w: Array, a: float) -> None:
+        d = self.d
+        d.qfrc_applied[:] = 0.0
+        if a > 0.0 and np.any(w != 0.0):
+            mujoco.mj_kinematics(self.m, d)
+            f, tq = a * w[:3], a * w[3:]
+            mujoco.mj_applyFT(self.m, d, f, tq, d.site_xpos[self.site].copy(), self.tip_body, d.qfrc_applied)
+
+    def measure(
+        self, q_s: Array, w: Array, beta: Array, what: str, strict: bool = True
+    ) -> tuple[float, float, bool, bool]:
+        """Compliance along β_x from ±w at the set points q_s: β_xᵀ (Δx₊ − Δx₋) / (2|w|).
+
+        Settles unloaded, then under +w and (from the unloaded state) under −w. Returns the compliance, the
+        largest tangential motion of b under either load (m), whether the contact opened under either, and
+        whether both loaded states settled (``strict``: raise if not).
+        """
+        self.settle(q_s, np.zeros(6), f"unloaded settling ({what})")
+        unloaded = mujoco.MjData(self.m)
+        mujoco.mj_copyData(unloaded, self.m, self.d)
+        b0 = self.b_point()
+        x, slip, opened, settled = [], 0.0, False, True
+        for sign in (1.0, -1.0):
+            mujoco.mj_copyData(self.d, self.m, unloaded)
+            settled = self.settle(q_s, sign * w, f"loaded settling ({what})", strict) and settled
+            p, r = self.tip()
+            x.append((p, r))
+            db = self.b_point() - b0
+            slip = max(slip, float(np.linalg.norm(db - (db @ self.nhat) * self.nhat)))
+            fn, ncon = self.normal_force()
+            opened = opened or (self.m.geom_contype[self.sphere] != 0 and (ncon == 0 or fn <= 0.0))
+        (p1, r1), (p2, r2) = x
+        dx = np.concatenate([p1 - p2, pin.log3(r1 @ r2.T)])
+        return float(beta @ dx) / (2.0 * float(np.linalg.norm(w))), slip, opened, settled
+
+
+def _set_points(sc: Scenario, tr: Trajectory, preload: float, gravity: bool) -> Array:
+    """q_s (N×n) along the run: the preload (braced) and gravity held at the run's q (module docstring)."""
+    if tr.braced:
+        return contact_responses(sc.braced, tr.q, preload=preload, gravity=gravity, geometric=False).q_s
+    k = sc.robot.stiffness
+    if not gravity:
+        return tr.q.copy()
+    return np.array([q + gravity_torque(sc.robot, q) / k for q in tr.q])
+
+
+def _check_indices(n_samples: int, points: int) -> list[int]:
+    return sorted({round(float(x)) for x in np.linspace(0, n_samples - 1, points)})
+
+
+def _track_run(
+    sc: Scenario,
+    tr: Trajectory,
+    model: ComplianceModel,
+    *,
+    points: int,
+    force: float,
+    preload: float,
+    friction: float,
+    gravity: bool,
+    timestep: float,
+    time_scale: float,
+    path_friction: bool,
+) -> TrackingStrategy:
+    """Follow one run in MuJoCo and measure at its check points."""
+    start = time.perf_counter()
+    braced, robot = sc.braced, sc.robot
+    brace = braced.brace
+    sticking = BracedRobot(robot, dataclasses.replace(brace, contact="point_with_friction"))
+    q_s = _set_points(sc, tr, preload, gravity)
+    xml = build_mujoco_model(
+        robot.model,
+        tr.q[0],
+        robot.stiffness,
+        braced.brace_id,
+        robot.tip_id,
+        brace.surface.point,
+        brace.surface.normal,
+        sphere_radius=_SPHERE_RADIUS,
+        gravity=True,  # the URDF's inertias; _Sim switches gravity off unless asked
+        timestep=timestep,
+        friction=friction,
+        cone="elliptic",
+        impratio=_IMPRATIO,
+        set_points=q_s[0],
+    )
+    sim = _Sim(xml, braced, tr.q[0], tr.braced, gravity)
+    stats = _PathContact() if tr.braced else None
+    path_condim = sim.condim if path_friction else 1
+    t = np.asarray(tr.t, dtype=float)
+    if t.size > 1:
+        path = CubicSpline(t, q_s, axis=0, bc_type="clamped")  # starts and ends at rest
+        rate = path.derivative()
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(sim.messages.append)
+    out: list[TrackingPoint] = []
+    try:
+        sim.contact_mode(path_condim)
+        sim.settle(q_s[0], np.zeros(6), "settling at the start")
+        checks = set(_check_indices(t.size, points))
+        saved = mujoco.MjData(sim.m)
+        for i in range(t.size):
+            if i > 0:
+                sim.contact_mode(path_condim, moving=True)
+                sim.follow(path, rate, float(t[i - 1]), float(t[i]), time_scale, stats)
+            if i in checks:
+                sim.contact_mode(path_condim)
+                mujoco.mj_copyData(saved, sim.m, sim.d)
+                fn_path = None
+                if stats is not None:
+                    fn_path = stats.segment_sum / stats.segment_steps if stats.segment_steps else preload
+                out.append(
+                    _check_point(sim, sc, tr, model, sticking, i, q_s[i], force, preload, friction, gravity, fn_path)
+                )
+                mujoco.mj_copyData(sim.d, sim.m, saved)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    path_json = None
+    if stats is not None and stats.steps:
+        path_json = {
+            "steps": stats.steps,
+            "open_fraction": stats.open_steps / stats.steps,
+            "normal_force_mean_N": stats.force_sum / stats.steps,
+            "normal_force_max_N": stats.force_max,
+            "friction": path_friction,
+        }
+    return TrackingStrategy(tr.strategy, tr.braced, out, time.perf_counter() - start, path_json)
+
+
+def _check_point(
+    sim: _Sim,
+    sc: Scenario,
+    tr: Trajectory,
+    model: ComplianceModel,
+    sticking: BracedRobot,
+    i: int,
+    q_s: Array,
+    force: float,
+    preload: float,
+    friction: float,
+    gravity: bool,
+    fn_path: float | None,
+) -> TrackingPoint:
+    """Measure the compliance along β_x at sample i (the set points stop at q_s) and predict it."""
+    braced = sc.braced
+    q = tr.q[i]
+    t = float(tr.t[i])
+    beta = np.asarray(sc.beta_x(t), dtype=float)
+    beta = beta / np.linalg.norm(beta)
+    w = force * beta
+    st = braced.state(q)
+    mujoco.mj_forward(sim.m, sim.d)
+    tracking = float(np.linalg.norm(sim.d.site_xpos[sim.site] - st.e))
+    joint = float(np.max(np.abs(sim.d.qpos - q)))
+    ci_series = tr.measures.get(tr.ci_key(model))
+    ci = None if ci_series is None else float(ci_series[i])
+    what = f"{tr.strategy} at t = {t:g} s"
+    if not tr.braced:
+        measured, _, _, _ = sim.measure(q_s, w, beta, what)
+        pred = float(beta @ free_space_compliance(st) @ beta)
+        tangent = float(beta @ loaded_free_space_compliance(braced, q, gravity=gravity) @ beta)
+        return TrackingPoint(
+            i, t, q.copy(), beta, tracking, joint, None, measured, pred, None, tangent,
+            None, None, ci, abs(measured - pred) / pred, None, False, None, False, None,
+        )  # fmt: skip
+    sim.contact_mode(1)  # the pad relaxes frictionless and is measured that way
+    sim.settle(q_s, np.zeros(6), f"frictionless relaxing ({what})")
+    relaxed = mujoco.MjData(sim.m)
+    mujoco.mj_copyData(relaxed, sim.m, sim.d)
+    measured, _, opened, _ = sim.measure(q_s, w, beta, f"frictionless pad, {what}")
+    mujoco.mj_copyData(sim.d, sim.m, relaxed)
+    sim.contact_mode(sim.condim)  # friction on: the pad sticks
+    measured_st, slip, opened_st, settled = sim.measure(q_s, w, beta, f"sticking pad, {what}", strict=False)
+    pred = float(beta @ end_effector_compliance(st, "constrained") @ beta)
+    proj = float(beta @ end_effector_compliance(st, "projection") @ beta)
+    tangent = float(beta @ preloaded_compliance(braced, q, preload, gravity=gravity) @ beta)
+    pred_st = float(beta @ preloaded_compliance(sticking, q, preload, gravity=gravity) @ beta)
+    resp = contact_response(braced, q, preload=preload, gravity=gravity, friction=friction)
+    f_c = resp.contact_wrench(np.stack([w, -w]))[:, :3]
+    f_n = f_c @ sim.nhat
+    f_t = np.linalg.norm(f_c - f_n[:, None] * sim.nhat, axis=1)
+    predicted_slip = bool(np.any((f_n <= 0.0) | (f_t > friction * f_n)))
+    return TrackingPoint(
+        index=i,
+        t=t,
+        q=q.copy(),
+        beta_x=beta,
+        tracking_error=tracking,
+        joint_error=joint,
+        normal_force=fn_path,
+        measured=measured,
+        predicted=pred,
+        predicted_projection=proj,
+        predicted_tangent=tangent,
+        measured_sticking=measured_st,
+        predicted_sticking=pred_st,
+        ci=ci,
+        rel_err=abs(measured - pred) / pred,
+        rel_err_sticking=abs(measured_st - pred_st) / pred_st,
+        contact_opened=bool(opened),
+        slip=slip,
+        slipped=bool(slip > _SLIP_TOL or opened_st or not settled),
+        predicted_slip=predicted_slip,
+    )
+
+
+def run_tracking_validation(
+    result_or_scenario: RunResult | Scenario | str | os.PathLike[str],
+    points: int = 5,
+    force: float = DEFAULT_FORCE,
+    *,
+    preload: float | None = None,
+    friction: float | None = None,
+    gravity: bool | None = None,
+    timestep: float = 1e-3,
+    time_scale: float = 1.0,
+    path_friction: bool = False,
+    strategies: list[str] | None = None,
+) -> TrackingReport:
+    """Follow each strategy's run in MuJoCo and compare its compliance along β_x with bracekit's (module docstring).
+
+    Args:
+        result_or_scenario: a :class:`RunResult` (its chosen compliance model's runs), or a Scenario, TOML path
+            or shipped name, which is run first (``run_scenario(..., both_models=False)``).
+        points: check points per run, evenly spaced in time (the first and last sample included), ≥ 1.
+        force: the tool force f along β_x, N (> 0; small: the first-order error grows ∝ f).
+        preload: brace preload P, N; default the scenario's, or DEFAULT_PRELOAD when it has none.
+        friction: Coulomb μ of the pad (> 0); default the scenario's, or DEFAULT_FRICTION.
+        gravity: default the scenario's ``[robot] gravity``.
+        timestep: MuJoCo timestep, s (≤ 1 ms: the contact's time constant is 2 ms).
+        time_scale: simulated time per unit of the run's time (1: the run's own speed; > 1 slower).
+        path_friction: drag the pad with friction μ while the set points move (default: frictionless while
+            moving, friction on at the check points; a dragged pad hops in MuJoCo, docs/validation.md).
+        strategies: the runs to check (default all of the chosen model).
+
+    Returns:
+        :class:`TrackingReport`.
+
+    Raises:
+        InputError: bad arguments, or a brace MuJoCo's sphere does not model (not a frictionless point on a
+            rigid surface).
+        MujocoValidationError: the simulation goes unstable or does not settle.
+    """
+    start = time.perf_counter()
+    if isinstance(result_or_scenario, RunResult):
+        result = result_or_scenario
+    elif isinstance(result_or_scenario, Scenario | str | os.PathLike):
+        result = run_scenario(result_or_scenario, both_models=False)
+    else:
+        raise InputError(
+            "run_tracking_validation needs a RunResult, a Scenario, a .toml path or a shipped name, "
+            f"got {show(result_or_scenario)}"
+        )
+    sc = result.scenario
+    if not isinstance(points, int) or isinstance(points, bool) or points < 1:
+        raise InputError(f"points must be a whole number >= 1, got {show(points)}")
+    f = as_number(force, "the tool force f", positive=True, unit="N")
+    h = sc.holding
+    p = as_number(
+        (h.preload if h.preload > 0.0 else DEFAULT_PRELOAD) if preload is None else preload,
+        "the brace preload P",
+        positive=True,
+        unit="N",
+    )
+    mu = as_number((h.friction or DEFAULT_FRICTION) if friction is None else friction, "the friction μ", positive=True)
+    g = h.gravity if gravity is None else gravity
+    if not isinstance(g, bool):
+        raise InputError(f"gravity must be True or False, got {show(g)}")
+    dt = as_number(timestep, "the timestep", positive=True, unit="s")
+    if dt > 1e-3:
+        raise InputError(f"timestep must be at most 1 ms (the contact's time constant is 2 ms), got {dt:g} s")
+    scale = as_number(time_scale, "the time scale", positive=True)
+    if not isinstance(path_friction, bool):
+        raise InputError(f"path_friction must be True or False, got {show(path_friction)}")
+    brace = sc.braced.brace
+    if brace.kind.name != "frictionless_point" or brace.environment_stiffness is not None:
+        raise InputError(
+            "the MuJoCo tracking check models a point brace (frictionless_point) on a rigid surface; "
+            f"this brace is '{brace.kind.name}'"
+            + (" with an environment stiffness" if brace.environment_stiffness is not None else "")
+        )
+    runs = result.trajectories[result.compliance_model]
+    names = list(runs) if strategies is None else list(strategies)
+    unknown = [n for n in names if n not in runs]
+    if unknown:
+        raise InputError(f"no run named {', '.join(unknown)}; the runs are {', '.join(runs)}")
+    report = TrackingReport(
+        scenario=sc.name,
+        compliance_model=result.compliance_model,
+        settings={
+            "points": points,
+            "force_N": f,
+            "preload_N": p,
+            "friction": mu,
+            "gravity": g,
+            "timestep_s": dt,
+            "time_scale": scale,
+            "path_friction": path_friction,
+            "contact": "sphere (radius 0.1 mm) on the plane, condim 3 with mu (elliptic cone, impratio 10); "
+            "measured with condim 1 (frictionless) and condim 3 (sticking)",
+            "set_points": "q_s = q + K^-1 (g(q) - J_b^T [P n; 0]) along the run, dampers referenced to dq_s/dt",
+            "load": "dead tool force +-f*beta_x ramped in over 2 tau, settled until max|qdot|*tau < 1e-8 rad; "
+            "compliance from the difference of the two loaded states",
+            "measure_timestep_s": _MEASURE_TIMESTEP,
+        },
+    )
+    for name in names:
+        tr = runs[name]
+        if not tr.q.shape[0]:
+            continue
+        report.strategies[name] = _track_run(
+            sc, tr, result.compliance_model,
+            points=points, force=f, preload=p, friction=mu, gravity=g, timestep=dt, time_scale=scale,
+            path_friction=path_friction,
+        )  # fmt: skip
+    object.__setattr__(report, "wall_time", time.perf_counter() - start)
+    return report
