@@ -248,10 +248,14 @@ def test_help_lists_the_commands(capsys) -> None:
 
 def test_validate_json_has_the_required_keys(capsys, tmp_path: Path) -> None:
     out = tmp_path / "val"
-    code, stdout, _ = _run(["validate", "paper", "--configs", "1", "--json", "--out", str(out)], capsys)
+    args = ["validate", "paper", "--configs", "1", "--tracking-points", "1", "--json", "--out", str(out)]
+    code, stdout, _ = _run(args, capsys)
     assert code == 0
     data = json.loads(stdout)
     assert "cases" in data
+    assert data["preloaded"]["median_rel_err_mujoco"] < 0.01  # gravity and preloads 1–50 N
+    runs = {"free_space_min_norm", "braced_min_norm", "braced_gradient_projection"}
+    assert set(data["tracking"]["strategies"]) == runs
     for model in ("constrained", "projection", "free_space"):
         for key in ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static"):
             assert isinstance(data[model][key], float)
@@ -268,7 +272,7 @@ def test_validate_checks_the_holding_statics_in_mujoco_when_the_scenario_has_the
     text = re.sub(r"(?m)^region_radius = .*$", "region_radius = 0.15\npreload = 20.0\nfriction = 0.5", text, count=1)
     path = tmp_path / "hold.toml"
     path.write_text(text + "\n[loads]\nwrenches = [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0]]\n", encoding="utf-8")
-    code, stdout, _ = _run(["validate", str(path), "--configs", "1", "--json"], capsys)
+    code, stdout, _ = _run(["validate", str(path), "--configs", "1", "--tracking-points", "0", "--json"], capsys)
     assert code == 0
     s = json.loads(stdout)["holding"]["summary"]
     assert s["unloaded_normal_max_rel_err"] < 0.02 and s["force_median_rel_err"] < 0.02
@@ -278,6 +282,8 @@ def test_validate_checks_the_holding_statics_in_mujoco_when_the_scenario_has_the
 def test_validate_rejects_zero_configurations(capsys) -> None:
     code, _, err = _run(["validate", "--configs", "0"], capsys)
     assert code == 2 and "--configs" in err
+    code, _, err = _run(["validate", "--tracking-points", "-1"], capsys)
+    assert code == 2 and "--tracking-points" in err
 
 
 def test_study_ranks_bracing_points_and_reports_json(capsys) -> None:

@@ -132,6 +132,12 @@ def build_parser() -> argparse.ArgumentParser:
     va = sub.add_parser("validate", help="check the compliance models against MuJoCo and a nonlinear static solve")
     va.add_argument("scenario", nargs="?", default="paper", help="scenario file or shipped name (default paper)")
     va.add_argument("--configs", type=int, default=3, help="number of configurations along the path (default 3)")
+    va.add_argument(
+        "--tracking-points",
+        type=int,
+        default=5,
+        help="check points per strategy of the dynamic tracking check in MuJoCo (default 5; 0: skip it)",
+    )
     va.add_argument("--json", action="store_true", help="print one JSON object")
     va.add_argument(
         "--out", type=Path, help=f"also write validation.json and validation.png into this folder; {OUT_HELP}"
@@ -438,6 +444,8 @@ def _validate(args: argparse.Namespace) -> int:
 
     if args.configs < 1:
         raise InputError(f"--configs must be at least 1, got {args.configs}")
+    if args.tracking_points < 0:
+        raise InputError(f"--tracking-points must be 0 (skip) or more, got {args.tracking_points}")
     scenario = load_scenario(args.scenario)
     from bracekit.validate.runner import path_samples
 
@@ -482,6 +490,12 @@ def _validate(args: argparse.Namespace) -> int:
             holding = run_holding_validation(scenario, configs=configs)
             data["holding"] = holding.to_json()
             extra.append(holding)
+        if args.tracking_points > 0:
+            from bracekit.validate.tracking import run_tracking_validation
+
+            tracking = run_tracking_validation(scenario, points=args.tracking_points)
+            data["tracking"] = tracking.to_json()
+            extra.append(tracking)
         capacity = None
         if scenario.holding.preload > 0.0 and scenario.holding.wrenches is not None:
             capacity = run_capacity_validation(scenario, configs=configs)

@@ -38,6 +38,7 @@ from bracekit.validate.statics import (
     preload_rest_configuration,
     solve_static_equilibrium,
 )
+from bracekit.validate.tracking import TrackingPoint, TrackingReport, TrackingStrategy, run_tracking_validation
 
 __all__ = [
     "CapacityRamp",
@@ -50,6 +51,9 @@ __all__ = [
     "PreloadedValidationReport",
     "StaticResult",
     "StaticSolveError",
+    "TrackingPoint",
+    "TrackingReport",
+    "TrackingStrategy",
     "ValidationReport",
     "build_mujoco_model",
     "frame_jacobian_derivative",
@@ -62,6 +66,7 @@ __all__ = [
     "run_capacity_validation",
     "run_holding_validation",
     "run_preloaded_validation",
+    "run_tracking_validation",
     "run_validation",
     "solve_static_equilibrium",
     "static_capacity_scale",

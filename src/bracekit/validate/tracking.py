@@ -51,7 +51,7 @@ from scipy.interpolate import CubicSpline
 
 from bracekit._linalg import as_number, show
 from bracekit.compliance.first_order import ComplianceModel, end_effector_compliance, free_space_compliance
-from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance
+from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance, simulated_model
 from bracekit.errors import InputError, MujocoValidationError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.run import RunResult, run_scenario
@@ -824,7 +824,7 @@ def run_tracking_validation(
         if not tr.q.shape[0]:
             continue
         report.strategies[name] = _track_run(
-            sc, tr, result.compliance_model,
+            sc, tr, simulated_model(result.compliance_model),
             points=points, force=f, preload=p, friction=mu, gravity=g, timestep=dt, time_scale=scale,
             path_friction=path_friction,
         )  # fmt: skip
