@@ -14,9 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bracekit.errors import BarrierError
-from bracekit.kinematics import BracedState
-from bracekit.objective.base import Array, TermContext, register_term
-from bracekit.objective.fused import FusedGradient, FusedKinematics
+from bracekit.objective.base import Array, register_term
 from bracekit.objective.joint_limits import JointLimits
 
 
@@ -26,7 +24,8 @@ class JointLimitBarrier(JointLimits):
     """Σ_i [span_i² / (4 (q_max,i − q_i)(q_i − q_min,i)) − 1] over the joints with finite `lower`, `upper` (n,).
 
     Dimensionless, ≥ 0. BarrierError where a bounded joint is at or beyond a limit. Unbounded joints
-    (continuous, ±inf) do not contribute.
+    (continuous, ±inf) do not contribute. The reference, fused and scenario methods are the quadratic term's,
+    on this value and gradient.
     """
 
     name: str = "joint_limit_barrier"
@@ -56,28 +55,3 @@ class JointLimitBarrier(JointLimits):
         out = np.zeros(q.size)
         out[self._index] = span * span * (below - above) / (4.0 * (below * above) ** 2)  # type: ignore[attr-defined]
         return out
-
-    def value(self, state: BracedState) -> float:
-        """The term's value at the state (the class docstring gives its units)."""
-        return self.of_q(state.q)
-
-    def gradient(self, state: BracedState) -> Array:
-        """∂value/∂q (n,), exact (it needs no Hessians)."""
-        return self.gradient_of_q(state.q)
-
-    def fused_value(self, kin: FusedKinematics) -> float | None:
-        """The value at the fused step's joint values (None when it has none)."""
-        return None if kin.q is None else self.of_q(kin.q)
-
-    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
-        """Add weight · ∂value/∂q to the fused step's accumulator; True when done here."""
-        if kin.q is None:
-            return False
-        out.add_extra(weight * self.gradient_of_q(kin.q))
-        return True
-
-    @classmethod
-    def from_scenario(cls, context: TermContext) -> JointLimitBarrier:
-        """The barrier with the braced robot's URDF limits (its weight key is ``key``)."""
-        robot = context.braced.robot
-        return cls(robot.lower, robot.upper)

@@ -382,6 +382,31 @@ def _stats(values: list[float | None]) -> tuple[float | None, float | None]:
     return float(np.median(v)), float(np.max(v))
 
 
+def _model_stats(ok: list[dict[str, Any]], model: str) -> dict[str, float | int | None]:
+    """Median and max relative error of `model` vs MuJoCo and vs the static solve over the cases `ok`."""
+    med_m, max_m = _stats([c["rel_err"][model]["mujoco"] for c in ok])
+    med_s, max_s = _stats([c["rel_err"][model]["static"] for c in ok])
+    return {
+        "median_rel_err_mujoco": med_m,
+        "max_rel_err_mujoco": max_m,
+        "median_rel_err_static": med_s,
+        "max_rel_err_static": max_s,
+        "n_cases": len(ok),
+    }
+
+
+def _references_agree(cases: list[dict[str, Any]]) -> dict[str, float | int | None]:
+    """Agreement of MuJoCo and the static solve on every case where both ran."""
+    vals = [c["rel_err_mujoco_vs_static"] for c in cases if c["rel_err_mujoco_vs_static"] is not None]
+    med, mx = _stats(vals)
+    return {"median_rel_err": med, "max_rel_err": mx, "n_cases": len(vals)}
+
+
+def _status_counts(cases: list[dict[str, Any]]) -> dict[str, int]:
+    """Number of cases per status (ok, contact_opened, failed)."""
+    return {s: sum(c["status"] == s for c in cases) for s in ("ok", "contact_opened", "failed")}
+
+
 def fmt_rel(x: float | None) -> str:
     """A relative error as a percentage (3 significant digits), 'n/a' when missing."""
     return "n/a" if x is None else f"{100.0 * x:.3g} %"
@@ -408,26 +433,15 @@ class ValidationReport:
 
     def model_stats(self, model: str) -> dict[str, float | int | None]:
         """Median and max relative error of a model vs MuJoCo and vs the static solve (closed-contact cases)."""
-        ok = self._ok()
-        med_m, max_m = _stats([c["rel_err"][model]["mujoco"] for c in ok])
-        med_s, max_s = _stats([c["rel_err"][model]["static"] for c in ok])
-        return {
-            "median_rel_err_mujoco": med_m,
-            "max_rel_err_mujoco": max_m,
-            "median_rel_err_static": med_s,
-            "max_rel_err_static": max_s,
-            "n_cases": len(ok),
-        }
+        return _model_stats(self._ok(), model)
 
     def mujoco_vs_static(self) -> dict[str, float | int | None]:
         """Agreement of the two references on every case where both ran (opened contacts included)."""
-        vals = [c["rel_err_mujoco_vs_static"] for c in self.cases if c["rel_err_mujoco_vs_static"] is not None]
-        med, mx = _stats(vals)
-        return {"median_rel_err": med, "max_rel_err": mx, "n_cases": len(vals)}
+        return _references_agree(self.cases)
 
     def counts(self) -> dict[str, int]:
         """Number of cases per status."""
-        return {s: sum(c["status"] == s for c in self.cases) for s in ("ok", "contact_opened", "failed")}
+        return _status_counts(self.cases)
 
     def to_json(self) -> dict[str, Any]:
         """One JSON-serialisable dict (no NaN: missing numbers are None)."""
@@ -828,25 +842,15 @@ class PreloadedValidationReport:
         Over the closed-contact cases of every preload, or of one ``preload`` (N).
         """
         ok = [c for c in self.cases if c["status"] == "ok" and (preload is None or c["preload_N"] == preload)]
-        med_m, max_m = _stats([c["rel_err"][model]["mujoco"] for c in ok])
-        med_s, max_s = _stats([c["rel_err"][model]["static"] for c in ok])
-        return {
-            "median_rel_err_mujoco": med_m,
-            "max_rel_err_mujoco": max_m,
-            "median_rel_err_static": med_s,
-            "max_rel_err_static": max_s,
-            "n_cases": len(ok),
-        }
+        return _model_stats(ok, model)
 
     def mujoco_vs_static(self) -> dict[str, float | int | None]:
         """Agreement of the two references on every case where both ran."""
-        vals = [c["rel_err_mujoco_vs_static"] for c in self.cases if c["rel_err_mujoco_vs_static"] is not None]
-        med, mx = _stats(vals)
-        return {"median_rel_err": med, "max_rel_err": mx, "n_cases": len(vals)}
+        return _references_agree(self.cases)
 
     def counts(self) -> dict[str, int]:
         """Number of cases per status."""
-        return {s: sum(c["status"] == s for c in self.cases) for s in ("ok", "contact_opened", "failed")}
+        return _status_counts(self.cases)
 
     def by_preload(self) -> list[dict[str, Any]]:
         """Per preload P (N): the statistics of both models and the case counts."""
