@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import show
 from bracekit.errors import InputError
+from bracekit.spatial import unit
 
 Array = NDArray[np.float64]
 SpaceKind = Literal["pose", "position", "position+axis"]
@@ -61,10 +62,10 @@ class TaskSpace:
             a = np.asarray(raw, dtype=float).reshape(-1)
         except (TypeError, ValueError):
             raise InputError(f"the tool axis must be 3 numbers (tip coordinates), got {show(raw)}") from None
-        size = float(np.linalg.norm(a)) if a.size == 3 and np.all(np.isfinite(a)) else 0.0
-        if not 1e-12 <= size < np.inf:
+        big = float(np.max(np.abs(a), initial=0.0)) if a.size == 3 and np.all(np.isfinite(a)) else 0.0
+        if not big > 0.0:
             raise InputError(f"the tool axis must be 3 finite numbers, not all zero (tip coordinates), got {show(raw)}")
-        object.__setattr__(self, "axis", a / size)
+        object.__setattr__(self, "axis", unit(a, "the tool axis (tip coordinates)"))
 
     @property
     def is_pose(self) -> bool:

@@ -30,6 +30,7 @@ from bracekit.statics import (
     peak_ratio,
     saturation_scale,
 )
+from bracekit.statics.equilibrium import check_friction
 
 Array = NDArray[np.float64]
 
@@ -65,9 +66,7 @@ class Holding:
             raise InputError(f"gravity must be true or false, got {show(self.gravity)}")
         object.__setattr__(self, "preload", as_number(self.preload, "the preload", nonnegative=True, unit="N"))
         if self.friction is not None:
-            object.__setattr__(
-                self, "friction", as_number(self.friction, "the friction coefficient μ", nonnegative=True)
-            )
+            object.__setattr__(self, "friction", check_friction(self.friction))
         if self.wrenches is not None:
             w = as_array(self.wrenches, "the tool wrenches (N, N·m)")
             if w.ndim == 1:

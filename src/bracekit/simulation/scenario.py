@@ -39,6 +39,7 @@ from bracekit.resolution.task_space import POSE, TASK_SPACES, TaskSpace
 from bracekit.simulation.holding import Holding
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
 from bracekit.spatial import rotation_with_z, unit
+from bracekit.statics.equilibrium import MAX_FRICTION
 from bracekit.tolerances import MAX_STEPS
 
 Array = NDArray[np.float64]
@@ -498,8 +499,8 @@ def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
     if preload < 0.0:
         raise ScenarioError(f"'brace.preload' must be a force ≥ 0 (N, the brace pressing), got {preload:g}")
     friction = brace_t.number("friction") if brace_t.has("friction") else None
-    if friction is not None and friction < 0.0:
-        raise ScenarioError(f"'brace.friction' must be a coefficient μ ≥ 0, got {friction:g}")
+    if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
+        raise ScenarioError(f"'brace.friction' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")
     wrenches = loads_t.points("wrenches", 6) if loads_t.has("wrenches") else None
     try:
         return Holding(gravity=gravity, preload=preload, friction=friction, wrenches=wrenches)

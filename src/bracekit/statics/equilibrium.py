@@ -126,11 +126,18 @@ class ContactResponses:
         )
 
 
+#: The largest friction coefficient accepted: beyond it a contact simply sticks (μ² must also stay in float64).
+MAX_FRICTION = 1e3
+
+
 def check_friction(friction: object) -> float | None:
     """μ as a float ≥ 0, or None; InputError otherwise."""
     if friction is None:
         return None
-    return as_number(friction, "the friction coefficient μ (omit it for no friction)", nonnegative=True)
+    mu = as_number(friction, "the friction coefficient μ (omit it for no friction)", nonnegative=True)
+    if mu > MAX_FRICTION:
+        raise InputError(f"the friction coefficient μ must be at most {MAX_FRICTION:g} (it sticks), got {mu:g}")
+    return mu
 
 
 def load_contact_wrenches(brace: Brace, friction: float | None = None) -> Array:
