@@ -296,3 +296,21 @@ def test_braced_robot_refuses_bad_brace_lists() -> None:
         BracedRobot(robot, [brace, "pb"])  # type: ignore[list-item]
     with pytest.raises(ContactError, match="last link"):
         BracedRobot(robot, [brace, Brace("tip", brace.surface)])
+
+
+def test_stacked_state_of_a_long_chain_matches_pinocchio_beyond_the_data_limit() -> None:
+    """Beyond DATA_JOINT_LIMIT joints the frames come from ChainFK: compare with Pinocchio's own Jacobians."""
+    n = 70
+    text = chain_with_pads(n, 15, [("pa", 20), ("pb", 50)])
+    rng = np.random.default_rng(15)
+    braces = random_braces(rng, ["pa", "pb"], ["soft_finger", "point_with_friction"], [None, None])
+    q = rng.uniform(-np.pi, np.pi, n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        st = BracedRobot(Robot.from_urdf(text, tip="tip"), braces).stacked_state(q)
+        c_e = end_effector_compliance(st)
+    model = pin.buildModelFromXML(text)
+    for brace, j_b in zip(braces, st.J_b_i, strict=True):
+        np.testing.assert_allclose(j_b, pin_frame_jacobian(model, brace.frame, q), atol=1e-10)
+    g, d = reference_constraint(model, braces, q)
+    assert rel(c_e, kkt_compliance(pin_frame_jacobian(model, "tip", q), st.K, g, d)) < 1e-10
