@@ -80,6 +80,10 @@ class UnloadedContactWarning(BracekitWarning):
     """The contact carries no load from chain 1 along some constraint direction (Xᵀ C1 X is singular)."""
 
 
+class RedundantContactWarning(BracekitWarning):
+    """Several braces constrain the same motion (dependent rows of the stacked constraint G): one is dropped."""
+
+
 class NoRedundancyWarning(BracekitWarning):
     """Gradient projection was asked for where the task leaves no null space: it equals minimum norm."""
 

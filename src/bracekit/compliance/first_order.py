@@ -7,6 +7,10 @@ m/N, m/(N·m) = 1/N, rad/N and rad/(N·m). Two models of the bracing-consistent 
 * ``"constrained"`` (default): the exact first-order static equilibrium with the contact as a bilateral
   constraint, C̃1 = C1 − C1 X (Xᵀ C1 X)⁻¹ Xᵀ C1 (docs/model.md). With a finite environment stiffness k_env the
   inverse becomes (Xᵀ C1 X + I / k_env)⁻¹.
+
+Several braces (``BracedRobot(robot, [brace_1, brace_2, …]).stacked_state(q)``) have the ``constrained`` model
+only, with the stacked constraint G (:func:`stacked_compliance`); the chain does not split, so C1, C2, C̃1 and
+the ``projection`` model are defined for one brace.
 """
 
 from __future__ import annotations
@@ -20,8 +24,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, finite_math, show
-from bracekit.errors import InputError, NumericalError, UnloadedContactWarning
+from bracekit.errors import ContactError, InputError, NumericalError, UnloadedContactWarning
 from bracekit.kinematics import BracedState
+from bracekit.kinematics.multi import MultiBracedState
 from bracekit.spatial import unit
 from bracekit.tolerances import UNLOADED_TOL
 
@@ -39,7 +44,15 @@ def check_model(model: str) -> ComplianceModel:
 
 
 def check_state(state: object) -> BracedState:
-    """`state` if it is a BracedState (from ``BracedRobot.state(q)``); InputError otherwise."""
+    """`state` if it is a BracedState (from ``BracedRobot.state(q)``); InputError otherwise.
+
+    A stacked state (several braces) raises ContactError: C1, C2 and C̃1 split the chain at one {b}.
+    """
+    if isinstance(state, MultiBracedState):
+        raise ContactError(
+            "C1, C2 and C̃1 are defined for one brace (the chain splits at {b}); this is a stacked state with "
+            f"{len(state.b_i)} brace(s): use end_effector_compliance(state, 'constrained')"
+        )
     if not isinstance(state, BracedState):
         raise InputError(f"expected a BracedState (from BracedRobot.state(q)), got {type(state).__name__}")
     return state
@@ -155,12 +168,21 @@ def braced_C1(state: BracedState, model: ComplianceModel = "constrained") -> Arr
     return check_finite(braced_c1_unchecked(state, model, c1_unchecked(check_state(state))), "C̃1")
 
 
-def end_effector_compliance(state: BracedState, model: ComplianceModel = "constrained") -> Array:
+def end_effector_compliance(state: BracedState | MultiBracedState, model: ComplianceModel = "constrained") -> Array:
     """C_e = S_t1 C̃1 S_w1 + S_t2 C2 S_w2 (6×6), eq:Ce, with the dual wrench maps S_w = S_tᵀ (erratum).
 
     Maps a tip wrench [f; m] at e (world axes) to the tip deflection [Δp; Δθ] (world axes).
+    A stacked state (``BracedRobot.stacked_state(q)``, any number of braces) gives :func:`stacked_compliance`;
+    it has the ``constrained`` model only (ContactError for ``projection``).
     Raises NumericalError if it overflows float64.
     """
+    if isinstance(state, MultiBracedState):
+        if check_model(model) != "constrained":
+            raise ContactError(
+                f"the projection model is defined for one brace (the paper's C̃1 of chain 1); this is a stacked "
+                f"state with {len(state.b_i)} brace(s): use model='constrained'"
+            )
+        return stacked_compliance(state)
     check_state(state)
     model = check_model(model)
     c1t = braced_c1_unchecked(state, model, c1_unchecked(state))
@@ -170,9 +192,34 @@ def end_effector_compliance(state: BracedState, model: ComplianceModel = "constr
         return check_finite(0.5 * (out + out.T), "C_e")
 
 
-def free_space_compliance(state: BracedState) -> Array:
+def stacked_compliance(state: MultiBracedState) -> Array:
+    """C_e of several braces: the exact first-order equilibrium with every contact as a constraint (6×6).
+
+    C_e = J_e K⁻¹ J_eᵀ − J_e K⁻¹ Gᵀ (G K⁻¹ Gᵀ + D)⁻¹ G K⁻¹ J_eᵀ, over the independent rows of the stacked
+    constraint G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (``state.constraint``: dependent rigid rows are dropped with a
+    RedundantContactWarning, rows carrying no load with an UnloadedContactWarning); D = diag(1/k_env) of each
+    row's brace, 0 for a rigid contact. Maps a tip wrench [f; m] at e (world axes) to the tip deflection
+    [Δp; Δθ] (world axes); with one brace it is the ``constrained`` C_e of eq:Ce. NumericalError on overflow.
+    """
+    if not isinstance(state, MultiBracedState):
+        raise InputError(f"expected a stacked state (from BracedRobot.stacked_state(q)), got {type(state).__name__}")
+    con = state.constraint
+    rows = list(con.independent)
+    k, j_e = state.K, state.J_e
+    with np.errstate(all="ignore"):  # an overflow gives inf or NaN, which check_finite refuses
+        jk = j_e / k
+        out = jk @ j_e.T
+        if rows:
+            g = con.G[rows]
+            m = (g / k) @ g.T + np.diag(con.compliance[rows])
+            b = jk @ g.T
+            out = out - b @ np.linalg.solve(check_finite(m, "G K⁻¹ Gᵀ"), b.T)
+        return check_finite(0.5 * (out + out.T), "C_e")
+
+
+def free_space_compliance(state: BracedState | MultiBracedState) -> Array:
     """Compliance of the unbraced robot at e: J K⁻¹ Jᵀ (6×6), world axes."""
-    j = check_state(state).J_e
+    j = state.J_e if isinstance(state, MultiBracedState) else check_state(state).J_e
     with np.errstate(all="ignore"):
         return check_finite((j / state.K) @ j.T, "the free-space compliance J K⁻¹ Jᵀ")
 

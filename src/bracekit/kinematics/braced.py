@@ -1,14 +1,18 @@
 """Braced kinematics at a configuration (Section III): J1, J2, S_t1, S_t2, A, J, J̃ and Hessians.
 
 :class:`BracedRobot` is the model (robot + brace, where the chain splits); :class:`BracedState` is
-everything one Pinocchio evaluation gives at q. Jacobians are geometric, twists [v; ω]; Pinocchio's
-LOCAL_WORLD_ALIGNED frame Jacobian is the paper's J (reference point = frame origin, world axes).
+everything one Pinocchio evaluation gives at q. A robot with several braces gives its per-brace kinematics
+and the stacked contact constraint through :meth:`BracedRobot.stacked_state` (:mod:`bracekit.kinematics.multi`).
+Jacobians are geometric, twists [v; ω]; Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian is the paper's J
+(reference point = frame origin, world axes).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -23,47 +27,93 @@ from bracekit.model.robot import Robot
 from bracekit.spatial import twist_rotate, twist_shift
 from bracekit.tolerances import J1_COND_LIMIT, NULL_SPACE_RTOL
 
+if TYPE_CHECKING:
+    from bracekit.kinematics.multi import MultiBracedState
+
 Array = NDArray[np.float64]
 
 #: Most joints for the kinematic Hessians: they need Pinocchio's Data, of 32·n³ bytes (0.5 GB at 250 joints).
 MAX_HESSIAN_JOINTS = 250
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class BracedRobot:
-    """A robot with one bracing contact: splits the chain at {b} into chain 1 (n1) and chain 2 (n2).
+    """A robot with one or several bracing contacts.
 
-    Chain 1 is every joint that moves {b}; chain 2 the joints from {b} to {e}. The brace's surface and
-    contact are fixed, so H, X and the projector P are constants of the model.
+    ``BracedRobot(robot, brace)`` (or a list of one Brace) is the paper's model: it splits the chain at {b}
+    into chain 1 (n1 joints, every joint that moves {b}) and chain 2 (n2, the joints from {b} to {e}); the
+    brace's surface and contact are fixed, so H, X and the projector P are constants of the model.
+
+    ``BracedRobot(robot, [brace_1, brace_2, ...])`` braces several frames at once (any links, the same link
+    twice too); the chain does not split: use :meth:`stacked_state` and the stacked constraint
+    G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (docs/model.md, "Several braces"). The one-brace attributes (brace,
+    brace_id, n1, n2, H, X, P, :meth:`state`, :meth:`placements`) then raise ContactError.
+
+    Attributes:
+        robot: the robot.
+        braces: the braces, in the order given (one for the paper's model).
+        brace_ids: Pinocchio frame id of each brace's {b}.
     """
 
     robot: Robot
-    brace: Brace
-    brace_id: int = field(init=False)
-    n1: int = field(init=False)
+    braces: tuple[Brace, ...]
+    brace_ids: tuple[int, ...]
+    _n1: int | None = field(repr=False)
 
-    def __post_init__(self) -> None:
-        if not isinstance(self.robot, Robot):
-            raise ModelError(f"a BracedRobot needs a bracekit Robot, got {type(self.robot).__name__}")
-        if not isinstance(self.brace, Brace):
-            raise ContactError(f"a BracedRobot needs a bracekit Brace, got {type(self.brace).__name__}")
-        name = self.brace.frame
-        if name in self.robot.off_chain:
-            raise ContactError(
-                f"brace frame {show(name)} is not on the chain from the base to the tip {show(self.robot.tip)}; "
-                "brace a frame of a link between them"
-            )
-        fid = self.robot.frame_id(name)
-        last = self.robot.frame_joint(name)
-        if last < 0:
-            raise ContactError(f"brace frame {show(name)} is fixed to the base: no joint moves it; brace a moving link")
-        if last >= self.robot.n - 1:
-            raise ContactError(
-                f"brace frame {show(name)} is on the last link: no joint lies between {{b}} and the tip; "
-                "brace a link nearer the base"
-            )
-        object.__setattr__(self, "brace_id", fid)
-        object.__setattr__(self, "n1", last + 1)
+    def __init__(
+        self, robot: Robot, braces: Brace | Sequence[Brace] | None = None, *, brace: Brace | None = None
+    ) -> None:
+        """`braces`: one Brace or a sequence of them; the keyword `brace` (one Brace) is the same as `braces`."""
+        if not isinstance(robot, Robot):
+            raise ModelError(f"a BracedRobot needs a bracekit Robot, got {type(robot).__name__}")
+        if (braces is None) == (brace is None):
+            raise ContactError("a BracedRobot needs its brace: give BracedRobot(robot, brace) or a list of braces")
+        braces = brace if braces is None else braces
+        if isinstance(braces, Brace):
+            items: tuple[Brace, ...] = (braces,)
+        elif isinstance(braces, Sequence) and not isinstance(braces, str | bytes):
+            items = tuple(braces)
+            if not items:
+                raise ContactError("a BracedRobot needs at least one Brace; got an empty list")
+        else:
+            raise ContactError(f"a BracedRobot needs a bracekit Brace, got {type(braces).__name__}")
+        for item in items:
+            if not isinstance(item, Brace):
+                raise ContactError(f"a BracedRobot needs a bracekit Brace, got {type(item).__name__}")
+        ids, lasts = [], []
+        for item in items:
+            fid, last = _brace_frame(robot, item.frame)
+            ids.append(fid)
+            lasts.append(last)
+        object.__setattr__(self, "robot", robot)
+        object.__setattr__(self, "braces", items)
+        object.__setattr__(self, "brace_ids", tuple(ids))
+        object.__setattr__(self, "_n1", lasts[0] + 1 if len(items) == 1 else None)
+
+    def _several(self, what: str, use: str) -> ContactError:
+        """The error for a one-brace attribute `what` asked of a robot with several braces."""
+        return ContactError(f"{what} is defined for one brace; this robot has {len(self.braces)} braces: use {use}")
+
+    @property
+    def brace(self) -> Brace:
+        """The brace (one-brace model); ContactError with several braces (use ``braces``)."""
+        if len(self.braces) != 1:
+            raise self._several("BracedRobot.brace", "braced.braces[i]")
+        return self.braces[0]
+
+    @property
+    def brace_id(self) -> int:
+        """Pinocchio frame id of {b} (one-brace model); ContactError with several braces (use ``brace_ids``)."""
+        if len(self.braces) != 1:
+            raise self._several("BracedRobot.brace_id", "braced.brace_ids[i]")
+        return self.brace_ids[0]
+
+    @property
+    def n1(self) -> int:
+        """Number of joints of chain 1, base to {b} (one-brace model); ContactError with several braces."""
+        if self._n1 is None:
+            raise self._several("the chain split n1 at {b}", "the stacked constraint of braced.stacked_state(q)")
+        return self._n1
 
     @property
     def n(self) -> int:
@@ -72,22 +122,22 @@ class BracedRobot:
 
     @property
     def n2(self) -> int:
-        """Number of joints of chain 2, from {b} to {e}."""
+        """Number of joints of chain 2, from {b} to {e} (one-brace model)."""
         return self.robot.n - self.n1
 
     @cached_property
     def H(self) -> Array:
-        """Allowable twists of {b} (6×l), eq:constraint."""
+        """Allowable twists of {b} (6×l), eq:constraint (one-brace model)."""
         return self.brace.H()
 
     @cached_property
     def X(self) -> Array:
-        """Constraint wrench basis (6×(6−l)), Hᵀ X = 0."""
+        """Constraint wrench basis (6×(6−l)), Hᵀ X = 0 (one-brace model)."""
         return self.brace.X()
 
     @cached_property
     def P(self) -> Array:
-        """The paper's projector onto the constraint directions, P = X (XᵀX)⁻¹ Xᵀ (6×6)."""
+        """The paper's projector onto the constraint directions, P = X (XᵀX)⁻¹ Xᵀ (6×6) (one-brace model)."""
         x = self.X
         return x @ np.linalg.solve(x.T @ x, x.T)
 
@@ -102,6 +152,8 @@ class BracedRobot:
         :class:`~bracekit.model.chain.ChainFK` (Pinocchio's Data grows as n³); the Hessians need that Data
         and are refused beyond MAX_HESSIAN_JOINTS joints.
         """
+        if len(self.braces) != 1:
+            raise self._several("BracedRobot.state (J1, J2, A, J̃ of the chain split at {b})", "braced.stacked_state(q)")
         qa = self.robot.check_q(q)
         if not isinstance(hessians, bool):
             raise InputError(f"hessians must be True or False, got {show(hessians)}")
@@ -143,6 +195,8 @@ class BracedRobot:
 
         For callers that evaluate many frames in one pass (:meth:`Robot.frame_kinematics`).
         """
+        if len(self.braces) != 1:
+            raise self._several("BracedRobot.state_from_kinematics", "braced.stacked_state(q)")
         return BracedState(
             braced=self,
             q=q,
@@ -158,6 +212,8 @@ class BracedRobot:
 
     def placements(self, q: ArrayLike) -> tuple[Array, Array, Array, Array]:
         """b, e (3,), ⁰R_b, ⁰R_e (3×3) at q by forward kinematics alone: the values of ``state(q)``, cheaper."""
+        if len(self.braces) != 1:
+            raise self._several("BracedRobot.placements", "braced.stacked_state(q) (its b_i, R_b_i)")
         qa = self.robot.check_q(q)
         if self.robot.n > DATA_JOINT_LIMIT:
             fk = self.robot.chain
@@ -169,6 +225,55 @@ class BracedRobot:
         pin.updateFramePlacements(model, data)
         tip, brace = data.oMf[self.robot.tip_id].homogeneous, data.oMf[self.brace_id].homogeneous
         return brace[:3, 3], tip[:3, 3], brace[:3, :3], tip[:3, :3]
+
+    def stacked_state(self, q: ArrayLike) -> MultiBracedState:
+        """The kinematics of every brace and of the tip at q (n,), from one kinematics pass (any number of braces).
+
+        Gives b_i, ⁰R_b_i and J_b_i (LOCAL_WORLD_ALIGNED, 6×n) of each brace, in the order of ``braces``, and
+        the stacked contact constraint G (:class:`~bracekit.kinematics.multi.MultiBracedState`). First order
+        only (no kinematic Hessians).
+        """
+        from bracekit.kinematics.multi import MultiBracedState
+
+        qa = self.robot.check_q(q)
+        ids = (self.robot.tip_id, *self.brace_ids)
+        if self.robot.n > DATA_JOINT_LIMIT:
+            kin = self.robot.frame_kinematics(qa, ids)
+        else:
+            model, data = self.robot.model, self._data
+            pin.computeJointJacobians(model, data, qa)
+            pin.updateFramePlacements(model, data)
+            kin = [(data.oMf[f].homogeneous, pin.getFrameJacobian(model, data, f, LWA)) for f in ids]
+        (tip, j_e), frames = kin[0], kin[1:]
+        return MultiBracedState(
+            braced=self,
+            q=qa,
+            e=tip[:3, 3],
+            R_e=tip[:3, :3],
+            J_e=j_e,
+            b_i=tuple(m[:3, 3] for m, _ in frames),
+            R_b_i=tuple(m[:3, :3] for m, _ in frames),
+            J_b_i=tuple(j for _, j in frames),
+        )
+
+
+def _brace_frame(robot: Robot, name: str) -> tuple[int, int]:
+    """(Pinocchio frame id, index of the last joint that moves it) of a brace frame; ContactError if unusable."""
+    if name in robot.off_chain:
+        raise ContactError(
+            f"brace frame {show(name)} is not on the chain from the base to the tip {show(robot.tip)}; "
+            "brace a frame of a link between them"
+        )
+    fid = robot.frame_id(name)
+    last = robot.frame_joint(name)
+    if last < 0:
+        raise ContactError(f"brace frame {show(name)} is fixed to the base: no joint moves it; brace a moving link")
+    if last >= robot.n - 1:
+        raise ContactError(
+            f"brace frame {show(name)} is on the last link: no joint lies between {{b}} and the tip; "
+            "brace a link nearer the base"
+        )
+    return fid, last
 
 
 def contact_null_space(xt_j1: Array) -> Array:

@@ -1,0 +1,257 @@
+"""Several braces at once: the stacked contact constraint G, its independent rows and the braced motions N.
+
+Brace i touches its surface at {b_i} through a contact with constraint wrenches X_i (6×(6−l_i), world axes).
+A joint motion Δq keeps that contact when X_iᵀ J_b_i Δq = 0, with J_b_i the LOCAL_WORLD_ALIGNED Jacobian of
+{b_i} (6×n). Stacked over the braces, in their order,
+
+    G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …]   (c×n, c = Σ (6 − l_i)),
+
+and the braced motions are the null space of G (orthonormal basis N, n×(n − rank G)). Two contacts may
+constrain the same motion (the same frame twice, or two links that only move together): their rows of G are
+then dependent. :func:`stacked_constraint` keeps a maximal independent set of the rigid rows, in the order of
+the braces, and warns which rows it dropped and on which kept rows they depend (docs/model.md, "Several
+braces"). The compliance with these constraints is :func:`bracekit.compliance.first_order.stacked_compliance`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING, Any, NoReturn
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.errors import ContactError, NumericalError, RedundantContactWarning, UnloadedContactWarning
+from bracekit.kinematics.braced import contact_null_space
+from bracekit.tolerances import UNLOADED_TOL
+
+if TYPE_CHECKING:
+    from bracekit.kinematics.braced import BracedRobot
+
+Array = NDArray[np.float64]
+
+_STACKED = "the stacked constraint (state.G, state.N, state.braced_jacobian)"
+
+
+@dataclass(frozen=True, eq=False)
+class StackedConstraint:
+    """The stacked contact constraint of several braces at one configuration.
+
+    Attributes:
+        G: [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (c×n): row r is constraint wrench ``rows[r]`` applied to the twist of its
+            {b_i}; force rows in m/rad of joint motion (m for a prismatic joint), moment rows in rad/rad.
+        rows: (brace index i in ``braced.braces``, column of X_i) of each row of G.
+        compliance: 1/k_env of each row's brace (c,), m/N or rad/(N·m); 0 for a rigid contact.
+        independent: rows of G the compliance uses: every compliant row and a maximal independent set of
+            the rigid rows, chosen in order (earlier braces first).
+        dependent: rigid rows of G left out: dependent on earlier rows, or carrying no load.
+        N: orthonormal basis of the braced motions, the null space of G (n×(n − rank G)).
+    """
+
+    G: Array
+    rows: tuple[tuple[int, int], ...]
+    compliance: Array
+    independent: tuple[int, ...]
+    dependent: tuple[int, ...]
+    N: Array
+
+    @property
+    def rank(self) -> int:
+        """Rank of G as used for the braced motions: n − (columns of N)."""
+        return self.G.shape[1] - self.N.shape[1]
+
+
+def stacked_constraint(state: MultiBracedState) -> StackedConstraint:
+    """Build G from a stacked state, pick its independent rows and the braced motions N.
+
+    Rows are compared in the compliance metric, w_r = G_r K^(−1/2) (so w_r w_sᵀ is an entry of G K⁻¹ Gᵀ, the
+    matrix the compliance inverts). A rigid row r is dropped when adding it would leave the kept rows with
+    σ_min² ≤ UNLOADED_TOL · max(σ_max², max_i tr(J_b_i K⁻¹ J_b_iᵀ)), σ over the singular values of the
+    weighted rigid rows: the same threshold as the one-brace ``constrained`` model, whose unloaded directions
+    have eigenvalues of Xᵀ C1 X at or below UNLOADED_TOL · tr(C1). A dropped row that is negligible by itself
+    carries no load (UnloadedContactWarning); one that is a combination of kept rows is redundant
+    (RedundantContactWarning, naming the rows it depends on). Compliant rows (finite k_env) are always kept:
+    G K⁻¹ Gᵀ + diag(1/k_env) is singular only through dependent rigid rows.
+
+    Raises NumericalError when G or the compliance metric is not finite.
+    """
+    braced = state.braced
+    k = state.K
+    blocks: list[Array] = []
+    rows: list[tuple[int, int]] = []
+    comp: list[float] = []
+    for i, (brace, j_b) in enumerate(zip(braced.braces, state.J_b_i, strict=True)):
+        x = brace.X()
+        blocks.append(x.T @ j_b)
+        rows.extend((i, col) for col in range(x.shape[1]))
+        k_env = brace.environment_stiffness
+        comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
+    with np.errstate(all="ignore"):
+        g = np.ascontiguousarray(np.vstack(blocks), dtype=np.float64)
+        w = g / np.sqrt(k)
+        traces = [float(np.sum(j_b * j_b / k)) for j_b, brace in zip(state.J_b_i, braced.braces, strict=True)]
+    if not (np.isfinite(g).all() and np.isfinite(w).all() and np.isfinite(traces).all()):
+        raise NumericalError("the stacked contact constraint G K^(-1/2) is not finite (float64 overflow)")
+    compliance = np.array(comp, dtype=np.float64)
+    rigid = [r for r in range(len(rows)) if compliance[r] == 0.0]
+    _, unloaded, redundant = _independent_rows(w, rigid, max((traces[rows[r][0]] for r in rigid), default=0.0))
+    if unloaded:
+        warnings.warn(
+            "the contact carries no load along "
+            + ", ".join(_label(braced, rows[r]) for r in unloaded)
+            + ": no joint can push {b} there, so those rows of the stacked constraint G are dropped",
+            UnloadedContactWarning,
+            stacklevel=4,
+        )
+    if redundant:
+        text = "; ".join(
+            f"{_label(braced, rows[r])} depends on {', '.join(_label(braced, rows[s]) for s in deps)}"
+            for r, deps in redundant
+        )
+        warnings.warn(
+            f"dependent contact constraints (two contacts constrain the same motion): {text}; "
+            "each dependent row is dropped, the contact forces are shared but the compliance is unchanged",
+            RedundantContactWarning,
+            stacklevel=4,
+        )
+    dropped = set(unloaded) | {r for r, _ in redundant}
+    independent = tuple(r for r in range(len(rows)) if r not in dropped)
+    return StackedConstraint(
+        G=g,
+        rows=tuple(rows),
+        compliance=compliance,
+        independent=independent,
+        dependent=tuple(sorted(dropped)),
+        N=contact_null_space(g),
+    )
+
+
+def _independent_rows(
+    w: Array, rigid: list[int], trace: float
+) -> tuple[list[int], list[int], list[tuple[int, tuple[int, ...]]]]:
+    """Kept rigid rows, unloaded rows and (redundant row, rows it depends on) of the weighted constraint w.
+
+    See :func:`stacked_constraint` for the threshold. With full rank every rigid row is kept (one SVD).
+    """
+    if not rigid:
+        return [], [], []
+    wr = w[rigid]
+    s = np.linalg.svd(wr, compute_uv=False)
+    limit = UNLOADED_TOL * max(float(s[0]) ** 2, trace)
+    if s.size == len(rigid) and s[-1] ** 2 > limit:
+        return list(rigid), [], []
+    kept: list[int] = []
+    unloaded: list[int] = []
+    redundant: list[tuple[int, tuple[int, ...]]] = []
+    for r in rigid:
+        row = w[r]
+        if float(row @ row) <= limit:
+            unloaded.append(r)
+            continue
+        trial = w[[*kept, r]]
+        if np.linalg.svd(trial, compute_uv=False)[-1] ** 2 > limit:
+            kept.append(r)
+            continue
+        base = w[kept]  # row ≈ coefᵀ base: name the kept rows with a share of it
+        coef = np.linalg.lstsq(base.T, row, rcond=None)[0]
+        share = np.abs(coef) * np.linalg.norm(base, axis=1)
+        deps = tuple(kept[m] for m in np.flatnonzero(share > 1e-6 * np.linalg.norm(row)))
+        redundant.append((r, deps or tuple(kept)))
+    return kept, unloaded, redundant
+
+
+def _label(braced: BracedRobot, row: tuple[int, int]) -> str:
+    """'braces[i] (frame 'name', contact) row j' for an error or warning message."""
+    i, col = row
+    brace = braced.braces[i]
+    return f"braces[{i}] (frame '{brace.frame}', {brace.kind.name}) row {col}"
+
+
+def _one_brace(name: str, use: str) -> Any:
+    """A property that refuses a one-brace quantity of the stacked state with a message naming `use`."""
+
+    def get(self: MultiBracedState) -> NoReturn:
+        count = len(self.b_i)
+        if count == 1:
+            raise ContactError(f"{name} is not part of the stacked state: for one brace use braced.state(q)")
+        raise ContactError(f"{name} is defined for one brace; this robot has {count} braces: use {use}")
+
+    return property(get, doc=f"{name}: one-brace model only (ContactError here).")
+
+
+@dataclass(frozen=True, eq=False)
+class MultiBracedState:
+    """A robot with one or several braces at a configuration q (from ``BracedRobot.stacked_state(q)``).
+
+    Positions in m, world frame; Jacobians LOCAL_WORLD_ALIGNED (reference point = the frame's origin, world
+    axes), 6×n, twists [v; ω]. The one-brace quantities of :class:`~bracekit.kinematics.BracedState` (b, R_b,
+    J_b, n1, H, X, P, J1, J2, S_t1, S_t2, J, A, J_braced, chain1_map) raise ContactError here.
+
+    Attributes:
+        braced: the model.
+        q: joint values (n,).
+        e, R_e, J_e: position (3,), orientation ⁰R_e (3×3) and Jacobian (6×n) of the tip {e}.
+        b_i, R_b_i, J_b_i: position (3,), orientation ⁰R_b_i (3×3) and Jacobian (6×n) of each brace's {b_i},
+            in the order of ``braced.braces``.
+    """
+
+    braced: BracedRobot
+    q: Array
+    e: Array
+    R_e: Array
+    J_e: Array
+    b_i: tuple[Array, ...]
+    R_b_i: tuple[Array, ...]
+    J_b_i: tuple[Array, ...]
+
+    @property
+    def K(self) -> Array:
+        """Joint stiffnesses (n,), N·m/rad (N/m for a prismatic joint)."""
+        return self.braced.robot.stiffness
+
+    @property
+    def X_i(self) -> tuple[Array, ...]:
+        """Constraint wrench basis X_i of each brace (6×(6−l_i), world axes)."""
+        return tuple(brace.X() for brace in self.braced.braces)
+
+    @cached_property
+    def constraint(self) -> StackedConstraint:
+        """The stacked constraint G, its independent rows and N (warns about dependent rows once)."""
+        return stacked_constraint(self)
+
+    @property
+    def G(self) -> Array:
+        """[X_1ᵀ J_b1; X_2ᵀ J_b2; …] (c×n, c = Σ (6 − l_i)): every contact is kept when G Δq = 0."""
+        return self.constraint.G
+
+    @property
+    def N(self) -> Array:
+        """Orthonormal basis of the braced motions, the null space of G (n×(n − rank G))."""
+        return self.constraint.N
+
+    @cached_property
+    def braced_jacobian(self) -> Array:
+        """J_e N (6×(n − rank G)): the tip twist per coordinate of the braced motions.
+
+        Its k and Πσ (``frobenius_condition``, ``singular_value_measures``) are the several-brace counterparts
+        of the measures of J̃.
+        """
+        return np.asarray(self.J_e @ self.N, dtype=np.float64)
+
+    b = _one_brace("b", "state.b_i[i]")
+    R_b = _one_brace("R_b", "state.R_b_i[i]")
+    J_b = _one_brace("J_b", "state.J_b_i[i]")
+    n1 = _one_brace("the chain split n1 at {b}", _STACKED)
+    H = _one_brace("H", "braced.braces[i].H()")
+    X = _one_brace("X", "state.X_i[i]")
+    P = _one_brace("the paper's projector P", _STACKED)
+    J1 = _one_brace("J1 (chain 1)", _STACKED)
+    J2 = _one_brace("J2 (chain 2)", _STACKED)
+    S_t1 = _one_brace("S_t1", _STACKED)
+    S_t2 = _one_brace("S_t2", _STACKED)
+    J = _one_brace("J = [S_t1 J1, S_t2 J2]", "state.J_e")
+    A = _one_brace("the braced Jacobian A", "state.braced_jacobian (J_e N)")
+    J_braced = _one_brace("J̃", "state.braced_jacobian (J_e N)")
+    chain1_map = _one_brace("chain1_map", "state.N")
