@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit._linalg import as_array, as_number, show
+from bracekit._linalg import as_number, show
 from bracekit.compliance.first_order import compliance_index
 from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance
 from bracekit.errors import InputError, UnstableEquilibriumError
@@ -30,7 +30,7 @@ from bracekit.statics import (
     peak_ratio,
     saturation_scale,
 )
-from bracekit.statics.equilibrium import check_friction
+from bracekit.statics.equilibrium import check_friction, wrench_list
 
 Array = NDArray[np.float64]
 
@@ -68,14 +68,7 @@ class Holding:
         if self.friction is not None:
             object.__setattr__(self, "friction", check_friction(self.friction))
         if self.wrenches is not None:
-            w = as_array(self.wrenches, "the tool wrenches (N, N·m)")
-            if w.ndim == 1:
-                w = w.reshape(1, -1)
-            if w.ndim != 2 or w.shape[1] != 6 or w.shape[0] == 0:
-                raise InputError(
-                    f"the tool wrenches must be a list of [fx, fy, fz, mx, my, mz] (N, N·m), got shape {w.shape}"
-                )
-            object.__setattr__(self, "wrenches", w)
+            object.__setattr__(self, "wrenches", wrench_list(self.wrenches))
 
     @property
     def active(self) -> bool:

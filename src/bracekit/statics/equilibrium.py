@@ -126,6 +126,8 @@ class ContactResponses:
         )
 
 
+#: The largest tool-wrench component accepted (N, N·m): products of larger ones overflow float64.
+MAX_WRENCH = 1e12
 #: The largest friction coefficient accepted: beyond it a contact simply sticks (μ² must also stay in float64).
 MAX_FRICTION = 1e3
 
@@ -305,6 +307,8 @@ def wrench_list(wrenches: ArrayLike, what: str = "the tool wrenches") -> Array:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != 6 or a.shape[0] == 0:
         raise InputError(f"{what} must be an m×6 array of [f; m] rows (m ≥ 1), got shape {np.shape(wrenches)}")
+    if np.max(np.abs(a)) > MAX_WRENCH:
+        raise InputError(f"{what} must be at most {MAX_WRENCH:g} N and N·m in every component (SI units)")
     return a
 
 

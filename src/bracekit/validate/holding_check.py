@@ -805,6 +805,10 @@ def mujoco_capacity_ramp(
     )
 
 
+#: A contact lost within this fraction of its friction cone's edge is counted as a slip, not a lift-off.
+_EDGE_TOL = 0.01
+
+
 def _ramp(
     sim: _Sim,
     w: Array,
@@ -826,6 +830,7 @@ def _ramp(
     slide: float | None = None
     creep = 0.0
     steps = 0
+    last_ratio = 0.0  # ‖f_t‖/f_n of the last chunk in contact
     while True:
         s = rate * steps * dt
         if s > stop:
@@ -845,11 +850,14 @@ def _ramp(
             creep = disp
         if ncon == 0 or fn <= 0.0:
             if outcome is None:
-                scale, outcome = s_now, "lifted_off"
+                # a contact lost at the edge of its cone slid off within one chunk: that is a slip
+                sliding = mu is not None and last_ratio >= (1.0 - _EDGE_TOL) * mu
+                scale, outcome = s_now, "slipped" if sliding else "lifted_off"
             break
         if mu is None:
             continue
         ft = float(np.linalg.norm(f - fn * nhat))
+        last_ratio = ft / fn
         if outcome is None and (ft >= (1.0 - cone_tol) * mu * fn or disp > slide_tol):
             scale, outcome = s_now, "slipped"
         if disp > slide_tol:
