@@ -85,7 +85,14 @@ def test_evaluate_statics_match_the_library_and_print_for_a_person(capsys) -> No
 
 @pytest.mark.parametrize(
     ("flags", "match"),
-    [(["--preload", "-1"], "preload"), (["--wrench", "1,2"], "--wrench"), (["--friction", "x"], "--friction")],
+    [
+        (["--preload", "-1"], "preload"),
+        (["--preload", "20,30"], "--preload"),
+        (["--preload", "1e9"], "preload"),
+        (["--wrench", "1,2"], "--wrench"),
+        (["--friction", "x"], "--friction"),
+        (["--friction", "0.5,0.7"], "--friction"),
+    ],
 )
 def test_evaluate_refuses_bad_statics_flags_in_one_line(capsys, flags: list[str], match: str) -> None:
     code, _, err = _run(["evaluate", "--model", "paper-robot", "--q", Q, *flags], capsys)

@@ -128,3 +128,34 @@ def test_bad_arguments_are_refused(short_run: RunResult, kwargs: dict, match: st
 def test_a_bad_first_argument_is_refused() -> None:
     with pytest.raises(InputError, match="RunResult"):
         run_tracking_validation(3.0)  # type: ignore[arg-type]
+
+
+class _Fake:
+    """A strategy's tracking summary with given numbers (duck-typed TrackingStrategy)."""
+
+    def __init__(self, measured: float, predicted: float, worst: float) -> None:
+        self._s = {"measured_mean": measured, "predicted_mean": predicted, "max_rel_err": worst}
+
+    def summary(self) -> dict:
+        return self._s
+
+
+def test_disagreements_flag_errors_beyond_the_tolerance_and_a_reversed_measured_order() -> None:
+    from bracekit.validate.tracking import TRACKING_TOL, TrackingReport
+
+    ok = TrackingReport("x", "constrained", {})
+    ok.strategies.update(
+        free_space_min_norm=_Fake(3.0, 3.0, 0.01),
+        braced_min_norm=_Fake(2.0, 2.0, 0.01),
+        braced_gradient_projection=_Fake(1.0, 1.0, 0.01),
+    )
+    assert ok.disagreements() == []
+    bad = TrackingReport("x", "constrained", {})
+    bad.strategies.update(
+        free_space_min_norm=_Fake(3.0, 3.0, 0.01),
+        braced_min_norm=_Fake(0.9, 2.0, 2 * TRACKING_TOL),  # off by more than the tolerance, and below GP
+        braced_gradient_projection=_Fake(1.0, 1.0, 0.01),
+    )
+    lines = bad.disagreements()
+    assert any("braced_min_norm: measured compliance off" in w for w in lines)
+    assert any("MuJoCo orders the strategies" in w for w in lines)

@@ -80,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev = sub.add_parser("evaluate", help="the braced model at one configuration")
     src = ev.add_mutually_exclusive_group(required=True)
     src.add_argument("--urdf", type=Path, help="URDF file of the robot")
-    src.add_argument("--model", help="a shipped robot: paper-robot or puma560")
+    src.add_argument("--model", help="a shipped robot: paper-robot, puma560 or panda")
     ev.add_argument("--brace", help="bracing frame {b} (a frame of the model; default: the model's own)")
     ev.add_argument(
         "--brace-link", help="place {b} on this link instead, at --brace-offset (named --brace or brace_point)"
@@ -105,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
     st = sub.add_parser("study", help="where to brace: tip compliance for bracing points along the robot")
     src2 = st.add_mutually_exclusive_group(required=True)
     src2.add_argument("--urdf", type=Path, help="URDF file of the robot")
-    src2.add_argument("--model", help="a shipped robot: paper-robot or puma560")
+    src2.add_argument("--model", help="a shipped robot: paper-robot, puma560 or panda")
     st.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
     st.add_argument("--q", required=True, help="joint values in chain order: Q1,...,Qn (rad)")
     st.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
@@ -246,12 +246,20 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _one(text: str, what: str) -> float:
+    """The single number of a flag; InputError for a list."""
+    values = _floats(text, what)
+    if values.size != 1:
+        raise InputError(f"{what} takes one number, got {values.size} ('{text}')")
+    return float(values[0])
+
+
 def _holding(args: argparse.Namespace) -> Any:
     """The statics of --gravity, --preload, --friction and --wrench (None when none is given)."""
     from bracekit.simulation.holding import Holding
 
-    preload = float(_floats(args.preload, "--preload")[0])
-    friction = None if args.friction is None else float(_floats(args.friction, "--friction")[0])
+    preload = _one(args.preload, "--preload")
+    friction = None if args.friction is None else _one(args.friction, "--friction")
     wrenches = None if not args.wrench else np.array([_floats(w, "--wrench") for w in args.wrench], dtype=object)
     if wrenches is not None:
         if any(np.size(w) != 6 for w in wrenches):
@@ -490,6 +498,7 @@ def _validate(args: argparse.Namespace) -> int:
             holding = run_holding_validation(scenario, configs=configs)
             data["holding"] = holding.to_json()
             extra.append(holding)
+        tracking = None
         if args.tracking_points > 0:
             from bracekit.validate.tracking import run_tracking_validation
 
@@ -516,6 +525,8 @@ def _validate(args: argparse.Namespace) -> int:
         failed += s["counts"]["failed"] + len(s["margin_disagreements"])
     if capacity is not None:
         failed += capacity.counts()["failed"] + capacity.counts()["disagrees"]
+    if tracking is not None:
+        failed += len(tracking.disagreements())
     if failed > 0 or report.model_stats("constrained")["n_cases"] == 0:
         print(f"bracekit: error: {failed} validation case(s) failed", file=sys.stderr)
         return 1

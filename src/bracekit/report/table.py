@@ -29,6 +29,8 @@ CHECKS: dict[str, tuple[str, str]] = {
     "max_joint_limit_violation_rad": ("max limit violation [rad]", ".2g"),
     "min_link_clearance_m": ("min link clearance [m]", ".4f"),
     "max_region_radius_m": ("max r [m]", ".4f"),
+    "holds": ("holds", "s"),
+    "unstable_samples": ("unstable samples", "d"),
     "Ci_preloaded_mean": ("mean C_i preloaded [m/N]", ".5f"),
     "max_torque_ratio": ("max τ/effort", ".3f"),
     "max_contact_force_N": ("max contact force [N]", ".2f"),
@@ -38,6 +40,8 @@ CHECKS: dict[str, tuple[str, str]] = {
 }
 #: Checks shown only when some strategy has a value (the statics of a run with gravity, preload or loads).
 OPTIONAL_CHECKS = (
+    "holds",
+    "unstable_samples",
     "Ci_preloaded_mean",
     "max_torque_ratio",
     "max_contact_force_N",
@@ -99,6 +103,8 @@ PRINTED = " (the paper prints 10⁻³ m/N, i.e. mm/N; its values are converted h
 def _check(v: Any, spec: str) -> str:
     if v is None:
         return "–"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
     return str(v) if spec == "s" else format(v, spec)
 
 

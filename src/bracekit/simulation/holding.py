@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit._linalg import as_number, show
+from bracekit._linalg import show
 from bracekit.compliance.first_order import compliance_index
 from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance
 from bracekit.errors import InputError, UnstableEquilibriumError
@@ -30,7 +30,7 @@ from bracekit.statics import (
     peak_ratio,
     saturation_scale,
 )
-from bracekit.statics.equilibrium import check_friction, wrench_list
+from bracekit.statics.equilibrium import check_friction, check_preload, wrench_list
 
 Array = NDArray[np.float64]
 
@@ -64,7 +64,7 @@ class Holding:
     def __post_init__(self) -> None:
         if not isinstance(self.gravity, bool):
             raise InputError(f"gravity must be true or false, got {show(self.gravity)}")
-        object.__setattr__(self, "preload", as_number(self.preload, "the preload", nonnegative=True, unit="N"))
+        object.__setattr__(self, "preload", check_preload(self.preload))
         if self.friction is not None:
             object.__setattr__(self, "friction", check_friction(self.friction))
         if self.wrenches is not None:

@@ -39,7 +39,7 @@ from bracekit.resolution.task_space import POSE, TASK_SPACES, TaskSpace
 from bracekit.simulation.holding import Holding
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
 from bracekit.spatial import rotation_with_z, unit
-from bracekit.statics.equilibrium import MAX_FRICTION
+from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
 
 Array = NDArray[np.float64]
@@ -487,7 +487,9 @@ def _brace(t: _Table, robot: Robot) -> BracedRobot:
     except ScenarioError:
         raise
     except BracekitError as exc:
-        raise ScenarioError(f"'{t.key('link' if t.has('link') else 'frame')}': {exc}") from exc
+        named = [k for k in ("surface_radius", "region_radius", "environment_stiffness", "contact") if k in str(exc)]
+        key = named[0] if named else ("link" if t.has("link") else "frame")
+        raise ScenarioError(f"'{t.key(key)}': {exc}") from exc
 
 
 def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
@@ -496,8 +498,10 @@ def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
     if not isinstance(gravity, bool):
         raise ScenarioError(f"'robot.gravity' must be true or false, got {show(gravity)}")
     preload = brace_t.number("preload", 0.0)
-    if preload < 0.0:
-        raise ScenarioError(f"'brace.preload' must be a force ≥ 0 (N, the brace pressing), got {preload:g}")
+    if not 0.0 <= preload <= MAX_PRELOAD:
+        raise ScenarioError(
+            f"'brace.preload' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
+        )
     friction = brace_t.number("friction") if brace_t.has("friction") else None
     if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
         raise ScenarioError(f"'brace.friction' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")

@@ -128,8 +128,18 @@ class ContactResponses:
 
 #: The largest tool-wrench component accepted (N, N·m): products of larger ones overflow float64.
 MAX_WRENCH = 1e12
+#: The largest preload accepted (N): beyond it no joint spring of a robot holds the brace.
+MAX_PRELOAD = 1e6
 #: The largest friction coefficient accepted: beyond it a contact simply sticks (μ² must also stay in float64).
 MAX_FRICTION = 1e3
+
+
+def check_preload(preload: object) -> float:
+    """P as a float in [0, MAX_PRELOAD] N; InputError otherwise."""
+    p = as_number(preload, "the preload P (the surface pushes on b)", nonnegative=True, unit="N")
+    if p > MAX_PRELOAD:
+        raise InputError(f"the preload P must be at most {MAX_PRELOAD:g} N, got {p:g}")
+    return p
 
 
 def check_friction(friction: object) -> float | None:
@@ -209,7 +219,7 @@ def contact_responses(
     if not isinstance(braced, BracedRobot):
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
     robot = braced.robot
-    p = as_number(preload, "the preload P (the surface pushes on b)", nonnegative=True, unit="N")
+    p = check_preload(preload)
     mu = check_friction(friction)
     for flag, name in ((gravity, "gravity"), (geometric, "geometric")):
         if not isinstance(flag, bool):
@@ -344,7 +354,7 @@ def _augmentation(k_t: Array, a: Array, k_env: float | None) -> Array:
             raise UnstableEquilibriumError(
                 f"the braced equilibrium is unstable at configuration {int(i)}: the tangent stiffness "
                 f"K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q (smallest eigenvalue {low[i]:.3g} N·m/rad) is not positive on the "
-                "motions the contact allows; use stiffer joints, a smaller preload or geometric=False"
+                "motions the contact allows; use stiffer joints or a smaller preload"
             )
         rho[i] = trial
     return rho

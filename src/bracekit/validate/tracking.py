@@ -254,6 +254,10 @@ class TrackingStrategy:
         return {**self.summary(), "check_points": [p.to_json() for p in self.points]}
 
 
+#: Largest relative error of a check point (measured against predicted compliance) that still agrees.
+TRACKING_TOL = 0.05
+
+
 @dataclass(frozen=True, eq=False)
 class TrackingReport:
     """Result of :func:`run_tracking_validation`: one :class:`TrackingStrategy` per run, and the ranking."""
@@ -280,10 +284,31 @@ class TrackingReport:
         ]
         return {"order": order, "holds": None if len(ranked) < 2 else not bad, "violations": bad}
 
+    def disagreements(self, tol: float = TRACKING_TOL) -> list[str]:
+        """Where MuJoCo disagrees with bracekit; empty when physics agrees.
+
+        A strategy whose worst point is off by more than `tol` (relative), or a measured ordering of the
+        strategies other than the predicted one.
+        """
+        out = []
+        for name, st in self.strategies.items():
+            worst = st.summary().get("max_rel_err")
+            if worst is not None and worst > tol:
+                out.append(f"{name}: measured compliance off the prediction by {100 * worst:.2g} % (> {100 * tol:g} %)")
+        predicted, measured = self.ranking("predicted_mean"), self.ranking("measured_mean")
+        if predicted["holds"] is not None and measured["order"] != predicted["order"]:
+            out.append(
+                f"MuJoCo orders the strategies {' > '.join(measured['order'])}, bracekit predicts "
+                f"{' > '.join(predicted['order'])}"
+            )
+        return out
+
     def to_json(self) -> dict[str, Any]:
         """The ``tracking`` JSON block (no NaN)."""
         return {
             "scenario": self.scenario,
+            "tolerance": TRACKING_TOL,
+            "disagreements": self.disagreements(),
             "compliance_model": self.compliance_model,
             "quantity": (
                 "compliance along beta_x: beta_x^T dx / f under the tool force f*beta_x (m/N for a translational "
