@@ -2,10 +2,12 @@
 
 ``strategies``: the reference :class:`FreeSpaceMinNorm`, :class:`BracedMinNorm` and
 :class:`BracedGradientProjection`. ``fused``: :class:`GradientProjectionStep`, the same gradient-projection step
-fused into one call (NumPy, or the numba kernel of ``_numba_step``), tested equal to the reference.
+fused into one call (NumPy, or the numba kernel of ``_numba_step``), tested equal to the reference. ``multi``: the
+braced strategies with several braces, over the braced motions N, and their :class:`MultiBraceObjective`.
 """
 
 from bracekit.resolution.fused import GradientProjectionStep, numba_available
+from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.strategies import (
     GRADIENT_MODES,
     BracedGradientProjection,
@@ -25,6 +27,7 @@ __all__ = [
     "FreeSpaceMinNorm",
     "GradientMode",
     "GradientProjectionStep",
+    "MultiBraceObjective",
     "Strategy",
     "TaskSpace",
     "numba_available",

@@ -134,6 +134,8 @@ class GradientProjectionStep:
         self._nl = self._normal.tolist()
         self._fk: FusedKinematics | None = None
         obj = strategy.objective
+        if not isinstance(obj, Objective):
+            raise InputError("a MultiBraceObjective is for several braces: give a one-brace robot an Objective")
         kept = [(t, float(w)) for t, w in zip(obj.terms, obj.weights, strict=True) if w]
         self._objective = Objective([t for t, _ in kept], [w for _, w in kept])  # the terms of non-zero weight
         self._fd = strategy.gradient == "finite-difference"

@@ -6,6 +6,11 @@
 
 Each takes a :class:`~bracekit.resolution.task_space.TaskSpace` (``space``, the full pose by default) and
 resolves its selected rows S(⁰R_e) only: J and A above become S J and S A, ẋ becomes S ẋ.
+
+With several braces (a stacked state, ``braced.stacked_state(q)``) the braced strategies resolve over the
+braced motions N instead (:mod:`bracekit.resolution.multi`): q̇ = N (S J_e N)⁺ S ẋ, and gradient projection
+adds N α (I − B⁺B) Nᵀ ∇g with the objective's C_i and d weights (:class:`MultiBraceObjective`), ∇g by central
+differences. :class:`FreeSpaceMinNorm` takes either state.
 """
 
 from __future__ import annotations
@@ -19,7 +24,13 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit._linalg import as_array, as_number, show
 from bracekit.errors import InputError, NumericalError, SingularityError
 from bracekit.kinematics import BracedState
+from bracekit.kinematics.multi import MultiBracedState
 from bracekit.objective import Objective, braced_gradient, finite_difference_gradient
+from bracekit.resolution.multi import (
+    MultiBraceObjective,
+    braced_gradient_projection_rates,
+    braced_min_norm_rates,
+)
 from bracekit.resolution.task_space import POSE, TaskSpace, select
 from bracekit.tolerances import STEP_SINGULAR_RATIO
 
@@ -92,7 +103,7 @@ class FreeSpaceMinNorm:
     needs_hessians: bool = False
     space: TaskSpace = POSE
 
-    def velocity(self, state: BracedState, xdot: Array) -> Array:
+    def velocity(self, state: BracedState | MultiBracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
         j, x = select(self.space, state.R_e, state.J_e, tip_twist(xdot))
         return finite_rates(pinv_checked(j, "the Jacobian J") @ x)
@@ -127,15 +138,20 @@ def braced_to_joint(state: BracedState, y: Array) -> Array:
 
 @dataclass(frozen=True)
 class BracedMinNorm:
-    """[ḃ; q̇2] = A⁺ ẋ, then q̇1 = J1⁻¹ H ḃ: keeps the contact, minimum norm in (b̃, q2)."""
+    """[ḃ; q̇2] = A⁺ ẋ, then q̇1 = J1⁻¹ H ḃ: keeps the contact, minimum norm in (b̃, q2).
+
+    With several braces (a stacked state): q̇ = N (S J_e N)⁺ S ẋ, the least-norm q̇ keeping every contact.
+    """
 
     name: str = "braced_min_norm"
     braced: bool = True
     needs_hessians: bool = False
     space: TaskSpace = POSE
 
-    def velocity(self, state: BracedState, xdot: Array) -> Array:
+    def velocity(self, state: BracedState | MultiBracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        if isinstance(state, MultiBracedState):
+            return braced_min_norm_rates(state, tip_twist(xdot), self.space)
         a, x = select(self.space, state.R_e, state.A, tip_twist(xdot))
         y = pinv_checked(a, "the braced Jacobian A") @ x
         return finite_rates(braced_to_joint(state, y))
@@ -143,9 +159,14 @@ class BracedMinNorm:
 
 @dataclass(frozen=True)
 class BracedGradientProjection:
-    """eq:grad_proj: A⁺ ẋ + (I − A⁺A) α ∇g, ∇g of eq:grad_g; analytic or finite-difference gradient."""
+    """eq:grad_proj: A⁺ ẋ + (I − A⁺A) α ∇g, ∇g of eq:grad_g; analytic or finite-difference gradient.
 
-    objective: Objective
+    With several braces (a stacked state): q̇ = N [B⁺ S ẋ + α (I − B⁺B) Nᵀ ∂g/∂q], B = S J_e N, g the
+    :class:`MultiBraceObjective` of the objective (itself, or the C_i and d weights of an Objective), ∂g/∂q by
+    central differences with step `fd_step` in either gradient mode (the stacked state has no Hessians).
+    """
+
+    objective: Objective | MultiBraceObjective
     alpha: float = -1.0
     gradient: GradientMode = "analytic"
     fd_step: float = 1e-5
@@ -154,7 +175,7 @@ class BracedGradientProjection:
     space: TaskSpace = POSE
 
     def __post_init__(self) -> None:
-        if not isinstance(self.objective, Objective):
+        if not isinstance(self.objective, Objective | MultiBraceObjective):
             raise InputError(f"the objective must be a bracekit Objective, got {type(self.objective).__name__}")
         alpha = as_number(self.alpha, "the gradient-projection gain alpha")
         as_number(self.fd_step, "the finite-difference step fd_step", positive=True, unit="rad")
@@ -170,14 +191,21 @@ class BracedGradientProjection:
         """Whether the analytic gradient (kinematic Hessians) is used."""
         return self.gradient == "analytic"
 
-    def dg_dq(self, state: BracedState) -> Array:
-        """∂g/∂q (n,) in the chosen gradient mode."""
+    def dg_dq(self, state: BracedState | MultiBracedState) -> Array:
+        """∂g/∂q (n,) in the chosen gradient mode (central differences for a stacked state)."""
+        if isinstance(state, MultiBracedState):
+            return MultiBraceObjective.from_objective(self.objective).gradient(state.braced, state.q, self.fd_step)
+        if isinstance(self.objective, MultiBraceObjective):
+            raise InputError("a MultiBraceObjective is for several braces: give a one-brace robot an Objective")
         if self.gradient == "analytic":
             return self.objective.gradient(state)
         return finite_difference_gradient(state.braced, self.objective.value, state.q, self.fd_step)
 
-    def velocity(self, state: BracedState, xdot: ArrayLike) -> Array:
+    def velocity(self, state: BracedState | MultiBracedState, xdot: ArrayLike) -> Array:
         """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
+        if isinstance(state, MultiBracedState):
+            x = tip_twist(xdot)
+            return braced_gradient_projection_rates(state, x, self.dg_dq(state), float(self.alpha), self.space)
         a, x = select(self.space, state.R_e, state.A, tip_twist(xdot))
         a_pinv = pinv_checked(a, "the braced Jacobian A")
         grad = braced_gradient(state, self.dg_dq(state))

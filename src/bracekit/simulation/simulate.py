@@ -29,7 +29,7 @@ is what keeps a gradient-projection run away from its limits; this check is the 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -43,6 +43,7 @@ from bracekit.compliance.first_order import (
     compliance_index,
     end_effector_compliance,
     free_space_compliance,
+    stacked_compliance,
 )
 from bracekit.compliance.measures import frobenius_condition, singular_value_measures
 from bracekit.errors import (
@@ -56,14 +57,17 @@ from bracekit.errors import (
     JointLimitWarning,
     NoRedundancyWarning,
     NumericalError,
+    RedundantContactWarning,
     RegionWarning,
     SingularityError,
     UnloadedContactWarning,
 )
 from bracekit.kinematics import BracedRobot, BracedState, skeleton
 from bracekit.kinematics.clearance import link_clearance
+from bracekit.kinematics.multi import MultiBracedState
 from bracekit.model.robot import Robot
 from bracekit.objective import RegionBarrier
+from bracekit.resolution.multi import MULTI_MATRIX_LABELS, MultiBraceObjective, sigma_ratios
 from bracekit.resolution.strategies import (
     MATRIX_LABELS,
     BracedGradientProjection,
@@ -71,6 +75,7 @@ from bracekit.resolution.strategies import (
     Strategy,
     conditioning,
     inverted_matrices,
+    singular_ratio,
     with_beta_x,
 )
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
@@ -346,6 +351,7 @@ class Trajectory:
     substeps: int = 0
     task_space: str = "pose"
     redundancy: int | None = None
+    braces: list[dict[str, float]] | None = None
 
     @property
     def steps(self) -> int:
@@ -365,7 +371,8 @@ class Trajectory:
     def summary(self, model: str = "constrained") -> dict[str, Any]:
         """The Table I metrics and run checks (SI units)."""
         m = self.measures
-        ci = m[self.ci_key(model)]
+        # a model undefined for the run (projection with several braces) has no series: None below
+        ci = m.get(self.ci_key(model), np.array([np.inf]))
         finite = bool(np.all(np.isfinite(ci)))  # a preloaded C_i is inf where the equilibrium is unstable
         return {
             "Ci_mean": float(np.mean(ci)) if finite else None,
@@ -390,7 +397,7 @@ class Trajectory:
             "failure": self.failure,
             "task_space": self.task_space,
             "redundancy": self.redundancy,
-        }
+        } | ({} if self.braces is None else {"braces": self.braces})
 
 
 def _finite_or_none(value: float) -> float | None:
@@ -475,6 +482,8 @@ def simulate(
         )
     steps = max(1, round(task.duration / dt))
     dt = task.duration / steps  # the last sample lands on the task's end
+    if len(braced.braces) > 1:
+        return _simulate_braces(braced, strategy, task, q0, dt, steps, beta_x, feedback_gain, progress)
     st = braced.state(q0)
     rotation = task.rotation if task.rotation is not None else st.R_e.copy()
     space = getattr(strategy, "space", POSE)
@@ -837,3 +846,413 @@ def _finite(value: ArrayLike, shape: tuple[int, ...], what: str) -> Array:
     if a.size != int(np.prod(shape)) or not np.all(np.isfinite(a)):
         raise InputError(f"{what} must be {' × '.join(map(str, shape))} finite numbers, got {a.tolist()}")
     return a.reshape(shape)
+
+
+# --- several braces -------------------------------------------------------------------------------------------
+
+
+def braces_residual(state: MultiBracedState, anchors: Sequence[tuple[Array, Array]]) -> Array:
+    """Violation of every contact (c,): X_iᵀ [b_i − b0_i; log3(R_b_i R_b0_iᵀ)] per brace, stacked in brace order.
+
+    Each brace's rows are :func:`contact_residual` of that brace: for a point contact on a plane the
+    frictionless rows are n̂ᵀ(b_i − b0_i), the distance of {b_i} from the plane through its anchor b0_i.
+    """
+    out = []
+    for brace, b, r_b, (b0, r0) in zip(state.braced.braces, state.b_i, state.R_b_i, anchors, strict=True):
+        out.append(brace.X().T @ np.concatenate([b - b0, pin.log3(r_b @ r0.T)]))
+    return np.concatenate(out)
+
+
+def braces_jacobian(state: MultiBracedState, anchors: Sequence[tuple[Array, Array]]) -> Array:
+    """∂(braces_residual)/∂q (c×n): :func:`contact_jacobian` of each brace (exact Jlog3 on moment rows)."""
+    out = []
+    for brace, j_b, r_b, (_, r0) in zip(state.braced.braces, state.J_b_i, state.R_b_i, anchors, strict=True):
+        x = brace.X()
+        if not np.any(x[3:]):
+            out.append(x.T @ j_b)
+            continue
+        r = r_b @ r0.T
+        out.append(x[:3].T @ j_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ j_b[3:]))
+    return np.vstack(out)
+
+
+def correct_braces(
+    braced: BracedRobot,
+    q: Array,
+    position: Array,
+    rotation: Array,
+    anchors: Sequence[tuple[Array, Array]] | None,
+    *,
+    tol: float = CORRECTION_TOL,
+    max_iter: int = 20,
+    length: float | None = None,
+    space: TaskSpace = POSE,
+) -> MultiBracedState:
+    """:func:`correct` for several braces: the stacked state nearest q on the task rows and on every contact.
+
+    The residual stacks the task rows (as :func:`correct`) and each brace's :func:`braces_residual` rows
+    against its anchor (b0_i, ⁰R_b0_i), scaled as :func:`correct` scales one brace's rows; the step is the
+    minimum-norm Gauss–Newton step (least squares, so dependent contact rows are harmless).
+    """
+    scale_len = reach(braced.robot) if length is None else float(length)
+    scale = np.array([scale_len] * 3 + [1.0] * (space.rows - 3))
+    if anchors is not None:
+        for brace in braced.braces:
+            x = brace.X()
+            scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
+    roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
+    previous = np.inf
+    for _ in range(max_iter):
+        st = braced.stacked_state(q)
+        if space.is_pose:
+            res, rows = pose_error(st, position, rotation), st.J_e  # type: ignore[arg-type]
+        else:
+            sel = space.selection(st.R_e)
+            res, rows = sel @ space.error(position - st.e, st.R_e, rotation), sel @ st.J_e
+        if anchors is not None:
+            res = np.concatenate([res, -braces_residual(st, anchors)])
+            rows = np.vstack([rows, braces_jacobian(st, anchors)])
+        size = float(np.max(np.abs(res) / scale))
+        floor = roundoff * max(1.0, float(np.max(np.abs(st.q)))) * float(np.linalg.norm(rows / scale[:, None]))
+        if size < max(tol, floor) or (size < ACCEPT_TOL and size > 0.5 * previous):
+            return st
+        previous = size
+        q = q + np.linalg.lstsq(rows, res, rcond=None)[0]
+    raise ConvergenceError(
+        f"the pose/contact correction of {len(braced.braces)} braces did not converge in {max_iter} iterations "
+        f"(residual {size:.2e} of the robot's reach {scale_len:.3g} m and of 1 rad); reduce the time step or move "
+        "away from singularities"
+    )
+
+
+def measure_braces(
+    state: MultiBracedState,
+    beta_x: Array,
+    task_error: float,
+    space: TaskSpace = POSE,
+    joint_step: float = 0.0,
+) -> dict[str, float]:
+    """The measures of a sample with several braces (the counterpart of :func:`measure`).
+
+    ``Ci_constrained`` of the stacked C_e and ``Ci_free``; Πσ, σ_min and k of J_e N (the several-brace
+    counterpart of J̃; k needs n − rank G ≥ 6); per brace i ``region_radius_<i>`` = ‖b_i − surface_i.point‖,
+    ``contact_violation_<i>`` = |distance of b_i from its plane|, ``surface_distance_<i>`` (signed) and
+    ``theta_z_<i>`` (∠(n̂_i, ẑ_b_i)), with their max (min for the distance) under the one-brace names;
+    σ_min/σ_max of G's independent rows, of S J_e N and of J_e (``sigma_ratio_G``, ``_SJN``, ``_J``).
+    There is no ``Ci_projection`` (undefined for several braces) and ``link_clearance`` is inf (no obstacle
+    model for several surfaces yet).
+    """
+    braces = state.braced.braces
+    jn = state.braced_jacobian
+    sv = singular_value_measures(jn)
+    lower, upper = state.braced.robot.lower, state.braced.robot.upper
+    out = {
+        "Ci_free": compliance_index(free_space_compliance(state), beta_x),
+        "Ci_constrained": compliance_index(stacked_compliance(state), beta_x),
+        "prod_sigma_t": sv.prod_sigma_t,
+        "prod_sigma_o": sv.prod_sigma_o,
+        "sigma_t_min": sv.sigma_t_min,
+        "sigma_o_min": sv.sigma_o_min,
+        "k": frobenius_condition(jn),
+        "k_free": frobenius_condition(state.J_e),
+        "joint_limit_violation": float(np.max(np.maximum(0.0, np.maximum(lower - state.q, state.q - upper)))),
+        "task_error": task_error,
+        "joint_step": joint_step,
+        "link_clearance": np.inf,
+    }
+    for i, (brace, b, r_b) in enumerate(zip(braces, state.b_i, state.R_b_i, strict=True)):
+        surface = brace.surface
+        out[f"theta_z_{i}"] = angle_between(surface.normal, r_b[:, 2])
+        out[f"region_radius_{i}"] = float(np.linalg.norm(b - surface.point))
+        out[f"surface_distance_{i}"] = surface.signed_distance(b)
+        out[f"contact_violation_{i}"] = abs(out[f"surface_distance_{i}"])
+    count = range(len(braces))
+    out["theta_z"] = max(out[f"theta_z_{i}"] for i in count)
+    out["region_radius"] = max(out[f"region_radius_{i}"] for i in count)
+    out["contact_violation"] = max(out[f"contact_violation_{i}"] for i in count)
+    out["surface_distance"] = min(out[f"surface_distance_{i}"] for i in count)
+    for key, ratio in sigma_ratios(state, space).items():
+        out[f"sigma_ratio_{key}"] = ratio
+    out["sigma_ratio_J"] = singular_ratio(state.J_e)
+    return out
+
+
+def _braces_outside(braced: BracedRobot, state: MultiBracedState) -> list[int]:
+    """The braces (0-based) whose {b_i} is at or beyond its region radius r_max_i."""
+    return [
+        i
+        for i, (brace, b) in enumerate(zip(braced.braces, state.b_i, strict=True))
+        if brace.region_radius is not None and np.linalg.norm(b - brace.surface.point) >= brace.region_radius
+    ]
+
+
+def _check_braces_conditioning(row: dict[str, float], keys: tuple[str, ...]) -> None:
+    """SingularityError if σ_min/σ_max of a matrix in `keys` (G, SJN or J) is below PATH_SINGULAR_RATIO."""
+    labels = {**MULTI_MATRIX_LABELS, "J": "J"}
+    low = [key for key in keys if row[f"sigma_ratio_{key}"] < PATH_SINGULAR_RATIO]
+    if low:
+        key = min(low, key=lambda k: row[f"sigma_ratio_{k}"])
+        raise SingularityError(
+            f"{labels[key]} is singular on the path (σ_min/σ_max = {row[f'sigma_ratio_{key}']:.1e} "
+            f"< {PATH_SINGULAR_RATIO:g})"
+        )
+
+
+def _simulate_braces(
+    braced: BracedRobot,
+    strategy: Strategy,
+    task: Task,
+    q0: ArrayLike,
+    dt: float,
+    steps: int,
+    beta_x: Callable[[float], Array],
+    feedback_gain: float,
+    progress: Callable[[int], None] | None,
+) -> Trajectory:
+    """:func:`simulate` with several braces: q̇ over the braced motions N, every contact corrected.
+
+    The steps, the correction (:func:`correct_braces`), the joint-limit scaling of gradient projection, the
+    region substeps (any brace with a region, when the objective weighs d) and the singularity checks (σ_min /
+    σ_max of G's independent rows and of S J_e N, or of J_e in free space) are those of the one-brace run.
+    """
+    if strategy.braced and not isinstance(strategy, BracedMinNorm | BracedGradientProjection):
+        raise InputError(
+            f"strategy {strategy.name!r} has no several-brace form: use BracedMinNorm or BracedGradientProjection"
+        )
+    space = getattr(strategy, "space", POSE)
+    if not isinstance(space, TaskSpace):
+        raise InputError(f"the strategy's space must be a TaskSpace, got {space!r}")
+    st = braced.stacked_state(q0)
+    rotation = task.rotation if task.rotation is not None else st.R_e.copy()
+    jn = st.braced_jacobian if strategy.braced else st.J_e
+    free_dims = redundancy(space, st.R_e, jn)
+    anchors = [(b.copy(), r.copy()) for b, r in zip(st.b_i, st.R_b_i, strict=True)] if strategy.braced else None
+    objective = getattr(strategy, "objective", None)
+    left_out = MultiBraceObjective.from_objective(objective).left_out(objective) if objective is not None else ()
+    guard = (
+        objective is not None
+        and MultiBraceObjective.from_objective(objective).region_weight > 0
+        and any(b.region_radius is not None for b in braced.braces)
+    )
+    length = reach(braced.robot)
+    bound = joint_step_bound(braced.robot, dt)
+    checked = ("G", "SJN") if strategy.braced else ("J",)
+    scalable = isinstance(strategy, BracedGradientProjection)
+    substeps = 0
+    limited = 0
+
+    def rate(st: MultiBracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
+        current = with_beta_x(strategy if scale == 1.0 else _scaled_alpha(strategy, scale), beta_x(t))
+        return current.velocity(st, xdot)  # type: ignore[arg-type]
+
+    def advance(st: MultiBracedState, t: float, h: float, depth: int = 0) -> MultiBracedState:
+        nonlocal substeps, limited
+        err = task_error(st, task.position(t), rotation, space)  # type: ignore[arg-type]
+        xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
+        qdot = rate(st, t, xdot)
+        goal = task.position(t + h)
+        new = correct_braces(braced, st.q + qdot * h, goal, rotation, anchors, length=length, space=space)
+        if _outside_limits(braced.robot, new.q).size:
+            for scale in LIMIT_SCALES if scalable else ():
+                qdot = rate(st, t, xdot, scale)
+                new = correct_braces(braced, st.q + qdot * h, goal, rotation, anchors, length=length, space=space)
+                if not _outside_limits(braced.robot, new.q).size:
+                    limited += 1
+                    break
+            else:
+                raise _limit_failure(braced.robot, new.q, t + h, scalable)
+        outside = _braces_outside(braced, new) if guard else []
+        if outside:
+            if depth >= MAX_SUBSTEP_DEPTH:
+                raise BarrierError(
+                    f"the bracing point of braces[{outside[0]}] leaves its region even with steps of {h:.3g} s; "
+                    "reduce dt or raise the region weight"
+                )
+            substeps += 1
+            mid = advance(st, t, h / 2, depth + 1)
+            return advance(mid, t + h / 2, h / 2, depth + 1)
+        return new
+
+    def sample(st: MultiBracedState, t: float, joint_step: float = 0.0) -> dict[str, float]:
+        return measure_braces(st, beta_x(t), float(np.linalg.norm(task.position(t) - st.e)), space, joint_step)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnloadedContactWarning)
+        warnings.simplefilter("always", RedundantContactWarning)
+        try:
+            rows = [sample(st, 0.0)]
+        except NumericalError as exc:
+            raise type(exc)(f"the start of {strategy.name} (t = 0.000 s) cannot be measured: {exc}") from exc
+        ts, qs = [0.0], [st.q.copy()]
+        failure = None
+        try:
+            _check_braces_conditioning(rows[0], checked)
+        except SingularityError as exc:
+            failure = f"start (t = 0.000 s): {exc}"
+        for i in range(steps if failure is None else 0):
+            t, t_next = i * dt, (i + 1) * dt
+            try:
+                before = st.q
+                st = advance(st, t, dt)
+                step = np.abs(st.q - before)
+                if np.any(step > bound):
+                    raise _jump_failure_braces(braced, before, st.q, bound, dt, checked, space, rows[0])
+                row = sample(st, t_next, float(np.max(step)))
+                _check_braces_conditioning(row, checked)
+                rows.append(row)
+            except BracekitError as exc:
+                failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
+                break
+            ts.append(t_next)
+            qs.append(st.q.copy())
+            if progress is not None:
+                progress(1)
+    measures = {key: np.array([r[key] for r in rows]) for key in rows[0]}
+    notes = []
+    for category in (UnloadedContactWarning, RedundantContactWarning):
+        found = [w for w in caught if issubclass(w.category, category)]
+        if found:
+            notes.append(f"{strategy.name}: at {len(found)} evaluation(s) {found[0].message}")
+            warnings.warn(notes[-1], category, stacklevel=3)
+    for w in caught:  # pass on anything else unchanged
+        if not issubclass(w.category, UnloadedContactWarning | RedundantContactWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if left_out:
+        notes.append(
+            f"{strategy.name}: the objective terms {', '.join(left_out)} have no several-brace form yet and are "
+            "left out (the objective is C_i of the stacked C_e and each brace's region barrier d_i)"
+        )
+    limit = float(measures["joint_limit_violation"][0])
+    if limit > 0:
+        notes.append(f"{strategy.name}: the start exceeds the joint limits by {limit:.3g} rad")
+        warnings.warn(notes[-1], JointLimitWarning, stacklevel=3)
+    if limited:
+        notes.append(
+            f"{strategy.name}: {limited} step(s) had their null-space motion scaled down to keep the joints inside "
+            "their limits"
+        )
+    if substeps:
+        notes.append(f"{strategy.name}: {substeps} step(s) were split to keep the bracing points in their regions")
+    if free_dims == 0 and isinstance(strategy, BracedGradientProjection):
+        notes.append(
+            f"{strategy.name}: the task space '{space.kind}' leaves no redundancy with these braces: gradient "
+            "projection cannot act and equals braced minimum norm"
+        )
+        warnings.warn(notes[-1], NoRedundancyWarning, stacklevel=3)
+    per_brace = []
+    for i, brace in enumerate(braced.braces):
+        radius = float(np.max(measures[f"region_radius_{i}"]))
+        per_brace.append(
+            {
+                "max_contact_violation_m": float(np.max(measures[f"contact_violation_{i}"])),
+                "max_region_radius_m": radius,
+            }
+        )
+        if brace.region_radius is not None and radius >= brace.region_radius:
+            notes.append(
+                f"{strategy.name}: the bracing point of braces[{i}] left its bracing region "
+                f"(max r = {radius:.4f} m > r_max = {brace.region_radius:.4f} m)"
+            )
+            warnings.warn(notes[-1], RegionWarning, stacklevel=3)
+    return Trajectory(
+        strategy=strategy.name,
+        braced=strategy.braced,
+        t=np.array(ts),
+        q=np.array(qs),
+        measures=measures,
+        completed=failure is None,
+        failure=failure,
+        warnings=notes,
+        substeps=substeps,
+        task_space=space.describe(),
+        redundancy=free_dims,
+        braces=per_brace,
+    )
+
+
+def _jump_failure_braces(
+    braced: BracedRobot,
+    before: Array,
+    after: Array,
+    bound: Array,
+    dt: float,
+    keys: tuple[str, ...],
+    space: TaskSpace,
+    start: dict[str, float],
+) -> NumericalError:
+    """:func:`_jump_failure` for several braces: the joints that jumped, and the singularity between them.
+
+    A singularity of G, S J_e N or J_e (σ_min/σ_max at JUMP_PROBES configurations between the samples).
+    """
+    step = np.abs(after - before)
+    over = np.flatnonzero(step > bound)
+    message = (
+        f"joint(s) {', '.join(str(j + 1) for j in over)} moved {np.max(step[over]):.3g} rad in one {dt:.3g} s step "
+        f"(bound {float(np.min(bound[over])):.3g})"
+    )
+    ratios = dict.fromkeys(keys, np.inf)
+    for s in np.linspace(0.0, 1.0, JUMP_PROBES):
+        probe = braced.stacked_state(before + s * (after - before))
+        found = {**sigma_ratios(probe, space), "J": singular_ratio(probe.J_e)}
+        ratios = {key: min(ratios[key], found[key]) for key in keys}
+    labels = {**MULTI_MATRIX_LABELS, "J": "J"}
+    drop = {key: ratios[key] / max(start[f"sigma_ratio_{key}"], 1e-300) for key in keys}
+    near = [key for key in keys if ratios[key] < NEAR_SINGULAR_RATIO or drop[key] < NEAR_SINGULAR_DROP]
+    if near:
+        key = min(near, key=drop.__getitem__)
+        return SingularityError(
+            f"{message}; the step passes a singularity of {labels[key]} (σ_min/σ_max down to {ratios[key]:.1e} "
+            f"from {start[f'sigma_ratio_{key}']:.1e} at the start)"
+        )
+    return NumericalError(f"{message}; no singularity between the samples: reduce dt, slow the task or |alpha|")
+
+
+def solve_start_braces(
+    braced: BracedRobot,
+    position: ArrayLike,
+    guess: ArrayLike,
+    *,
+    rotation: ArrayLike | None = None,
+    region_weight: float = 1.0,
+    posture_weight: float = 0.01,
+) -> MultiBracedState:
+    """A start with several braces: tip at `position` (and `rotation` if given), every {b_i} on its surface.
+
+    SciPy least squares from `guess` (n,) within the joint limits: the tip and each brace's plane distance are
+    hard residuals (then polished by :func:`correct_braces` to every plane), ‖b_i − surface_i.point‖ of each
+    brace (weight `region_weight`, 1/m) and ‖q − guess‖ (`posture_weight`) soft. ConvergenceError when the
+    hard residuals are not met or a brace ends outside its region.
+    """
+    from scipy.optimize import least_squares
+
+    target = _finite(position, (3,), "the start position (m)")
+    rot = None if rotation is None else _finite(rotation, (3, 3), "the start rotation")
+    q_guess = braced.robot.check_q(guess)
+    lo, hi = braced.robot.lower, braced.robot.upper
+    surfaces = [brace.surface for brace in braced.braces]
+
+    def residual(q: Array) -> Array:
+        st = braced.stacked_state(q)
+        hard = [target - st.e, np.array([s.signed_distance(b) for s, b in zip(surfaces, st.b_i, strict=True)])]
+        if rot is not None:
+            hard.append(pin.log3(rot @ st.R_e.T))
+        soft = [region_weight * (b - s.point) for s, b in zip(surfaces, st.b_i, strict=True)]
+        return np.concatenate([1e3 * np.concatenate(hard), *soft, posture_weight * (q - q_guess)])
+
+    sol = least_squares(residual, np.clip(q_guess, lo + 1e-6, hi - 1e-6), bounds=(lo, hi), xtol=1e-12, ftol=1e-12)
+    st = braced.stacked_state(sol.x)
+    anchors = [(b - s.normal * s.signed_distance(b), r) for s, b, r in zip(surfaces, st.b_i, st.R_b_i, strict=True)]
+    try:
+        st = correct_braces(braced, st.q, target, rot if rot is not None else st.R_e, anchors)
+    except ConvergenceError:
+        raise ConvergenceError(
+            f"no start configuration puts the tip at {np.round(target, 4).tolist()} m with every brace closed "
+            f"(closest: {np.linalg.norm(target - st.e):.3g} m away); move the task or the surfaces, or change the guess"
+        ) from None
+    outside = _braces_outside(braced, st)
+    if outside:
+        raise ConvergenceError(
+            f"no start configuration with the bracing point of braces[{outside[0]}] inside its region; move its "
+            "region centre, the task or the start guess"
+        )
+    return st

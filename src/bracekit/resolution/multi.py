@@ -1,0 +1,215 @@
+"""Redundancy resolution with several braces: the braced motions N of the stacked constraint G.
+
+With several braces the chain does not split at one {b}, so the paper's A, eq:q1 and eq:grad_g have no
+meaning. Their counterparts act on the braced motions q̇ = N y (N: orthonormal basis of the null space of
+G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …], :mod:`bracekit.kinematics.multi`), with S the task rows of a
+:class:`~bracekit.resolution.task_space.TaskSpace` and B = S J_e N (m×(n − rank G)):
+
+* braced minimum norm (eq:general_inv with η = 0): q̇ = N B⁺ S ẋ. As N is orthonormal, this is the least-norm
+  q̇ with G q̇ = 0 and S J_e q̇ = S ẋ.
+* braced gradient projection (eq:grad_proj): q̇ = N [B⁺ S ẋ + α (I − B⁺ B) Nᵀ ∇g], α < 0, with ∇g = ∂g/∂q by
+  central differences of :class:`MultiBraceObjective` (the stacked state has no kinematic Hessians). Nᵀ ∇g is
+  the gradient of g over the braced coordinates y (the counterpart of eq:grad_g).
+
+B must have full row rank (m ≤ n − rank G, σ_min/σ_max > STEP_SINGULAR_RATIO); otherwise the braces leave the
+task undoable and SingularityError says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit._linalg import as_number
+from bracekit.compliance.first_order import compliance_index, stacked_compliance, unit6
+from bracekit.compliance.measures import region_barrier
+from bracekit.errors import BarrierError, InputError, NumericalError, SingularityError
+from bracekit.kinematics.multi import MultiBracedState
+from bracekit.resolution.task_space import POSE, TaskSpace, select
+from bracekit.tolerances import STEP_SINGULAR_RATIO
+
+if TYPE_CHECKING:
+    from bracekit.kinematics.braced import BracedRobot
+
+Array = NDArray[np.float64]
+
+#: Printed names of the matrices whose conditioning a several-brace run records (``sigma_ratio_<key>``):
+#: G over its independent rows, and B = S J_e N.
+MULTI_MATRIX_LABELS = {"G": "G (independent rows)", "SJN": "S J_e N"}
+#: The objective weights a several-brace objective takes from a one-brace Objective (term keys).
+MULTI_TERM_KEYS = ("Ci", "d")
+
+
+@dataclass(frozen=True)
+class MultiBraceObjective:
+    """g = w_Ci C_i + w_d Σ_i d_i, the objective of gradient projection with several braces (eq:objective).
+
+    C_i = ‖β_xᵀ C_e‖ (eq:compliance_index, m/N) of the stacked constrained C_e (``stacked_compliance``);
+    d_i = r_max_i² / (r_max_i² − r_i²) the region barrier of brace i (after eq:theta), r_i = ‖b_i − p_t,i‖ (m)
+    with p_t,i the brace's ``surface.point``, for each brace with a ``region_radius`` r_max_i (the others
+    have no d_i). BarrierError when a brace is at or beyond its r_max_i.
+
+    Args:
+        beta_x: the unit twist (6,) along which C_i is measured; normalised.
+        ci_weight: w_Ci ≥ 0 (N/m makes g dimensionless; the paper's α2).
+        region_weight: w_d ≥ 0, the same for every brace with a region (the paper's α4).
+    """
+
+    beta_x: Array
+    ci_weight: float = 1.0
+    region_weight: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "beta_x", unit6(self.beta_x, "beta_x"))
+        for what in ("ci_weight", "region_weight"):
+            object.__setattr__(self, what, as_number(getattr(self, what), what, nonnegative=True))
+
+    @classmethod
+    def from_objective(cls, objective: Any) -> MultiBraceObjective:
+        """The several-brace objective with the weights of a one-brace Objective's C_i and d terms.
+
+        β_x is that of the objective's C_i term (key ``Ci``; its compliance model is replaced by the stacked
+        constrained one). The d term's weight applies to every brace with a region, each with its own r_max_i
+        and centre. Other terms (k, θ_z, …) have no several-brace form yet and are left out: see
+        :meth:`left_out`. InputError without a C_i term.
+        """
+        if isinstance(objective, MultiBraceObjective):
+            return objective
+        ci = [(t, w) for t, w in zip(objective.terms, objective.weights, strict=True) if _key(t) == "Ci"]
+        if len(ci) != 1:
+            raise InputError(
+                "gradient projection with several braces needs exactly one compliance-index term (key 'Ci') in "
+                f"its objective, got {len(ci)}"
+            )
+        d = sum(float(w) for t, w in zip(objective.terms, objective.weights, strict=True) if _key(t) == "d")
+        return cls(beta_x=ci[0][0].beta_x, ci_weight=float(ci[0][1]), region_weight=d)
+
+    @staticmethod
+    def left_out(objective: Any) -> tuple[str, ...]:
+        """Names of the weighted terms of a one-brace Objective that :meth:`from_objective` leaves out."""
+        if isinstance(objective, MultiBraceObjective):
+            return ()
+        return tuple(
+            str(getattr(t, "name", type(t).__name__))
+            for t, w in zip(objective.terms, objective.weights, strict=True)
+            if w and _key(t) not in MULTI_TERM_KEYS
+        )
+
+    def with_beta_x(self, beta_x: ArrayLike) -> MultiBraceObjective:
+        """The objective with β_x replaced by a new twist (6,), normalised."""
+        return replace(self, beta_x=np.asarray(beta_x, dtype=float))
+
+    def values(self, state: MultiBracedState) -> dict[str, float]:
+        """Each term's unweighted value: ``Ci`` (m/N) and ``d_<i>`` for each brace i with a region."""
+        out = {"Ci": compliance_index(stacked_compliance(_stacked(state)), self.beta_x)}
+        for i, r in enumerate(region_radii(state)):
+            r_max = state.braced.braces[i].region_radius
+            if r_max is not None:
+                if r >= r_max:
+                    raise BarrierError(
+                        f"the bracing point of braces[{i}] is outside its bracing region (r = {r:.4g} m ≥ r_max = "
+                        f"{r_max:g} m)"
+                    )
+                out[f"d_{i}"] = region_barrier(r, r_max)
+        return out
+
+    def value(self, state: MultiBracedState) -> float:
+        """G at the state (the weighted sum of :meth:`values`)."""
+        vals = self.values(state)
+        d = sum(v for k, v in vals.items() if k.startswith("d_"))
+        return float(self.ci_weight * vals["Ci"] + (self.region_weight * d if self.region_weight else 0.0))
+
+    def gradient(self, braced: BracedRobot, q: ArrayLike, step: float = 1e-5) -> Array:
+        """∂g/∂q (n,) by central differences, δq = step (rad; m for a prismatic joint): the paper's ∂g/∂q."""
+        x = braced.robot.check_q(q)
+        out = np.empty(x.size)
+        for i in range(x.size):
+            dq = np.zeros(x.size)
+            dq[i] = step
+            out[i] = (self.value(braced.stacked_state(x + dq)) - self.value(braced.stacked_state(x - dq))) / (2 * step)
+        if not np.all(np.isfinite(out)):
+            raise NumericalError("the gradient of the several-brace objective is not finite")
+        return out
+
+
+def _key(term: object) -> str:
+    return str(getattr(term, "key", ""))
+
+
+def _stacked(state: object) -> MultiBracedState:
+    if not isinstance(state, MultiBracedState):
+        raise InputError(f"expected a stacked state (from BracedRobot.stacked_state(q)), got {type(state).__name__}")
+    return state
+
+
+def region_radii(state: MultiBracedState) -> tuple[float, ...]:
+    """r_i = ‖b_i − surface_i.point‖ (m) of each brace, in the order of ``braced.braces``."""
+    return tuple(
+        float(np.linalg.norm(b - brace.surface.point)) for b, brace in zip(state.b_i, state.braced.braces, strict=True)
+    )
+
+
+def task_rows(state: MultiBracedState, xdot: Array, space: TaskSpace = POSE) -> tuple[Array, Array]:
+    """(B = S J_e N (m×(n − rank G)), S ẋ (m,)) at the state."""
+    return select(space, _stacked(state).R_e, state.braced_jacobian, xdot)
+
+
+def checked_task_inverse(b: Array) -> Array:
+    """B⁺ of B = S J_e N; SingularityError with fewer braced motions than task rows, or B singular."""
+    m, k = b.shape
+    if k < m:
+        raise SingularityError(
+            f"the braces leave {k} braced motion(s) for {m} task rows: S J_e N ({m}×{k}) cannot do the task; "
+            "remove a brace, use a contact with more freedom or a task space with fewer rows"
+        )
+    u, s, vt = np.linalg.svd(b, full_matrices=False)
+    if not s[-1] > STEP_SINGULAR_RATIO * s[0]:
+        raise SingularityError(
+            f"S J_e N is singular (σ_min/σ_max = {s[-1] / max(s[0], 1e-300):.2e}): the braced motions cannot move "
+            "the tip along every task row here"
+        )
+    return np.asarray((vt.T / s) @ u.T, dtype=np.float64)
+
+
+def braced_min_norm_rates(state: MultiBracedState, xdot: Array, space: TaskSpace = POSE) -> Array:
+    """Q̇ = N (S J_e N)⁺ S ẋ (n,): the least-norm joint rates that keep every contact and do the task rows."""
+    b, x = task_rows(state, xdot, space)
+    return _finite(state.N @ (checked_task_inverse(b) @ x))
+
+
+def braced_gradient_projection_rates(
+    state: MultiBracedState, xdot: Array, dg_dq: Array, alpha: float, space: TaskSpace = POSE
+) -> Array:
+    """Q̇ = N [B⁺ S ẋ + α (I − B⁺ B) Nᵀ ∂g/∂q] (n,), B = S J_e N: eq:grad_proj over the braced motions."""
+    b, x = task_rows(state, xdot, space)
+    b_pinv = checked_task_inverse(b)
+    grad = state.N.T @ np.asarray(dg_dq, dtype=float)
+    null = grad - b_pinv @ (b @ grad)
+    return _finite(state.N @ (b_pinv @ x + alpha * null))
+
+
+def _finite(qdot: Array) -> Array:
+    if not np.all(np.isfinite(qdot)):
+        raise NumericalError("the joint velocities are not finite: the tip twist or the gains are too large")
+    return np.asarray(qdot, dtype=np.float64)
+
+
+def sigma_ratios(state: MultiBracedState, space: TaskSpace = POSE) -> dict[str, float]:
+    """σ_min/σ_max of G over its independent rows (key ``G``) and of S J_e N (key ``SJN``); 0 when rank deficient.
+
+    A matrix with more rows than columns has rank below its rows: its ratio is 0.
+    """
+    out = {}
+    con = state.constraint
+    g = con.G[list(con.independent)]
+    b = task_rows(state, np.zeros(6), space)[0]
+    for key, m in (("G", g), ("SJN", b)):
+        if m.size == 0:
+            out[key] = 1.0 if m.shape[0] == 0 else 0.0
+            continue
+        s = np.linalg.svd(m, compute_uv=False)
+        out[key] = float(s[-1] / s[0]) if m.shape[1] >= m.shape[0] and s[0] > 0 else 0.0
+    return out

@@ -1,0 +1,176 @@
+"""Tests of redundancy resolution with several braces (bracekit.resolution.multi through the strategies).
+
+References: the constraint G = [X_iᵀ J_b_i] and J_e from Pinocchio models built independently from the same URDF
+text, and the KKT system of the equality-constrained least-squares problem each strategy solves: braced minimum
+norm is min ‖q̇‖² s.t. G q̇ = 0, S J_e q̇ = S ẋ; gradient projection is min ‖q̇ − α ∂g/∂q‖² under the same
+constraints. ∂g/∂q is checked against central differences of C_i computed from the bordered Lagrange system.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from bracekit.compliance.measures import region_barrier
+from bracekit.contact import Brace, Surface
+from bracekit.errors import InputError, SingularityError
+from bracekit.kinematics import BracedRobot
+from bracekit.model.robot import Robot
+from bracekit.model.shipped import load_model
+from bracekit.objective import Objective, RegionBarrier
+from bracekit.objective.compliance_index import ComplianceIndex
+from bracekit.resolution import BracedGradientProjection, BracedMinNorm, TaskSpace
+from bracekit.resolution.multi import MultiBraceObjective
+from helpers import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
+
+PAPER_Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
+
+
+def braces_through(model: pin.Model, q: np.ndarray, frames: list[str], contacts: list[str], rng) -> list[Brace]:
+    """Braces on `frames`, each on a plane of random normal through the frame's position at q (region 0.2 m)."""
+    out = []
+    for frame, contact in zip(frames, contacts, strict=True):
+        b = pin_frame_placement(model, frame, q).translation
+        centre = b + rng.uniform(-0.03, 0.03, 3)
+        normal = random_unit(rng)
+        centre -= normal * (normal @ (centre - b))  # the plane passes through b
+        out.append(Brace(frame, Surface(centre, normal), contact=contact, region_radius=0.2, pad_axis=False))
+    return out
+
+
+def paper_case(rng, contacts: tuple[str, str] = ("point_with_friction", "frictionless_point")):
+    """The paper robot braced at its pad `brace` and at a point of the HEBI link `link9`, planes through both."""
+    robot = load_model("paper-robot").with_point_frames([("pad", "link9", (0.02, 0.0, 0.03), None)])
+    model = robot.model  # the reference G and J_e below use their own Data (helpers.pin_frame_jacobian)
+    q = PAPER_Q + rng.uniform(-0.2, 0.2, PAPER_Q.size)
+    braces = braces_through(model, q, ["brace", "pad"], list(contacts), rng)
+    return BracedRobot(robot, braces), model, q
+
+
+def chain_case(rng, n: int = 10) -> tuple[BracedRobot, pin.Model, np.ndarray]:
+    text = random_chain_urdf(n, seed=int(rng.integers(1000)), brace_link=3)
+    robot = Robot.from_urdf(text, tip="tip").with_point_frames([("pad", "l6", (0.03, -0.02, 0.05), None)])
+    robot = robot.with_stiffness(rng.uniform(50.0, 500.0, n))
+    model = robot.model
+    q = rng.uniform(-2.5, 2.5, n)
+    braces = braces_through(model, q, ["brace", "pad"], ["point_with_friction", "frictionless_point"], rng)
+    return BracedRobot(robot, braces), model, q
+
+
+def reference(braced: BracedRobot, model: pin.Model, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(G, J_e) from Pinocchio's own frame Jacobians (helpers.pin_frame_jacobian, a fresh Data)."""
+    g = np.vstack([b.X().T @ pin_frame_jacobian(model, b.frame, q) for b in braced.braces])
+    return g, pin_frame_jacobian(model, braced.robot.tip, q)
+
+
+def kkt_rates(g: np.ndarray, sj: np.ndarray, sx: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """argmin ‖q̇ − v‖² s.t. G q̇ = 0, S J_e q̇ = S ẋ, from the bordered KKT system."""
+    a = np.vstack([g, sj])
+    rhs = np.concatenate([np.zeros(g.shape[0]), sx])
+    m = a.shape[0]
+    kkt = np.block([[np.eye(a.shape[1]), a.T], [a, np.zeros((m, m))]])
+    return np.linalg.solve(kkt, np.concatenate([v, rhs]))[: a.shape[1]]
+
+
+def selection(space: TaskSpace, rotation: np.ndarray) -> np.ndarray:
+    return np.eye(6) if space.is_pose else space.selection(rotation)
+
+
+@pytest.mark.parametrize("case", [paper_case, chain_case])
+@pytest.mark.parametrize("space", [TaskSpace("pose"), TaskSpace("position"), TaskSpace("position+axis")])
+def test_braced_min_norm_with_two_braces_keeps_every_contact_and_equals_the_kkt_solve(case, space) -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        braced, model, q = case(rng)
+        st = braced.stacked_state(q)
+        xdot = rng.normal(size=6)
+        qdot = BracedMinNorm(space=space).velocity(st, xdot)
+        g, j_e = reference(braced, model, q)
+        s = selection(space, pin_frame_placement(model, braced.robot.tip, q).rotation)
+        scale = np.linalg.norm(xdot)
+        np.testing.assert_allclose(g @ qdot, 0.0, atol=1e-10 * scale)
+        np.testing.assert_allclose(s @ j_e @ qdot, s @ xdot, atol=1e-10 * scale)
+        ref = kkt_rates(g, s @ j_e, s @ xdot, np.zeros(q.size))
+        np.testing.assert_allclose(qdot, ref, atol=1e-10 * np.linalg.norm(ref))
+
+
+def reference_objective(braced: BracedRobot, model: pin.Model, beta: np.ndarray, w_ci: float, w_d: float):
+    """g(q) = w_Ci ‖βᵀ C_e‖ + w_d Σ d_i with C_e from the bordered system [[K, −Gᵀ], [G, 0]]."""
+    k = braced.robot.stiffness
+
+    def g(q: np.ndarray) -> float:
+        gg, j_e = reference(braced, model, q)
+        n, c = q.size, gg.shape[0]
+        bordered = np.block([[np.diag(k), -gg.T], [gg, np.zeros((c, c))]])
+        c_e = j_e @ np.linalg.solve(bordered, np.vstack([j_e.T, np.zeros((c, 6))]))[:n]
+        out = w_ci * np.linalg.norm(beta @ c_e)
+        for brace in braced.braces:
+            r = np.linalg.norm(pin_frame_placement(model, brace.frame, q).translation - brace.surface.point)
+            out += w_d * region_barrier(r, brace.region_radius)
+        return float(out)
+
+    return g
+
+
+@pytest.mark.parametrize("case", [paper_case, chain_case])
+def test_gradient_projection_with_two_braces_equals_the_kkt_solve_with_the_objective_gradient(case) -> None:
+    rng = np.random.default_rng(5)
+    beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    space = TaskSpace("position")
+    for _ in range(2):
+        braced, model, q = case(rng)
+        st = braced.stacked_state(q)
+        objective = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01)
+        strategy = BracedGradientProjection(objective, alpha=-0.5, space=space)
+        g_ref = reference_objective(braced, model, beta, 100.0, 0.01)
+        assert objective.value(st) == pytest.approx(g_ref(q), rel=1e-9)
+        step = 1e-5
+        grad_ref = np.array([(g_ref(q + step * e) - g_ref(q - step * e)) / (2 * step) for e in np.eye(q.size)])
+        grad = strategy.dg_dq(st)
+        np.testing.assert_allclose(grad, grad_ref, atol=1e-7 * np.linalg.norm(grad_ref))
+        xdot = rng.normal(size=6)
+        qdot = strategy.velocity(st, xdot)
+        gg, j_e = reference(braced, model, q)
+        s = space.selection(st.R_e)
+        ref = kkt_rates(gg, s @ j_e, s @ xdot, -0.5 * grad_ref)
+        np.testing.assert_allclose(qdot, ref, atol=1e-7 * np.linalg.norm(ref))
+        np.testing.assert_allclose(gg @ qdot, 0.0, atol=1e-10 * np.linalg.norm(qdot))
+
+
+def test_a_task_the_braces_leave_no_motion_for_raises_a_singularity_error() -> None:
+    rng = np.random.default_rng(8)
+    n = 7
+    text = random_chain_urdf(n, seed=8, brace_link=3)
+    robot = Robot.from_urdf(text, tip="tip").with_point_frames([("pad", "l6", (0.03, 0.0, 0.04), None)])
+    q = rng.uniform(-2.0, 2.0, n)
+    braces = braces_through(robot.model, q, ["brace", "pad"], ["point_with_friction", "point_with_friction"], rng)
+    st = BracedRobot(robot, braces).stacked_state(q)  # 6 rows of G: one braced motion for the 6-D pose
+    assert st.N.shape == (n, 1)
+    with pytest.raises(SingularityError, match=r"1 braced motion\(s\) for 6 task rows"):
+        BracedMinNorm().velocity(st, np.ones(6))
+    with pytest.raises(SingularityError, match=r"1 braced motion\(s\) for 3 task rows"):
+        BracedGradientProjection(MultiBraceObjective(np.ones(6)), space=TaskSpace("position")).velocity(st, np.ones(6))
+    # the paper robot with {b} of link9 stuck (3 rows): only rotations about it and joints 10, 11 move the tip, 5
+    # motions for the 6-D pose although N has 7 columns
+    braced, _, q = paper_case(rng, ("frictionless_point", "point_with_friction"))
+    st = braced.stacked_state(q)
+    assert st.N.shape == (11, 7)
+    with pytest.raises(SingularityError, match="S J_e N is singular"):
+        BracedMinNorm().velocity(st, np.ones(6))
+    BracedMinNorm(space=TaskSpace("position")).velocity(st, np.ones(6))  # the position alone is reachable
+
+
+def test_the_several_brace_objective_takes_the_ci_and_d_weights_and_names_the_terms_it_leaves_out() -> None:
+    beta = np.array([0.0, 0.0, 2.0, 0.0, 0.0, 0.0])
+    ci = ComplianceIndex(beta)
+    region = RegionBarrier(0.15, np.zeros(3))
+    from bracekit.objective.condition_number import ConditionNumber
+
+    objective = Objective([ConditionNumber(), ci, region], [0.5, 100.0, 0.01])
+    multi = MultiBraceObjective.from_objective(objective)
+    assert (multi.ci_weight, multi.region_weight) == (100.0, 0.01)
+    np.testing.assert_array_equal(multi.beta_x, [0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    assert MultiBraceObjective.left_out(objective) == (ConditionNumber().name,)
+    with pytest.raises(InputError, match="compliance-index term"):
+        MultiBraceObjective.from_objective(Objective([region], [1.0]))
