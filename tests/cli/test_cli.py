@@ -492,3 +492,48 @@ def test_help_says_overwrite_never_deletes_other_files(capsys) -> None:
         main(["run", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "--overwrite" in text and "never deleted" in text
+
+
+def test_evaluate_with_two_brace_links_matches_the_library(capsys) -> None:
+    from bracekit import load_model
+    from bracekit.studies.evaluate import evaluate
+
+    args = ["--brace-link", "link6", "--brace-offset", "0,0,0.05", "--brace-link", "link8", "--brace-offset"]
+    args += ["-0.1,0,0", "--normal", "0,0,1", "--normal", "1,0,0"]
+    code, out, err = _run(["evaluate", "--model", "paper-robot", "--q", Q, *args, "--json"], capsys)
+    assert code == 0, err
+    data = json.loads(out)
+    robot = load_model("paper-robot").with_point_frames(
+        [("brace_point", "link6", [0, 0, 0.05], None), ("brace_point_2", "link8", [-0.1, 0, 0], None)]
+    )
+    q = np.array([float(x) for x in Q.split(",")])
+    ref = evaluate(robot, ["brace_point", "brace_point_2"], q, normal=[[0, 0, 1], [1, 0, 0]])
+    assert [b["frame"] for b in data["braces"]] == ["brace_point", "brace_point_2"]
+    assert np.allclose(data["C_e_constrained"], ref["C_e_constrained"], rtol=1e-12, atol=0)
+    assert data["G_rank"] == 2 and data["G_dependent_rows"] == [] and data["C_e_projection"] is None
+    assert np.allclose(data["braces"][1]["normal"], [1, 0, 0]) and "b" in data["braces"][0]
+
+
+def test_evaluate_text_lists_each_brace(capsys) -> None:
+    code, out, err = _run(
+        ["evaluate", "--model", "paper-robot", "--q", Q, "--brace", "brace", "--brace", "flange"], capsys
+    )
+    assert code == 0, err
+    assert "2 braces" in out and "'brace'" in out and "'flange'" in out and "rank 2" in out
+
+
+@pytest.mark.parametrize(
+    ("flags", "match"),
+    [
+        (["--brace", "brace", "--brace", "flange", "--normal", "0,0,1"], "one --normal per brace"),
+        (["--brace", "brace", "--normal", "0,0,1", "--normal", "1,0,0"], "one --normal for the one brace"),
+        (["--brace-link", "link6", "--brace-link", "link8", "--brace-offset", "0,0,0"], "one --brace-offset per"),
+        (["--brace-link", "link6", "--brace-link", "link8", "--brace", "a"], "each --brace names one link point"),
+        (["--brace", "brace", "--brace", "flange", "--gravity"], "one brace only"),
+        (["--brace", "brace", "--brace", "flange", "--normal", "0,1", "--normal", "0,0,1"], "3 numbers"),
+    ],
+)
+def test_evaluate_refuses_mismatched_brace_flags_in_one_line(capsys, flags: list[str], match: str) -> None:
+    code, out, err = _run(["evaluate", "--model", "paper-robot", "--q", Q, *flags], capsys)
+    assert code == 2 and out == ""
+    _one_error_line(err, match)

@@ -243,7 +243,13 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
 def parse_scenario(
     data: dict[str, Any], base: Path = Path("."), name: str = "scenario", source: Path | None = None
 ) -> Scenario:
-    """Validate the TOML data of a scenario (see ``scenarios/paper.toml`` for every key)."""
+    """Validate the TOML data of a scenario (see ``scenarios/paper.toml`` for every key).
+
+    One ``[brace]`` table is the paper's model. Several braces are an array of tables, ``[[brace]]``, each
+    with the keys of ``[brace]`` (named 'brace[1]', 'brace[2]', … in messages) except the statics keys
+    (preload, friction, '[robot] gravity', '[loads]'); with several braces the compliance model is
+    "constrained" and the weights of θ_z and d (one brace's pad and region) are 0.
+    """
     top = _Table(
         data,
         "",
@@ -262,27 +268,18 @@ def parse_scenario(
     )
     robot_t = top.table("robot", ("model", "urdf", "tip", "stiffness", "gravity"))
     robot = _robot(robot_t, base)
-    brace_t = top.table(
-        "brace",
-        (
-            "frame",
-            "link",
-            "offset",
-            "pad_axis",
-            "contact",
-            "point",
-            "normal",
-            "tangent",
-            "region_radius",
-            "surface_radius",
-            "environment_stiffness",
-            "preload",
-            "friction",
-        ),
-    )
-    braced = _brace(brace_t, robot)
-    holding = _holding(robot_t, brace_t, top.table("loads", ("wrenches",), {}))
-    robot, brace = braced.robot, braced.brace
+    brace_ts = _brace_tables(top)
+    several = len(brace_ts) > 1
+    braced = _braces(brace_ts, robot)
+    loads_t = top.table("loads", ("wrenches",), {})
+    if several:
+        _refuse_statics(robot_t, brace_ts, loads_t)
+        holding = Holding()
+    else:
+        holding = _holding(robot_t, brace_ts[0], loads_t)
+    robot = braced.robot
+    pad_axis = not several and braced.brace.pad_axis
+    region = None if several else braced.brace.region_radius
     task_t = top.table(
         "task",
         (
@@ -308,6 +305,11 @@ def parse_scenario(
     guess = start.vector("guess", robot.n)
     comp = top.table("compliance", ("model", "beta_x"), {})
     model = comp.string("model", RUN_MODELS, "constrained")
+    if several and model != "constrained":
+        raise ScenarioError(
+            f"'compliance.model' = {show(model)} is defined for one brace; with several [[brace]] tables use "
+            '"constrained"'
+        )
     if model == "preloaded" and not (holding.gravity or holding.preload > 0.0):
         raise ScenarioError(
             "'compliance.model' = \"preloaded\" needs '[robot] gravity = true' or '[brace] preload' > 0 "
@@ -344,19 +346,21 @@ def parse_scenario(
     alpha = gp.number("alpha", -1.0)
     if alpha >= 0:
         raise ScenarioError(f"'gradient_projection.alpha' must be negative (it descends g), got {alpha}")
-    default_weights = {"k": 0.5, "Ci": 100.0, "theta_z": 0.6 if brace.pad_axis else 0.0, "d": 0.01}
+    default_weights = {"k": 0.5, "Ci": 100.0, "theta_z": 0.6 if pad_axis else 0.0, "d": 0.0 if several else 0.01}
     w = gp.table("weights", weight_keys(), default_weights)
     weights = {k: w.number(k, 0.0) for k in weight_keys()}
     for k, v in weights.items():
         if v < 0:
             raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")
-    if weights["theta_z"] > 0 and not brace.pad_axis:
+    if several:
+        _refuse_one_brace_weights(weights, start)
+    if weights["theta_z"] > 0 and not pad_axis:
         raise ScenarioError(
             "'gradient_projection.weights.theta_z' needs a pad axis, and a link-point brace has none: give "
             "'brace.pad_axis' = [x, y, z] (link axes) or set theta_z = 0"
         )
-    theta_weight = _start_theta_weight(start, brace.pad_axis, weights["theta_z"])
-    if weights["d"] > 0 and brace.region_radius is None:
+    theta_weight = _start_theta_weight(start, pad_axis, weights["theta_z"])
+    if weights["d"] > 0 and region is None:
         raise ScenarioError("'gradient_projection.weights.d' needs 'brace.region_radius' (r_max, m)")
     gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
     sim = top.table("simulation", ("dt", "strategies", "feedback_gain"), {})
@@ -442,35 +446,84 @@ def _robot(t: _Table, base: Path) -> Robot:
         raise ScenarioError(f"'robot.stiffness': {exc}") from exc
 
 
-def _brace(t: _Table, robot: Robot) -> BracedRobot:
+BRACE_KEYS = (
+    "frame",
+    "link",
+    "offset",
+    "pad_axis",
+    "contact",
+    "point",
+    "normal",
+    "tangent",
+    "region_radius",
+    "surface_radius",
+    "environment_stiffness",
+    "preload",
+    "friction",
+)
+#: Keys of a brace table that only a single brace supports (the statics of one contact).
+ONE_BRACE_KEYS = ("preload", "friction")
+
+
+def _brace_tables(top: _Table) -> list[_Table]:
+    """The ``[brace]`` table, or each table of ``[[brace]]`` (an array of tables), named 'brace[i]' from 1."""
+    raw = top.raw("brace")
+    if not isinstance(raw, list):
+        return [top.table("brace", BRACE_KEYS)]
+    if not raw:
+        raise ScenarioError("'brace' is an empty array: give a [brace] table or at least one [[brace]] table")
+    return [_Table(item, f"brace[{i}]", BRACE_KEYS) for i, item in enumerate(raw, start=1)]
+
+
+def _braces(tables: list[_Table], robot: Robot) -> BracedRobot:
+    """The braced robot of one brace table (the paper's model) or of several (the stacked constraint).
+
+    A link-point brace without 'frame' is named "brace" (the first) or "brace_i" (the i-th, from 1).
+    """
+    braces: list[Brace] = []
+    for i, t in enumerate(tables, start=1):
+        robot, brace = _brace(t, robot, "brace" if i == 1 else f"brace_{i}")
+        braces.append(brace)
+    if len(braces) == 1:
+        return BracedRobot(robot, braces[0])
+    try:
+        return BracedRobot(robot, braces)
+    except BracekitError as exc:
+        raise ScenarioError(f"[[brace]]: {exc}") from exc
+
+
+def _brace(t: _Table, robot: Robot, default_frame: str = "brace") -> tuple[Robot, Brace]:
+    """One brace table: the robot (with the brace's link-point frame added, if any) and the Brace."""
     pad_axis = True  # a frame of the robot's description: its z is the pad direction
     if t.has("link"):
-        frame = t.string("frame", default="brace")
+        frame = t.string("frame", default=default_frame)
         if robot.model.existFrame(frame):
             raise ScenarioError(
-                f"'brace.frame' = {show(frame)} is already a frame of the robot; name the new brace point otherwise"
+                f"'{t.key('frame')}' = {show(frame)} is already a frame of the robot; name the new brace point "
+                "otherwise"
             )
         rotation = None
         pad_axis = t.has("pad_axis")
         if pad_axis:
-            rotation = rotation_with_z(t.vector("pad_axis", 3), "'brace.pad_axis' (link axes)", ScenarioError)
+            rotation = rotation_with_z(t.vector("pad_axis", 3), f"'{t.key('pad_axis')}' (link axes)", ScenarioError)
         try:
             robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]), rotation)
         except BracekitError as exc:
-            raise ScenarioError(f"'brace.link': {exc}") from exc
+            raise ScenarioError(f"'{t.key('link')}': {exc}") from exc
     else:
         if t.has("pad_axis"):
             raise ScenarioError(
-                "'brace.pad_axis' goes with 'brace.link' (a link point); a brace frame's own z is its pad axis"
+                f"'{t.key('pad_axis')}' goes with '{t.key('link')}' (a link point); a brace frame's own z is its "
+                "pad axis"
             )
         frame = t.string("frame")
     point, normal = t.vector("point", 3), t.vector("normal", 3)
     if not np.any(normal):
-        raise ScenarioError("'brace.normal' must be a non-zero vector (the surface normal, toward the robot)")
+        raise ScenarioError(f"'{t.key('normal')}' must be a non-zero vector (the surface normal, toward the robot)")
     try:
         surface = Surface(point, normal, t.vector("tangent", 3) if t.has("tangent") else None)
     except BracekitError as exc:
-        raise ScenarioError(f"'brace.tangent': {exc}") from exc
+        raise ScenarioError(f"'{t.key('tangent')}': {exc}") from exc
     try:
         brace = Brace(
             frame=frame,
@@ -483,13 +536,46 @@ def _brace(t: _Table, robot: Robot) -> BracedRobot:
             else None,
             pad_axis=pad_axis,
         )
-        return BracedRobot(robot, brace)
+        BracedRobot(robot, brace)  # the checks of one brace (frame, link), with this table's key
+        return robot, brace
     except ScenarioError:
         raise
     except BracekitError as exc:
         named = [k for k in ("surface_radius", "region_radius", "environment_stiffness", "contact") if k in str(exc)]
         key = named[0] if named else ("link" if t.has("link") else "frame")
         raise ScenarioError(f"'{t.key(key)}': {exc}") from exc
+
+
+def _refuse_statics(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> None:
+    """ScenarioError for the statics keys, which several braces do not support yet."""
+    for t in tables:
+        for key in ONE_BRACE_KEYS:
+            if t.has(key):
+                raise ScenarioError(
+                    f"'{t.key(key)}' is supported for one brace only; with several [[brace]] tables remove it"
+                )
+    if robot_t.raw("gravity", False) is not False:
+        raise ScenarioError(
+            "'robot.gravity' (statics) is supported for one brace only; with several [[brace]] tables remove it"
+        )
+    if loads_t.has("wrenches"):
+        raise ScenarioError(
+            "'loads.wrenches' (statics) is supported for one brace only; with several [[brace]] tables remove it"
+        )
+
+
+def _refuse_one_brace_weights(weights: dict[str, float], start: _Table) -> None:
+    """ScenarioError for the weights of one brace's θ_z and region margin d, given with several braces."""
+    for key, what in (("theta_z", "θ_z of the pad"), ("d", "the bracing-region margin d")):
+        if weights[key] > 0:
+            raise ScenarioError(
+                f"'gradient_projection.weights.{key}' ({what}) is defined for one brace; with several [[brace]] "
+                f"tables set {key} = 0"
+            )
+    if start.has("theta_weight") and start.number("theta_weight") != 0:
+        raise ScenarioError(
+            "'start.theta_weight' is defined for one brace; with several [[brace]] tables set it to 0 or remove it"
+        )
 
 
 def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:

@@ -4,24 +4,27 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit._linalg import as_array
+from bracekit._linalg import as_array, show
 from bracekit.compliance.first_order import (
     compliance_ellipsoids,
     compliance_index,
     end_effector_compliance,
     free_space_compliance,
+    stacked_compliance,
     unit6,
 )
-from bracekit.compliance.measures import frobenius_condition, singular_value_measures, theta_z
+from bracekit.compliance.measures import SingularValues, frobenius_condition, singular_value_measures, theta_z
 from bracekit.compliance.preloaded import preloaded_compliance
 from bracekit.contact import Brace, ContactType, Surface, contact_type
-from bracekit.errors import ChainSingularWarning, ContactError, InputError
+from bracekit.errors import ChainSingularWarning, ContactError, InputError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
+from bracekit.kinematics.multi import MultiBracedState
 from bracekit.model.robot import Robot
 from bracekit.simulation.holding import Holding
 from bracekit.spatial import unit
@@ -80,7 +83,7 @@ def chain1_motions(state: BracedState) -> dict[str, Any]:
 
 def evaluate(
     robot: Robot,
-    brace_frame: str,
+    brace_frame: str | Sequence[str],
     q: ArrayLike,
     *,
     normal: ArrayLike = (0.0, 0.0, 1.0),
@@ -89,6 +92,9 @@ def evaluate(
     holding: Holding | None = None,
 ) -> dict[str, Any]:
     """The braced model at q with a surface through b of the given normal (world).
+
+    Several braces: `brace_frame` a sequence of frames and `normal` one normal (3,) for every brace or one per
+    brace (m×3), in the same order; see :func:`evaluate_braces`. A sequence of one frame is one brace.
 
     With `holding` (gravity, preload, friction, tool wrenches) also the statics at q: ``tau0`` (N·m, unloaded
     joint torques, set points holding the preload), ``q_s``, ``torque_ratio`` (peak |τ_i|/effort_i), per listed
@@ -104,6 +110,13 @@ def evaluate(
     """
     if not isinstance(robot, Robot):
         raise InputError(f"evaluate needs a bracekit Robot, got {type(robot).__name__}")
+    if not isinstance(brace_frame, str):
+        frames = _frames(brace_frame)
+        if len(frames) > 1:
+            return evaluate_braces(robot, frames, q, normal=normal, contact=contact, beta_x=beta_x, holding=holding)
+        brace_frame = frames[0]
+        if np.shape(normal) == (1, 3):  # one normal per brace, for one brace
+            normal = np.asarray(normal)[0]
     qa = robot.check_q(q)
     kind = contact_type(contact)
     n_raw = as_array(normal, "the surface normal", error=ContactError)
@@ -179,6 +192,156 @@ def evaluate(
     if holding is not None:
         out.update(_statics(braced, qa, holding, beta))
     return out
+
+
+#: Why the several-brace report has no projection-model keys.
+PROJECTION_ONE_BRACE = (
+    "the projection model (the paper's C̃1 of chain 1) is defined for one brace; several braces have the "
+    "constrained model only"
+)
+
+
+def _frames(brace_frame: object) -> tuple[str, ...]:
+    """The bracing frames of `brace_frame` (a str or a non-empty sequence of str); InputError otherwise."""
+    if isinstance(brace_frame, Sequence) and not isinstance(brace_frame, bytes):
+        frames = tuple(brace_frame)
+        if frames and all(isinstance(f, str) for f in frames):
+            return frames
+    raise InputError(f"brace_frame must be a frame name or a non-empty list of frame names, got {show(brace_frame)}")
+
+
+def _normals(normal: ArrayLike, count: int) -> list[NDArray[np.float64]]:
+    """One normal (3,) for each of `count` braces from one normal (3,) or one per brace (count×3)."""
+    a = as_array(normal, "the surface normal", error=ContactError)
+    if a.shape == (3,):
+        return [a] * count
+    if a.shape != (count, 3):
+        raise InputError(
+            f"give one surface normal (3 numbers) or one per brace ({count}×3), in the order of the braces; "
+            f"got shape {a.shape}"
+        )
+    return list(a)
+
+
+def _contacts(contact: str | ContactType | Sequence[str | ContactType], count: int) -> list[ContactType]:
+    """One contact type for each of `count` braces from one type or one per brace."""
+    if isinstance(contact, str | ContactType):
+        return [contact_type(contact)] * count
+    items = list(contact)
+    if len(items) != count:
+        raise InputError(f"give one contact type or one per brace ({count}), got {len(items)}")
+    return [contact_type(c) for c in items]
+
+
+def _measure(f: Any, j: NDArray[np.float64]) -> Any:
+    """f(j), or None where j is singular (no finite k)."""
+    try:
+        return f(j)
+    except SingularityError:
+        return None
+
+
+def evaluate_braces(
+    robot: Robot,
+    brace_frames: Sequence[str],
+    q: ArrayLike,
+    *,
+    normal: ArrayLike = (0.0, 0.0, 1.0),
+    contact: str | ContactType | Sequence[str | ContactType] = "frictionless_point",
+    beta_x: ArrayLike | None = None,
+    holding: Holding | None = None,
+) -> dict[str, Any]:
+    """Several braces at q: brace i touches a surface through its b_i with normal i (world).
+
+    `normal` is one normal (3,) for every brace or one per brace (m×3), `contact` one type or one per brace,
+    in the order of `brace_frames`. The compliance is the constrained model with the stacked constraint
+    G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (:func:`~bracekit.compliance.first_order.stacked_compliance`).
+
+    Keys (SI; as :func:`evaluate`): n, joint_names, brace_frames, tip_frame, q, e, R_e, J (= J_e, 6×n),
+    C_free, C_e_constrained, k (of J), k_braced and the Πσ measures of J_e N (None where J_e N is singular),
+    beta_x (default [n̂_1; 0], the first brace's normal), Ci_free, Ci_constrained, Ci_reduction_constrained,
+    max_translational_*, ellipsoid_free and ellipsoid_constrained; C_e_projection, Ci_projection,
+    Ci_reduction_projection and ellipsoid_projection are None with ``projection_reason``. ``braces``: per brace
+    frame, contact, normal, b, R_b, H, X, J_b; ``G`` (c×n), ``G_rows`` ([brace index from 0, column of X_i]
+    per row), ``G_rank``, ``G_dependent_rows`` (indices of the rows of G left out: dependent or unloaded),
+    ``N`` (n×(n − rank G)) and ``braced_jacobian`` (J_e N).
+
+    Raises InputError for statics (`holding`): one brace only for now.
+    """
+    if not isinstance(robot, Robot):
+        raise InputError(f"evaluate needs a bracekit Robot, got {type(robot).__name__}")
+    frames = _frames(brace_frames)
+    if holding is not None:
+        raise InputError("statics (gravity, preload, friction, tool wrenches) are supported for one brace only")
+    qa = robot.check_q(q)
+    normals = _normals(normal, len(frames))
+    kinds = _contacts(contact, len(frames))
+    probe = BracedRobot(robot, [Brace(f, Surface(np.zeros(3), n)) for f, n in zip(frames, normals, strict=True)])
+    points = probe.stacked_state(qa).b_i
+    braces = [Brace(f, Surface(b, n), kind) for f, b, n, kind in zip(frames, points, normals, kinds, strict=True)]
+    braced = BracedRobot(robot, braces)
+    st: MultiBracedState = braced.stacked_state(qa)
+    first = braces[0].surface.normal
+    if beta_x is None:
+        beta = np.concatenate([first, np.zeros(3)])
+    else:
+        beta = as_array(beta_x, "beta_x", finite=False).reshape(-1)
+        unit6(beta, "beta_x")
+    c_free = free_space_compliance(st)
+    c_con = stacked_compliance(st)
+    con = st.constraint
+    ci_free, ci_con = compliance_index(c_free, beta), compliance_index(c_con, beta)
+    j_n = st.braced_jacobian
+    sv = _measure(singular_value_measures, j_n)
+    sv_keys = {f.name: None if sv is None else getattr(sv, f.name) for f in dataclasses.fields(SingularValues)}
+    return {
+        "n": robot.n,
+        "joint_names": list(robot.joint_names),
+        "brace_frames": list(frames),
+        "tip_frame": robot.tip,
+        "q": qa,
+        "e": st.e,
+        "R_e": st.R_e,
+        "braces": [
+            {
+                "frame": brace.frame,
+                "contact": brace.kind.name,
+                "normal": brace.surface.normal,
+                "b": b,
+                "R_b": r_b,
+                "H": brace.H(),
+                "X": brace.X(),
+                "J_b": j_b,
+            }
+            for brace, b, r_b, j_b in zip(braces, st.b_i, st.R_b_i, st.J_b_i, strict=True)
+        ],
+        "G": con.G,
+        "G_rows": [list(r) for r in con.rows],
+        "G_rank": con.rank,
+        "G_dependent_rows": list(con.dependent),
+        "N": st.N,
+        "braced_jacobian": j_n,
+        "J": st.J_e,
+        "C_free": c_free,
+        "C_e_constrained": c_con,
+        "C_e_projection": None,
+        "projection_reason": PROJECTION_ONE_BRACE,
+        "k": frobenius_condition(st.J_e),
+        "k_braced": _measure(frobenius_condition, j_n),
+        **sv_keys,
+        "beta_x": _unit(beta),
+        "Ci_free": ci_free,
+        "Ci_constrained": ci_con,
+        "Ci_projection": None,
+        "Ci_reduction_constrained": _reduction(ci_con, ci_free),
+        "Ci_reduction_projection": None,
+        "max_translational_free": float(np.linalg.eigvalsh(c_free[:3, :3])[-1]),
+        "max_translational_constrained": float(np.linalg.eigvalsh(c_con[:3, :3])[-1]),
+        "ellipsoid_free": _ellipsoids(c_free),
+        "ellipsoid_constrained": _ellipsoids(c_con),
+        "ellipsoid_projection": None,
+        "units": "m, rad, N, N·m; compliances in m/N, 1/N, rad/N, rad/(N·m)",
+    }
 
 
 def _finite(x: float | None) -> float | None:

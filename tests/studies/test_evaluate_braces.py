@@ -1,0 +1,127 @@
+"""evaluate() with several braces: the stacked constrained compliance, checked against a KKT solve."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from bracekit import load_model
+from bracekit.compliance.first_order import end_effector_compliance, stacked_compliance
+from bracekit.contact import Brace, Surface, contact_type
+from bracekit.errors import ContactError, InputError, RedundantContactWarning
+from bracekit.kinematics import BracedRobot
+from bracekit.report.output import to_json
+from bracekit.simulation.holding import Holding
+from bracekit.studies.evaluate import evaluate
+
+Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
+OFFSET = np.array([0.1, 0.0, 0.05])
+N2 = np.array([1.0, 0.0, 1.0]) / np.sqrt(2.0)
+
+
+def _robot():
+    return load_model("paper-robot").with_point_frame("p2", "link8", OFFSET)
+
+
+def _kkt_compliance(j_e: np.ndarray, k: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Tip deflection per tip wrench with the joints as springs K and the contacts a Δq = 0 (Lagrange).
+
+    [K  aᵀ; a  0] [Δq; λ] = [J_eᵀ w; 0], deflection J_e Δq: one column of C_e per unit wrench w.
+    """
+    n, c = k.size, a.shape[0]
+    kkt = np.block([[np.diag(k), a.T], [a, np.zeros((c, c))]])
+    rhs = np.vstack([j_e.T, np.zeros((c, 6))])
+    dq = np.linalg.solve(kkt, rhs)[:n]
+    return j_e @ dq
+
+
+def test_two_braces_match_the_stacked_compliance_and_a_kkt_solve() -> None:
+    robot = _robot()
+    r = evaluate(
+        robot, ["brace", "p2"], Q, normal=[[0, 0, 1], N2], contact=["frictionless_point", "point_with_friction"]
+    )
+    # independent kinematics: Pinocchio's frame Jacobians and the link's placement acting on the offset
+    model, data = robot.model, robot.model.createData()
+    j_e = pin.computeFrameJacobian(model, data, Q, robot.tip_id, pin.LOCAL_WORLD_ALIGNED)
+    j_1 = pin.computeFrameJacobian(model, data, Q, robot.frame_id("brace"), pin.LOCAL_WORLD_ALIGNED)
+    j_2 = pin.computeFrameJacobian(model, data, Q, robot.frame_id("p2"), pin.LOCAL_WORLD_ALIGNED)
+    pin.framesForwardKinematics(model, data, Q)
+    link8 = data.oMf[robot.frame_id("link8")]
+    assert np.allclose(r["braces"][1]["b"], link8.act(OFFSET), atol=1e-12)
+    assert np.allclose(r["braces"][0]["b"], data.oMf[robot.frame_id("brace")].translation, atol=1e-12)
+    assert np.allclose(r["J"], j_e, atol=1e-12)
+    assert np.allclose(r["braces"][1]["J_b"], j_2, atol=1e-12)
+    # contacts: a frictionless point pushes along n1, a point with friction along any force (3 rows)
+    a = np.vstack([np.array([0, 0, 1.0]) @ j_1[:3], j_2[:3]])
+    k = robot.stiffness
+    c_kkt = _kkt_compliance(j_e, k, a)
+    scale = np.abs(c_kkt).max()
+    assert np.allclose(r["C_e_constrained"], c_kkt, rtol=0, atol=1e-10 * scale)
+    assert np.allclose(r["C_free"], (j_e / k) @ j_e.T, rtol=0, atol=1e-15)
+    braced = BracedRobot(
+        robot,
+        [
+            Brace("brace", Surface(r["braces"][0]["b"], [0, 0, 1])),
+            Brace("p2", Surface(r["braces"][1]["b"], N2), contact_type("point_with_friction")),
+        ],
+    )
+    direct = stacked_compliance(braced.stacked_state(Q))
+    assert np.allclose(r["C_e_constrained"], direct, rtol=0, atol=1e-12 * scale)
+    assert r["G_rank"] == 4 and len(r["G_rows"]) == 4 and r["G_dependent_rows"] == []
+    assert np.array(r["N"]).shape == (11, 7) and np.array(r["braced_jacobian"]).shape == (6, 7)
+    assert [b["frame"] for b in r["braces"]] == ["brace", "p2"]
+    assert np.array(r["braces"][1]["X"]).shape == (6, 3) and np.array(r["braces"][1]["H"]).shape == (6, 3)
+    # default β_x: along the first brace's normal
+    assert np.allclose(r["beta_x"], [0, 0, 1, 0, 0, 0])
+    assert np.isclose(r["Ci_constrained"], np.linalg.norm(c_kkt[2]), rtol=1e-10)
+    assert 0 < r["Ci_constrained"] < r["Ci_free"]
+
+
+def test_several_braces_report_no_projection_model_and_say_why() -> None:
+    r = evaluate(_robot(), ["brace", "p2"], Q, normal=[0, 0, 1])
+    for key in ("C_e_projection", "Ci_projection", "Ci_reduction_projection", "ellipsoid_projection"):
+        assert r[key] is None
+    assert "one brace" in r["projection_reason"]
+    assert np.allclose([b["normal"] for b in r["braces"]], [[0, 0, 1], [0, 0, 1]])  # one normal for each brace
+
+
+def test_one_frame_in_a_list_gives_exactly_the_one_brace_report() -> None:
+    robot = load_model("paper-robot")
+    one = evaluate(robot, "brace", Q, normal=[0, 0, 1])
+    listed = evaluate(robot, ["brace"], Q, normal=[[0, 0, 1]])
+    assert to_json(listed) == to_json(one)
+
+
+def test_the_same_brace_twice_is_dependent_and_leaves_the_one_brace_compliance() -> None:
+    robot = load_model("paper-robot")
+    with pytest.warns(RedundantContactWarning):
+        r = evaluate(robot, ["brace", "brace"], Q, normal=[0, 0, 1])
+    assert r["G_rank"] == 1 and r["G_dependent_rows"] == [1]
+    one = BracedRobot(robot, Brace("brace", Surface(r["braces"][0]["b"], [0, 0, 1])))
+    c_one = end_effector_compliance(one.state(Q), "constrained")
+    assert np.allclose(r["C_e_constrained"], c_one, rtol=0, atol=1e-10 * np.abs(c_one).max())
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"normal": [[0, 0, 1], [0, 0, 1], [1, 0, 0]]}, InputError, "one per brace"),
+        ({"contact": ["frictionless_point"]}, InputError, "one per brace"),
+        ({"holding": Holding(gravity=True)}, InputError, "one brace only"),
+        ({"normal": [[0, 0, 1], [0, 0, 0]]}, ContactError, "normal"),
+    ],
+)
+def test_several_braces_refuse_bad_or_unsupported_input(kwargs: dict, error: type, match: str) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(error, match=match):
+            evaluate(_robot(), ["brace", "p2"], Q, **kwargs)
+
+
+def test_an_empty_or_non_string_brace_list_is_refused() -> None:
+    for frames in ([], ["brace", 3]):
+        with pytest.raises(InputError, match="list of frame names"):
+            evaluate(_robot(), frames, Q)
