@@ -27,6 +27,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import MODELS, load_model
 from bracekit.objective import TERMS, Objective, TermContext
+from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.strategies import (
     GRADIENT_MODES,
     BracedGradientProjection,
@@ -178,9 +179,16 @@ class Scenario:
         """The robot."""
         return self.braced.robot
 
-    def objective(self, model: ComplianceModel | None = None, beta_x: Array | None = None) -> Objective:
-        """G of eq:objective with this scenario's weights (β_x at t = 0 unless given)."""
+    def objective(
+        self, model: ComplianceModel | None = None, beta_x: Array | None = None
+    ) -> Objective | MultiBraceObjective:
+        """G of eq:objective with this scenario's weights (β_x at t = 0 unless given).
+
+        With several braces, the stacked objective: C_i of the stacked constrained C_e and each brace's d.
+        """
         beta = self.beta_x(0.0) if beta_x is None else beta_x
+        if len(self.braced.braces) > 1:
+            return MultiBraceObjective(beta, ci_weight=self.weights["Ci"], region_weight=self.weights["d"])
         context = TermContext(self.braced, beta, model or simulated_model(self.compliance_model), self.holding)
         keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
         kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in keys]
@@ -279,7 +287,11 @@ def parse_scenario(
         holding = _holding(robot_t, brace_ts[0], loads_t)
     robot = braced.robot
     pad_axis = not several and braced.brace.pad_axis
-    region = None if several else braced.brace.region_radius
+    region = (
+        next((b.region_radius for b in braced.braces if b.region_radius is not None), None)
+        if several
+        else braced.brace.region_radius
+    )
     task_t = top.table(
         "task",
         (
@@ -346,7 +358,11 @@ def parse_scenario(
     alpha = gp.number("alpha", -1.0)
     if alpha >= 0:
         raise ScenarioError(f"'gradient_projection.alpha' must be negative (it descends g), got {alpha}")
-    default_weights = {"k": 0.5, "Ci": 100.0, "theta_z": 0.6 if pad_axis else 0.0, "d": 0.0 if several else 0.01}
+    default_weights = (
+        {"Ci": 100.0, "d": 0.01 if region is not None else 0.0}
+        if several
+        else {"k": 0.5, "Ci": 100.0, "theta_z": 0.6 if pad_axis else 0.0, "d": 0.01}
+    )
     w = gp.table("weights", weight_keys(), default_weights)
     weights = {k: w.number(k, 0.0) for k in weight_keys()}
     for k, v in weights.items():
@@ -564,13 +580,17 @@ def _refuse_statics(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> N
         )
 
 
+#: The weight keys of the several-brace objective (:class:`bracekit.resolution.multi.MultiBraceObjective`).
+MULTI_BRACE_WEIGHTS = ("Ci", "d")
+
+
 def _refuse_one_brace_weights(weights: dict[str, float], start: _Table) -> None:
-    """ScenarioError for the weights of one brace's θ_z and region margin d, given with several braces."""
-    for key, what in (("theta_z", "θ_z of the pad"), ("d", "the bracing-region margin d")):
-        if weights[key] > 0:
+    """ScenarioError for weights the several-brace objective does not have (it has C_i and each brace's d)."""
+    for key, value in weights.items():
+        if key not in MULTI_BRACE_WEIGHTS and value > 0:
             raise ScenarioError(
-                f"'gradient_projection.weights.{key}' ({what}) is defined for one brace; with several [[brace]] "
-                f"tables set {key} = 0"
+                f"'gradient_projection.weights.{key}' is not available with several [[brace]] tables (their "
+                f"objective has {' and '.join(MULTI_BRACE_WEIGHTS)}); set {key} = 0"
             )
     if start.has("theta_weight") and start.number("theta_weight") != 0:
         raise ScenarioError(
