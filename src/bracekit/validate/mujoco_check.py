@@ -190,7 +190,8 @@ def _mjcf_contacts(
     for geoms in contacts:
         bjid = model.frames[geoms.frame_id].parentJoint
         p_b = data.oMf[geoms.frame_id].translation
-        spheres.setdefault(bjid, []).append((geoms, data.oMi[bjid].actInv(p_b + sphere_radius * geoms.normal)))
+        centre = p_b + sphere_radius * geoms.normal
+        spheres.setdefault(bjid, []).append((geoms, data.oMi[bjid].actInv(centre)))
     tip_placement = model.frames[tip_frame_id].placement
 
     children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
@@ -789,7 +790,9 @@ def mujoco_static_deflection_multi(
         max_steps: step budget for both phases together.
         tol: settling tolerance, rad.
         sphere_radius: m; the rolling spheres differ from point contacts in proportion to it.
-        timestep: MuJoCo timestep (s); default min(1 ms, τ/20).
+        timestep: MuJoCo timestep (s); default min(1 ms, τ/20). Several stiff contacts may keep bouncing in a
+            limit cycle at one timestep and settle at another (seen at 1 ms and at 0.5 ms, never at both):
+            :func:`bracekit.validate.multi_brace.validate_several_braces` retries at half the step.
 
     Returns:
         :class:`MultiMujocoResult` (deflection relative to the settled preloaded state).
