@@ -27,6 +27,7 @@ Settings that matter for ~1e-7 agreement with the Pinocchio statics (measured, s
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 from xml.sax.saxutils import quoteattr
@@ -36,9 +37,24 @@ import numpy as np
 import pinocchio as pin
 
 from bracekit.errors import InputError, MujocoValidationError
-from bracekit.validate.statics import _check_model, _unit, preload_rest_configuration
+from bracekit.validate.statics import (
+    _check_model,
+    _per_brace,
+    _unit,
+    multi_preload_set_points,
+    preload_rest_configuration,
+)
 
-__all__ = ["MujocoResult", "MujocoValidationError", "build_mujoco_model", "mujoco_static_deflection"]
+__all__ = [
+    "MujocoResult",
+    "MujocoValidationError",
+    "MultiMujocoResult",
+    "brace_geom_names",
+    "build_mujoco_model",
+    "build_mujoco_model_multi",
+    "mujoco_static_deflection",
+    "mujoco_static_deflection_multi",
+]
 
 TIP_SITE = "tip"
 BRACE_GEOM = "brace_sphere"
@@ -111,6 +127,18 @@ def _joint_axis(model: pin.Model, jid: int) -> np.ndarray:
     return S[3:] / np.linalg.norm(S[3:])
 
 
+@dataclass(frozen=True)
+class _ContactGeoms:
+    """One sphere–plane contact of the MJCF: {b_i}'s frame, its plane, geom names and collision bit."""
+
+    frame_id: int
+    point: np.ndarray
+    normal: np.ndarray
+    sphere: str
+    surface: str
+    bit: int
+
+
 def _mjcf(
     model: pin.Model,
     q0: np.ndarray,
@@ -128,12 +156,42 @@ def _mjcf(
     cone: str = "pyramidal",
     impratio: float = 1.0,
 ) -> str:
-    bjid = model.frames[brace_frame_id].parentJoint
+    contact = _ContactGeoms(brace_frame_id, s, nhat, BRACE_GEOM, SURFACE_GEOM, 1)
+    return _mjcf_contacts(
+        model, q0, K, rest, [contact], tip_frame_id, sphere_radius, gravity, damping_time, timestep, friction, cone,
+        impratio,
+    )  # fmt: skip
+
+
+def _mjcf_contacts(
+    model: pin.Model,
+    q0: np.ndarray,
+    K: np.ndarray,
+    rest: np.ndarray,
+    contacts: list[_ContactGeoms],
+    tip_frame_id: int,
+    sphere_radius: float,
+    gravity: bool,
+    damping_time: float,
+    timestep: float,
+    friction: float | None = None,
+    cone: str = "pyramidal",
+    impratio: float = 1.0,
+) -> str:
+    """MJCF text: the spring-jointed chain, a sphere per contact on {b_i}'s body and its plane in the world.
+
+    Sphere i has contype = bit_i and plane i conaffinity = bit_i (all other bits 0), so each sphere only
+    collides with its own plane.
+    """
     tjid = model.frames[tip_frame_id].parentJoint
     data = model.createData()
     pin.framesForwardKinematics(model, data, q0)
-    p_b = data.oMf[brace_frame_id].translation
-    centre_local = data.oMi[bjid].actInv(p_b + sphere_radius * nhat)
+    spheres: dict[int, list[tuple[_ContactGeoms, np.ndarray]]] = {}
+    for geoms in contacts:
+        bjid = model.frames[geoms.frame_id].parentJoint
+        p_b = data.oMf[geoms.frame_id].translation
+        centre = p_b + sphere_radius * geoms.normal
+        spheres.setdefault(bjid, []).append((geoms, data.oMi[bjid].actInv(centre)))
     tip_placement = model.frames[tip_frame_id].placement
 
     children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
@@ -175,10 +233,10 @@ def _mjcf(
                     f'{indent}  <geom type="capsule" fromto="0 0 0 {_vec(t)}" size="0.01" '
                     'contype="0" conaffinity="0" group="1"/>'
                 )
-        if jid == bjid:
+        for geoms, centre_local in spheres.get(jid, []):
             lines.append(
-                f'{indent}  <geom name="{BRACE_GEOM}" type="sphere" size="{_fmt(sphere_radius)}" '
-                f'pos="{_vec(centre_local)}" contype="1" conaffinity="0" {contact_attrs}/>'
+                f'{indent}  <geom name={quoteattr(geoms.sphere)} type="sphere" size="{_fmt(sphere_radius)}" '
+                f'pos="{_vec(centre_local)}" contype="{geoms.bit}" conaffinity="0" {contact_attrs}/>'
             )
         if jid == tjid:
             lines.append(
@@ -201,12 +259,13 @@ def _mjcf(
             f'solver="Newton" {cone_attrs}tolerance="1e-14" iterations="200" ls_iterations="100"/>'
         ),
         "  <worldbody>",
-        (
-            f'    <geom name="{SURFACE_GEOM}" type="plane" size="0 0 1" pos="{_vec(s)}" '
-            f'quat="{_vec(_quat_z_to(nhat))}" contype="0" conaffinity="1" {contact_attrs}/>'
-        ),
     ]
-    return "\n".join([*head, *lines, "  </worldbody>", "</mujoco>"]) + "\n"
+    planes = [
+        f'    <geom name={quoteattr(geoms.surface)} type="plane" size="0 0 1" pos="{_vec(geoms.point)}" '
+        f'quat="{_vec(_quat_z_to(geoms.normal))}" contype="0" conaffinity="{geoms.bit}" {contact_attrs}/>'
+        for geoms in contacts
+    ]
+    return "\n".join([*head, *planes, *lines, "  </worldbody>", "</mujoco>"]) + "\n"
 
 
 def _slowest_time_constant(xml: str, q0: np.ndarray, K: np.ndarray) -> float:
@@ -499,11 +558,51 @@ def _simulate(
     messages: list[str],
 ) -> MujocoResult:
     """The two settling phases of :func:`mujoco_static_deflection`."""
+    out = _settle_phases(m, q0, w, [(BRACE_GEOM, SURFACE_GEOM, preload)], tau, max_steps, tol, messages)
+    force, ncon = out.forces[0], out.counts[0]
+    opened = ncon == 0 or force <= 0.0
+    return MujocoResult(
+        q=out.q,
+        deflection=out.deflection,
+        contact_force=0.0 if opened else force,
+        converged=True,
+        steps=out.steps,
+        contact_opened=bool(opened),
+        q_preloaded=out.q_preloaded,
+        settle_time=tau,
+    )
+
+
+@dataclass(frozen=True)
+class _Settled:
+    """What the two settling phases give: final q, tip deflection, per-contact forces and counts, steps."""
+
+    q: np.ndarray
+    deflection: np.ndarray
+    forces: list[float]
+    counts: list[int]
+    steps: int
+    q_preloaded: np.ndarray
+
+
+def _settle_phases(
+    m: mujoco.MjModel,
+    q0: np.ndarray,
+    w: np.ndarray,
+    contacts: list[tuple[str, str, float]],
+    tau: float,
+    max_steps: int,
+    tol: float,
+    messages: list[str],
+) -> _Settled:
+    """Settle under the preloads, then under the tip wrench; contacts are (sphere, plane, preload) names/N."""
     d = mujoco.MjData(m)
     tip_site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, TIP_SITE)
     tip_body = int(m.site_bodyid[tip_site])
-    sphere = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, BRACE_GEOM)
-    plane = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, SURFACE_GEOM)
+    ids = [
+        (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, sph), mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, pl))
+        for sph, pl, _ in contacts
+    ]
     d.qpos[:] = q0
     d.qvel[:] = 0.0
     mujoco.mj_forward(m, d)
@@ -515,9 +614,13 @@ def _simulate(
             f"MuJoCo did not settle under the preload within {max_steps} steps (tol {tol:.1e} rad)"
         )
     mujoco.mj_forward(m, d)
-    _, ncon = _contact_force(m, d, sphere, plane)
-    if preload > 0.0 and ncon == 0:
-        raise MujocoValidationError("no sphere–surface contact under the preload: does b lie on the plane at q0?")
+    for i, ((sphere, plane), (_, _, preload)) in enumerate(zip(ids, contacts, strict=True)):
+        _, ncon = _contact_force(m, d, sphere, plane)
+        if preload > 0.0 and ncon == 0:
+            which = "" if len(contacts) == 1 else f" of brace {i}"
+            raise MujocoValidationError(
+                f"no sphere–surface contact{which} under the preload: does b lie on the plane at q0?"
+            )
     q_pre = d.qpos.copy()
     p0 = d.site_xpos[tip_site].copy()
     R0 = d.site_xmat[tip_site].reshape(3, 3).copy()
@@ -531,16 +634,213 @@ def _simulate(
     d.qfrc_applied[:] = 0.0
     mujoco.mj_applyFT(m, d, w[:3].copy(), w[3:].copy(), d.site_xpos[tip_site].copy(), tip_body, d.qfrc_applied)
     mujoco.mj_forward(m, d)
-    force, ncon = _contact_force(m, d, sphere, plane)
+    measured = [_contact_force(m, d, sphere, plane) for sphere, plane in ids]
     R1 = d.site_xmat[tip_site].reshape(3, 3)
-    opened = ncon == 0 or force <= 0.0
-    return MujocoResult(
+    return _Settled(
         q=d.qpos.copy(),
         deflection=np.concatenate([d.site_xpos[tip_site] - p0, pin.log3(R1 @ R0.T)]),
-        contact_force=0.0 if opened else force,
-        converged=True,
+        forces=[f for f, _ in measured],
+        counts=[c for _, c in measured],
         steps=steps1 + steps2,
-        contact_opened=bool(opened),
         q_preloaded=q_pre,
+    )
+
+
+# --------------------------------------------------------------------------------------------------
+# Several braces
+# --------------------------------------------------------------------------------------------------
+_MAX_BRACES = 31  # one collision bit per contact in MuJoCo's 32-bit contype/conaffinity
+
+
+@dataclass(frozen=True, eq=False)
+class MultiMujocoResult:
+    """Result of :func:`mujoco_static_deflection_multi`.
+
+    Attributes:
+        q: settled joint configuration under preloads + wrench (n,), rad.
+        deflection: Δx = [Δp; Δθ] (6,) of the tip site relative to the settled preloaded state (m, rad).
+        contact_forces: normal force each surface pushes on its sphere at the end (N; 0 where opened), in the
+            order of the braces.
+        contact_opened: per brace, True when no active sphere–surface contact remains at the end.
+        steps: simulation steps used (both phases).
+        q_preloaded: settled configuration under the preloads alone (n,), rad (≈ q0).
+        settle_time: the damping time constant τ used (s of simulated time).
+    """
+
+    q: np.ndarray
+    deflection: np.ndarray
+    contact_forces: np.ndarray
+    contact_opened: tuple[bool, ...]
+    steps: int
+    q_preloaded: np.ndarray
+    settle_time: float
+
+
+def brace_geom_names(index: int) -> tuple[str, str]:
+    """(sphere, plane) geom names of brace ``index`` in :func:`build_mujoco_model_multi`."""
+    return f"{BRACE_GEOM}_{index}", f"{SURFACE_GEOM}_{index}"
+
+
+def build_mujoco_model_multi(
+    model: pin.Model,
+    q0: np.ndarray,
+    stiffness: np.ndarray,
+    brace_frame_ids: Sequence[int],
+    tip_frame_id: int,
+    surfaces: Sequence[tuple[np.ndarray, np.ndarray]],
+    *,
+    preload: float | Sequence[float] | np.ndarray = 0.0,
+    sphere_radius: float = 1e-4,
+    damping_time: float | None = None,
+    timestep: float | None = None,
+) -> str:
+    """MJCF string of the spring-jointed chain with a frictionless sphere contact at every {b_i}.
+
+    As :func:`build_mujoco_model` (same bodies, springs, damping, contact settings and tip site, no gravity),
+    with one sphere per brace i (geom ``brace_sphere_i``, centre b_i + r n̂_i at q0, on b_i's parent body) and
+    one plane per brace (geom ``surface_i`` through point_i with normal n̂_i). Sphere i has contype 2^i and
+    plane i conaffinity 2^i, so each sphere collides with its own plane only. The springs' rest is
+    q_s = q0 − K⁻¹ Σ_i J_b_i(q0)ᵀ [P_i n̂_i; 0] (:func:`~bracekit.validate.statics.multi_preload_set_points`),
+    so each contact carries P_i at q0.
+
+    Args:
+        model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
+        q0: (n,) rad, the preloaded equilibrium; each b_i lies on its plane at q0.
+        stiffness: (n,) joint stiffnesses, N·m/rad, > 0.
+        brace_frame_ids: Pinocchio frame id of each {b_i} (at most 31 braces).
+        tip_frame_id: Pinocchio frame id of {e}.
+        surfaces: (point (3,) m, unit normal n̂_i toward the robot) of each brace's plane, world.
+        preload: P_i ≥ 0 (N): one for all braces or one per brace.
+        sphere_radius: radius of the contact spheres, m.
+        damping_time: τ (s); default 2√λ_max(K⁻¹M(q0)) (heaviest mode critically damped).
+        timestep: s; default min(1 ms, τ/20).
+
+    Raises:
+        InputError: unsupported joints, bad shapes or counts, or a brace/tip frame fixed to the world.
+    """
+    _check_model(model)
+    n = model.nv
+    q0 = np.asarray(q0, dtype=float).reshape(-1)
+    K = np.asarray(stiffness, dtype=float).reshape(-1)
+    if q0.size != n or K.size != n:
+        raise InputError(f"q0 and stiffness must have shape ({n},), got {q0.shape} and {K.shape}")
+    if not np.all(np.isfinite(K)) or np.any(K <= 0.0):
+        raise InputError("joint stiffnesses must be finite and > 0")
+    if not (np.isfinite(sphere_radius) and sphere_radius > 0.0):
+        raise InputError("sphere_radius must be > 0 m")
+    ids = [int(f) for f in brace_frame_ids]
+    if not 1 <= len(ids) <= _MAX_BRACES:
+        raise InputError(f"give between 1 and {_MAX_BRACES} brace frame ids, got {len(ids)}")
+    if len(surfaces) != len(ids):
+        raise InputError(f"give one surface (point, normal) per brace: {len(ids)} braces, {len(surfaces)} surfaces")
+    for fid in (*ids, tip_frame_id):
+        if not 0 <= fid < model.nframes:
+            raise InputError(f"frame id {fid} out of range (model has {model.nframes} frames)")
+        if model.frames[fid].parentJoint == 0:
+            raise InputError(f"frame {model.frames[fid].name!r} is fixed to the world; it must move with a joint")
+    normals = [_unit(nh, f"surfaces[{i}] normal") for i, (_, nh) in enumerate(surfaces)]
+    points = [np.asarray(pt, dtype=float).reshape(3) for pt, _ in surfaces]
+    P = _per_brace(preload, len(ids))
+    rest = multi_preload_set_points(model, q0, K, ids, normals, P)
+    contacts = [
+        _ContactGeoms(fid, pt, nh, *brace_geom_names(i), 1 << i)
+        for i, (fid, pt, nh) in enumerate(zip(ids, points, normals, strict=True))
+    ]
+    args = (model, q0, K, rest, contacts, tip_frame_id, sphere_radius, False)
+    if damping_time is None:
+        damping_time = _slowest_time_constant(_mjcf_contacts(*args, 0.0, _MAX_TIMESTEP), q0, K)
+    if timestep is None:
+        timestep = min(_MAX_TIMESTEP, damping_time / 20.0)
+    if not (damping_time > 0.0 and timestep > 0.0):
+        raise InputError("damping_time and timestep must be > 0 s")
+    return _mjcf_contacts(*args, damping_time, timestep)
+
+
+def mujoco_static_deflection_multi(
+    model: pin.Model,
+    q0: np.ndarray,
+    stiffness: np.ndarray,
+    brace_frame_ids: Sequence[int],
+    tip_frame_id: int,
+    surfaces: Sequence[tuple[np.ndarray, np.ndarray]],
+    wrench: np.ndarray,
+    *,
+    preload: float | Sequence[float] | np.ndarray,
+    max_steps: int = 100_000,
+    tol: float = 1e-11,
+    sphere_radius: float = 1e-4,
+    timestep: float | None = None,
+) -> MultiMujocoResult:
+    """Tip deflection of the chain braced at several points under a dead tip wrench, settled in MuJoCo.
+
+    The two phases of :func:`mujoco_static_deflection` on :func:`build_mujoco_model_multi`'s model: settle
+    with the preloads P_i (springs' rest shifted so that q0 is the equilibrium), then apply w = [f; m] (N, N·m,
+    world axes) at the tip point and settle again (max|q̇|·τ < ``tol`` rad). The contacts are unilateral: one
+    that would pull more than its preload opens (``contact_opened``).
+
+    Args:
+        model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
+        q0: (n,) rad, the preloaded equilibrium; each b_i lies on its plane at q0.
+        stiffness: (n,) joint stiffnesses, N·m/rad, > 0.
+        brace_frame_ids: Pinocchio frame id of each {b_i}.
+        tip_frame_id: Pinocchio frame id of {e}.
+        surfaces: (point (3,) m, unit normal n̂_i toward the robot) of each brace's plane, world.
+        wrench: (6,) [f; m] at the tip, world axes (N, N·m).
+        preload: P_i ≥ 0 (N): one for all braces or one per brace.
+        max_steps: step budget for both phases together.
+        tol: settling tolerance, rad.
+        sphere_radius: m; the rolling spheres differ from point contacts in proportion to it.
+        timestep: MuJoCo timestep (s); default min(1 ms, τ/20). Several stiff contacts may keep bouncing in a
+            limit cycle at one timestep and settle at another (seen at 1 ms and at 0.5 ms, never at both):
+            :func:`bracekit.validate.multi_brace.validate_several_braces` retries at half the step.
+
+    Returns:
+        :class:`MultiMujocoResult` (deflection relative to the settled preloaded state).
+
+    Raises:
+        MujocoValidationError: unstable simulation, no settling within ``max_steps``, a model MuJoCo rejects,
+            or a brace without contact under a positive preload.
+        InputError: bad inputs.
+    """
+    w = np.asarray(wrench, dtype=float).reshape(-1)
+    if w.size != 6 or not np.all(np.isfinite(w)):
+        raise InputError(f"wrench must be a finite (6,) vector, got shape {w.shape}")
+    if max_steps < 1:
+        raise InputError("max_steps must be >= 1")
+    K = np.asarray(stiffness, dtype=float).reshape(-1)
+    xml = build_mujoco_model_multi(
+        model,
+        q0,
+        K,
+        brace_frame_ids,
+        tip_frame_id,
+        surfaces,
+        preload=preload,
+        sphere_radius=sphere_radius,
+        timestep=timestep,
+    )
+    P = _per_brace(preload, len(surfaces))
+    try:
+        m = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as exc:
+        raise MujocoValidationError(f"MuJoCo rejected the generated model: {exc}") from exc
+    tau = float(m.dof_damping[0] / K[0])  # damping = τ k_i
+    contacts = [(*brace_geom_names(i), float(p)) for i, p in enumerate(P)]
+    messages: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(messages.append)
+    try:
+        q0a = np.asarray(q0, dtype=float).reshape(-1)
+        out = _settle_phases(m, q0a, w, contacts, tau, max_steps, tol, messages)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    opened = tuple(c == 0 or f <= 0.0 for f, c in zip(out.forces, out.counts, strict=True))
+    return MultiMujocoResult(
+        q=out.q,
+        deflection=out.deflection,
+        contact_forces=np.array([0.0 if o else f for f, o in zip(out.forces, opened, strict=True)]),
+        contact_opened=opened,
+        steps=out.steps,
+        q_preloaded=out.q_preloaded,
         settle_time=tau,
     )

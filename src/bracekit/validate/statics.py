@@ -17,7 +17,9 @@ Conventions (SI): wrench w = [f; m] at the tip point e in world axes (N, N·m); 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
@@ -25,12 +27,15 @@ import pinocchio as pin
 from bracekit.errors import InputError, StaticSolveError
 
 __all__ = [
+    "MultiStaticResult",
     "StaticResult",
     "StaticSolveError",
     "frame_jacobian_derivative",
     "lagrange_compliance",
+    "multi_preload_set_points",
     "preload_rest_configuration",
     "solve_static_equilibrium",
+    "solve_static_equilibrium_multi",
 ]
 
 _LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -321,8 +326,14 @@ class _Problem:
         return F, T
 
 
+class _Residual(Protocol):
+    def residual_and_tangent(
+        self, x: np.ndarray, contact: bool, need_tangent: bool
+    ) -> tuple[np.ndarray, np.ndarray | None]: ...
+
+
 def _newton(
-    problem: _Problem, x0: np.ndarray, contact: bool, tol: float, max_iter: int
+    problem: _Residual, x0: np.ndarray, contact: bool, tol: float, max_iter: int
 ) -> tuple[np.ndarray, int, float]:
     """Damped Newton on the (scaled) KKT residual. Returns (x, iterations, residual)."""
     x = x0.copy()
@@ -532,3 +543,229 @@ def _check_converged(res: float, tol: float, max_iter: int, which: str) -> None:
             f"{which}static equilibrium did not converge in {max_iter} Newton iterations "
             f"(scaled residual {res:.3e} > tol {tol:.1e}); the load may be too large"
         )
+
+
+# --------------------------------------------------------------------------------------------------
+# Several braces
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class MultiStaticResult:
+    """Result of :func:`solve_static_equilibrium_multi`.
+
+    Attributes:
+        q: equilibrium configuration (n,), rad.
+        deflection: Δx = [Δp; Δθ] (6,) of the tip relative to q0 (m, rad; world axes).
+        contact_forces: normal force n̂_iᵀ f_c,i each surface pushes on its b_i (N, > 0 when pressing, < 0 when
+            the bilateral contact pulls), in the order of the braces.
+        contact_wrenches: f_c,i = X_i λ_i (6,) per brace, [f; m] on the robot at b_i (world axes; N, N·m).
+        iterations: Newton iterations used.
+        residual: final scaled residual: max of |torque residual|/k_i (rad) and |φ_i| (m or rad).
+    """
+
+    q: np.ndarray
+    deflection: np.ndarray
+    contact_forces: np.ndarray
+    contact_wrenches: tuple[np.ndarray, ...]
+    iterations: int
+    residual: float
+
+
+def _preload_wrenches(normals: list[np.ndarray], preloads: np.ndarray) -> list[np.ndarray]:
+    return [np.concatenate([P * nh, np.zeros(3)]) for nh, P in zip(normals, preloads, strict=True)]
+
+
+def _per_brace(value: float | Sequence[float] | np.ndarray, count: int) -> np.ndarray:
+    """One preload (N) per brace from a number or a sequence; InputError unless finite and ≥ 0."""
+    p = np.asarray(value, dtype=float).reshape(-1)
+    if p.size == 1:
+        p = np.full(count, float(p[0]))
+    if p.size != count or not np.all(np.isfinite(p)) or np.any(p < 0.0):
+        raise InputError(f"preload must be one finite force >= 0 N or one per brace ({count}), got {value!r}")
+    return p
+
+
+def multi_preload_set_points(
+    model: pin.Model,
+    q0: np.ndarray,
+    stiffness: np.ndarray,
+    brace_frame_ids: Sequence[int],
+    surface_normals: Sequence[np.ndarray],
+    preloads: float | Sequence[float] | np.ndarray,
+) -> np.ndarray:
+    """Spring set points that make q0 the equilibrium with each contact i pushing P_i n̂_i on b_i.
+
+    q_s = q0 + K⁻¹ (−Σ_i J_b_i(q0)ᵀ [P_i n̂_i; 0]) (rad, shape (n,)); J_b_i LOCAL_WORLD_ALIGNED. One preload
+    (N) for all braces or one per brace.
+    """
+    q0 = np.asarray(q0, dtype=float).reshape(-1)
+    K = np.asarray(stiffness, dtype=float).reshape(-1)
+    normals = [_unit(nh, f"surface_normals[{i}]") for i, nh in enumerate(surface_normals)]
+    if len(normals) != len(brace_frame_ids):
+        raise InputError(f"give one surface normal per brace: {len(brace_frame_ids)} braces, {len(normals)} normals")
+    P = _per_brace(preloads, len(normals))
+    data = model.createData()
+    _kinematics(model, data, q0)
+    tau = np.zeros(model.nv)
+    for fid, fc in zip(brace_frame_ids, _preload_wrenches(normals, P), strict=True):
+        tau -= pin.getFrameJacobian(model, data, fid, _LWA).T @ fc
+    return q0 + tau / K
+
+
+@dataclass(frozen=True, eq=False)
+class _MultiProblem:
+    """K (q − q_s) − J_eᵀ w − Σ_i J_b_iᵀ X_i λ_i = 0 and φ_i(q) = 0 for every brace i (rigid, bilateral)."""
+
+    model: pin.Model
+    data: pin.Data
+    K: np.ndarray
+    rest: np.ndarray
+    braces: tuple[int, ...]
+    tip: int
+    X: tuple[np.ndarray, ...]
+    p_b0: tuple[np.ndarray, ...]
+    R_b0: tuple[np.ndarray, ...]
+    w: np.ndarray
+
+    def residual_and_tangent(
+        self, x: np.ndarray, contact: bool, need_tangent: bool
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Scaled residual (torque rows / k_i in rad, contact rows in m or rad) and its derivative.
+
+        ``contact`` must be True (the contacts are always closed); it matches :class:`_Problem`.
+        """
+        model, data, K = self.model, self.data, self.K
+        n = model.nv
+        q = x[:n]
+        _kinematics(model, data, q)
+        Je = pin.getFrameJacobian(model, data, self.tip, _LWA)
+        F = np.empty(x.size)
+        F[:n] = K * (q - self.rest) - Je.T @ self.w
+        T = None
+        if need_tangent:
+            T = np.zeros((x.size, x.size))
+            T[:n, :n] = np.diag(K) - np.einsum("r,rik->ik", self.w, frame_jacobian_derivative(model, data, self.tip))
+        row = n
+        for fid, X, p0, R0 in zip(self.braces, self.X, self.p_b0, self.R_b0, strict=True):
+            c = X.shape[1]
+            lam = x[row : row + c]
+            Jb = pin.getFrameJacobian(model, data, fid, _LWA)
+            A = Jb.T @ X
+            F[:n] -= A @ lam
+            M = data.oMf[fid].rotation @ R0.T
+            F[row : row + c] = -(X[:3].T @ (data.oMf[fid].translation - p0) + X[3:].T @ pin.log3(M))
+            if T is not None:
+                T[:n, :n] -= np.einsum("r,rik->ik", X @ lam, frame_jacobian_derivative(model, data, fid))
+                T[:n, row : row + c] = -A
+                T[row : row + c, :n] = -(X[:3].T @ Jb[:3] + X[3:].T @ pin.Jlog3(M) @ M.T @ Jb[3:])
+            row += c
+        F[:n] /= K
+        if T is not None:
+            T[:n, :] /= K[:, None]
+        return F, T
+
+
+def solve_static_equilibrium_multi(
+    model: pin.Model,
+    q0: np.ndarray,
+    stiffness: np.ndarray,
+    brace_frame_ids: Sequence[int],
+    tip_frame_id: int,
+    surfaces: Sequence[tuple[np.ndarray, np.ndarray]],
+    wrench: np.ndarray,
+    *,
+    preload: float | Sequence[float] | np.ndarray = 0.0,
+    constraint_wrenches: Sequence[np.ndarray] | None = None,
+    tol: float = 1e-12,
+    max_iter: int = 50,
+) -> MultiStaticResult:
+    """Nonlinear static equilibrium of the spring-jointed chain with several bilateral rigid contacts.
+
+    Solves for (q, λ_1, …, λ_m), Newton on the stacked KKT system:
+
+        K (q − q_s) − J_e(q)ᵀ w − Σ_i J_b_i(q)ᵀ X_i λ_i = 0,   φ_i(q) = 0 (i = 1..m),
+
+    φ_i(q) = X_i,fᵀ (p_b_i(q) − p_b_i(q0)) + X_i,mᵀ log3(R_b_i(q) R_b_i(q0)ᵀ), X_i λ_i the wrench surface i
+    exerts on the robot at b_i (world axes). The set points q_s = q0 − K⁻¹ Σ_i J_b_i(q0)ᵀ X_i λ_i0, with
+    X_i λ_i0 = [P_i n̂_i; 0], make q0 the equilibrium under the preloads P_i
+    (:func:`multi_preload_set_points` for frictionless points). The tip wrench is dead (constant world
+    wrench at the moving tip). Contacts never open: check ``contact_forces`` for pulls (< 0).
+
+    Args:
+        model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).
+        q0: (n,) rad, the preloaded equilibrium; each b_i lies on its plane at q0.
+        stiffness: (n,) joint stiffnesses, N·m/rad, > 0.
+        brace_frame_ids: Pinocchio frame id of each {b_i}.
+        tip_frame_id: Pinocchio frame id of {e}.
+        surfaces: (point (3,) m, unit normal n̂_i toward the robot) of each brace's plane, world.
+        wrench: (6,) [f; m] at e, world axes (N, N·m).
+        preload: P_i ≥ 0 (N) along n̂_i at q0: one for all braces or one per brace.
+        constraint_wrenches: X_i (6×c_i) of each brace (world axes; e.g. ``Brace.X()``), each transmitting
+            [n̂_i; 0]; default [n̂_i; 0] (frictionless points).
+        tol: convergence tolerance on the scaled residual (rad for torques/k_i, m or rad for the contacts).
+        max_iter: Newton iteration limit.
+
+    Returns:
+        :class:`MultiStaticResult` (deflection relative to q0).
+
+    Raises:
+        InputError: bad inputs (shapes, counts, non-revolute joints, a b_i off its plane at q0).
+        StaticSolveError: no convergence, or a singular stacked KKT system (dependent or unloaded contacts).
+    """
+    _check_model(model)
+    n = model.nv
+    q0 = np.asarray(q0, dtype=float).reshape(-1)
+    K = np.asarray(stiffness, dtype=float).reshape(-1)
+    w = _wrench(wrench, "wrench")
+    if q0.size != n or K.size != n:
+        raise InputError(f"q0 and stiffness must have shape ({n},), got {q0.shape} and {K.shape}")
+    if not np.all(np.isfinite(K)) or np.any(K <= 0.0):
+        raise InputError("joint stiffnesses must be finite and > 0")
+    ids = tuple(int(f) for f in brace_frame_ids)
+    if not ids:
+        raise InputError("give at least one brace frame id")
+    if len(surfaces) != len(ids):
+        raise InputError(f"give one surface (point, normal) per brace: {len(ids)} braces, {len(surfaces)} surfaces")
+    for fid in (*ids, tip_frame_id):
+        if not 0 <= fid < model.nframes:
+            raise InputError(f"frame id {fid} out of range (model has {model.nframes} frames)")
+    P = _per_brace(preload, len(ids))
+    normals = [_unit(nh, f"surfaces[{i}] normal") for i, (_, nh) in enumerate(surfaces)]
+    points = [np.asarray(pt, dtype=float).reshape(3) for pt, _ in surfaces]
+    if constraint_wrenches is None:
+        Xs, lam0s = zip(*(_constraint_wrenches(None, nh, p) for nh, p in zip(normals, P, strict=True)), strict=True)
+    else:
+        if len(constraint_wrenches) != len(ids):
+            raise InputError(f"give one constraint-wrench matrix X_i per brace ({len(ids)})")
+        Xs, lam0s = zip(
+            *(_constraint_wrenches(X, nh, p) for X, nh, p in zip(constraint_wrenches, normals, P, strict=True)),
+            strict=True,
+        )
+    data = model.createData()
+    _kinematics(model, data, q0)
+    for i, (fid, pt, nh) in enumerate(zip(ids, points, normals, strict=True)):
+        gap = float(nh @ (data.oMf[fid].translation - pt))
+        if abs(gap) > 1e-8:
+            raise InputError(f"brace {i}: b_i is not on its surface at q0 (gap {gap:.3e} m)")
+    p_b0 = tuple(data.oMf[fid].translation.copy() for fid in ids)
+    R_b0 = tuple(data.oMf[fid].rotation.copy() for fid in ids)
+    tau = np.zeros(n)
+    for fid, X, lam0 in zip(ids, Xs, lam0s, strict=True):
+        tau -= pin.getFrameJacobian(model, data, fid, _LWA).T @ (X @ lam0)
+    rest = q0 + tau / K
+    problem = _MultiProblem(model, data, K, rest, ids, int(tip_frame_id), tuple(Xs), p_b0, R_b0, w)
+
+    x, it, res = _newton(problem, np.concatenate([q0, *lam0s]), True, tol, max_iter)
+    _check_converged(res, tol, max_iter, "several-brace ")
+    q = x[:n]
+    wrenches, row = [], n
+    for X in Xs:
+        wrenches.append(X @ x[row : row + X.shape[1]])
+        row += X.shape[1]
+    return MultiStaticResult(
+        q=q,
+        deflection=_tip_deflection(model, data, q, q0, int(tip_frame_id)),
+        contact_forces=np.array([float(nh @ fc[:3]) for nh, fc in zip(normals, wrenches, strict=True)]),
+        contact_wrenches=tuple(wrenches),
+        iterations=it,
+        residual=res,
+    )
