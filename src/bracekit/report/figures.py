@@ -39,13 +39,14 @@ def _circle(centre: Array, normal: Array, radius: float, start: Array | None = N
 
 
 def _scene(ax: Axes3D, result: RunResult) -> None:
-    """Bracing region (blue, on the surface) and task path (black)."""
+    """Bracing region of each brace (blue, on its surface) and task path (black)."""
     sc = result.scenario
-    brace = sc.braced.brace
-    r_max = brace.region_radius or 0.15
-    reg = _circle(brace.surface.point, brace.surface.normal, r_max)
-    ax.add_collection3d(Poly3DCollection([reg], facecolor="tab:blue", alpha=0.15, edgecolor="none"))
-    ax.plot(*reg.T, color="tab:blue", lw=1.5, label=f"bracing region (r_max = {r_max:.2f} m)")
+    for i, brace in enumerate(sc.braced.braces):
+        r_max = brace.region_radius or 0.15
+        reg = _circle(brace.surface.point, brace.surface.normal, r_max)
+        ax.add_collection3d(Poly3DCollection([reg], facecolor="tab:blue", alpha=0.15, edgecolor="none"))
+        label = f"bracing region (r_max = {r_max:.2f} m)" if i == 0 else None
+        ax.plot(*reg.T, color="tab:blue", lw=1.5, label=label)
     ts = np.linspace(0.0, sc.task.duration, 200)
     path = np.array([sc.task.position(t) for t in ts])
     ax.plot(*path.T, color="k", lw=1.5, label="task")

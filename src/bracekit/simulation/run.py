@@ -20,7 +20,7 @@ from bracekit.kinematics import BracedState
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
 from bracekit.simulation.holding import holding_measures, holding_summary, holding_warnings, relief_summary
 from bracekit.simulation.scenario import Scenario, load_scenario
-from bracekit.simulation.simulate import Trajectory, simulate, solve_start
+from bracekit.simulation.simulate import Trajectory, simulate, solve_start, solve_start_braces
 from bracekit.statics import effort_limits
 
 Array = NDArray[np.float64]
@@ -147,11 +147,18 @@ def run_scenario(
         raise InputError(f"both_models must be True or False, got {show(both_models)}")
     if progress is not None and not callable(progress):
         raise InputError(f"progress must be a function of the number of steps done, got {show(progress)}")
-    start = solve_start(
-        sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
-    )
-    start_warnings = _start_warnings(sc, start)
-    models = COMPLIANCE_MODELS if both_models else (simulated_model(model),)
+    several = len(sc.braced.braces) > 1
+    start: Any
+    if several:  # the stacked model: constrained compliance only (the paper's projection is for one brace)
+        start = solve_start_braces(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
+        start_warnings: list[str] = []
+        models: tuple[str, ...] = ("constrained",)
+    else:
+        start = solve_start(
+            sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
+        )
+        start_warnings = _start_warnings(sc, start)
+        models = COMPLIANCE_MODELS if both_models else (simulated_model(model),)
     shared: dict[str, Trajectory] = {}
     trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}
     for m in models:
