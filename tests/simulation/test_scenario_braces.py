@@ -23,7 +23,7 @@ def _two_braces(**second: Any) -> dict[str, Any]:
     data = copy.deepcopy(PAPER)
     first = {k: v for k, v in data["brace"].items()}
     data["brace"] = [first, {**SECOND, **second}]
-    data["gradient_projection"]["weights"] = {"k": 0.5, "Ci": 100.0}
+    data["gradient_projection"]["weights"] = {"Ci": 100.0}
     return data
 
 
@@ -92,7 +92,7 @@ def test_a_bad_first_brace_names_index_one() -> None:
     [
         (lambda d: d["compliance"].update(model="projection"), "'compliance.model'"),
         (lambda d: d["gradient_projection"]["weights"].update(theta_z=0.6), "weights.theta_z"),
-        (lambda d: d["gradient_projection"]["weights"].update(d=0.01), "weights.d"),
+        (lambda d: d["gradient_projection"]["weights"].update(k=0.5), "weights.k"),
         (lambda d: d["start"].update(theta_weight=0.3), "'start.theta_weight'"),
         (lambda d: d["robot"].update(gravity=True), "'robot.gravity'"),
         (lambda d: d.update(loads={"wrenches": [[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]]}), "'loads.wrenches'"),

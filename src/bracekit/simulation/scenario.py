@@ -589,8 +589,8 @@ def _refuse_one_brace_weights(weights: dict[str, float], start: _Table) -> None:
     for key, value in weights.items():
         if key not in MULTI_BRACE_WEIGHTS and value > 0:
             raise ScenarioError(
-                f"'gradient_projection.weights.{key}' is not available with several [[brace]] tables (their "
-                f"objective has {' and '.join(MULTI_BRACE_WEIGHTS)}); set {key} = 0"
+                f"'gradient_projection.weights.{key}' is defined for one brace: with several [[brace]] tables the "
+                f"objective has {' and '.join(MULTI_BRACE_WEIGHTS)}; set {key} = 0"
             )
     if start.has("theta_weight") and start.number("theta_weight") != 0:
         raise ScenarioError(
