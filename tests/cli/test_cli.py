@@ -537,3 +537,38 @@ def test_evaluate_refuses_mismatched_brace_flags_in_one_line(capsys, flags: list
     code, out, err = _run(["evaluate", "--model", "paper-robot", "--q", Q, *flags], capsys)
     assert code == 2 and out == ""
     _one_error_line(err, match)
+
+
+def _two_braces_toml(tmp_path: Path) -> Path:
+    """The paper scenario, cut short, with a second pad (HEBI link 9's origin) on a wall."""
+    import re
+
+    from helpers import scenario_text
+
+    text = scenario_text(turns=0.05, dt=0.1)
+    start, end = text.index("[brace]"), text.index("[task]")
+    braces = (
+        '[[brace]]\nframe = "brace"\npoint = [0.70, -0.15, -0.30]\nnormal = [0.0, 0.0, 1.0]\nregion_radius = 0.15\n\n'
+        '[[brace]]\nlink = "link9"\nframe = "wall_pad"\npoint = [1.02, 0.0098, -0.29]\nnormal = [0.0, -1.0, 0.0]\n'
+        "region_radius = 0.5\n\n"
+    )
+    text = text[:start] + braces + text[end:]
+    text = re.sub(r"weights = \{[^}]*\}", "weights = { Ci = 100.0, d = 0.01 }", text)
+    path = tmp_path / "two.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_run_and_validate_with_two_braces(capsys, tmp_path: Path) -> None:
+    path = _two_braces_toml(tmp_path)
+    code, _, _ = _run(["run", str(path), "--no-figures", "--quiet", "--out", str(tmp_path / "out")], capsys)
+    assert code == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    for name in ("braced_min_norm", "braced_gradient_projection"):
+        s = summary["strategies"][name]
+        assert s["completed"] and len(s["braces"]) == 2
+        assert max(b["max_contact_violation_m"] for b in s["braces"]) < 1e-9
+    code, out, _ = _run(["validate", str(path), "--configs", "1", "--json"], capsys)
+    assert code == 0
+    s = json.loads(out)["summary"]
+    assert s["n_ok"] > 0 and s["constrained_vs_mujoco"]["median"] < 0.01

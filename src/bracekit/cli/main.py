@@ -555,6 +555,8 @@ def _validate(args: argparse.Namespace) -> int:
     if args.tracking_points < 0:
         raise InputError(f"--tracking-points must be 0 (skip) or more, got {args.tracking_points}")
     scenario = load_scenario(args.scenario)
+    if len(scenario.braced.braces) > 1:
+        return _validate_braces(args, scenario)
     from bracekit.validate.runner import path_samples
 
     if args.configs > path_samples(scenario):
@@ -629,6 +631,31 @@ def _validate(args: argparse.Namespace) -> int:
         failed += len(tracking.disagreements())
     if failed > 0 or report.model_stats("constrained")["n_cases"] == 0:
         print(f"bracekit: error: {failed} validation case(s) failed", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _validate_braces(args: argparse.Namespace, scenario: Any) -> int:
+    """``validate`` for a scenario with several braces: the stacked constrained model against MuJoCo and statics."""
+    from bracekit.report.output import atomic_directory, prepare_output, to_json
+    from bracekit.validate.multi_brace import run_several_braces_validation, several_braces_text
+
+    with ExitStack() as stack:
+        stack.enter_context(_sigterm_as_interrupt())
+        plan = None
+        if args.out is not None:
+            command = f"bracekit validate {args.scenario}"
+            files = ("validation.json",)
+            plan = stack.enter_context(prepare_output(args.out, overwrite=args.overwrite, files=files, command=command))
+        data = run_several_braces_validation(scenario, configs=args.configs)
+        if plan is not None:
+            with atomic_directory(plan) as tmp:
+                (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
+    print(to_json(data) if args.json else several_braces_text(data))
+    s = data["summary"]
+    median = s["constrained_vs_mujoco"]["median"]
+    if s["n_failed"] or s["n_ok"] == 0 or median is None or median > 0.01:
+        print(f"bracekit: error: {s['n_failed']} case(s) failed or the median error exceeds 1 %", file=sys.stderr)
         return 1
     return 0
 
