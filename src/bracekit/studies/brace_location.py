@@ -18,8 +18,16 @@ from bracekit._linalg import as_array, as_count
 from bracekit.compliance.first_order import compliance_index, end_effector_compliance, free_space_compliance, unit6
 from bracekit.compliance.measures import frobenius_condition
 from bracekit.contact import Brace, ContactType, Surface, contact_type
-from bracekit.errors import ContactError, InputError, SingularityError, UnloadedContactWarning
+from bracekit.errors import (
+    ContactError,
+    InputError,
+    NumericalError,
+    RedundantContactWarning,
+    SingularityError,
+    UnloadedContactWarning,
+)
 from bracekit.kinematics import BracedRobot
+from bracekit.kinematics.multi import MultiBracedState
 from bracekit.model.robot import Robot
 from bracekit.spatial import unit
 
@@ -63,6 +71,42 @@ def _links(model: pin.Model) -> dict[int, str]:
     return out
 
 
+def _plane_normal(normal: ArrayLike, what: str) -> Array:
+    """A plane's normal (3,) as given (not scaled); ContactError unless 3 finite numbers, not all zero."""
+    n_hat = as_array(normal, what, error=ContactError)
+    Surface(np.zeros(3), n_hat)  # a normal that makes a plane (3 finite numbers, not all zero)
+    return n_hat.reshape(-1)
+
+
+def _beta(beta_x: ArrayLike | None, n_hat: Array) -> Array:
+    """β_x (6,) as given, or [n̂/‖n̂‖; 0] when None; InputError unless 6 finite numbers, not all zero."""
+    if beta_x is None:
+        with np.errstate(over="ignore", under="ignore"):
+            size = np.linalg.norm(n_hat)
+        unit_normal = n_hat / size if np.isfinite(size) and size > 1e-150 else unit(n_hat)
+        return np.concatenate([unit_normal, np.zeros(3)])
+    beta = as_array(beta_x, "beta_x", finite=False).reshape(-1)
+    unit6(beta, "beta_x")  # 6 finite numbers, not all zero
+    return beta
+
+
+def _planned(robot: Robot, count: int) -> list[tuple[str, str, int, float, Array]]:
+    """(frame name, link, joint index j, fraction, offset in the link's joint frame (m)) of each candidate.
+
+    `count` candidates on each link j = 1..n−1 (Pinocchio joint indices: links with joints beyond them), on
+    the segment from joint j to joint j+1; one candidate is put in the middle.
+    """
+    model = robot.model
+    links = _links(model)
+    fractions = np.linspace(0.0, 1.0, count, endpoint=count == 1) + (0.5 if count == 1 else 0.0)
+    planned = []
+    for j in range(1, robot.n):  # joints 1..n-1 carry links with joints beyond them
+        nxt = np.asarray(model.jointPlacements[j + 1].translation, dtype=float)
+        link = links.get(j, model.names[j])
+        planned += [(f"_candidate_{j}_{f:.3f}", link, j, float(f), f * nxt) for f in fractions]
+    return planned
+
+
 def brace_location_study(
     robot: Robot,
     q: ArrayLike,
@@ -90,25 +134,9 @@ def brace_location_study(
     count = as_count(points_per_link, "points_per_link", low=1, high=MAX_POINTS_PER_LINK)
     qa = robot.check_q(q)
     kind = contact_type(contact)
-    n_hat = as_array(normal, "the surface normal", error=ContactError)
-    Surface(np.zeros(3), n_hat)  # a normal that makes a plane (3 finite numbers, not all zero)
-    n_hat = n_hat.reshape(-1)
-    if beta_x is None:
-        with np.errstate(over="ignore", under="ignore"):
-            size = np.linalg.norm(n_hat)
-        unit_normal = n_hat / size if np.isfinite(size) and size > 1e-150 else unit(n_hat)
-        beta = np.concatenate([unit_normal, np.zeros(3)])
-    else:
-        beta = as_array(beta_x, "beta_x", finite=False).reshape(-1)
-        unit6(beta, "beta_x")  # 6 finite numbers, not all zero
-    model = robot.model
-    links = _links(model)
-    fractions = np.linspace(0.0, 1.0, count, endpoint=count == 1) + (0.5 if count == 1 else 0.0)
-    planned = []
-    for j in range(1, robot.n):  # joints 1..n-1 carry links with joints beyond them
-        nxt = np.asarray(model.jointPlacements[j + 1].translation, dtype=float)
-        link = links.get(j, model.names[j])
-        planned += [(f"_candidate_{j}_{f:.3f}", link, j, float(f), f * nxt) for f in fractions]
+    n_hat = _plane_normal(normal, "the surface normal")
+    beta = _beta(beta_x, n_hat)
+    planned = _planned(robot, count)
     frames = robot.with_point_frames([(name, link, offset, None) for name, link, _, _, offset in planned])
     ids = [frames.tip_id] + [frames.frame_id(p[0]) for p in planned]
     kinematics = frames.frame_kinematics(qa, ids)
@@ -146,3 +174,137 @@ def brace_location_study(
             )
         )
     return sorted(out, key=lambda c: c.Ci_constrained)
+
+
+@dataclass(frozen=True)
+class BracePairCandidate:
+    """One candidate second bracing point, braced together with a fixed first brace.
+
+    ``link`` carries the point, ``joint`` is the number of joints that move it (base to that link),
+    ``fraction`` its place on the segment to the next joint (0 = at the joint), ``point`` its world position
+    (m). ``Ci_first`` is C_i of the first brace alone and ``Ci_pair`` the stacked constrained C_i with both
+    braces (m/N, or the units of β_x's rows); ``k_pair`` is k of J_e N (None where J_e N is singular).
+    ``redundant``: the candidate's constraint rows depend on the first brace's (it adds no constraint; its
+    rows are dropped, so C_i,pair = C_i,first). ``unloaded``: no joint can push the point along the normal.
+    """
+
+    link: str
+    joint: int
+    fraction: float
+    point: Array
+    Ci_first: float
+    Ci_pair: float
+    k_pair: float | None
+    redundant: bool
+    unloaded: bool
+
+    @property
+    def gain(self) -> float | None:
+        """1 − C_i,pair / C_i,first: what the second brace adds; None when C_i,first is zero."""
+        return None if self.Ci_first <= 1e-15 else 1.0 - self.Ci_pair / self.Ci_first
+
+
+def _stacked(braced: BracedRobot, q: Array, kinematics: list[tuple[Array, Array]]) -> MultiBracedState:
+    """The stacked state of `braced` at q from (⁰M, J) of the tip and of each brace, in brace order."""
+    (tip, j_e), frames = kinematics[0], kinematics[1:]
+    return MultiBracedState(
+        braced=braced,
+        q=q,
+        e=tip[:3, 3],
+        R_e=tip[:3, :3],
+        J_e=j_e,
+        b_i=tuple(m[:3, 3] for m, _ in frames),
+        R_b_i=tuple(m[:3, :3] for m, _ in frames),
+        J_b_i=tuple(j for _, j in frames),
+    )
+
+
+def _k(state: MultiBracedState) -> float | None:
+    """The condition number k of J_e N; None where it is singular (fewer than 6 braced motions, or σ_min ≈ 0)."""
+    try:
+        return frobenius_condition(state.braced_jacobian)
+    except SingularityError:
+        return None
+
+
+def brace_pair_study(
+    robot: Robot,
+    q: ArrayLike,
+    first_frame: str,
+    *,
+    first_normal: ArrayLike = (0.0, 0.0, 1.0),
+    second_normal: ArrayLike = (0.0, 0.0, 1.0),
+    beta_x: ArrayLike | None = None,
+    points_per_link: int = 3,
+    contact: str | ContactType = "frictionless_point",
+) -> list[BracePairCandidate]:
+    """Where to put a second brace, given a first one: candidates along the robot, best (lowest C_i,pair) first.
+
+    The first brace is frame `first_frame` of the model on the plane through it with normal `first_normal`.
+    Candidate second points are placed as in :func:`brace_location_study` (the same points, coincident ones
+    dropped), each on its own plane through the point with normal `second_normal`. For each candidate,
+    C_i,pair = ‖β_xᵀ C_e‖ with C_e the stacked constrained compliance of both braces
+    (:func:`~bracekit.compliance.first_order.stacked_compliance`, first brace's rows first). A candidate whose
+    rows depend on the first brace's is kept and marked ``redundant`` (its RedundantContactWarning is not
+    repeated); candidates the model refuses (a frame it cannot brace, a non-finite G) are left out. The
+    kinematics are evaluated once for all candidates.
+
+    Args:
+        robot: the robot (n joints).
+        q: joint values (n,), chain order.
+        first_frame: frame of the first brace {b_1} (a frame of a link with a joint between it and the tip).
+        first_normal: normal of the first brace's plane (world; its length does not matter).
+        second_normal: normal of every candidate's plane (world).
+        beta_x: twist of the compliance index (6,); [n̂_1; 0] (the first normal) by default.
+        points_per_link: candidates per link, 1 to MAX_POINTS_PER_LINK (1: the middle of the link).
+        contact: contact type of both braces (name or instance).
+    """
+    if not isinstance(robot, Robot):
+        raise InputError(f"the study needs a bracekit Robot, got {type(robot).__name__}")
+    count = as_count(points_per_link, "points_per_link", low=1, high=MAX_POINTS_PER_LINK)
+    qa = robot.check_q(q)
+    kind = contact_type(contact)
+    n_1 = _plane_normal(first_normal, "the first brace's normal")
+    n_2 = _plane_normal(second_normal, "the second brace's normal")
+    beta = _beta(beta_x, n_1)
+    if not isinstance(first_frame, str):
+        raise InputError(f"first_frame must be a frame name (a string), got {type(first_frame).__name__}")
+    BracedRobot(robot, Brace(first_frame, Surface(np.zeros(3), n_1), kind))  # a frame the model can brace
+    planned = _planned(robot, count)
+    frames = robot.with_point_frames([(name, link, offset, None) for name, link, _, _, offset in planned])
+    ids = [frames.tip_id, frames.frame_id(first_frame)] + [frames.frame_id(p[0]) for p in planned]
+    kinematics = frames.frame_kinematics(qa, ids)
+    first = Brace(first_frame, Surface(kinematics[1][0][:3, 3], n_1), kind)
+    alone = _stacked(BracedRobot(frames, [first]), qa, kinematics[:2])
+    ci_first = compliance_index(end_effector_compliance(alone, "constrained"), beta)
+    out: list[BracePairCandidate] = []
+    seen: dict[int, list[Array]] = {}
+    for (name, link, j, f, _), kin in zip(planned, kinematics[2:], strict=True):
+        b = kin[0][:3, 3]  # the candidate point in world coordinates
+        if any(np.linalg.norm(p - b) < 1e-9 for p in seen.get(j, ())):
+            continue
+        seen.setdefault(j, []).append(b)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                braced = BracedRobot(frames, [first, Brace(name, Surface(b, n_2), kind)])
+                st = _stacked(braced, qa, [*kinematics[:2], kin])
+                ci_pair = compliance_index(end_effector_compliance(st, "constrained"), beta)
+            except (ContactError, NumericalError):
+                continue
+        # labels in the warnings are "braces[i] (frame ...)": braces[1] is the candidate
+        about = [w for w in caught if "braces[1]" in str(w.message)]
+        out.append(
+            BracePairCandidate(
+                link=link,
+                joint=j,
+                fraction=f,
+                point=b,
+                Ci_first=ci_first,
+                Ci_pair=ci_pair,
+                k_pair=_k(st),
+                redundant=any(issubclass(w.category, RedundantContactWarning) for w in about),
+                unloaded=any(issubclass(w.category, UnloadedContactWarning) for w in about),
+            )
+        )
+    return sorted(out, key=lambda c: c.Ci_pair)
