@@ -240,3 +240,17 @@ def test_a_zero_joint_limit_weight_leaves_the_several_brace_objective_bit_identi
     # the value before the barrier existed: C_i and d alone, summed as w_Ci C_i + w_d Σ d_i
     vals = plain.values(st)
     assert plain.value(st) == 100.0 * vals["Ci"] + 0.01 * sum(v for k, v in vals.items() if k.startswith("d_"))
+
+
+def test_the_two_brace_scenario_passes_its_joint_limit_weight_to_the_stacked_objective() -> None:
+    from bracekit.simulation.scenario import load_scenario
+
+    scenario = load_scenario("two-braces")
+    objective = scenario.objective()
+    assert isinstance(objective, MultiBraceObjective)
+    assert (objective.ci_weight, objective.region_weight, objective.joint_limit_weight) == (100.0, 0.2, 0.01)
+    q = scenario.guess
+    lower, upper = scenario.robot.lower, scenario.robot.upper
+    st = scenario.braced.stacked_state(q)
+    plain = MultiBraceObjective(objective.beta_x, ci_weight=100.0, region_weight=0.2)
+    assert objective.value(st) == pytest.approx(plain.value(st) + 0.01 * chan_dubey(q, lower, upper), rel=1e-12)
