@@ -174,3 +174,83 @@ def test_the_several_brace_objective_takes_the_ci_and_d_weights_and_names_the_te
     assert MultiBraceObjective.left_out(objective) == (ConditionNumber().name,)
     with pytest.raises(InputError, match="compliance-index term"):
         MultiBraceObjective.from_objective(Objective([region], [1.0]))
+
+
+def chan_dubey(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
+    """Σ_j span_j² / (4 (q_max,j − q_j)(q_j − q_min,j)) − 1 over the bounded joints, written out here."""
+    out = 0.0
+    for qj, lo, hi in zip(q, lower, upper, strict=True):
+        if np.isfinite(lo) and np.isfinite(hi):
+            out += (hi - lo) ** 2 / (4.0 * (hi - qj) * (qj - lo)) - 1.0
+    return out
+
+
+def inside_limits(braced: BracedRobot, q: np.ndarray, rng) -> np.ndarray:
+    """q with every bounded joint moved into its range, some of them near a limit (within 5 % of the span)."""
+    lo, hi = braced.robot.lower, braced.robot.upper
+    bounded = np.isfinite(lo) & np.isfinite(hi)
+    out = q.copy()
+    span = hi[bounded] - lo[bounded]
+    out[bounded] = lo[bounded] + span * rng.uniform(0.02, 0.98, bounded.sum())
+    near = np.flatnonzero(bounded)[:2]
+    out[near[0]] = lo[near[0]] + 0.03 * (hi[near[0]] - lo[near[0]])
+    out[near[1]] = hi[near[1]] - 0.04 * (hi[near[1]] - lo[near[1]])
+    return out
+
+
+@pytest.mark.parametrize("case", [paper_case, chain_case])
+def test_the_joint_limit_barrier_of_the_several_brace_objective_matches_central_differences(case) -> None:
+    rng = np.random.default_rng(11)
+    beta = np.array([0.0, 0.6, 0.8, 0.0, 0.0, 0.0])
+    braced, model, q = case(rng)
+    q = inside_limits(braced, q, rng)
+    frames, contacts = [b.frame for b in braced.braces], [b.contact for b in braced.braces]
+    braced = BracedRobot(braced.robot, braces_through(model, q, frames, contacts, rng))  # planes through q's pads
+    lower, upper = braced.robot.lower, braced.robot.upper
+    w_q = 0.05
+    objective = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01, joint_limit_weight=w_q)
+    g_ref = reference_objective(braced, model, beta, 100.0, 0.01)
+    st = braced.stacked_state(q)
+    h = chan_dubey(q, lower, upper)
+    assert h > 0.0
+    assert objective.values(st)["joint_limit_barrier"] == pytest.approx(h, rel=1e-12)
+    assert objective.value(st) == pytest.approx(g_ref(q) + w_q * h, rel=1e-9)
+    step = 1e-6
+    total = lambda x: g_ref(x) + w_q * chan_dubey(x, lower, upper)  # noqa: E731
+    grad_ref = np.array([(total(q + step * e) - total(q - step * e)) / (2 * step) for e in np.eye(q.size)])
+    grad = objective.gradient(braced, q)
+    np.testing.assert_allclose(grad, grad_ref, atol=1e-6 * np.linalg.norm(grad_ref))
+    # the barrier's share is a large part of the gradient near the limits: the check above sees it
+    no_limits = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01).gradient(braced, q)
+    assert np.linalg.norm(grad - no_limits) > 0.1 * np.linalg.norm(grad)
+
+
+@pytest.mark.parametrize("case", [paper_case, chain_case])
+def test_a_zero_joint_limit_weight_leaves_the_several_brace_objective_bit_identical(case) -> None:
+    rng = np.random.default_rng(12)
+    beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    braced, _, q = case(rng)
+    st = braced.stacked_state(q)
+    plain = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01)
+    zero = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01, joint_limit_weight=0.0)
+    assert zero.values(st) == plain.values(st)
+    assert "joint_limit_barrier" not in zero.values(st)
+    assert zero.value(st) == plain.value(st)
+    np.testing.assert_array_equal(zero.gradient(braced, q), plain.gradient(braced, q))
+    # the value before the barrier existed: C_i and d alone, summed as w_Ci C_i + w_d Σ d_i
+    vals = plain.values(st)
+    assert plain.value(st) == 100.0 * vals["Ci"] + 0.01 * sum(v for k, v in vals.items() if k.startswith("d_"))
+
+
+def test_the_two_brace_scenario_passes_its_joint_limit_weight_to_the_stacked_objective() -> None:
+    from bracekit.simulation.scenario import load_scenario
+
+    scenario = load_scenario("two-braces")
+    objective = scenario.objective()
+    assert isinstance(objective, MultiBraceObjective)
+    assert (objective.ci_weight, objective.region_weight, objective.joint_limit_weight) == (100.0, 0.2, 0.01)
+    q = scenario.guess
+    lower, upper = scenario.robot.lower, scenario.robot.upper
+    st = scenario.braced.stacked_state(q)
+    plain = MultiBraceObjective(objective.beta_x, ci_weight=100.0, region_weight=0.2)
+    assert objective.value(st) == pytest.approx(plain.value(st) + 0.01 * chan_dubey(q, lower, upper), rel=1e-12)

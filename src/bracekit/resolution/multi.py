@@ -7,9 +7,10 @@ G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …], :mod:`bracekit.kinematics.multi`), with S t
 
 * braced minimum norm (eq:general_inv with η = 0): q̇ = N B⁺ S ẋ. As N is orthonormal, this is the least-norm
   q̇ with G q̇ = 0 and S J_e q̇ = S ẋ.
-* braced gradient projection (eq:grad_proj): q̇ = N [B⁺ S ẋ + α (I − B⁺ B) Nᵀ ∇g], α < 0, with ∇g = ∂g/∂q by
-  central differences of :class:`MultiBraceObjective` (the stacked state has no kinematic Hessians). Nᵀ ∇g is
-  the gradient of g over the braced coordinates y (the counterpart of eq:grad_g).
+* braced gradient projection (eq:grad_proj): q̇ = N [B⁺ S ẋ + α (I − B⁺ B) Nᵀ ∇g], α < 0, with ∇g = ∂g/∂q of
+  :class:`MultiBraceObjective`: its C_i and d terms by central differences (the stacked state has no kinematic
+  Hessians), its joint-limit barrier exactly. Nᵀ ∇g is the gradient of g over the braced coordinates y (the
+  counterpart of eq:grad_g).
 
 B must have full row rank (m ≤ n − rank G, σ_min/σ_max > STEP_SINGULAR_RATIO); otherwise the braces leave the
 task undoable and SingularityError says so.
@@ -28,6 +29,7 @@ from bracekit.compliance.first_order import compliance_index, stacked_compliance
 from bracekit.compliance.measures import region_barrier
 from bracekit.errors import BarrierError, InputError, NumericalError, SingularityError
 from bracekit.kinematics.multi import MultiBracedState
+from bracekit.objective.joint_limit_barrier import JointLimitBarrier
 from bracekit.resolution.task_space import POSE, TaskSpace, select
 from bracekit.tolerances import STEP_SINGULAR_RATIO
 
@@ -40,40 +42,46 @@ Array = NDArray[np.float64]
 #: G over its independent rows, and B = S J_e N.
 MULTI_MATRIX_LABELS = {"G": "G (independent rows)", "SJN": "S J_e N"}
 #: The objective weights a several-brace objective takes from a one-brace Objective (term keys).
-MULTI_TERM_KEYS = ("Ci", "d")
+MULTI_TERM_KEYS = ("Ci", "d", "joint_limit_barrier")
 
 
 @dataclass(frozen=True)
 class MultiBraceObjective:
-    """g = w_Ci C_i + w_d Σ_i d_i, the objective of gradient projection with several braces (eq:objective).
+    """g = w_Ci C_i + w_d Σ_i d_i + w_q h(q), the objective of gradient projection with several braces (eq:objective).
 
     C_i = ‖β_xᵀ C_e‖ (eq:compliance_index, m/N) of the stacked constrained C_e (``stacked_compliance``);
     d_i = r_max_i² / (r_max_i² − r_i²) the region barrier of brace i (after eq:theta), r_i = ‖b_i − p_t,i‖ (m)
     with p_t,i the brace's ``surface.point``, for each brace with a ``region_radius`` r_max_i (the others
     have no d_i). BarrierError when a brace is at or beyond its r_max_i.
+    h(q) = Σ_j [span_j² / (4 (q_max,j − q_j)(q_j − q_min,j)) − 1] is the joint-limit barrier of Chan and Dubey
+    (:class:`~bracekit.objective.JointLimitBarrier`) over the robot's URDF limits (dimensionless; BarrierError at
+    a limit); it enters only when w_q > 0.
 
     Args:
         beta_x: the unit twist (6,) along which C_i is measured; normalised.
         ci_weight: w_Ci ≥ 0 (N/m makes g dimensionless; the paper's α2).
         region_weight: w_d ≥ 0, the same for every brace with a region (the paper's α4).
+        joint_limit_weight: w_q ≥ 0, the weight of the joint-limit barrier h (0: no such term).
     """
 
     beta_x: Array
     ci_weight: float = 1.0
     region_weight: float = 0.0
+    joint_limit_weight: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "beta_x", unit6(self.beta_x, "beta_x"))
-        for what in ("ci_weight", "region_weight"):
+        for what in ("ci_weight", "region_weight", "joint_limit_weight"):
             object.__setattr__(self, what, as_number(getattr(self, what), what, nonnegative=True))
 
     @classmethod
     def from_objective(cls, objective: Any) -> MultiBraceObjective:
-        """The several-brace objective with the weights of a one-brace Objective's C_i and d terms.
+        """The several-brace objective with the weights of a one-brace Objective's C_i, d and joint-limit barrier.
 
         β_x is that of the objective's C_i term (key ``Ci``; its compliance model is replaced by the stacked
         constrained one). The d term's weight applies to every brace with a region, each with its own r_max_i
-        and centre. Other terms (k, θ_z, …) have no several-brace form yet and are left out: see
+        and centre. A joint-limit barrier term (key ``joint_limit_barrier``) gives w_q; the barrier then uses the
+        robot's URDF limits. Other terms (k, θ_z, …) have no several-brace form yet and are left out: see
         :meth:`left_out`. InputError without a C_i term.
         """
         if isinstance(objective, MultiBraceObjective):
@@ -84,8 +92,10 @@ class MultiBraceObjective:
                 "gradient projection with several braces needs exactly one compliance-index term (key 'Ci') in "
                 f"its objective, got {len(ci)}"
             )
-        d = sum(float(w) for t, w in zip(objective.terms, objective.weights, strict=True) if _key(t) == "d")
-        return cls(beta_x=ci[0][0].beta_x, ci_weight=float(ci[0][1]), region_weight=d)
+        pairs = list(zip(objective.terms, objective.weights, strict=True))
+        d = sum(float(w) for t, w in pairs if _key(t) == "d")
+        limits = sum(float(w) for t, w in pairs if _key(t) == "joint_limit_barrier")
+        return cls(beta_x=ci[0][0].beta_x, ci_weight=float(ci[0][1]), region_weight=d, joint_limit_weight=limits)
 
     @staticmethod
     def left_out(objective: Any) -> tuple[str, ...]:
@@ -103,7 +113,16 @@ class MultiBraceObjective:
         return replace(self, beta_x=np.asarray(beta_x, dtype=float))
 
     def values(self, state: MultiBracedState) -> dict[str, float]:
-        """Each term's unweighted value: ``Ci`` (m/N) and ``d_<i>`` for each brace i with a region."""
+        """Each term's unweighted value: ``Ci`` (m/N), ``d_<i>`` and, when w_q > 0, ``joint_limit_barrier``.
+
+        ``d_<i>`` for each brace i with a region; ``joint_limit_barrier`` is h (dimensionless).
+        """
+        out = self._braced_values(state)
+        if self.joint_limit_weight:
+            out["joint_limit_barrier"] = _limit_barrier(state).of_q(state.q)
+        return out
+
+    def _braced_values(self, state: MultiBracedState) -> dict[str, float]:
         out = {"Ci": compliance_index(stacked_compliance(_stacked(state)), self.beta_x)}
         for i, r in enumerate(region_radii(state)):
             r_max = state.braced.braces[i].region_radius
@@ -116,23 +135,44 @@ class MultiBraceObjective:
                 out[f"d_{i}"] = region_barrier(r, r_max)
         return out
 
-    def value(self, state: MultiBracedState) -> float:
-        """G at the state (the weighted sum of :meth:`values`)."""
-        vals = self.values(state)
+    def _braced_value(self, state: MultiBracedState) -> float:
+        """w_Ci C_i + w_d Σ_i d_i: the terms that need the stacked kinematics."""
+        vals = self._braced_values(state)
         d = sum(v for k, v in vals.items() if k.startswith("d_"))
         return float(self.ci_weight * vals["Ci"] + (self.region_weight * d if self.region_weight else 0.0))
 
+    def value(self, state: MultiBracedState) -> float:
+        """G at the state (the weighted sum of :meth:`values`)."""
+        out = self._braced_value(state)
+        if self.joint_limit_weight:
+            out += self.joint_limit_weight * _limit_barrier(state).of_q(state.q)
+        return float(out)
+
     def gradient(self, braced: BracedRobot, q: ArrayLike, step: float = 1e-5) -> Array:
-        """∂g/∂q (n,) by central differences, δq = step (rad; m for a prismatic joint): the paper's ∂g/∂q."""
+        """∂g/∂q (n,): C_i and d by central differences, δq = step (rad; m for a prismatic joint), plus w_q ∂h/∂q.
+
+        The differenced part is the paper's ∂g/∂q; the joint-limit barrier's gradient is
+        :meth:`JointLimitBarrier.gradient_of_q`, exact (a difference of h would step past a limit close to it).
+        """
         x = braced.robot.check_q(q)
         out = np.empty(x.size)
         for i in range(x.size):
             dq = np.zeros(x.size)
             dq[i] = step
-            out[i] = (self.value(braced.stacked_state(x + dq)) - self.value(braced.stacked_state(x - dq))) / (2 * step)
+            out[i] = (
+                self._braced_value(braced.stacked_state(x + dq)) - self._braced_value(braced.stacked_state(x - dq))
+            ) / (2 * step)
+        if self.joint_limit_weight:
+            out += self.joint_limit_weight * JointLimitBarrier(braced.robot.lower, braced.robot.upper).gradient_of_q(x)
         if not np.all(np.isfinite(out)):
             raise NumericalError("the gradient of the several-brace objective is not finite")
         return out
+
+
+def _limit_barrier(state: MultiBracedState) -> JointLimitBarrier:
+    """The joint-limit barrier over the URDF limits of the state's robot."""
+    robot = state.braced.robot
+    return JointLimitBarrier(robot.lower, robot.upper)
 
 
 def _key(term: object) -> str:

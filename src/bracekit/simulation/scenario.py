@@ -184,11 +184,17 @@ class Scenario:
     ) -> Objective | MultiBraceObjective:
         """G of eq:objective with this scenario's weights (β_x at t = 0 unless given).
 
-        With several braces, the stacked objective: C_i of the stacked constrained C_e and each brace's d.
+        With several braces, the stacked objective: C_i of the stacked constrained C_e, each brace's d and the
+        joint-limit barrier.
         """
         beta = self.beta_x(0.0) if beta_x is None else beta_x
         if len(self.braced.braces) > 1:
-            return MultiBraceObjective(beta, ci_weight=self.weights["Ci"], region_weight=self.weights["d"])
+            return MultiBraceObjective(
+                beta,
+                ci_weight=self.weights["Ci"],
+                region_weight=self.weights["d"],
+                joint_limit_weight=self.weights["joint_limit_barrier"],
+            )
         context = TermContext(self.braced, beta, model or simulated_model(self.compliance_model), self.holding)
         keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
         kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in keys]
@@ -581,7 +587,7 @@ def _refuse_statics(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> N
 
 
 #: The weight keys of the several-brace objective (:class:`bracekit.resolution.multi.MultiBraceObjective`).
-MULTI_BRACE_WEIGHTS = ("Ci", "d")
+MULTI_BRACE_WEIGHTS = ("Ci", "d", "joint_limit_barrier")
 
 
 def _refuse_one_brace_weights(weights: dict[str, float], start: _Table) -> None:
