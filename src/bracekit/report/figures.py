@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -67,10 +67,22 @@ def _equal(ax: Axes3D, pts: Array) -> None:
 def _draw_robot(ax: Axes3D, result: RunResult, q: Array, color: str = "0.25", alpha: float = 1.0) -> list:
     robot = result.scenario.robot
     pts = skeleton(robot, q)
-    b = result.scenario.braced.state(q).b
     arts = ax.plot(*pts.T, "-o", color=color, ms=2.5, lw=2, alpha=alpha)
-    arts += ax.plot(*b, "o", color="tab:orange", ms=5, alpha=alpha)
+    for b in _brace_points(result, q):
+        arts += ax.plot(*b, "o", color="tab:orange", ms=5, alpha=alpha)
     return arts
+
+
+def _state(result: RunResult, q: Array) -> Any:
+    """The braced state at q: the one-brace BracedState, or the stacked state of several braces."""
+    braced = result.scenario.braced
+    return braced.stacked_state(q) if len(braced.braces) > 1 else braced.state(q)
+
+
+def _brace_points(result: RunResult, q: Array) -> list[Array]:
+    """Each {b_i} (3,) at q."""
+    st = _state(result, q)
+    return list(st.b_i) if len(result.scenario.braced.braces) > 1 else [st.b]
 
 
 def _all_points(result: RunResult, tr: Trajectory, stride: int = 10) -> Array:
@@ -132,14 +144,13 @@ def _ellipsoid_mesh(centre: Array, axes: Array, semi: Array, scale: float, k: in
 def figure_ellipsoids(result: RunResult, path: Path, points: int = 6) -> None:
     """Fig. 3: translational compliance ellipsoids at representative points, one panel per strategy."""
     runs = result.trajectories[result.compliance_model]
-    braced = result.scenario.braced
     semis = []
     cases = []
     for name, tr in runs.items():
         idx = np.linspace(0, tr.q.shape[0] - 1, points + 1).astype(int)[:-1]
         items = []
         for k in idx:
-            st = braced.state(tr.q[k])
+            st = _state(result, tr.q[k])
             c = _tip_compliance(result, st, tr.braced)
             ell = compliance_ellipsoids(c).translational
             items.append((st.e, ell))
