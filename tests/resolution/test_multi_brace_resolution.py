@@ -254,3 +254,25 @@ def test_the_two_brace_scenario_passes_its_joint_limit_weight_to_the_stacked_obj
     st = scenario.braced.stacked_state(q)
     plain = MultiBraceObjective(objective.beta_x, ci_weight=100.0, region_weight=0.2)
     assert objective.value(st) == pytest.approx(plain.value(st) + 0.01 * chan_dubey(q, lower, upper), rel=1e-12)
+
+
+def test_theta_z_of_each_brace_with_a_pad_axis_enters_the_several_brace_objective() -> None:
+    from dataclasses import replace
+
+    rng = np.random.default_rng(11)
+    braced, model, q = paper_case(rng)
+    pads = [replace(b, pad_axis=True) if b.frame == "brace" else b for b in braced.braces]  # `brace` has a pad axis
+    braced = BracedRobot(braced.robot, pads)
+    st = braced.stacked_state(q)
+    beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    base = MultiBraceObjective(beta, ci_weight=100.0)
+    with_theta = MultiBraceObjective(beta, ci_weight=100.0, theta_weight=0.3)
+    # independent: the angle between each pad-axis brace's normal and the z axis of its frame (Pinocchio)
+    angles = []
+    for brace in braced.braces:
+        if brace.pad_axis:
+            z = pin_frame_placement(model, brace.frame, q).rotation[:, 2]
+            angles.append(float(np.arccos(np.clip(z @ brace.surface.normal, -1.0, 1.0))))
+    assert angles  # the pad `brace` has one
+    assert with_theta.value(st) - base.value(st) == pytest.approx(0.3 * sum(angles), rel=1e-9, abs=1e-12)
+    assert sum(v for k, v in with_theta.values(st).items() if k.startswith("theta_z_")) == pytest.approx(sum(angles))

@@ -91,7 +91,7 @@ def test_a_bad_first_brace_names_index_one() -> None:
     ("edit", "fragment"),
     [
         (lambda d: d["compliance"].update(model="projection"), "'compliance.model'"),
-        (lambda d: d["gradient_projection"]["weights"].update(theta_z=0.6), "weights.theta_z"),
+        (lambda d: d["gradient_projection"]["weights"].update(clearance=0.1), "weights.clearance"),
         (lambda d: d["gradient_projection"]["weights"].update(k=0.5), "weights.k"),
         (lambda d: d["start"].update(theta_weight=0.3), "'start.theta_weight'"),
         (lambda d: d["robot"].update(gravity=True), "'robot.gravity'"),

@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_number
 from bracekit.compliance.first_order import compliance_index, stacked_compliance, unit6
-from bracekit.compliance.measures import region_barrier
+from bracekit.compliance.measures import region_barrier, theta_z
 from bracekit.errors import BarrierError, InputError, NumericalError, SingularityError
 from bracekit.kinematics.multi import MultiBracedState
 from bracekit.objective.joint_limit_barrier import JointLimitBarrier
@@ -42,17 +42,19 @@ Array = NDArray[np.float64]
 #: G over its independent rows, and B = S J_e N.
 MULTI_MATRIX_LABELS = {"G": "G (independent rows)", "SJN": "S J_e N"}
 #: The objective weights a several-brace objective takes from a one-brace Objective (term keys).
-MULTI_TERM_KEYS = ("Ci", "d", "joint_limit_barrier")
+MULTI_TERM_KEYS = ("Ci", "theta_z", "d", "joint_limit_barrier")
 
 
 @dataclass(frozen=True)
 class MultiBraceObjective:
-    """g = w_Ci C_i + w_d Σ_i d_i + w_q h(q), the objective of gradient projection with several braces (eq:objective).
+    """g = w_Ci C_i + w_θ Σ_i θ_z,i + w_d Σ_i d_i + w_q h(q): g of eq:objective with several braces.
 
     C_i = ‖β_xᵀ C_e‖ (eq:compliance_index, m/N) of the stacked constrained C_e (``stacked_compliance``);
     d_i = r_max_i² / (r_max_i² − r_i²) the region barrier of brace i (after eq:theta), r_i = ‖b_i − p_t,i‖ (m)
     with p_t,i the brace's ``surface.point``, for each brace with a ``region_radius`` r_max_i (the others
-    have no d_i). BarrierError when a brace is at or beyond its r_max_i.
+    have no d_i). BarrierError when a brace is at or beyond its r_max_i. θ_z,i (eq:theta, rad) is the angle
+    between brace i's surface normal and the z axis of its {b_i}, for each brace with a pad axis
+    (``Brace.pad_axis``; the others have none).
     h(q) = Σ_j [span_j² / (4 (q_max,j − q_j)(q_j − q_min,j)) − 1] is the joint-limit barrier of Chan and Dubey
     (:class:`~bracekit.objective.JointLimitBarrier`) over the robot's URDF limits (dimensionless; BarrierError at
     a limit); it enters only when w_q > 0.
@@ -61,6 +63,7 @@ class MultiBraceObjective:
         beta_x: the unit twist (6,) along which C_i is measured; normalised.
         ci_weight: w_Ci ≥ 0 (N/m makes g dimensionless; the paper's α2).
         region_weight: w_d ≥ 0, the same for every brace with a region (the paper's α4).
+        theta_weight: w_θ ≥ 0, the same for every brace with a pad axis (the paper's α3).
         joint_limit_weight: w_q ≥ 0, the weight of the joint-limit barrier h (0: no such term).
     """
 
@@ -68,10 +71,11 @@ class MultiBraceObjective:
     ci_weight: float = 1.0
     region_weight: float = 0.0
     joint_limit_weight: float = 0.0
+    theta_weight: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "beta_x", unit6(self.beta_x, "beta_x"))
-        for what in ("ci_weight", "region_weight", "joint_limit_weight"):
+        for what in ("ci_weight", "region_weight", "joint_limit_weight", "theta_weight"):
             object.__setattr__(self, what, as_number(getattr(self, what), what, nonnegative=True))
 
     @classmethod
@@ -94,8 +98,15 @@ class MultiBraceObjective:
             )
         pairs = list(zip(objective.terms, objective.weights, strict=True))
         d = sum(float(w) for t, w in pairs if _key(t) == "d")
+        theta = sum(float(w) for t, w in pairs if _key(t) == "theta_z")
         limits = sum(float(w) for t, w in pairs if _key(t) == "joint_limit_barrier")
-        return cls(beta_x=ci[0][0].beta_x, ci_weight=float(ci[0][1]), region_weight=d, joint_limit_weight=limits)
+        return cls(
+            beta_x=ci[0][0].beta_x,
+            ci_weight=float(ci[0][1]),
+            region_weight=d,
+            joint_limit_weight=limits,
+            theta_weight=theta,
+        )
 
     @staticmethod
     def left_out(objective: Any) -> tuple[str, ...]:
@@ -133,13 +144,18 @@ class MultiBraceObjective:
                         f"{r_max:g} m)"
                     )
                 out[f"d_{i}"] = region_barrier(r, r_max)
+        for i, brace in enumerate(state.braced.braces):
+            if brace.pad_axis:
+                out[f"theta_z_{i}"] = theta_z(brace.surface.normal, state.R_b_i[i][:, 2])
         return out
 
     def _braced_value(self, state: MultiBracedState) -> float:
         """w_Ci C_i + w_d Σ_i d_i: the terms that need the stacked kinematics."""
         vals = self._braced_values(state)
         d = sum(v for k, v in vals.items() if k.startswith("d_"))
-        return float(self.ci_weight * vals["Ci"] + (self.region_weight * d if self.region_weight else 0.0))
+        theta = sum(v for k, v in vals.items() if k.startswith("theta_z_"))
+        out = self.ci_weight * vals["Ci"] + (self.region_weight * d if self.region_weight else 0.0)
+        return float(out + (self.theta_weight * theta if self.theta_weight else 0.0))
 
     def value(self, state: MultiBracedState) -> float:
         """G at the state (the weighted sum of :meth:`values`)."""

@@ -194,6 +194,7 @@ class Scenario:
                 ci_weight=self.weights["Ci"],
                 region_weight=self.weights["d"],
                 joint_limit_weight=self.weights["joint_limit_barrier"],
+                theta_weight=self.weights["theta_z"],
             )
         context = TermContext(self.braced, beta, model or simulated_model(self.compliance_model), self.holding)
         keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
@@ -292,7 +293,7 @@ def parse_scenario(
     else:
         holding = _holding(robot_t, brace_ts[0], loads_t)
     robot = braced.robot
-    pad_axis = not several and braced.brace.pad_axis
+    pad_axis = any(b.pad_axis for b in braced.braces) if several else braced.brace.pad_axis
     region = (
         next((b.region_radius for b in braced.braces if b.region_radius is not None), None)
         if several
@@ -381,7 +382,7 @@ def parse_scenario(
             "'gradient_projection.weights.theta_z' needs a pad axis, and a link-point brace has none: give "
             "'brace.pad_axis' = [x, y, z] (link axes) or set theta_z = 0"
         )
-    theta_weight = _start_theta_weight(start, pad_axis, weights["theta_z"])
+    theta_weight = _start_theta_weight(start, pad_axis and not several, weights["theta_z"] if not several else 0.0)
     if weights["d"] > 0 and region is None:
         raise ScenarioError("'gradient_projection.weights.d' needs 'brace.region_radius' (r_max, m)")
     gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
@@ -587,7 +588,7 @@ def _refuse_statics(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> N
 
 
 #: The weight keys of the several-brace objective (:class:`bracekit.resolution.multi.MultiBraceObjective`).
-MULTI_BRACE_WEIGHTS = ("Ci", "d", "joint_limit_barrier")
+MULTI_BRACE_WEIGHTS = ("Ci", "theta_z", "d", "joint_limit_barrier")
 
 
 def _refuse_one_brace_weights(weights: dict[str, float], start: _Table) -> None:
