@@ -233,8 +233,6 @@ class BracedRobot:
         the stacked contact constraint G (:class:`~bracekit.kinematics.multi.MultiBracedState`). First order
         only (no kinematic Hessians).
         """
-        from bracekit.kinematics.multi import MultiBracedState
-
         qa = self.robot.check_q(q)
         ids = (self.robot.tip_id, *self.brace_ids)
         if self.robot.n > DATA_JOINT_LIMIT:
@@ -244,10 +242,16 @@ class BracedRobot:
             pin.computeJointJacobians(model, data, qa)
             pin.updateFramePlacements(model, data)
             kin = [(data.oMf[f].homogeneous, pin.getFrameJacobian(model, data, f, LWA)) for f in ids]
-        (tip, j_e), frames = kin[0], kin[1:]
+        return self.stacked_state_from_kinematics(qa, kin)
+
+    def stacked_state_from_kinematics(self, q: Array, kinematics: list[tuple[Array, Array]]) -> MultiBracedState:
+        """The stacked state at q (checked by the caller) from (⁰M (4×4), J (6×n)) of the tip, then each brace."""
+        from bracekit.kinematics.multi import MultiBracedState  # multi.py builds on this module
+
+        (tip, j_e), frames = kinematics[0], kinematics[1:]
         return MultiBracedState(
             braced=self,
-            q=qa,
+            q=q,
             e=tip[:3, 3],
             R_e=tip[:3, :3],
             J_e=j_e,

@@ -206,17 +206,7 @@ class BracePairCandidate:
 
 def _stacked(braced: BracedRobot, q: Array, kinematics: list[tuple[Array, Array]]) -> MultiBracedState:
     """The stacked state of `braced` at q from (⁰M, J) of the tip and of each brace, in brace order."""
-    (tip, j_e), frames = kinematics[0], kinematics[1:]
-    return MultiBracedState(
-        braced=braced,
-        q=q,
-        e=tip[:3, 3],
-        R_e=tip[:3, :3],
-        J_e=j_e,
-        b_i=tuple(m[:3, 3] for m, _ in frames),
-        R_b_i=tuple(m[:3, :3] for m, _ in frames),
-        J_b_i=tuple(j for _, j in frames),
-    )
+    return braced.stacked_state_from_kinematics(q, kinematics)
 
 
 def _k(state: MultiBracedState) -> float | None:
