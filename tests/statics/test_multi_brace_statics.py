@@ -21,6 +21,7 @@ from bracekit.simulation.holding import (
     braces_holding_measures,
     braces_holding_summary,
     holding_measures,
+    relief_summary,
 )
 from bracekit.statics.capacity import capacity_along, effort_limits, multi_capacity_along
 from bracekit.statics.equilibrium import contact_responses, multi_contact_responses
@@ -191,3 +192,20 @@ def test_wrong_number_of_per_brace_values_is_an_input_error() -> None:
         multi_contact_responses(braced, Q, preloads=[1.0, 2.0, 3.0])
     with pytest.raises(InputError, match="one preload per brace"):
         holding_measures(braced, Q[None, :], Holding(preloads=(1.0,)), True)
+
+
+def test_free_space_run_and_relief_with_two_braces_against_rnea() -> None:
+    braced = two_braces()
+    w = np.array([0.0, 0.0, -10.0, 0.0, 0.0, 0.0])
+    holding = Holding(gravity=True, wrenches=w[None, :], preloads=(6.0, 10.0))
+    e = effort_limits(braced.robot)
+    free = holding_measures(braced, Q[None, :], holding, False)
+    j_e = braced.stacked_state(Q).J_e
+    tau_free = rnea_with_contacts(braced, Q, [np.zeros(3), np.zeros(3)]) - j_e.T @ w
+    np.testing.assert_allclose(free["torque_ratio_loaded"][0], np.max(np.abs(tau_free) / e), rtol=1e-12)
+    forces = [p * b.surface.normal for p, b in zip((6.0, 10.0), braced.braces, strict=True)]
+    tau_braced = rnea_with_contacts(braced, Q, forces) - j_e.T @ w
+    rel = relief_summary(braced, Q[None, :], holding)
+    assert rel["free_peak_torque_ratio"] == pytest.approx(np.max(np.abs(tau_free) / e), rel=1e-12)
+    assert rel["braced_peak_torque_ratio"] == pytest.approx(np.max(np.abs(tau_braced) / e), rel=1e-12)
+    assert rel["best_preload_N"] is None

@@ -148,7 +148,7 @@ def holding_measures(
     except UnstableEquilibriumError:  # sample by sample: mark the unstable ones
         rows = [_statics_or_unstable(braced, q, holding, is_braced) for q in qs]
         out = {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
-    if beta is not None and (holding.gravity or holding.preload > 0.0):
+    if beta is not None and (holding.gravity or holding.preload > 0.0) and len(braced.braces) == 1:
         ci = []
         for k, (q, b) in enumerate(zip(qs, beta, strict=True)):
             try:
@@ -195,7 +195,7 @@ def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) 
     loads = holding.loads
     if not is_braced:
         tau0 = np.array([gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size) for q in qs])
-        jac = np.array([braced.state(q).J_e for q in qs])  # N×6×n
+        jac = np.array([_tip_jacobian(braced, q) for q in qs])  # N×6×n
         d_tau = -np.einsum("kri,mr->kmi", jac, loads)  # N×m×n: τ = g − J_eᵀ w
         ratio0 = peak_ratio(tau0, effort)
         loaded = np.max(peak_ratio(tau0[:, None, :] + d_tau, effort), axis=1)
@@ -306,6 +306,11 @@ def braces_holding_summary(measures: dict[str, Array], count: int) -> list[dict[
     return out
 
 
+def _tip_jacobian(braced: BracedRobot, q: Array) -> Array:
+    """J_e (6×n) at q, of the one-brace state or, with several braces, of the stacked state."""
+    return braced.state(q).J_e if len(braced.braces) == 1 else braced.stacked_state(q).J_e
+
+
 #: measure → what falls short when it is below 1 (a margin) or above 1 (a torque ratio).
 _LIMITS = (
     ("liftoff_margin", "the brace lifts off under a listed load", "lift-off margin"),
@@ -395,7 +400,10 @@ def relief_summary(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str
 
     The free-space peak is at the same configurations without the brace; the braced peaks with the run's
     preload and with the constant preload that minimises the peak over the samples and listed wrenches (LP).
+    With several braces the best preload is not computed (its keys are None) and the run's peak uses each P_i.
     """
+    if len(braced.braces) > 1:
+        return _relief_braces(braced, qs, holding)
     rel = actuator_relief(braced, qs, holding.wrenches, gravity=holding.gravity)
     effort = effort_limits(braced.robot)
     at_preload = _peak_with_preload(braced, qs, holding, effort)
@@ -418,3 +426,25 @@ def _peak_with_preload(braced: BracedRobot, qs: Array, holding: Holding, effort:
         tau = g[None, :] - holding.loads @ st.J_e - holding.preload * (st.J_b[:3].T @ nhat)[None, :]
         peak = max(peak, float(np.max(peak_ratio(tau, effort))))
     return peak
+
+
+def _relief_braces(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Any]:
+    """:func:`relief_summary` with several braces: free-space peak and the peak with the run's P_i (rigid statics)."""
+    effort = effort_limits(braced.robot)
+    preloads = holding.brace_preloads(len(braced.braces))
+    free = braced_peak = 0.0
+    for q in qs:
+        st = braced.stacked_state(q)
+        g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
+        tau = g[None, :] - holding.loads @ st.J_e
+        free = max(free, float(np.max(peak_ratio(tau, effort))))
+        for p, brace, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True):
+            tau = tau - p * (j_b[:3].T @ brace.surface.normal)[None, :]
+        braced_peak = max(braced_peak, float(np.max(peak_ratio(tau, effort))))
+    return {
+        "free_peak_torque_ratio": free,
+        "braced_peak_torque_ratio": braced_peak,
+        "best_preload_N": None,
+        "best_braced_peak_torque_ratio": None,
+        "best_relief": None,
+    }
