@@ -7,6 +7,10 @@ wrench (N, N·m, world axes, at the tip) the first-order response gives the larg
 (Coulomb cone, with μ) or actuator saturation (|τ_i| > URDF effort_i) (:mod:`bracekit.statics.capacity`).
 In free space τ = g(q) − J_eᵀ w. Sign conventions: the contact wrench acts on the robot, its normal force is
 positive when pressing; a margin is a scale factor on the listed load (> 1: it holds at that load).
+
+With several braces brace i presses with its own P_i and has its own μ_i: τ0 = g(q) − Σ_i J_b_iᵀ[P_i n̂_i; 0],
+and the response keeps every load contact closed (:func:`~bracekit.statics.equilibrium.multi_contact_responses`).
+A sample's margins are the least over the braces and the loads; each brace also gets its own series.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from bracekit.statics import (
     peak_ratio,
     saturation_scale,
 )
+from bracekit.statics.capacity import multi_capacity_along
 from bracekit.statics.equilibrium import check_friction, check_preload, wrench_list
 
 Array = NDArray[np.float64]
@@ -54,12 +59,16 @@ class Holding:
         preload: the normal force chain 1 presses the brace with, N (≥ 0).
         friction: Coulomb friction coefficient μ of the contact (None: frictionless, no slip check).
         wrenches: tool wrenches to check (m×6: [fx, fy, fz, mx, my, mz], N and N·m, world axes), or None.
+        preloads: P_i of each brace (N), for several braces; None: ``preload`` for every brace.
+        frictions: μ_i (or None) of each brace, for several braces; None: ``friction`` for every brace.
     """
 
     gravity: bool = False
     preload: float = 0.0
     friction: float | None = None
     wrenches: Array | None = None
+    preloads: tuple[float, ...] | None = None
+    frictions: tuple[float | None, ...] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.gravity, bool):
@@ -69,16 +78,51 @@ class Holding:
             object.__setattr__(self, "friction", check_friction(self.friction))
         if self.wrenches is not None:
             object.__setattr__(self, "wrenches", wrench_list(self.wrenches))
+        if self.preloads is not None:
+            object.__setattr__(self, "preloads", tuple(check_preload(p) for p in _sequence(self.preloads, "preloads")))
+        if self.frictions is not None:
+            object.__setattr__(
+                self, "frictions", tuple(check_friction(m) for m in _sequence(self.frictions, "frictions"))
+            )
 
     @property
     def active(self) -> bool:
         """Whether there is anything to compute (gravity, a preload, friction or a load)."""
-        return self.gravity or self.preload > 0.0 or self.friction is not None or self.wrenches is not None
+        return (
+            self.gravity
+            or self.preload > 0.0
+            or self.friction is not None
+            or self.wrenches is not None
+            or any(p > 0.0 for p in self.preloads or ())
+            or any(m is not None for m in self.frictions or ())
+        )
+
+    def brace_preloads(self, count: int) -> tuple[float, ...]:
+        """P_i of each of `count` braces (N): ``preloads``, or ``preload`` for every brace."""
+        if self.preloads is None:
+            return (self.preload,) * count
+        if len(self.preloads) != count:
+            raise InputError(f"give one preload per brace: {count} braces, {len(self.preloads)} preloads")
+        return self.preloads
+
+    def brace_frictions(self, count: int) -> tuple[float | None, ...]:
+        """μ_i (or None) of each of `count` braces: ``frictions``, or ``friction`` for every brace."""
+        if self.frictions is None:
+            return (self.friction,) * count
+        if len(self.frictions) != count:
+            raise InputError(f"give one friction coefficient per brace: {count} braces, {len(self.frictions)} given")
+        return self.frictions
 
     @property
     def loads(self) -> Array:
         """The listed wrenches (m×6), or one zero wrench when none is listed."""
         return np.zeros((1, 6)) if self.wrenches is None else self.wrenches
+
+
+def _sequence(values: object, name: str) -> tuple[object, ...]:
+    if not isinstance(values, (list, tuple)) or not values:
+        raise InputError(f"{name} must be a list with one value per brace, got {show(values)}")
+    return tuple(values)
 
 
 def holding_measures(
@@ -96,13 +140,15 @@ def holding_measures(
     preload is not positive on the allowed motions; there the margins are 0 and ``Ci_preloaded`` is inf).
     """
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
+    if is_braced and len(braced.braces) > 1:
+        return braces_holding_measures(braced, qs, holding)
     try:
         out = _statics(braced, qs, holding, is_braced)
         out["unstable"] = np.zeros(qs.shape[0])
     except UnstableEquilibriumError:  # sample by sample: mark the unstable ones
         rows = [_statics_or_unstable(braced, q, holding, is_braced) for q in qs]
         out = {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
-    if beta is not None and (holding.gravity or holding.preload > 0.0):
+    if beta is not None and (holding.gravity or holding.preload > 0.0) and len(braced.braces) == 1:
         ci = []
         for k, (q, b) in enumerate(zip(qs, beta, strict=True)):
             try:
@@ -149,7 +195,7 @@ def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) 
     loads = holding.loads
     if not is_braced:
         tau0 = np.array([gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size) for q in qs])
-        jac = np.array([braced.state(q).J_e for q in qs])  # N×6×n
+        jac = np.array([_tip_jacobian(braced, q) for q in qs])  # N×6×n
         d_tau = -np.einsum("kri,mr->kmi", jac, loads)  # N×m×n: τ = g − J_eᵀ w
         ratio0 = peak_ratio(tau0, effort)
         loaded = np.max(peak_ratio(tau0[:, None, :] + d_tau, effort), axis=1)
@@ -169,6 +215,100 @@ def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) 
         "slip_margin": np.asarray(slip, dtype=float),
         "torque_margin": np.asarray(cap.torque_margin, dtype=float),
     }
+
+
+def braces_holding_measures(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Array]:
+    """:func:`holding_measures` of a run with several braces (P_i, μ_i from ``holding.brace_preloads``/``_frictions``).
+
+    Returns (N,) arrays: ``torque_ratio``, ``torque_ratio_loaded``, ``torque_margin``, ``contact_force_N`` (the
+    largest ‖f_c,i‖ over braces, unloaded or under a listed wrench at scale 1), ``liftoff_margin`` and
+    ``slip_margin`` (least over braces and wrenches; slip inf for a brace without μ), per brace
+    ``liftoff_margin_<i>`` and ``slip_margin_<i>`` (i from 0, the order of ``braced.braces``), and ``unstable``
+    (1.0 where K plus the geometric stiffness of gravity and the preloads is not positive on the motions the
+    contacts allow: there every margin is 0). There is no ``Ci_preloaded`` with several braces.
+    """
+    qs = np.atleast_2d(np.asarray(qs, dtype=float))
+    try:
+        out = _braces_statics(braced, qs, holding)
+        out["unstable"] = np.zeros(qs.shape[0])
+        return out
+    except UnstableEquilibriumError:
+        rows = [_braces_statics_or_unstable(braced, q, holding) for q in qs]
+        return {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
+
+
+def _braces_statics(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Array]:
+    count = len(braced.braces)
+    preloads = holding.brace_preloads(count)
+    cap = multi_capacity_along(
+        braced,
+        qs,
+        holding.loads,
+        preloads=preloads,
+        gravity=holding.gravity,
+        frictions=holding.brace_frictions(count),
+        effort=effort_limits(braced.robot),
+    )
+    loaded_force = np.max(np.linalg.norm(cap.contact_wrench[..., :3], axis=-1), axis=(1, 2))
+    inf = np.full((qs.shape[0], count), np.inf)
+    brace_slip = cap.brace_slip_margin if cap.brace_slip_margin is not None else inf
+    out = {
+        "torque_ratio": np.asarray(cap.peak_unloaded, dtype=float),
+        "torque_ratio_loaded": np.max(cap.peak_loaded, axis=1),
+        "contact_force_N": np.maximum(max(preloads), loaded_force),
+        "liftoff_margin": np.asarray(cap.liftoff_margin, dtype=float),
+        "slip_margin": np.min(brace_slip, axis=1),
+        "torque_margin": np.asarray(cap.torque_margin, dtype=float),
+    }
+    for i in range(count):
+        out[f"liftoff_margin_{i}"] = np.asarray(cap.brace_liftoff_margin[:, i], dtype=float)
+        out[f"slip_margin_{i}"] = np.asarray(brace_slip[:, i], dtype=float)
+    return out
+
+
+def _braces_statics_or_unstable(braced: BracedRobot, q: Array, holding: Holding) -> dict[str, Array]:
+    """:func:`_braces_statics` at one configuration; at an unstable one the rigid torques and margins 0."""
+    try:
+        out = _braces_statics(braced, q[None, :], holding)
+        out["unstable"] = np.zeros(1)
+        return out
+    except UnstableEquilibriumError:
+        st = braced.stacked_state(q)
+        count = len(braced.braces)
+        preloads = holding.brace_preloads(count)
+        tau0 = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
+        for p, brace, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True):
+            tau0 = tau0 - p * (j_b[:3].T @ brace.surface.normal)
+        ratio = np.atleast_1d(peak_ratio(tau0, effort_limits(braced.robot)))
+        zero = np.zeros(1)
+        rows = {"torque_ratio": ratio, "torque_ratio_loaded": ratio, "contact_force_N": np.full(1, max(preloads))}
+        rows |= {"liftoff_margin": zero, "slip_margin": zero, "torque_margin": zero}
+        for i in range(count):
+            rows |= {f"liftoff_margin_{i}": zero, f"slip_margin_{i}": zero}
+        rows["unstable"] = np.ones(1)
+        return rows
+
+
+def braces_holding_summary(measures: dict[str, Array], count: int) -> list[dict[str, float | None]]:
+    """Per-brace summary of a several-brace run: ``min_liftoff_margin`` and ``min_slip_margin`` of each brace.
+
+    From :func:`braces_holding_measures` (None where the margin is inf or the run has no statics).
+    """
+    out: list[dict[str, float | None]] = []
+    for i in range(count):
+        lift, slip = measures.get(f"liftoff_margin_{i}"), measures.get(f"slip_margin_{i}")
+        out.append(
+            {
+                "min_liftoff_margin": None if lift is None else _least(lift),
+                "min_slip_margin": None if slip is None else _least(slip),
+            }
+        )
+    return out
+
+
+def _tip_jacobian(braced: BracedRobot, q: Array) -> Array:
+    """J_e (6×n) at q, of the one-brace state or, with several braces, of the stacked state."""
+    return braced.state(q).J_e if len(braced.braces) == 1 else braced.stacked_state(q).J_e
 
 
 #: measure → what falls short when it is below 1 (a margin) or above 1 (a torque ratio).
@@ -260,7 +400,10 @@ def relief_summary(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str
 
     The free-space peak is at the same configurations without the brace; the braced peaks with the run's
     preload and with the constant preload that minimises the peak over the samples and listed wrenches (LP).
+    With several braces the best preload is not computed (its keys are None) and the run's peak uses each P_i.
     """
+    if len(braced.braces) > 1:
+        return _relief_braces(braced, qs, holding)
     rel = actuator_relief(braced, qs, holding.wrenches, gravity=holding.gravity)
     effort = effort_limits(braced.robot)
     at_preload = _peak_with_preload(braced, qs, holding, effort)
@@ -283,3 +426,25 @@ def _peak_with_preload(braced: BracedRobot, qs: Array, holding: Holding, effort:
         tau = g[None, :] - holding.loads @ st.J_e - holding.preload * (st.J_b[:3].T @ nhat)[None, :]
         peak = max(peak, float(np.max(peak_ratio(tau, effort))))
     return peak
+
+
+def _relief_braces(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Any]:
+    """:func:`relief_summary` with several braces: free-space peak and the peak with the run's P_i (rigid statics)."""
+    effort = effort_limits(braced.robot)
+    preloads = holding.brace_preloads(len(braced.braces))
+    free = braced_peak = 0.0
+    for q in qs:
+        st = braced.stacked_state(q)
+        g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
+        tau = g[None, :] - holding.loads @ st.J_e
+        free = max(free, float(np.max(peak_ratio(tau, effort))))
+        for p, brace, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True):
+            tau = tau - p * (j_b[:3].T @ brace.surface.normal)[None, :]
+        braced_peak = max(braced_peak, float(np.max(peak_ratio(tau, effort))))
+    return {
+        "free_peak_torque_ratio": free,
+        "braced_peak_torque_ratio": braced_peak,
+        "best_preload_N": None,
+        "best_braced_peak_torque_ratio": None,
+        "best_relief": None,
+    }

@@ -16,6 +16,7 @@ P = 0 under a pulling load). Rates below RATE_RTOL of the load's response are ta
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +26,13 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
-from bracekit.statics.equilibrium import ContactResponses, contact_responses, wrench_list
+from bracekit.statics.equilibrium import (
+    ContactResponses,
+    MultiContactResponses,
+    contact_responses,
+    multi_contact_responses,
+    wrench_list,
+)
 
 Array = NDArray[np.float64]
 
@@ -273,3 +280,112 @@ def load_capacity(
         effort=effort,
         geometric=geometric,
     ).at(0)
+
+
+@dataclass(frozen=True, eq=False)
+class MultiCapacityAlong:
+    """Load capacity with B braces at N configurations for m tool wrenches (scales are dimensionless).
+
+    Attributes:
+        liftoff: scale of each wrench at which brace i would pull (N×B×m).
+        slip: scale at which brace i's force leaves its Coulomb cone (N×B×m; inf for a brace without μ);
+            None when no brace has μ.
+        torque: scale at which an actuator saturates (N×m).
+        liftoff_margin, slip_margin, torque_margin: the least over braces and wrenches (N,) (slip: None without μ).
+        brace_liftoff_margin, brace_slip_margin: the least over the wrenches for each brace (N×B) (slip: None
+            without μ).
+        peak_unloaded: max_i |τ0_i| / effort_i without tool load (N,).
+        peak_loaded: max_i |τ_i| / effort_i under each wrench at scale 1 (N×m).
+        normal_force, tangential_force: f_n and ‖f_t‖ of brace i under each wrench at scale 1 (N×B×m), N.
+        contact_wrench: f_c,i under each wrench at scale 1 (N×B×m×6), N and N·m.
+    """
+
+    liftoff: Array
+    slip: Array | None
+    torque: Array
+    liftoff_margin: Array
+    slip_margin: Array | None
+    torque_margin: Array
+    brace_liftoff_margin: Array
+    brace_slip_margin: Array | None
+    peak_unloaded: Array
+    peak_loaded: Array
+    normal_force: Array
+    tangential_force: Array
+    contact_wrench: Array
+
+    def __len__(self) -> int:
+        return int(self.liftoff.shape[0])
+
+
+def multi_capacity_of(responses: MultiContactResponses, wrenches: ArrayLike, effort: Array) -> MultiCapacityAlong:
+    """The capacity from several-brace responses already computed (N configurations) for wrenches (m×6).
+
+    Each brace gets the lift-off and slip scales of :func:`liftoff_scale` and :func:`slip_scale` on its own
+    contact force f_c,i(s) = f_c0,i + s δf_c,i(w) (slip only for a brace with μ_i); the torque scale is
+    :func:`saturation_scale` of τ(s) = τ0 + s δτ(w).
+    """
+    ws = wrench_list(wrenches)
+    nhat = responses.normals  # (B, 3)
+    d_f = np.einsum("nbij,mj->nbmi", responses.contact_gain, ws)  # (N, B, m, 6)
+    d_tau = np.einsum("nij,mj->nmi", responses.torque_gain, ws)  # (N, m, n)
+    f0 = responses.f_c0[:, :, None, :]  # (N, B, 1, 6)
+    fn0 = np.einsum("nbmi,bi->nbm", f0[..., :3], nhat)
+    ft0 = f0[..., :3] - fn0[..., None] * nhat[None, :, None, :]
+    dn = np.einsum("nbmi,bi->nbm", d_f[..., :3], nhat)
+    dt = d_f[..., :3] - dn[..., None] * nhat[None, :, None, :]
+    force_scale = np.linalg.norm(d_f[..., :3], axis=-1)
+    liftoff = liftoff_scale(fn0, dn, force_scale)
+    slip: Array | None = None
+    if any(mu is not None for mu in responses.frictions):
+        slip = np.full(liftoff.shape, np.inf)
+        for i, mu in enumerate(responses.frictions):
+            if mu is not None:
+                slip[:, i] = slip_scale(ft0[:, i], dt[:, i], fn0[:, i], dn[:, i], mu, force_scale[:, i])
+    tau0 = responses.tau0[:, None, :]
+    torque = saturation_scale(tau0, d_tau, effort, np.max(np.abs(d_tau), axis=-1))
+    wrench1 = f0 + d_f
+    normal = np.einsum("nbmi,bi->nbm", wrench1[..., :3], nhat)
+    brace_liftoff = np.min(liftoff, axis=2)
+    brace_slip = None if slip is None else np.min(slip, axis=2)
+    return MultiCapacityAlong(
+        liftoff=liftoff,
+        slip=slip,
+        torque=torque,
+        liftoff_margin=np.min(brace_liftoff, axis=1),
+        slip_margin=None if brace_slip is None else np.min(brace_slip, axis=1),
+        torque_margin=np.min(torque, axis=1),
+        brace_liftoff_margin=brace_liftoff,
+        brace_slip_margin=brace_slip,
+        peak_unloaded=peak_ratio(responses.tau0, effort),
+        peak_loaded=peak_ratio(tau0 + d_tau, effort),
+        normal_force=normal,
+        tangential_force=np.linalg.norm(wrench1[..., :3] - normal[..., None] * nhat[None, :, None, :], axis=-1),
+        contact_wrench=wrench1,
+    )
+
+
+def multi_capacity_along(
+    braced: BracedRobot,
+    qs: ArrayLike,
+    wrenches: ArrayLike,
+    *,
+    preloads: float | Sequence[float] = 0.0,
+    gravity: bool = False,
+    frictions: float | Sequence[float | None] | None = None,
+    effort: ArrayLike | None = None,
+    geometric: bool = True,
+) -> MultiCapacityAlong:
+    """Load capacity with every brace at each configuration of `qs` (N×n) for the tool wrenches (m×6).
+
+    Args as :func:`capacity_along`, with one preload P_i and friction μ_i per brace (or one for all)
+    (:func:`~bracekit.statics.equilibrium.multi_contact_responses`).
+    """
+    if not isinstance(braced, BracedRobot):
+        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
+    e = effort_limits(braced.robot, effort)
+    ws = wrench_list(wrenches)
+    resp = multi_contact_responses(
+        braced, qs, preloads=preloads, gravity=gravity, frictions=frictions, geometric=geometric
+    )
+    return multi_capacity_of(resp, ws, e)
