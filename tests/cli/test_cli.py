@@ -572,3 +572,18 @@ def test_run_and_validate_with_two_braces(capsys, tmp_path: Path) -> None:
     assert code == 0
     s = json.loads(out)["summary"]
     assert s["n_ok"] > 0 and s["constrained_vs_mujoco"]["median"] < 0.01
+
+
+def test_a_run_with_two_braces_reports_each_brace_s_margins(capsys, tmp_path: Path) -> None:
+    text = _two_braces_toml(tmp_path).read_text(encoding="utf-8")
+    text = text.replace("region_radius = 0.15\n", "region_radius = 0.15\npreload = 30.0\nfriction = 0.5\n", 1)
+    text = text.replace("[robot]\n", "[robot]\ngravity = true\n", 1)
+    text += "\n[loads]\nwrenches = [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0]]\n"
+    path = tmp_path / "two-hold.toml"
+    path.write_text(text, encoding="utf-8")
+    code, _, _ = _run(["run", str(path), "--no-figures", "--quiet", "--out", str(tmp_path / "hold")], capsys)
+    assert code == 0
+    s = json.loads((tmp_path / "hold" / "summary.json").read_text())["strategies"]["braced_min_norm"]
+    assert {"min_liftoff_margin", "min_slip_margin"} <= set(s["braces"][0]) and len(s["braces"]) == 2
+    per_brace = [b["min_slip_margin"] for b in s["braces"] if b["min_slip_margin"] is not None]
+    assert s["min_slip_margin"] == pytest.approx(min(per_brace))  # the run's margin is the least over braces

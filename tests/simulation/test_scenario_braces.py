@@ -68,8 +68,8 @@ def test_a_link_point_brace_keeps_the_frame_it_is_given() -> None:
         ({"point": [1.0, 2.0]}, "'brace[2].point'"),
         ({"link": "nowhere"}, "'brace[2].link'"),
         ({"frame": "brace"}, "'brace[2].frame'"),
-        ({"preload": 5.0}, "'brace[2].preload'"),
-        ({"friction": 0.5}, "'brace[2].friction'"),
+        ({"preload": -5.0}, "'brace[2].preload'"),
+        ({"friction": -0.5}, "'brace[2].friction'"),
         ({"environment_stiffness": -1.0}, "'brace[2].environment_stiffness'"),
         ({"pad_axis": [0.0, 0.0, 0.0]}, "'brace[2].pad_axis'"),
     ],
@@ -94,8 +94,6 @@ def test_a_bad_first_brace_names_index_one() -> None:
         (lambda d: d["gradient_projection"]["weights"].update(clearance=0.1), "weights.clearance"),
         (lambda d: d["gradient_projection"]["weights"].update(k=0.5), "weights.k"),
         (lambda d: d["start"].update(theta_weight=0.3), "'start.theta_weight'"),
-        (lambda d: d["robot"].update(gravity=True), "'robot.gravity'"),
-        (lambda d: d.update(loads={"wrenches": [[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]]}), "'loads.wrenches'"),
     ],
 )
 def test_several_braces_refuse_what_only_one_brace_supports(edit: Any, fragment: str) -> None:
@@ -103,6 +101,16 @@ def test_several_braces_refuse_what_only_one_brace_supports(edit: Any, fragment:
     edit(data)
     message = _error(data)
     assert fragment in message and "one brace" in message
+
+
+def test_several_braces_take_a_preload_and_friction_each_and_shared_gravity_and_loads() -> None:
+    data = _two_braces(preload=5.0, friction=0.5)
+    data["brace"][0]["preload"] = 20.0
+    data["robot"]["gravity"] = True
+    data["loads"] = {"wrenches": [[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]]}
+    h = parse_scenario(data).holding
+    assert h.gravity and h.brace_preloads(2) == (20.0, 5.0) and h.brace_frictions(2) == (None, 0.5)
+    assert h.wrenches is not None and h.wrenches.shape == (1, 6)
 
 
 def test_an_empty_brace_array_is_refused() -> None:

@@ -18,7 +18,13 @@ from bracekit.compliance.preloaded import check_run_model, simulated_model
 from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
 from bracekit.kinematics import BracedState
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
-from bracekit.simulation.holding import holding_measures, holding_summary, holding_warnings, relief_summary
+from bracekit.simulation.holding import (
+    braces_holding_summary,
+    holding_measures,
+    holding_summary,
+    holding_warnings,
+    relief_summary,
+)
 from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.simulation.simulate import Trajectory, simulate, solve_start, solve_start_braces
 from bracekit.statics import effort_limits
@@ -59,6 +65,9 @@ def _summaries(result: RunResult) -> None:
         strategies = {name: tr.summary(model) for name, tr in runs.items()}
         for name, tr in runs.items():
             strategies[name].update(holding_summary(tr.measures))
+            if tr.braces is not None and "liftoff_margin_0" in tr.measures:  # each brace's own margins
+                extra = braces_holding_summary(tr.measures, len(tr.braces))
+                strategies[name]["braces"] = [b | e for b, e in zip(strategies[name]["braces"], extra, strict=True)]
             if sc.holding.active and tr.braced and tr.q.shape[0] and _has_limits(sc):
                 strategies[name]["actuator_relief"] = relief_summary(sc.braced, tr.q, sc.holding)
         out: dict[str, Any] = {

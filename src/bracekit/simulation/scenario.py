@@ -261,8 +261,8 @@ def parse_scenario(
     """Validate the TOML data of a scenario (see ``scenarios/paper.toml`` for every key).
 
     One ``[brace]`` table is the paper's model. Several braces are an array of tables, ``[[brace]]``, each
-    with the keys of ``[brace]`` (named 'brace[1]', 'brace[2]', … in messages) except the statics keys
-    (preload, friction, '[robot] gravity', '[loads]'); with several braces the compliance model is
+    with the keys of ``[brace]`` (named 'brace[1]', 'brace[2]', … in messages), each with its own preload and
+    friction ('[robot] gravity' and '[loads]' are shared); with several braces the compliance model is
     "constrained" and the weights of θ_z and d (one brace's pad and region) are 0.
     """
     top = _Table(
@@ -288,8 +288,7 @@ def parse_scenario(
     braced = _braces(brace_ts, robot)
     loads_t = top.table("loads", ("wrenches",), {})
     if several:
-        _refuse_statics(robot_t, brace_ts, loads_t)
-        holding = Holding()
+        holding = _holding_braces(robot_t, brace_ts, loads_t)
     else:
         holding = _holding(robot_t, brace_ts[0], loads_t)
     robot = braced.robot
@@ -484,8 +483,6 @@ BRACE_KEYS = (
     "preload",
     "friction",
 )
-#: Keys of a brace table that only a single brace supports (the statics of one contact).
-ONE_BRACE_KEYS = ("preload", "friction")
 
 
 def _brace_tables(top: _Table) -> list[_Table]:
@@ -569,22 +566,30 @@ def _brace(t: _Table, robot: Robot, default_frame: str = "brace") -> tuple[Robot
         raise ScenarioError(f"'{t.key(key)}': {exc}") from exc
 
 
-def _refuse_statics(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> None:
-    """ScenarioError for the statics keys, which several braces do not support yet."""
+def _holding_braces(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> Holding:
+    """``[robot] gravity``, ``[loads] wrenches`` and each ``[[brace]]`` table's ``preload`` and ``friction``."""
+    preloads: list[float] = []
+    frictions: list[float | None] = []
     for t in tables:
-        for key in ONE_BRACE_KEYS:
-            if t.has(key):
-                raise ScenarioError(
-                    f"'{t.key(key)}' is supported for one brace only; with several [[brace]] tables remove it"
-                )
-    if robot_t.raw("gravity", False) is not False:
-        raise ScenarioError(
-            "'robot.gravity' (statics) is supported for one brace only; with several [[brace]] tables remove it"
-        )
-    if loads_t.has("wrenches"):
-        raise ScenarioError(
-            "'loads.wrenches' (statics) is supported for one brace only; with several [[brace]] tables remove it"
-        )
+        preload = t.number("preload", 0.0)
+        if not 0.0 <= preload <= MAX_PRELOAD:
+            raise ScenarioError(
+                f"'{t.key('preload')}' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
+            )
+        friction = t.number("friction") if t.has("friction") else None
+        if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
+            raise ScenarioError(
+                f"'{t.key('friction')}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}"
+            )
+        preloads.append(preload)
+        frictions.append(friction)
+    shared = _holding(robot_t, tables[0], loads_t)  # gravity and the loads, checked as for one brace
+    return Holding(
+        gravity=shared.gravity,
+        wrenches=shared.wrenches,
+        preloads=tuple(preloads) if any(p > 0.0 for p in preloads) else None,
+        frictions=tuple(frictions) if any(f is not None for f in frictions) else None,
+    )
 
 
 #: The weight keys of the several-brace objective (:class:`bracekit.resolution.multi.MultiBraceObjective`).

@@ -8,11 +8,14 @@ saturates. ``relief``: the peak actuator load in free space against braced with 
 from bracekit.statics.capacity import (
     Capacity,
     CapacityAlong,
+    MultiCapacityAlong,
     capacity_along,
     capacity_of,
     effort_limits,
     liftoff_scale,
     load_capacity,
+    multi_capacity_along,
+    multi_capacity_of,
     peak_ratio,
     saturation_scale,
     slip_scale,
@@ -20,10 +23,12 @@ from bracekit.statics.capacity import (
 from bracekit.statics.equilibrium import (
     ContactResponse,
     ContactResponses,
+    MultiContactResponses,
     contact_response,
     contact_responses,
     gravity_torque,
     load_contact_wrenches,
+    multi_contact_responses,
 )
 from bracekit.statics.relief import Relief, actuator_relief, actuator_torques
 
@@ -32,6 +37,8 @@ __all__ = [
     "CapacityAlong",
     "ContactResponse",
     "ContactResponses",
+    "MultiCapacityAlong",
+    "MultiContactResponses",
     "Relief",
     "actuator_relief",
     "actuator_torques",
@@ -44,6 +51,9 @@ __all__ = [
     "liftoff_scale",
     "load_capacity",
     "load_contact_wrenches",
+    "multi_capacity_along",
+    "multi_capacity_of",
+    "multi_contact_responses",
     "peak_ratio",
     "saturation_scale",
     "slip_scale",
