@@ -587,3 +587,12 @@ def test_a_run_with_two_braces_reports_each_brace_s_margins(capsys, tmp_path: Pa
     assert {"min_liftoff_margin", "min_slip_margin"} <= set(s["braces"][0]) and len(s["braces"]) == 2
     per_brace = [b["min_slip_margin"] for b in s["braces"] if b["min_slip_margin"] is not None]
     assert s["min_slip_margin"] == pytest.approx(min(per_brace))  # the run's margin is the least over braces
+
+
+@pytest.mark.parametrize("model", ["projection", "preloaded"])
+def test_a_one_brace_compliance_model_with_two_braces_is_refused_in_one_line(capsys, tmp_path: Path, model) -> None:
+    path = _two_braces_toml(tmp_path)
+    args = ["run", str(path), "--no-figures", "--quiet", "--compliance-model", model, "--out", str(tmp_path / "o")]
+    code, _, err = _run(args, capsys)
+    assert code == 2 and "defined for one brace" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()

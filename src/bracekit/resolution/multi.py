@@ -85,7 +85,8 @@ class MultiBraceObjective:
         β_x is that of the objective's C_i term (key ``Ci``; its compliance model is replaced by the stacked
         constrained one). The d term's weight applies to every brace with a region, each with its own r_max_i
         and centre. A joint-limit barrier term (key ``joint_limit_barrier``) gives w_q; the barrier then uses the
-        robot's URDF limits. Other terms (k, θ_z, …) have no several-brace form yet and are left out: see
+        robot's URDF limits, a θ_z term (key ``theta_z``) w_θ. Other terms (k, clearance, …) have no several-brace form
+        yet and are left out: see
         :meth:`left_out`. InputError without a C_i term.
         """
         if isinstance(objective, MultiBraceObjective):

@@ -962,12 +962,13 @@ def measure_braces(
     }
     for i, (brace, b, r_b) in enumerate(zip(braces, state.b_i, state.R_b_i, strict=True)):
         surface = brace.surface
-        out[f"theta_z_{i}"] = angle_between(surface.normal, r_b[:, 2])
+        if brace.pad_axis:  # θ_z exists only where {b_i}'s z is a pad direction
+            out[f"theta_z_{i}"] = angle_between(surface.normal, r_b[:, 2])
         out[f"region_radius_{i}"] = float(np.linalg.norm(b - surface.point))
         out[f"surface_distance_{i}"] = surface.signed_distance(b)
         out[f"contact_violation_{i}"] = abs(out[f"surface_distance_{i}"])
     count = range(len(braces))
-    out["theta_z"] = max(out[f"theta_z_{i}"] for i in count)
+    out["theta_z"] = max((out[f"theta_z_{i}"] for i in count if f"theta_z_{i}" in out), default=0.0)
     out["region_radius"] = max(out[f"region_radius_{i}"] for i in count)
     out["contact_violation"] = max(out[f"contact_violation_{i}"] for i in count)
     out["surface_distance"] = min(out[f"surface_distance_{i}"] for i in count)
