@@ -20,7 +20,7 @@ Array = NDArray[np.float64]
 
 
 def columns(*cols: tuple[Array, Array]) -> Array:
-    """A 6×k matrix whose column j is [cols[j][0]; cols[j][1]] (linear part, then angular part)."""
+    """A 6×k matrix whose column j is ``[cols[j][0]; cols[j][1]]`` (linear part, then angular part)."""
     return np.array([np.concatenate(c) for c in cols]).T
 
 

@@ -584,7 +584,7 @@ def preload_study(
     (unilateral; opened cases excluded). Loads are pure forces of magnitude ``loads`` along ``directions``
     at the start configuration unless ``config`` is given.
 
-    Returns a JSON-able dict; the arrays are indexed [preload][load]: ``median_rel_err``, ``max_rel_err``
+    Returns a JSON-able dict; the arrays are indexed ``[preload][load]``: ``median_rel_err``, ``max_rel_err``
     (constrained), ``median_rel_err_corrected``, ``max_rel_err_corrected``, ``would_open``, ``failed``;
     errors in the L-weighted norm of :func:`run_validation`, None where no case contributes.
     """

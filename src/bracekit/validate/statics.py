@@ -74,7 +74,7 @@ class StaticResult:
 def lagrange_compliance(J: np.ndarray, K: np.ndarray, a: np.ndarray) -> np.ndarray:
     """First-order tip compliance of a spring-jointed chain under bilateral constraints aᵀΔq = 0.
 
-    Solves the bordered KKT system [[K, −a], [−aᵀ, 0]] [Δq; λ] = [Jᵀ w; 0] for the six unit wrenches w
+    Solves the bordered KKT system ``[[K, −a], [−aᵀ, 0]] [Δq; λ] = [Jᵀ w; 0]`` for the six unit wrenches w
     (one ``np.linalg.solve`` with six right-hand sides), then C = J Δq. This equals
     C_true = J K⁻¹Jᵀ − J K⁻¹ a (aᵀK⁻¹a)⁻¹ aᵀ K⁻¹ Jᵀ but does not use that formula.
 
