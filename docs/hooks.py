@@ -4,11 +4,14 @@
   and of every command of :func:`bracekit.cli.main.build_parser`, walking its subparsers (nested ones too), so
   a command registered later appears by itself.
 - API pages: Sphinx roles left in docstrings (``:class:`X```) are shown as plain code.
+- Formulas (``$$…$$`` and ``$…$``, kept whole by pymdownx.arithmatex in generic mode) are converted to MathML
+  when the site is built (latex2mathml), so that browsers show them without JavaScript or a network.
 """
 
 from __future__ import annotations
 
 import argparse
+from html import unescape
 import os
 import re
 import sys
@@ -22,6 +25,7 @@ if SRC.is_dir() and str(SRC) not in sys.path:
 
 CLI_MARKER = "<!-- bracekit-cli-reference -->"
 HELP_WIDTH = "100"
+_MATH = re.compile(r'<(div|span) class="arithmatex">(.*?)</\1>', re.S)
 _ROLE = re.compile(r":(?:class|func|meth|attr|mod|data|exc|obj|py:\w+):(<code>)")
 
 
@@ -63,8 +67,20 @@ def on_page_markdown(markdown: str, page: Any, **_: Any) -> str:
     return markdown
 
 
+def mathml(match: re.Match[str]) -> str:
+    """One arithmatex element (``\\[…\\]`` in a div, ``\\(…\\)`` in a span) as MathML."""
+    from latex2mathml.converter import convert
+
+    tag, body = match.group(1), unescape(match.group(2)).strip()
+    latex = body[2:-2] if body[:2] in ("\\[", "\\(") else body
+    block = tag == "div"
+    rendered = convert(latex, display="block" if block else "inline")
+    return f'<div class="math">{rendered}</div>' if block else rendered
+
+
 def on_page_content(html: str, page: Any, **_: Any) -> str:
-    """Show Sphinx roles of docstrings (``:class:`X```) as plain code on the API pages."""
+    """Formulas as MathML; on the API pages, Sphinx roles of docstrings (``:class:`X```) as plain code."""
+    html = _MATH.sub(mathml, html)
     if page.file.src_uri.startswith("api/"):
-        return _ROLE.sub(r"\1", html)
+        html = _ROLE.sub(r"\1", html)
     return html
