@@ -11,11 +11,11 @@
 from __future__ import annotations
 
 import argparse
-from html import unescape
 import os
 import re
 import sys
 from collections.abc import Iterator
+from html import unescape
 from pathlib import Path
 from typing import Any
 
@@ -68,7 +68,7 @@ def on_page_markdown(markdown: str, page: Any, **_: Any) -> str:
 
 
 def mathml(match: re.Match[str]) -> str:
-    """One arithmatex element (``\\[…\\]`` in a div, ``\\(…\\)`` in a span) as MathML."""
+    r"""One arithmatex element (``\[…\]`` in a div, ``\(…\)`` in a span) as MathML."""
     from latex2mathml.converter import convert
 
     tag, body = match.group(1), unescape(match.group(2)).strip()
