@@ -24,7 +24,7 @@ if SRC.is_dir() and str(SRC) not in sys.path:
     sys.path.insert(0, str(SRC))  # the repository's bracekit, also without an editable install
 
 CLI_MARKER = "<!-- bracekit-cli-reference -->"
-HELP_WIDTH = "100"
+HELP_WIDTH = "80"
 _MATH = re.compile(r'<(div|span) class="arithmatex">(.*?)</\1>', re.S)
 _ROLE = re.compile(r":(?:class|func|meth|attr|mod|data|exc|obj|py:\w+):(<code>)")
 
