@@ -219,7 +219,8 @@ def _as_cli(message: str) -> str:
 
 
 def _dispatch(args: argparse.Namespace) -> int:
-    commands = {"evaluate": _evaluate, "run": _run, "validate": _validate, "study": _study, "bench": _bench, "sweep": sweep_cli.run}
+    commands = {"evaluate": _evaluate, "run": _run, "validate": _validate, "study": _study, "bench": _bench}
+    commands["sweep"] = sweep_cli.run
     return commands[args.command](args)
 
 

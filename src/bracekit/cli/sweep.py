@@ -103,7 +103,8 @@ def run(args: argparse.Namespace) -> int:
     print(table_markdown(result), end="")
     s = summary(result)
     print(
-        f"{s['simulated_now']} simulated now, {s['reused_from_earlier_runs']} reused, {s['screened_out']} screened out; "
+        f"{s['simulated_now']} simulated now, {s['reused_from_earlier_runs']} reused, "
+        f"{s['screened_out']} screened out; "
         f"wrote {', '.join(names)} to {out}/",
         file=sys.stderr,
     )

@@ -89,8 +89,10 @@ def link_offset(robot: Robot, link: str, fraction: float) -> Array:
 
 
 def expand(spec: Any, limit: int | None = None) -> list[Candidate]:
-    """The candidates of a spec, in order: every combination of the axes' grids (the first axis slowest), or
-    ``samples`` seeded random draws (each axis in spec order: a listed value at random, or uniform in its range).
+    """The candidates of a spec, in order: the grid's combinations or the seeded random draws.
+
+    Grid: every combination of the axes' grids, the first axis slowest. Random: ``samples`` draws, each axis in
+    spec order (a listed value at random, or uniform in its range).
 
     Duplicates (same inputs) keep their first place. `limit` keeps the first candidates only.
     """

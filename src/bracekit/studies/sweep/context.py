@@ -87,7 +87,12 @@ def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskConte
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             tr = simulate(
-                sc.braced, sc.strategy("free_space_min_norm"), sc.task, q_ref, sc.dt, sc.beta_x,
+                sc.braced,
+                sc.strategy("free_space_min_norm"),
+                sc.task,
+                q_ref,
+                sc.dt,
+                sc.beta_x,
                 feedback_gain=sc.feedback_gain,
             )
     except BracekitError as exc:
@@ -95,6 +100,13 @@ def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskConte
     summary = tr.summary(sc.compliance_model if sc.compliance_model != "preloaded" else "constrained")
     beta = np.array([sc.beta_x(float(t)) for t in tr.t])
     return TaskContext(
-        key, inputs, q_ref, t=tr.t, Q=tr.q, beta=beta, free=summary, failure=None,
+        key,
+        inputs,
+        q_ref,
+        t=tr.t,
+        Q=tr.q,
+        beta=beta,
+        free=summary,
+        failure=None,
         wall_s=time.perf_counter() - began,
     )

@@ -28,7 +28,7 @@ from bracekit.studies.sweep.store import RowStore
 #: Environment of local worker processes: one thread for numba and BLAS (one candidate per worker at a time).
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: Seconds to wait for a scheduler to answer.
-CONNECT_TIMEOUT = 20
+CONNECT_TIMEOUT = 10.0
 
 
 @dataclass
@@ -46,8 +46,12 @@ class SweepRun:
 
 
 @contextmanager
-def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
+def dask_client(
+    workers: int | None = None, scheduler: str | None = None, *, connect_timeout: float = CONNECT_TIMEOUT
+) -> Iterator[Any]:
     """A Dask client: of a new LocalCluster (`workers` processes, one thread each) or of the scheduler at an address.
+
+    `connect_timeout` (s) bounds the wait for a scheduler to answer.
 
     Raises:
         InputError: both or neither given, a bad worker count, or no scheduler answers at the address.
@@ -58,7 +62,7 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         raise InputError("give a number of local workers or a scheduler address, not both")
     if scheduler is not None:
         try:
-            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+            client = Client(scheduler, timeout=connect_timeout)
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"cannot connect to the Dask scheduler at {scheduler}: {exc}") from None
         try:
@@ -72,7 +76,9 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         n_workers=workers,
         threads_per_worker=1,
         processes=True,
-        dashboard_address=None,
+        host="127.0.0.1",
+        dashboard_address=None,  # no dashboard; the scheduler's HTTP routes on a free port, not 8787
+        scheduler_kwargs={"dashboard_address": ":0"},
         silence_logs=logging.ERROR,
         env=WORKER_ENV,
     )
@@ -131,7 +137,7 @@ def run_sweep(
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
-        spec_f = client.scatter(spec, broadcast=True)
+        spec_f = client.scatter(spec, broadcast=True, hash=False)
         needed = everything if screening else chosen
         keys = _contexts(needed)
         t0 = time.perf_counter()
@@ -202,6 +208,12 @@ def run_sweep(
     timings["total_s"] = time.perf_counter() - began
     workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
     return SweepRun(
-        spec, rows, refined, evaluated=len(todo), reused=len(chosen) - len(todo) - screened_out,
-        screened_out=screened_out, timings=timings, workers=workers,
+        spec,
+        rows,
+        refined,
+        evaluated=len(todo),
+        reused=len(chosen) - len(todo) - screened_out,
+        screened_out=screened_out,
+        timings=timings,
+        workers=workers,
     )

@@ -24,14 +24,31 @@ from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
 SHORT = {"free_space_min_norm": "free_space", "braced_min_norm": "min_norm", "braced_gradient_projection": "gp"}
 #: Output columns of a candidate's row, after its inputs (SI units: m/N, m, rad, s).
 RESULT_COLUMNS = (
-    "point_x", "point_y", "point_z",
-    "screened_out", "screen_Ci_mean", "screen_k_max",
-    "Ci_mean_free_space", "Ci_mean_min_norm", "Ci_mean_gp", "Ci_reduction_gp",
-    "k_mean_min_norm", "k_mean_gp",
-    "min_link_clearance_m", "max_joint_limit_violation_rad", "max_region_radius_m",
-    "min_liftoff_margin", "min_slip_margin", "min_torque_margin",
-    "completed_min_norm", "failure_min_norm",
-    "completed", "feasible", "failure", "warnings", "wall_s",
+    "point_x",
+    "point_y",
+    "point_z",
+    "screened_out",
+    "screen_Ci_mean",
+    "screen_k_max",
+    "Ci_mean_free_space",
+    "Ci_mean_min_norm",
+    "Ci_mean_gp",
+    "Ci_reduction_gp",
+    "k_mean_min_norm",
+    "k_mean_gp",
+    "min_link_clearance_m",
+    "max_joint_limit_violation_rad",
+    "max_region_radius_m",
+    "min_liftoff_margin",
+    "min_slip_margin",
+    "min_torque_margin",
+    "completed_min_norm",
+    "failure_min_norm",
+    "completed",
+    "feasible",
+    "failure",
+    "warnings",
+    "wall_s",
 )
 
 
@@ -77,6 +94,8 @@ def candidate_point(spec: SweepSpec, candidate: Candidate, context: TaskContext)
     """The candidate point's world position at the context's reference start (m)."""
     from bracekit.studies.sweep.context import context_scenario
 
+    if context.q_ref is None:
+        raise ValueError("the task context has no reference start")
     robot = context_scenario(spec, context.inputs).robot
     point = robot.with_point_frame(POINT_FRAME, candidate.inputs["link"], point_offset(spec, robot, candidate.inputs))
     placement, _ = point.frame_kinematics(context.q_ref, [point.frame_id(POINT_FRAME)])[0]

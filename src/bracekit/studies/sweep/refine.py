@@ -51,7 +51,9 @@ def refine_candidate(
         return float(row["Ci_mean_gp"]) if row["feasible"] else PENALTY
 
     r = spec.refinement
-    minimize_scalar(objective, bounds=(low, high), method="bounded", options={"xatol": r.xatol, "maxiter": r.max_evaluations})
+    minimize_scalar(
+        objective, bounds=(low, high), method="bounded", options={"xatol": r.xatol, "maxiter": r.max_evaluations}
+    )
     feasible = [e for e in evaluations if e["feasible"]]
     best = min(feasible, key=lambda e: (e["Ci_mean_gp"], e["fraction"])) if feasible else None
     return {

@@ -152,6 +152,7 @@ def heatmap(run: SweepRun, path: Path) -> None:
     rows = run.rows
     links = list(dict.fromkeys(r["link"] for r in rows))
     fig, ax = plt.subplots(figsize=(9, 0.45 * len(links) + 2.0), dpi=110)
+    mesh: Any
     if "fraction" in (rows[0] if rows else {}):
         fracs = sorted({r["fraction"] for r in rows})
         grid = np.full((len(links), len(fracs)), np.nan)
@@ -204,7 +205,9 @@ def pareto(run: SweepRun, path: Path) -> None:
     good = [r for r in sim if r["feasible"]]
     bad = [r for r in sim if not r["feasible"]]
     fig, ax = plt.subplots(figsize=(7, 5), dpi=110)
-    ax.scatter([r["k_mean_gp"] for r in bad], [1e3 * r["Ci_mean_gp"] for r in bad], c="0.75", s=12, label="not feasible")
+    ax.scatter(
+        [r["k_mean_gp"] for r in bad], [1e3 * r["Ci_mean_gp"] for r in bad], c="0.75", s=12, label="not feasible"
+    )
     ax.scatter([r["k_mean_gp"] for r in good], [1e3 * r["Ci_mean_gp"] for r in good], s=14, label="feasible")
     pts = [(r["k_mean_gp"], r["Ci_mean_gp"]) for r in good]
     front = [good[i] for i in pareto_front(pts)]

@@ -47,7 +47,7 @@ def screen_context(spec: SweepSpec, context: TaskContext, candidates: list[Candi
     sc = context_scenario(spec, context.inputs)
     robot = sc.robot
     normal = np.asarray(spec.normal if spec.normal is not None else sc.braced.brace.surface.normal, dtype=float)
-    kind = contact_type(spec.contact or sc.braced.brace.contact.name)
+    kind = contact_type(spec.contact or sc.braced.brace.contact)
     model = simulated_model(sc.compliance_model)
     out = []
     for c in candidates:
@@ -86,6 +86,6 @@ def select(spec: SweepSpec, screened: list[Screened]) -> dict[str, str | None]:
         out[r.candidate] = (
             None
             if i < keep
-            else f"screened out: C_i {r.Ci_mean:.4g} m/N not among the best {s.keep_fraction:.0%} on the free-space path"
+            else f"screened out: C_i {r.Ci_mean:.4g} m/N not among the best {s.keep_fraction:.0%} on the free path"
         )
     return out

@@ -93,8 +93,11 @@ class Screening:
 
 @dataclass(frozen=True)
 class Feasibility:
-    """What a candidate's braced runs must meet: k_mean ≤ ``k_max``, link clearance ≥ ``min_clearance`` (m),
-    joint-limit violation ≤ ``joint_limit_tolerance`` (rad), holding margins ≥ ``min_margin`` when available."""
+    """What a candidate's gradient-projection run must meet to be feasible.
+
+    Mean k of J̃ ≤ ``k_max``, link clearance ≥ ``min_clearance`` (m), joint-limit violation ≤
+    ``joint_limit_tolerance`` (rad), holding margins ≥ ``min_margin`` when available.
+    """
 
     k_max: float = 50.0
     min_clearance: float = 0.0
@@ -179,8 +182,9 @@ def load_spec(source: str | os.PathLike[str]) -> SweepSpec:
     else:
         raise SpecError(f"a sweep spec must be a .toml path or a shipped name ({', '.join(sorted(shipped))})")
     if not path.is_file():
-        raise SpecError(f"sweep spec not found: {show(str(source), 200)}; give a .toml file or one of: "
-                        f"{', '.join(sorted(shipped))}")
+        raise SpecError(
+            f"sweep spec not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
+        )
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
@@ -234,8 +238,9 @@ def _base(value: Any, base: Path) -> tuple[str, dict[str, Any], Path]:
     shipped = shipped_scenarios()
     path = shipped[value] if value in shipped else (Path(value) if Path(value).is_absolute() else base / value)
     if not path.is_file():
-        raise SpecError(f"'base' = {show(value)}: no such scenario; give a .toml path or one of: "
-                        f"{', '.join(sorted(shipped))}")
+        raise SpecError(
+            f"'base' = {show(value)}: no such scenario; give a .toml path or one of: {', '.join(sorted(shipped))}"
+        )
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
@@ -253,8 +258,9 @@ def _axis(name: str, raw: Any, links: tuple[str, ...]) -> Axis:
             raise SpecError(f"'{key}' must be \"all\" or a list of link names, got {show(raw)}")
         bad = [x for x in raw if x not in links]
         if bad:
-            raise SpecError(f"'{key}': {show(bad[0])} is not a link that can carry a brace; choose from "
-                            f"{', '.join(links)}")
+            raise SpecError(
+                f"'{key}': {show(bad[0])} is not a link that can carry a brace; choose from {', '.join(links)}"
+            )
         if len(set(raw)) != len(raw):
             raise SpecError(f"'{key}' lists a link twice")
         return Axis(name, kind, values=tuple(raw))
@@ -277,8 +283,9 @@ def _axis(name: str, raw: Any, links: tuple[str, ...]) -> Axis:
         count = _int(raw.get("count", 5), f"{key}.count", 1, 10_000)
         axis = Axis(name, kind, low=low, high=high, count=count)
     else:
-        raise SpecError(f"'{key}' must be a list of values or a table {{ range = [low, high], count = N }}, "
-                        f"got {show(raw)}")
+        raise SpecError(
+            f"'{key}' must be a list of values or a table {{ range = [low, high], count = N }}, got {show(raw)}"
+        )
     _check_axis_values(axis, key)
     return axis
 
@@ -297,10 +304,15 @@ def _check_axis_values(axis: Axis, key: str) -> None:
             raise SpecError(f"'{key}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {v:g}")
 
 
-def parse_spec(data: dict[str, Any], base: Path = Path("."), name: str = "sweep", source: Path | None = None) -> SweepSpec:
+def parse_spec(
+    data: dict[str, Any], base: Path = Path("."), name: str = "sweep", source: Path | None = None
+) -> SweepSpec:
     """Validate the TOML data of a sweep spec (see ``specs/paper-links.toml`` and docs/sweep.md)."""
-    top = _table(data, "", ("name", "description", "base", "brace", "sampling", "axes", "screen", "feasibility",
-                             "refine", "simulation"))
+    top = _table(
+        data,
+        "",
+        ("name", "description", "base", "brace", "sampling", "axes", "screen", "feasibility", "refine", "simulation"),
+    )
     if "base" not in top:
         raise SpecError("missing key 'base' (the base scenario: a shipped name such as \"paper\" or a .toml path)")
     base_name, base_data, base_dir = _base(top["base"], base)
@@ -309,8 +321,10 @@ def parse_spec(data: dict[str, Any], base: Path = Path("."), name: str = "sweep"
     except InputError as exc:
         raise SpecError(f"'base' = {show(top['base'])}: {exc}") from exc
     if len(scenario.braced.braces) != 1:
-        raise SpecError(f"'base' = {show(top['base'])} has several braces; a sweep places one brace: give a "
-                        "scenario with one [brace]")
+        raise SpecError(
+            f"'base' = {show(top['base'])} has several braces; a sweep places one brace: give a "
+            "scenario with one [brace]"
+        )
     from bracekit.studies.sweep.candidates import brace_links
 
     links = brace_links(scenario.robot)
@@ -354,13 +368,15 @@ def parse_spec(data: dict[str, Any], base: Path = Path("."), name: str = "sweep"
         k_max=_number(screen_t.get("k_max", 100.0), "screen.k_max", positive=True),
         keep_fraction=_number(screen_t.get("keep_fraction", 0.3), "screen.keep_fraction", low=0.0, high=1.0),
     )
-    feas_t = _table(top.get("feasibility", {}), "feasibility",
-                    ("k_max", "min_clearance", "joint_limit_tolerance", "min_margin"))
+    feas_t = _table(
+        top.get("feasibility", {}), "feasibility", ("k_max", "min_clearance", "joint_limit_tolerance", "min_margin")
+    )
     feasibility = Feasibility(
         k_max=_number(feas_t.get("k_max", 50.0), "feasibility.k_max", positive=True),
         min_clearance=_number(feas_t.get("min_clearance", 0.0), "feasibility.min_clearance"),
-        joint_limit_tolerance=_number(feas_t.get("joint_limit_tolerance", 1e-9), "feasibility.joint_limit_tolerance",
-                                      low=0.0, high=1.0),
+        joint_limit_tolerance=_number(
+            feas_t.get("joint_limit_tolerance", 1e-9), "feasibility.joint_limit_tolerance", low=0.0, high=1.0
+        ),
         min_margin=_number(feas_t.get("min_margin", 0.0), "feasibility.min_margin"),
     )
     ref_t = _table(top.get("refine", {}), "refine", ("top", "max_evaluations", "xatol"))

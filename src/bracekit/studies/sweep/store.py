@@ -54,7 +54,9 @@ class RowStore:
             try:
                 held = json.loads(marker.read_text(encoding="utf-8"))
             except (OSError, ValueError) as exc:
-                raise SweepStateError(f"{marker} cannot be read ({exc}); move {self.work} away to start afresh") from exc
+                raise SweepStateError(
+                    f"{marker} cannot be read ({exc}); move {self.work} away to start afresh"
+                ) from exc
             if held.get("fingerprint") != fingerprint:
                 raise SweepStateError(
                     f"{out} holds partial results of another sweep spec ({held.get('name')!r}, fingerprint "
@@ -108,8 +110,9 @@ def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
         writer = csv.writer(fh)
         writer.writerow(names)
         for row in rows:
-            writer.writerow(["" if row.get(n) is None else repr(row[n]) if isinstance(row[n], float) else row[n]
-                             for n in names])
+            writer.writerow(
+                ["" if row.get(n) is None else repr(row[n]) if isinstance(row[n], float) else row[n] for n in names]
+            )
 
 
 def write_parquet(rows: list[dict[str, Any]], path: Path) -> None:
