@@ -70,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from bracekit.studies.sweep.engine import dask_client, run_sweep
     from bracekit.studies.sweep.report import FILES, summary, table_markdown, write_outputs
     from bracekit.studies.sweep.spec import load_spec
+    from bracekit.studies.sweep.store import RowStore
 
     spec = load_spec(args.spec)
     out: Path = args.out
@@ -88,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
             plan.path.mkdir(exist_ok=True)
         except OSError as exc:
             raise InputError(f"cannot make {out}: {exc.strerror or exc}") from None
+        RowStore(plan.path, spec)  # refuses another spec's partial results before any cluster starts
         with dask_client(workers, args.scheduler) as client:
             result = run_sweep(
                 spec,

@@ -65,3 +65,25 @@ def test_missing_spec_and_bad_flags_exit_2(tmp_path: Path, capsys: pytest.Captur
     assert "not found" in capsys.readouterr().err
     assert main(["sweep", "paper-links", "--out", str(tmp_path / "o"), "--limit", "0"]) == 2
     assert "--limit" in capsys.readouterr().err
+
+
+def test_an_out_with_another_specs_rows_is_refused_in_one_line(
+    tiny_spec: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from bracekit.studies.sweep.store import RowStore
+
+    RowStore(tmp_path / "out", load_spec("paper-links"))
+    assert main(["sweep", str(tiny_spec), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "another sweep spec" in err[0]
+
+
+def test_an_out_with_user_files_is_refused_without_overwrite(
+    tiny_spec: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    assert main(["sweep", str(tiny_spec), "--out", str(out), "--quiet"]) == 2
+    assert "notes.txt" in capsys.readouterr().err
+    assert (out / "notes.txt").read_text() == "mine" and not (out / ".sweep").exists()

@@ -20,7 +20,7 @@ from typing import Any
 from bracekit.errors import InputError
 from bracekit.studies.sweep.candidates import Candidate, expand
 from bracekit.studies.sweep.context import TaskContext, task_context
-from bracekit.studies.sweep.evaluate import empty_row, evaluate_candidate
+from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns
 from bracekit.studies.sweep.screen import Screened, screen_context, select
 from bracekit.studies.sweep.spec import SweepSpec
 from bracekit.studies.sweep.store import RowStore
@@ -181,6 +181,7 @@ def run_sweep(
                 bar.close()
         timings["simulation_s"] = time.perf_counter() - t1
         rows = []
+        order = ["candidate", "index", *input_columns(spec), *RESULT_COLUMNS]
         screened_out = 0
         for c in chosen:
             if c.id in done:
@@ -192,9 +193,10 @@ def run_sweep(
                 row["failure"] = verdicts[c.id]
                 screened_out += 1
             s = screened.get(c.id)
+            row["screen_clearance_m"] = None if s is None else s.clearance
             row["screen_Ci_mean"] = None if s is None else s.Ci_mean
             row["screen_k_max"] = None if s is None else s.k_max
-            rows.append(row)
+            rows.append({k: row.get(k) for k in order})
         refined: list[dict[str, Any]] = []
         if refine and spec.refinement.top > 0 and spec.axis("fraction") is not None:
             from bracekit.studies.sweep.refine import refine_best

@@ -28,6 +28,7 @@ RESULT_COLUMNS = (
     "point_y",
     "point_z",
     "screened_out",
+    "screen_clearance_m",
     "screen_Ci_mean",
     "screen_k_max",
     "Ci_mean_free_space",

@@ -105,6 +105,15 @@ def refine_best(
         if isinstance(item, tuple):
             key, fut, row = item
             data = fut.result() | {"grid_Ci_mean_gp": row["Ci_mean_gp"]}
+            better = data["refined_Ci_mean_gp"] is not None and data["refined_Ci_mean_gp"] < row["Ci_mean_gp"]
+            data["improved"] = better
+            if not better:  # the grid candidate stays the best
+                data |= {
+                    "refined_fraction": row["fraction"],
+                    "refined_Ci_mean_gp": row["Ci_mean_gp"],
+                    "refined_k_mean_gp": row["k_mean_gp"],
+                    "refined_point": [row["point_x"], row["point_y"], row["point_z"]],
+                }
             store.save_refined(key, data)
             result.append(data)
         else:

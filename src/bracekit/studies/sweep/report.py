@@ -143,7 +143,10 @@ def table_markdown(run: SweepRun) -> str:
 
 
 def heatmap(run: SweepRun, path: Path) -> None:
-    """Mean C_i of gradient projection (mm/N) over link × fraction (the best over other axes); blank: not feasible."""
+    """Mean C_i of gradient projection (mm/N) over link × fraction (the least over other axes), completed runs.
+
+    Marks: none for a feasible candidate, x completed but not feasible, f run failed, · screened out.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -156,20 +159,23 @@ def heatmap(run: SweepRun, path: Path) -> None:
     if "fraction" in (rows[0] if rows else {}):
         fracs = sorted({r["fraction"] for r in rows})
         grid = np.full((len(links), len(fracs)), np.nan)
-        ran = np.zeros_like(grid, dtype=bool)
+        mark = np.full(grid.shape, "·", dtype=object)  # screened out, unless a row says more
         for r in rows:
             i, j = links.index(r["link"]), fracs.index(r["fraction"])
-            ran[i, j] |= not r["screened_out"]
-            if r["feasible"]:
+            if r["completed"] and r["Ci_mean_gp"] is not None:
                 grid[i, j] = np.nanmin([grid[i, j], 1e3 * r["Ci_mean_gp"]])
+            if r["feasible"]:
+                mark[i, j] = ""
+            elif not r["screened_out"] and mark[i, j] != "":
+                mark[i, j] = "x" if r["completed"] else "f"
         edges = np.concatenate([[fracs[0]], 0.5 * (np.array(fracs[1:]) + np.array(fracs[:-1])), [fracs[-1]]])
         if len(fracs) == 1:
             edges = np.array([fracs[0] - 0.5, fracs[0] + 0.5])
         mesh = ax.pcolormesh(edges, np.arange(len(links) + 1) - 0.5, np.ma.masked_invalid(grid), cmap="viridis_r")
         for i in range(len(links)):
             for j in range(len(fracs)):
-                if np.isnan(grid[i, j]):
-                    ax.text(fracs[j], i, "x" if ran[i, j] else "·", ha="center", va="center", color="0.5", fontsize=7)
+                if mark[i, j]:
+                    ax.text(fracs[j], i, mark[i, j], ha="center", va="center", color="0.35", fontsize=7)
         ax.set_xlabel("fraction along the link (0: its joint, 1: the next joint)")
     else:
         ok = [r for r in rows if r["feasible"]]
@@ -177,7 +183,11 @@ def heatmap(run: SweepRun, path: Path) -> None:
         ax.set_xlabel("link")
     ax.set_yticks(range(len(links)), links)
     fig.colorbar(mesh, ax=ax, label="mean C_i, gradient projection (mm/N)")
-    ax.set_title(f"{run.spec.name}: feasible bracing points (x: simulated, not feasible; ·: screened out)")
+    ax.set_title(
+        f"{run.spec.name}: mean C_i of completed runs; unmarked: feasible, x: not feasible, f: run failed, "
+        "·: screened out",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
