@@ -205,13 +205,13 @@ def pareto_front(points: list[tuple[float, float]]) -> list[int]:
 
 
 def pareto(run: SweepRun, path: Path) -> None:
-    """Mean C_i against mean k of gradient projection for every simulated candidate; the feasible Pareto front."""
+    """Mean C_i against mean k of gradient projection for every completed run; the feasible Pareto front."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    sim = [r for r in run.rows if r["Ci_mean_gp"] is not None and r["k_mean_gp"] is not None]
+    sim = [r for r in run.rows if r["completed"] and r["Ci_mean_gp"] is not None and r["k_mean_gp"] is not None]
     good = [r for r in sim if r["feasible"]]
     bad = [r for r in sim if not r["feasible"]]
     fig, ax = plt.subplots(figsize=(7, 5), dpi=110)
@@ -223,7 +223,8 @@ def pareto(run: SweepRun, path: Path) -> None:
     front = [good[i] for i in pareto_front(pts)]
     if front:
         ax.plot([r["k_mean_gp"] for r in front], [1e3 * r["Ci_mean_gp"] for r in front], "r.-", label="Pareto front")
-    ax.set_xlabel("mean k of J̃ (gradient projection)")
+    ax.set_xscale("log")
+    ax.set_xlabel("mean k of J̃ (gradient projection, log scale)")
     ax.set_ylabel("mean C_i (mm/N, gradient projection)")
     ax.set_title(f"{run.spec.name}: compliance against conditioning")
     ax.legend()
