@@ -216,7 +216,11 @@ def pareto(run: SweepRun, path: Path) -> None:
     bad = [r for r in sim if not r["feasible"]]
     fig, ax = plt.subplots(figsize=(7, 5), dpi=110)
     ax.scatter(
-        [r["k_mean_gp"] for r in bad], [1e3 * r["Ci_mean_gp"] for r in bad], c="0.75", s=12, label="not feasible"
+        [r["k_mean_gp"] for r in bad],
+        [1e3 * r["Ci_mean_gp"] for r in bad],
+        c="0.75",
+        s=12,
+        label="completed, not feasible",
     )
     ax.scatter([r["k_mean_gp"] for r in good], [1e3 * r["Ci_mean_gp"] for r in good], s=14, label="feasible")
     pts = [(r["k_mean_gp"], r["Ci_mean_gp"]) for r in good]
