@@ -154,6 +154,9 @@ def test_sigterm_exits_130_and_keeps_the_finished_rows(tiny_spec: Path, tmp_path
         while time.monotonic() < deadline and not (rows.is_dir() and any(rows.glob("*.json"))):
             time.sleep(0.05)
         assert rows.is_dir() and any(rows.glob("*.json")), "no row was saved"
+        import psutil
+
+        children = psutil.Process(proc.pid).children(recursive=True)  # the local cluster's worker processes
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=60)
     finally:
@@ -164,4 +167,6 @@ def test_sigterm_exits_130_and_keeps_the_finished_rows(tiny_spec: Path, tmp_path
     assert proc.returncode == 130, err.decode()
     assert "interrupted" in err.decode().splitlines()[-1]
     assert 1 <= len(kept) <= 4
+    _, alive = psutil.wait_procs(children, timeout=15)
+    assert not alive, "worker processes left running"
     assert not (out / "results.csv").exists()  # the final tables are written whole at the end only

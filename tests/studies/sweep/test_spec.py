@@ -87,3 +87,15 @@ def test_an_out_with_user_files_is_refused_without_overwrite(
     assert main(["sweep", str(tiny_spec), "--out", str(out), "--quiet"]) == 2
     assert "notes.txt" in capsys.readouterr().err
     assert (out / "notes.txt").read_text() == "mine" and not (out / ".sweep").exists()
+
+
+def test_a_missing_dask_is_one_line_exit_2(
+    tiny_spec: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "distributed" else real(name, *a))
+    assert main(["sweep", str(tiny_spec), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bracekit[sweep]" in err[0]
