@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from bracekit._version import __version__
+from bracekit.cli import sweep as sweep_cli
 from bracekit.errors import BracekitError, InputError, MissingDependencyError
 
 LIST_OPTIONS = ("--q", "--stiffness", "--normal", "--beta-x", "--brace-offset", "--first-normal", "--second-normal")
@@ -172,6 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     be = sub.add_parser("bench", help="measure the speed of the hot paths")
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--quick", action="store_true", help="fewer repetitions")
+    sweep_cli.add_parser(sub)
     return p
 
 
@@ -218,6 +220,7 @@ def _as_cli(message: str) -> str:
 
 def _dispatch(args: argparse.Namespace) -> int:
     commands = {"evaluate": _evaluate, "run": _run, "validate": _validate, "study": _study, "bench": _bench}
+    commands["sweep"] = sweep_cli.run
     return commands[args.command](args)
 
 

@@ -1,0 +1,112 @@
+"""A task context: what every candidate of the same task shares, computed once per task.
+
+The reference start is the configuration nearest the base scenario's start guess (minimum-norm Gauss–Newton)
+with the tip at the task's start pose (the task's rotation, else the guess's tip orientation); the free-space
+minimum-norm run goes from there along the task. Candidates that differ only in where the brace is share a
+context; the other inputs (task centre and radius, stiffness, preload, friction) make new ones.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.errors import BracekitError
+from bracekit.simulation.scenario import Scenario, parse_scenario
+from bracekit.simulation.simulate import correct, simulate
+from bracekit.studies.sweep.spec import SweepSpec
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TaskContext:
+    """The shared part of a task's candidates. Arrays in SI units (rad, s).
+
+    Attributes:
+        key: the context inputs as a key (:attr:`Candidate.context_key`).
+        inputs: the context inputs.
+        q_ref: the reference start (n,), or None when it could not be solved (``failure`` says why).
+        t: sample times of the free-space run (N,). Q: its configurations (N, n). beta: β_x at each sample (N, 6).
+        free: the free-space run's summary (Ci_mean, k_mean, completed, failure, ...).
+    """
+
+    key: str
+    inputs: dict[str, Any]
+    q_ref: Array | None
+    t: Array = field(default_factory=lambda: np.zeros(0))
+    Q: Array = field(default_factory=lambda: np.zeros((0, 0)))
+    beta: Array = field(default_factory=lambda: np.zeros((0, 6)))
+    free: dict[str, Any] = field(default_factory=dict)
+    failure: str | None = None
+    wall_s: float = 0.0
+
+
+def context_scenario(spec: SweepSpec, inputs: dict[str, Any]) -> Scenario:
+    """The base scenario with the context inputs (its own brace kept; free space does not use it)."""
+    from bracekit.studies.sweep.scenario import context_data
+
+    return parse_scenario(context_data(spec, inputs), base=spec.base_dir, name=spec.name)
+
+
+def reference_start(scenario: Scenario) -> Array:
+    """The configuration nearest the scenario's guess with the tip at the task's start pose (free space).
+
+    Raises:
+        ConvergenceError: no such configuration near the guess. JointLimitError: it is outside the joint limits.
+    """
+    from bracekit.errors import JointLimitError
+
+    braced = scenario.braced
+    guess = scenario.guess
+    rotation = scenario.task.rotation
+    if rotation is None:
+        rotation = braced.state(guess).R_e
+    q = correct(braced, guess, scenario.task.position(0.0), rotation, None, space=scenario.task_space).q
+    robot = scenario.robot
+    outside = np.flatnonzero((q < robot.lower) | (q > robot.upper))
+    if outside.size:
+        raise JointLimitError(
+            f"the reference start puts joint {int(outside[0]) + 1} outside its limits; change the start guess"
+        )
+    return q
+
+
+def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskContext:
+    """Solve the reference start and run free-space minimum norm along the task; never raises a BracekitError."""
+    import time
+
+    began = time.perf_counter()
+    try:
+        sc = context_scenario(spec, inputs)
+        q_ref = reference_start(sc)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            tr = simulate(
+                sc.braced,
+                sc.strategy("free_space_min_norm"),
+                sc.task,
+                q_ref,
+                sc.dt,
+                sc.beta_x,
+                feedback_gain=sc.feedback_gain,
+            )
+    except BracekitError as exc:
+        return TaskContext(key, inputs, None, failure=f"task context: {exc}", wall_s=time.perf_counter() - began)
+    summary = tr.summary(sc.compliance_model if sc.compliance_model != "preloaded" else "constrained")
+    beta = np.array([sc.beta_x(float(t)) for t in tr.t])
+    return TaskContext(
+        key,
+        inputs,
+        q_ref,
+        t=tr.t,
+        Q=tr.q,
+        beta=beta,
+        free=summary,
+        failure=None,
+        wall_s=time.perf_counter() - began,
+    )

@@ -1,0 +1,221 @@
+"""Running a sweep on Dask distributed: a local cluster of worker processes, or an existing scheduler.
+
+The steps: the task contexts (one free-space run per task), the batch screening (one task per context), the
+candidates that pass (one task each, as they finish their rows are saved), then the refinement of the best
+feasible candidates, and the final tables. Rows are sorted by candidate order, so the tables are the same
+whatever the number of workers or the order in which they finish.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from bracekit.errors import InputError
+from bracekit.studies.sweep.candidates import Candidate, expand
+from bracekit.studies.sweep.context import TaskContext, task_context
+from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns
+from bracekit.studies.sweep.screen import Screened, screen_context, select
+from bracekit.studies.sweep.spec import SweepSpec
+from bracekit.studies.sweep.store import RowStore
+
+#: Environment of local worker processes: one thread for numba and BLAS (one candidate per worker at a time).
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: Seconds to wait for a scheduler to answer.
+CONNECT_TIMEOUT = 10.0
+
+
+@dataclass
+class SweepRun:
+    """What a sweep run did. ``rows``: one per candidate run (or screened), in candidate order."""
+
+    spec: SweepSpec
+    rows: list[dict[str, Any]]
+    refined: list[dict[str, Any]] = field(default_factory=list)
+    evaluated: int = 0
+    reused: int = 0
+    screened_out: int = 0
+    timings: dict[str, float] = field(default_factory=dict)
+    workers: int = 0
+
+
+@contextmanager
+def dask_client(
+    workers: int | None = None, scheduler: str | None = None, *, connect_timeout: float = CONNECT_TIMEOUT
+) -> Iterator[Any]:
+    """A Dask client: of a new LocalCluster (`workers` processes, one thread each) or of the scheduler at an address.
+
+    `connect_timeout` (s) bounds the wait for a scheduler to answer.
+
+    Raises:
+        InputError: both or neither given, a bad worker count, or no scheduler answers at the address.
+    """
+    from distributed import Client, LocalCluster
+
+    if (workers is None) == (scheduler is None):
+        raise InputError("give a number of local workers or a scheduler address, not both")
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout=connect_timeout)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(f"cannot connect to the Dask scheduler at {scheduler}: {exc}") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"--workers must be a whole number ≥ 1, got {workers!r}")
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,  # no dashboard; the scheduler's HTTP routes on a free port, not 8787
+        scheduler_kwargs={"dashboard_address": ":0"},
+        silence_logs=logging.ERROR,
+        env=WORKER_ENV,
+    )
+    try:
+        client = Client(cluster)
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        cluster.close()
+
+
+def _contexts(candidates: list[Candidate]) -> dict[str, dict[str, Any]]:
+    """Context key → its inputs, in candidate order."""
+    out: dict[str, dict[str, Any]] = {}
+    for c in candidates:
+        if c.context_key not in out:
+            from bracekit.studies.sweep.spec import BRACE_AXES
+
+            out[c.context_key] = {k: v for k, v in c.inputs.items() if k not in BRACE_AXES}
+    return out
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out: Path,
+    client: Any,
+    *,
+    limit: int | None = None,
+    screen: bool | None = None,
+    refine: bool = True,
+    progress: bool = False,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+) -> SweepRun:
+    """Run the candidates of `spec` not finished in `out` on the Dask `client`; save each row as it finishes.
+
+    Args:
+        spec: the sweep spec.
+        out: the output folder (its ``.sweep`` work folder holds the finished rows).
+        client: a ``distributed.Client`` (see :func:`dask_client`).
+        limit: run the first `limit` candidates only (the screening still ranks all of them).
+        screen: screen before simulating (default: the spec's ``screen.enabled``).
+        refine: refine the best feasible candidates (the spec's ``[refine]``).
+        progress: show a progress bar on stderr.
+        on_row: called with each row as it is saved (in the order they finish).
+
+    On KeyboardInterrupt the futures in flight are cancelled; the rows saved so far stay.
+    """
+    began = time.perf_counter()
+    store = RowStore(out, spec)
+    everything = expand(spec)
+    chosen = everything if limit is None else everything[:limit]
+    screening = spec.screening.enabled if screen is None else screen
+    done = store.finished()
+    timings: dict[str, float] = {}
+    futures: list[Any] = []
+    try:
+        spec_f = client.scatter(spec, broadcast=True, hash=False)
+        needed = everything if screening else chosen
+        keys = _contexts(needed)
+        t0 = time.perf_counter()
+        ctx_f = {k: client.submit(task_context, spec_f, inputs, k, pure=False) for k, inputs in keys.items()}
+        futures += list(ctx_f.values())
+        verdicts: dict[str, str | None] = {}
+        screened: dict[str, Screened] = {}
+        if screening:
+            groups: dict[str, list[Candidate]] = {}
+            for c in everything:
+                groups.setdefault(c.context_key, []).append(c)
+            scr_f = [client.submit(screen_context, spec_f, ctx_f[k], cs, pure=False) for k, cs in groups.items()]
+            futures += scr_f
+            for part in client.gather(scr_f):
+                screened |= {s.candidate: s for s in part}
+                verdicts |= select(spec, part)
+        contexts: dict[str, TaskContext] = dict(zip(ctx_f, client.gather(list(ctx_f.values())), strict=True))
+        timings["contexts_and_screening_s"] = time.perf_counter() - t0
+        todo = [c for c in chosen if c.id not in done and verdicts.get(c.id) is None]
+        t1 = time.perf_counter()
+        ev_f = [client.submit(evaluate_candidate, spec_f, c, ctx_f[c.context_key], pure=False) for c in todo]
+        futures += ev_f
+        bar = None
+        if progress and todo:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(todo), desc=f"{spec.name}: candidates", unit="cand", file=sys.stderr)
+        from distributed import as_completed
+
+        try:
+            for fut in as_completed(ev_f):
+                row = fut.result()
+                store.save(row)
+                done[row["candidate"]] = row
+                if bar is not None:
+                    bar.update(1)
+                if on_row is not None:
+                    on_row(row)
+        finally:
+            if bar is not None:
+                bar.close()
+        timings["simulation_s"] = time.perf_counter() - t1
+        rows = []
+        order = ["candidate", "index", *input_columns(spec), *RESULT_COLUMNS]
+        screened_out = 0
+        for c in chosen:
+            if c.id in done:
+                row = dict(done[c.id])
+            else:
+                row = empty_row(spec, c)
+                row["Ci_mean_free_space"] = contexts[c.context_key].free.get("Ci_mean")
+                row["screened_out"] = True
+                row["failure"] = verdicts[c.id]
+                screened_out += 1
+            s = screened.get(c.id)
+            row["screen_clearance_m"] = None if s is None else s.clearance
+            row["screen_Ci_mean"] = None if s is None else s.Ci_mean
+            row["screen_k_max"] = None if s is None else s.k_max
+            rows.append({k: row.get(k) for k in order})
+        refined: list[dict[str, Any]] = []
+        if refine and spec.refinement.top > 0 and spec.axis("fraction") is not None:
+            from bracekit.studies.sweep.refine import refine_best
+
+            t2 = time.perf_counter()
+            refined = refine_best(spec, rows, chosen, ctx_f, client, store, futures)
+            timings["refinement_s"] = time.perf_counter() - t2
+    except BaseException:
+        client.cancel(futures)
+        raise
+    timings["total_s"] = time.perf_counter() - began
+    workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
+    return SweepRun(
+        spec,
+        rows,
+        refined,
+        evaluated=len(todo),
+        reused=len(chosen) - len(todo) - screened_out,
+        screened_out=screened_out,
+        timings=timings,
+        workers=workers,
+    )

@@ -1,0 +1,191 @@
+"""One candidate → one row: build its scenario, run both braced strategies along the task, check feasibility.
+
+Never raises for a numerical failure: the row records it (``completed`` False, ``failure`` the reason). The row
+is the same whichever process computes it (no times or process names in it, apart from ``wall_s``).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+
+from bracekit.errors import BracekitError
+from bracekit.simulation.scenario import Scenario, parse_scenario
+from bracekit.studies.sweep.candidates import Candidate
+from bracekit.studies.sweep.context import TaskContext
+from bracekit.studies.sweep.scenario import candidate_data, point_offset
+from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
+
+#: The short names of the strategies in column names.
+SHORT = {"free_space_min_norm": "free_space", "braced_min_norm": "min_norm", "braced_gradient_projection": "gp"}
+#: Output columns of a candidate's row, after its inputs (SI units: m/N, m, rad, s).
+RESULT_COLUMNS = (
+    "point_x",
+    "point_y",
+    "point_z",
+    "screened_out",
+    "screen_clearance_m",
+    "screen_Ci_mean",
+    "screen_k_max",
+    "Ci_mean_free_space",
+    "Ci_mean_min_norm",
+    "Ci_mean_gp",
+    "Ci_reduction_gp",
+    "k_mean_min_norm",
+    "k_mean_gp",
+    "min_link_clearance_m",
+    "max_joint_limit_violation_rad",
+    "max_region_radius_m",
+    "min_liftoff_margin",
+    "min_slip_margin",
+    "min_torque_margin",
+    "completed_min_norm",
+    "failure_min_norm",
+    "completed",
+    "feasible",
+    "failure",
+    "warnings",
+    "wall_s",
+)
+
+
+def single_thread() -> None:
+    """One numba thread in this process (a worker runs one candidate at a time; no oversubscription)."""
+    numba = sys.modules.get("numba")
+    if numba is not None:
+        numba.set_num_threads(1)
+
+
+def input_columns(spec: SweepSpec) -> list[str]:
+    """The input columns of a spec's rows: each axis, vectors as name_x, name_y, name_z."""
+    out = []
+    for a in spec.axes:
+        out += [f"{a.name}_{c}" for c in "xyz"] if a.kind == "vector" else [a.name]
+    return out
+
+
+def input_values(spec: SweepSpec, candidate: Candidate) -> dict[str, Any]:
+    """The candidate's inputs as columns."""
+    out: dict[str, Any] = {}
+    for a in spec.axes:
+        v = candidate.inputs[a.name]
+        if a.kind == "vector":
+            out.update({f"{a.name}_{c}": float(x) for c, x in zip("xyz", v, strict=True)})
+        else:
+            out[a.name] = v
+    return out
+
+
+def empty_row(spec: SweepSpec, candidate: Candidate) -> dict[str, Any]:
+    """A row with the candidate's inputs and every result column None (not run)."""
+    row: dict[str, Any] = {"candidate": candidate.id, "index": candidate.index}
+    row |= input_values(spec, candidate)
+    row |= dict.fromkeys(RESULT_COLUMNS)
+    row["screened_out"] = False
+    row["completed"] = False
+    row["feasible"] = False
+    return row
+
+
+def candidate_point(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> np.ndarray:
+    """The candidate point's world position at the context's reference start (m)."""
+    from bracekit.studies.sweep.context import context_scenario
+
+    if context.q_ref is None:
+        raise ValueError("the task context has no reference start")
+    robot = context_scenario(spec, context.inputs).robot
+    point = robot.with_point_frame(POINT_FRAME, candidate.inputs["link"], point_offset(spec, robot, candidate.inputs))
+    placement, _ = point.frame_kinematics(context.q_ref, [point.frame_id(POINT_FRAME)])[0]
+    return np.asarray(placement[:3, 3], dtype=float)
+
+
+def candidate_scenario(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> Scenario:
+    """The candidate's scenario (see :mod:`bracekit.studies.sweep.scenario`); needs a solved context."""
+    if context.q_ref is None:
+        raise ValueError("the task context has no reference start")
+    point = candidate_point(spec, candidate, context)
+    centre = point + np.asarray(candidate.inputs.get("region_offset", [0.0, 0.0, 0.0]), dtype=float)
+    data = candidate_data(spec, candidate, context.q_ref, centre)
+    return parse_scenario(data, base=spec.base_dir, name=data["name"])
+
+
+def _num(value: Any) -> float | None:
+    return None if value is None or not np.isfinite(value) else float(value)
+
+
+def feasibility(spec: SweepSpec, gp: dict[str, Any]) -> str | None:
+    """Why the gradient-projection run is not feasible (the first reason), or None if it is."""
+    f = spec.feasibility
+    if not gp["completed"]:
+        return f"braced_gradient_projection did not complete: {gp['failure']}"
+    if gp["k_mean"] > f.k_max:
+        return f"k_mean {gp['k_mean']:.3g} > k_max {f.k_max:g}"
+    if gp["max_joint_limit_violation_rad"] > f.joint_limit_tolerance:
+        return f"outside the joint limits by {gp['max_joint_limit_violation_rad']:.3g} rad"
+    clearance = gp["min_link_clearance_m"]
+    if clearance is not None and clearance < f.min_clearance:
+        return f"a link comes {clearance:.3g} m from the surface (< {f.min_clearance:g} m)"
+    for key in ("min_liftoff_margin", "min_slip_margin", "min_torque_margin"):
+        margin = gp.get(key)
+        if margin is not None and margin < f.min_margin:
+            return f"{key} {margin:.3g} < {f.min_margin:g}"
+    return None
+
+
+def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> dict[str, Any]:
+    """The candidate's row: inputs, C_i and k of each strategy, margins, feasibility and the failure reason."""
+    from bracekit.simulation.run import run_scenario
+
+    single_thread()
+    began = time.perf_counter()
+    row = empty_row(spec, candidate)
+    row["Ci_mean_free_space"] = context.free.get("Ci_mean")
+    if context.q_ref is None:
+        row["failure"] = context.failure
+        row["wall_s"] = time.perf_counter() - began
+        return row
+    try:
+        point = candidate_point(spec, candidate, context)
+        row["point_x"], row["point_y"], row["point_z"] = (float(x) for x in point)
+        sc = candidate_scenario(spec, candidate, context)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = run_scenario(sc, both_models=False)
+    except (BracekitError, ArithmeticError, np.linalg.LinAlgError) as exc:  # numerical failures: in the row
+        row["failure"] = f"{type(exc).__name__}: {exc}"
+        row["wall_s"] = time.perf_counter() - began
+        return row
+    row |= summary_columns(spec, result.summary["strategies"], context)
+    row["warnings"] = len(caught)
+    row["wall_s"] = time.perf_counter() - began
+    return row
+
+
+def summary_columns(spec: SweepSpec, strategies: dict[str, dict[str, Any]], context: TaskContext) -> dict[str, Any]:
+    """The result columns from run_scenario's per-strategy summary."""
+    mn, gp = strategies["braced_min_norm"], strategies["braced_gradient_projection"]
+    free = context.free.get("Ci_mean")
+    out: dict[str, Any] = {
+        "Ci_mean_min_norm": _num(mn["Ci_mean"]),
+        "Ci_mean_gp": _num(gp["Ci_mean"]),
+        "Ci_reduction_gp": None if free is None or gp["Ci_mean"] is None else 1.0 - gp["Ci_mean"] / free,
+        "k_mean_min_norm": _num(mn["k_mean"]),
+        "k_mean_gp": _num(gp["k_mean"]),
+        "min_link_clearance_m": _num(gp["min_link_clearance_m"]),
+        "max_joint_limit_violation_rad": _num(gp["max_joint_limit_violation_rad"]),
+        "max_region_radius_m": _num(gp["max_region_radius_m"]),
+        "min_liftoff_margin": _num(gp.get("min_liftoff_margin")),
+        "min_slip_margin": _num(gp.get("min_slip_margin")),
+        "min_torque_margin": _num(gp.get("min_torque_margin")),
+        "completed_min_norm": bool(mn["completed"]),
+        "failure_min_norm": mn["failure"],
+        "completed": bool(gp["completed"]),
+    }
+    reason = feasibility(spec, gp)
+    out["feasible"] = reason is None
+    out["failure"] = reason
+    return out

@@ -1,0 +1,121 @@
+"""Refinement: the best feasible candidates' fraction along their link, optimised by a bounded scalar search.
+
+For each of the ``refine.top`` best feasible candidates (lowest mean C_i of gradient projection), SciPy's
+bounded Brent search (``minimize_scalar(method="bounded")``) varies the fraction between the neighbouring grid
+values (±0.1 with random sampling), every evaluation a whole-task run (:func:`.evaluate.evaluate_candidate`).
+The objective is the mean C_i of gradient projection; an infeasible evaluation counts as PENALTY. The best
+feasible evaluation is reported (the grid candidate itself if none is better).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any
+
+from bracekit.studies.sweep.candidates import Candidate, candidate_id
+from bracekit.studies.sweep.context import TaskContext
+from bracekit.studies.sweep.evaluate import evaluate_candidate
+from bracekit.studies.sweep.spec import SweepSpec
+from bracekit.studies.sweep.store import RowStore
+
+#: The objective of an infeasible evaluation (m/N): far above any mean C_i of a braced run.
+PENALTY = 1.0
+#: Half-width of the search interval with random sampling (fraction of the link).
+RANDOM_HALF_WIDTH = 0.1
+
+
+def interval(spec: SweepSpec, fraction: float) -> tuple[float, float]:
+    """The search interval of a candidate at `fraction`: between its neighbours on the fraction grid."""
+    axis = spec.axis("fraction")
+    if spec.mode == "random" or axis is None:
+        return max(0.0, fraction - RANDOM_HALF_WIDTH), min(1.0, fraction + RANDOM_HALF_WIDTH)
+    grid = sorted(axis.grid())
+    lower = [g for g in grid if g < fraction]
+    upper = [g for g in grid if g > fraction]
+    return (lower[-1] if lower else 0.0), (upper[0] if upper else 1.0)
+
+
+def refine_candidate(
+    spec: SweepSpec, candidate: Candidate, context: TaskContext, low: float, high: float
+) -> dict[str, Any]:
+    """Search the fraction in [low, high] for the candidate's link; return the best feasible evaluation."""
+    from scipy.optimize import minimize_scalar
+
+    evaluations: list[dict[str, Any]] = []
+
+    def objective(x: float) -> float:
+        inputs = dict(candidate.inputs) | {"fraction": float(x)}
+        row = evaluate_candidate(spec, Candidate(-1, candidate_id(inputs), inputs), context)
+        evaluations.append(row)
+        return float(row["Ci_mean_gp"]) if row["feasible"] else PENALTY
+
+    r = spec.refinement
+    minimize_scalar(
+        objective, bounds=(low, high), method="bounded", options={"xatol": r.xatol, "maxiter": r.max_evaluations}
+    )
+    feasible = [e for e in evaluations if e["feasible"]]
+    best = min(feasible, key=lambda e: (e["Ci_mean_gp"], e["fraction"])) if feasible else None
+    return {
+        "candidate": candidate.id,
+        "link": candidate.inputs["link"],
+        "fraction": candidate.inputs["fraction"],
+        "interval": [low, high],
+        "evaluations": len(evaluations),
+        "refined_fraction": None if best is None else best["fraction"],
+        "refined_Ci_mean_gp": None if best is None else best["Ci_mean_gp"],
+        "refined_k_mean_gp": None if best is None else best["k_mean_gp"],
+        "refined_point": None if best is None else [best["point_x"], best["point_y"], best["point_z"]],
+    }
+
+
+def refinement_key(spec: SweepSpec, candidate: Candidate, low: float, high: float) -> str:
+    """The key a refinement is saved under: the candidate and the search settings."""
+    text = json.dumps([low, high, spec.refinement.max_evaluations, spec.refinement.xatol])
+    return f"{candidate.id}-{hashlib.sha256(text.encode()).hexdigest()[:8]}"
+
+
+def refine_best(
+    spec: SweepSpec,
+    rows: list[dict[str, Any]],
+    candidates: list[Candidate],
+    contexts: dict[str, Any],
+    client: Any,
+    store: RowStore,
+    futures: list[Any],
+) -> list[dict[str, Any]]:
+    """Refine the best feasible rows on the Dask client (saved refinements are reused); in rank order."""
+    by_id = {c.id: c for c in candidates}
+    feasible = [r for r in rows if r["feasible"] and r["Ci_mean_gp"] is not None]
+    best = sorted(feasible, key=lambda r: (r["Ci_mean_gp"], r["index"]))[: spec.refinement.top]
+    saved = store.refined()
+    out: list[Any] = []
+    for row in best:
+        c = by_id[row["candidate"]]
+        low, high = interval(spec, float(c.inputs["fraction"]))
+        key = refinement_key(spec, c, low, high)
+        if key in saved:
+            out.append(saved[key])
+            continue
+        fut = client.submit(refine_candidate, spec, c, contexts[c.context_key], low, high, pure=False)
+        futures.append(fut)
+        out.append((key, fut, row))
+    result = []
+    for item in out:
+        if isinstance(item, tuple):
+            key, fut, row = item
+            data = fut.result() | {"grid_Ci_mean_gp": row["Ci_mean_gp"]}
+            better = data["refined_Ci_mean_gp"] is not None and data["refined_Ci_mean_gp"] < row["Ci_mean_gp"]
+            data["improved"] = better
+            if not better:  # the grid candidate stays the best
+                data |= {
+                    "refined_fraction": row["fraction"],
+                    "refined_Ci_mean_gp": row["Ci_mean_gp"],
+                    "refined_k_mean_gp": row["k_mean_gp"],
+                    "refined_point": [row["point_x"], row["point_y"], row["point_z"]],
+                }
+            store.save_refined(key, data)
+            result.append(data)
+        else:
+            result.append(item)
+    return result

@@ -1,0 +1,125 @@
+"""Resumable results of a sweep: one JSON file per finished candidate in a work folder, and the final tables.
+
+The work folder is ``OUT/.sweep``: ``spec.json`` (the spec's fingerprint) and ``rows/<candidate>.json``, each
+written whole (a temporary file renamed into place) as soon as the candidate finishes. A new run with the same
+spec reads them and skips those candidates; a folder holding another spec's rows is refused. The final tables
+(``results.parquet``, ``results.csv``) are written with the other outputs at the end (:mod:`.report`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import secrets
+from pathlib import Path
+from typing import Any
+
+from bracekit._version import __version__
+from bracekit.errors import InputError, OutputError
+from bracekit.studies.sweep.spec import SweepSpec
+
+#: The work folder inside OUT.
+WORK = ".sweep"
+
+
+class SweepStateError(InputError):
+    """An output folder holding another sweep's partial results."""
+
+
+def _write_whole(path: Path, text: str) -> None:
+    """Write `text` to `path` via a temporary file in the same folder and a rename (never half a file)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+class RowStore:
+    """The finished rows of a sweep in ``OUT/.sweep``; create it once the output folder is checked and locked."""
+
+    def __init__(self, out: Path, spec: SweepSpec) -> None:
+        self.work = Path(out) / WORK
+        self.rows_dir = self.work / "rows"
+        self.refined_dir = self.work / "refined"
+        marker = self.work / "spec.json"
+        fingerprint = spec.fingerprint()
+        if marker.is_file():
+            try:
+                held = json.loads(marker.read_text(encoding="utf-8"))
+            except (OSError, ValueError) as exc:
+                raise SweepStateError(
+                    f"{marker} cannot be read ({exc}); move {self.work} away to start afresh"
+                ) from exc
+            if held.get("fingerprint") != fingerprint:
+                raise SweepStateError(
+                    f"{out} holds partial results of another sweep spec ({held.get('name')!r}, fingerprint "
+                    f"{held.get('fingerprint')}); give another --out or move {self.work} away"
+                )
+        try:
+            self.rows_dir.mkdir(parents=True, exist_ok=True)
+            self.refined_dir.mkdir(exist_ok=True)
+            if not marker.is_file():
+                data = {"name": spec.name, "fingerprint": fingerprint, "bracekit": __version__}
+                _write_whole(marker, json.dumps(data, indent=2) + "\n")
+        except OSError as exc:
+            raise OutputError(f"cannot write the work folder {self.work}: {exc.strerror or exc}") from exc
+
+    def finished(self) -> dict[str, dict[str, Any]]:
+        """Candidate id → its saved row (unreadable files are ignored: that candidate runs again)."""
+        return self._read(self.rows_dir)
+
+    def refined(self) -> dict[str, dict[str, Any]]:
+        """Refined candidate key → its saved refinement."""
+        return self._read(self.refined_dir)
+
+    @staticmethod
+    def _read(folder: Path) -> dict[str, dict[str, Any]]:
+        out = {}
+        for path in sorted(folder.glob("*.json")):
+            try:
+                out[path.stem] = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, ValueError):
+                continue
+        return out
+
+    def save(self, row: dict[str, Any]) -> None:
+        """Save a finished candidate's row (whole or not at all)."""
+        _write_whole(self.rows_dir / f"{row['candidate']}.json", json.dumps(row, allow_nan=False) + "\n")
+
+    def save_refined(self, key: str, data: dict[str, Any]) -> None:
+        """Save a refinement under `key`."""
+        _write_whole(self.refined_dir / f"{key}.json", json.dumps(data, allow_nan=False) + "\n")
+
+
+def columns(rows: list[dict[str, Any]]) -> list[str]:
+    """The columns of the rows, in the first row's order."""
+    return list(rows[0]) if rows else ["candidate"]
+
+
+def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
+    """The rows as CSV (floats written exactly, empty cells for None)."""
+    names = columns(rows)
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(names)
+        for row in rows:
+            writer.writerow(
+                ["" if row.get(n) is None else repr(row[n]) if isinstance(row[n], float) else row[n] for n in names]
+            )
+
+
+def write_parquet(rows: list[dict[str, Any]], path: Path) -> None:
+    """The rows as a Parquet table (pyarrow), one column per key, nulls for None."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    names = columns(rows)
+    table = pa.table({n: [row.get(n) for row in rows] for n in names})
+    pq.write_table(table, path)

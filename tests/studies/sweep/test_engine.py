@@ -1,0 +1,96 @@
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from bracekit.studies.sweep.candidates import expand
+from bracekit.studies.sweep.engine import dask_client, run_sweep
+from bracekit.studies.sweep.spec import load_spec
+from bracekit.studies.sweep.store import RowStore, SweepStateError
+
+
+def without_times(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
+
+
+@pytest.fixture(scope="module")
+def reference(tiny_spec: Path, client2: Any, tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """The tiny sweep on 2 local workers, every candidate simulated."""
+    return run_sweep(load_spec(tiny_spec), tmp_path_factory.mktemp("ref"), client2, screen=False)
+
+
+def test_results_are_identical_on_one_and_two_workers(tiny_spec: Path, reference: Any, tmp_path: Path) -> None:
+    spec = load_spec(tiny_spec)
+    with dask_client(workers=1) as client:
+        one = run_sweep(spec, tmp_path, client, screen=False)
+    assert one.workers == 1 and reference.workers == 2
+    assert [r["candidate"] for r in one.rows] == [c.id for c in expand(spec)]
+    assert without_times(one.rows) == without_times(reference.rows)
+    assert one.refined == reference.refined
+    assert one.evaluated == 4 and one.reused == 0
+
+
+def test_resume_skips_finished_candidates(tiny_spec: Path, reference: Any, client2: Any, tmp_path: Path) -> None:
+    spec = load_spec(tiny_spec)
+    first = run_sweep(spec, tmp_path, client2, screen=False, limit=2, refine=False)
+    assert first.evaluated == 2 and len(first.rows) == 2
+    saved = {p.name: p.stat().st_mtime_ns for p in (tmp_path / ".sweep" / "rows").iterdir()}
+    assert len(saved) == 2
+    second = run_sweep(spec, tmp_path, client2, screen=False)
+    assert second.evaluated == 2 and second.reused == 2
+    assert {p.name: p.stat().st_mtime_ns for p in (tmp_path / ".sweep" / "rows").iterdir() if p.name in saved} == saved
+    assert without_times(second.rows) == without_times(reference.rows)
+    third = run_sweep(spec, tmp_path, client2, screen=False)
+    assert third.evaluated == 0 and third.reused == 4
+    assert third.rows == second.rows  # the saved rows, wall times included
+
+
+def test_an_interrupt_keeps_the_finished_rows(tiny_spec: Path, reference: Any, client2: Any, tmp_path: Path) -> None:
+    spec = load_spec(tiny_spec)
+    seen: list[str] = []
+
+    def stop(row: dict[str, Any]) -> None:
+        seen.append(row["candidate"])
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(spec, tmp_path, client2, screen=False, on_row=stop)
+    rows = sorted(p.stem for p in (tmp_path / ".sweep" / "rows").glob("*.json"))
+    assert seen and set(seen) <= set(rows) and len(rows) < 4
+    assert not [p for p in (tmp_path / ".sweep" / "rows").iterdir() if p.name.endswith(".tmp")]
+    again = run_sweep(spec, tmp_path, client2, screen=False)
+    assert again.evaluated == 4 - len(rows)
+    assert without_times(again.rows) == without_times(reference.rows)
+
+
+def test_another_specs_partial_results_are_refused(tiny_spec: Path, tmp_path: Path) -> None:
+    RowStore(tmp_path, load_spec(tiny_spec))
+    with pytest.raises(SweepStateError, match="another sweep spec"):
+        RowStore(tmp_path, load_spec("paper-links"))
+
+
+def test_screening_keeps_rows_for_every_candidate(
+    tiny_spec: Path, reference: Any, client2: Any, tmp_path: Path
+) -> None:
+    from bracekit.studies.sweep.context import task_context
+    from bracekit.studies.sweep.screen import screen_context, select
+
+    spec = load_spec(tiny_spec)
+    cands = expand(spec)
+    verdicts = select(spec, screen_context(spec, task_context(spec, {}, cands[0].context_key), cands))
+    run = run_sweep(spec, tmp_path, client2)
+    assert len(run.rows) == 4
+    assert run.screened_out == sum(v is not None for v in verdicts.values()) == 4 - run.evaluated
+    by_id = {r["candidate"]: r for r in reference.rows}
+    for row in run.rows:
+        assert row["screened_out"] == (verdicts[row["candidate"]] is not None)
+        if row["screened_out"]:
+            assert row["failure"] == verdicts[row["candidate"]] and row["Ci_mean_gp"] is None
+        else:
+            assert {k: v for k, v in row.items() if k != "wall_s" and not k.startswith("screen_")} == {
+                k: v for k, v in by_id[row["candidate"]].items() if k != "wall_s" and not k.startswith("screen_")
+            }
+    assert len(os.listdir(tmp_path / ".sweep" / "rows")) == run.evaluated
