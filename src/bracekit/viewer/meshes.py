@@ -23,7 +23,8 @@ def capsule_mesh(a: Array, b: Array, radius: float, segments: int = 16, rings: i
     """A capsule: the segment [a, b] grown by `radius` (points in the segment's frame, m).
 
     Args:
-        a, b: end points (3,), m.
+        a: one end point (3,), m.
+        b: the other end point (3,), m.
         radius: m (> 0).
         segments: vertices around the axis.
         rings: latitude rings of each end cap.
@@ -36,12 +37,13 @@ def capsule_mesh(a: Array, b: Array, radius: float, segments: int = 16, rings: i
     axis = b - a
     length = float(np.linalg.norm(axis))
     rot = _frame_z(axis)
-    phis = np.concatenate([np.linspace(-np.pi / 2, 0.0, rings + 1), np.linspace(0.0, np.pi / 2, rings + 1)])
-    heights = np.concatenate([np.zeros(rings + 1), np.full(rings + 1, length)])
+    # latitude rings without the poles: the lower cap about a, then the upper cap about b
+    phis = np.concatenate([np.linspace(-np.pi / 2, 0.0, rings + 1)[1:], np.linspace(0.0, np.pi / 2, rings + 1)[:-1]])
+    heights = np.concatenate([np.zeros(rings), np.full(rings, length)])
     angles = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
     ring_r = radius * np.cos(phis)
     z = heights + radius * np.sin(phis)
-    local = np.stack(
+    ring_points = np.stack(
         [
             np.outer(ring_r, np.cos(angles)),
             np.outer(ring_r, np.sin(angles)),
@@ -49,8 +51,15 @@ def capsule_mesh(a: Array, b: Array, radius: float, segments: int = 16, rings: i
         ],
         axis=-1,
     ).reshape(-1, 3)
+    poles = np.array([[0.0, 0.0, -radius], [0.0, 0.0, length + radius]])
+    local = np.vstack([ring_points, poles])
     vertices = a + local @ rot.T
+    bottom, top = len(ring_points), len(ring_points) + 1
+    last = (len(phis) - 1) * segments
     faces = []
+    for j in range(segments):
+        faces.append((bottom, (j + 1) % segments, j))
+        faces.append((last + j, last + (j + 1) % segments, top))
     for i in range(len(phis) - 1):
         for j in range(segments):
             p, q = i * segments + j, i * segments + (j + 1) % segments

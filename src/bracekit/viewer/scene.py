@@ -209,11 +209,15 @@ def _scene_json(folder: Path) -> dict[str, Any]:
     path = folder / SCENE_FILE
     if not path.is_file():
         raise InputError(f"{folder} has no {SCENE_FILE} (an output of an older bracekit); {RERUN}")
-    data = _read_json(path, "the scene")
+    try:
+        data = _read_json(path, "the scene")
+    except InputError as exc:
+        raise InputError(f"{exc}; {RERUN}") from exc
     if not isinstance(data, dict) or data.get("format") != SCENE_FORMAT:
         raise InputError(f"{path} is not a bracekit scene; {RERUN}")
     if data.get("version") != SCENE_VERSION:
-        raise InputError(f"{path} has scene version {data.get('version')!r}, this bracekit reads {SCENE_VERSION}; {RERUN}")
+        found = data.get("version")
+        raise InputError(f"{path} has scene version {found!r}, this bracekit reads {SCENE_VERSION}; {RERUN}")
     return data
 
 
@@ -222,8 +226,13 @@ def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
     try:
         model.loadFromString(data["pinocchio_model"])
         capsules = tuple(
-            Capsule(int(c["joint"]), np.array(c["a"], dtype=float), np.array(c["b"], dtype=float), float(c["radius"]),
-                    str(c["link"]))
+            Capsule(
+                int(c["joint"]),
+                np.array(c["a"], dtype=float),
+                np.array(c["b"], dtype=float),
+                float(c["radius"]),
+                str(c["link"]),
+            )
             for c in data["capsules"]
         )
         robot = Robot(model=model, tip=data["tip"], stiffness=np.array(data["stiffness"], dtype=float))

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from bracekit.errors import InputError, MissingDependencyError
 from bracekit.viewer.frames import RunFrames, run_frames
 from bracekit.viewer.meshes import capsule_mesh, circle_points, disk_mesh, segments_of, sphere_mesh
-from bracekit.viewer.scene import Scene, load_scene
+from bracekit.viewer.scene import BraceView, Scene, load_scene
 
 Array = NDArray[np.float64]
 
@@ -38,10 +38,17 @@ ELLIPSOID_COLOR = (220, 40, 120)
 FORCE_COLOR = (200, 30, 30)
 #: Largest drawn length of a contact-force arrow, m (the largest force of the run).
 FORCE_LENGTH = 0.15
+#: No shadows: a shadow map fitted to the visible scene would shade every object anew when a layer is hidden.
+NO_SHADOW: dict[str, Any] = {"cast_shadow": False, "receive_shadow": False}
 #: Vertical field of view of the initial camera, rad.
 FOV = np.radians(50.0)
 #: The scene layers that can be hidden (GUI checkboxes and :meth:`Viewer.set_visible`).
 LAYERS = ("robot", "surface", "path", "traces", "ellipsoid", "forces")
+
+
+def drawn_radius(brace: BraceView) -> float:
+    """Radius of a brace's surface disk as drawn, m: its surface radius, else 1.6 × the region's (0.15 m)."""
+    return brace.surface_radius or 1.6 * (brace.region_radius or 0.15)
 
 
 def _wxyz(rotation: Array) -> tuple[float, float, float, float]:
@@ -67,7 +74,8 @@ def port_free(host: str, port: int) -> bool:
         except OSError as exc:
             if exc.errno in (errno.EADDRINUSE, errno.EACCES):
                 return False
-            raise InputError(f"cannot listen on {host}:{port}: {exc.strerror}; give an address of this machine") from None
+            why = exc.strerror or exc
+            raise InputError(f"cannot listen on {host}:{port}: {why}; give an address of this machine") from None
     return True
 
 
@@ -169,23 +177,30 @@ class _Drawing:
             n[layer] = api.add_frame(f"/{layer}", show_axes=False)
         for i, c in enumerate(self.scene.capsules):
             vertices, faces = capsule_mesh(c.a, c.b, max(c.radius, 0.005))
-            n[f"capsule_{i}"] = api.add_mesh_simple(f"/robot/{i}_{c.link}", vertices, faces, color=ROBOT_COLOR)
+            n[f"capsule_{i}"] = api.add_mesh_simple(
+                f"/robot/{i}_{c.link}", vertices, faces, color=ROBOT_COLOR, **NO_SHADOW
+            )
         for i, b in enumerate(self.scene.braces):
-            radius = b.surface_radius or 1.6 * (b.region_radius or 0.15)
-            vertices, faces = disk_mesh(b.point, b.normal, radius)
-            api.add_mesh_simple(f"/surface/disk_{i}", vertices, faces, color=SURFACE_COLOR, side="double")
+            vertices, faces = disk_mesh(b.point, b.normal, drawn_radius(b))
+            api.add_mesh_simple(f"/surface/disk_{i}", vertices, faces, color=SURFACE_COLOR, side="double", **NO_SHADOW)
             if b.region_radius is not None:
                 lift = b.point + 1e-3 * b.normal
                 vertices, faces = disk_mesh(lift, b.normal, b.region_radius)
                 api.add_mesh_simple(
-                    f"/surface/region_{i}", vertices, faces, color=REGION_COLOR, opacity=0.35, side="double"
+                    f"/surface/region_{i}",
+                    vertices,
+                    faces,
+                    color=REGION_COLOR,
+                    opacity=0.35,
+                    side="double",
+                    **NO_SHADOW,
                 )
                 ring = circle_points(lift, b.normal, b.region_radius)
                 api.add_line_segments(f"/surface/region_rim_{i}", segments_of(ring), REGION_COLOR, thickness=0.004)
         api.add_line_segments("/path/task", segments_of(self.scene.path), PATH_COLOR, thickness=0.004)
         vertices, faces = sphere_mesh()
         n["ellipsoid"] = api.add_mesh_simple(
-            "/ellipsoid/tip", vertices, faces, color=ELLIPSOID_COLOR, opacity=0.6, scale=(0.01, 0.01, 0.01)
+            "/ellipsoid/tip", vertices, faces, color=ELLIPSOID_COLOR, opacity=0.6, scale=(0.01, 0.01, 0.01), **NO_SHADOW
         )
         self.set_run(frames, scale)
 
@@ -200,14 +215,14 @@ class _Drawing:
             n.pop(key).remove()
         if frames.tip.shape[0] > 1:
             n["tip_trace"] = api.add_line_segments("/traces/tip", segments_of(frames.tip), TIP_COLOR, thickness=0.003)
-        n["tip_dot"] = api.add_icosphere("/traces/tip_dot", 0.012, TIP_COLOR)
+        n["tip_dot"] = api.add_icosphere("/traces/tip_dot", 0.012, TIP_COLOR, **NO_SHADOW)
         for i in range(frames.brace_points.shape[1]):
             trace = frames.brace_points[:, i]
             if trace.shape[0] > 1:
                 n[f"brace_trace_{i}"] = api.add_line_segments(
                     f"/traces/brace_{i}", segments_of(trace), BRACE_COLOR, thickness=0.003
                 )
-            n[f"brace_dot_{i}"] = api.add_icosphere(f"/traces/brace_dot_{i}", 0.015, BRACE_COLOR)
+            n[f"brace_dot_{i}"] = api.add_icosphere(f"/traces/brace_dot_{i}", 0.015, BRACE_COLOR, **NO_SHADOW)
         self.scale = scale
 
     # --- per-sample update ---------------------------------------------------------------------
@@ -231,9 +246,7 @@ class _Drawing:
                 n.pop("forces").remove()
             if forces:
                 starts = [frames.brace_points[k, i] for i in range(len(forces))]
-                arrows = np.array(
-                    [[s, s + forces[i][k] * self.scene.braces[i].normal] for i, s in enumerate(starts)]
-                )
+                arrows = np.array([[s, s + forces[i][k] * self.scene.braces[i].normal] for i, s in enumerate(starts)])
                 if np.any(np.linalg.norm(arrows[:, 1] - arrows[:, 0], axis=1) > 1e-6):
                     n["forces"] = self.v.server.scene.add_arrows(
                         "/forces/contact", arrows, FORCE_COLOR, shaft_radius=0.006, head_radius=0.014, head_length=0.03
@@ -340,7 +353,7 @@ def _gui(viewer: Viewer, drawing: _Drawing, frames: RunFrames, scale: float, mod
     run = scene.runs[model][strategy]
     t_end = float(run.t[-1]) if run.t.size else 0.0
     step = float(np.min(np.diff(run.t))) if run.t.size > 1 else 1.0
-    time_slider = gui.add_slider("time [s]", 0.0, max(t_end, step), step, 0.0)
+    time_slider = gui.add_slider("time [s]", 0.0, max(t_end, step), step, 0.0, marks=(0.0, max(t_end, step)))
     play = gui.add_checkbox("play", False)
     speed = gui.add_number("speed [×]", 1.0, min=0.1, max=20.0, step=0.1)
     strategy_box = gui.add_dropdown("strategy", list(scene.strategies), initial_value=strategy)
