@@ -8,6 +8,7 @@ import sys
 import urllib.request
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from bracekit.cli import main
@@ -101,5 +102,38 @@ def test_serve_answers_with_the_viewer_page(short_run) -> None:
         for layer in ("robot", "surface"):
             viewer.set_visible(layer, False)
             assert viewer.nodes[layer].visible is False
+    finally:
+        viewer.stop()
+
+
+def test_the_controls_move_the_scene_to_the_chosen_sample_and_run(preloaded_run) -> None:
+    from bracekit.viewer.frames import run_frames
+    from bracekit.viewer.server import FORCE_LENGTH, serve
+
+    _, out = preloaded_run
+    viewer = serve(out, port=0)
+    try:
+        scene, n = viewer.scene, viewer.nodes
+        assert n["model"].value == "preloaded" and n["strategy"].value == "braced_gradient_projection"
+        run = scene.runs["preloaded"]["braced_gradient_projection"]
+        frames = run_frames(scene, run)
+        k = len(run.t) - 1
+        n["time"].value = float(run.t[k])
+        np.testing.assert_allclose(n["ellipsoid"].position, frames.tip[k], atol=1e-12)
+        scale = float(n["scale"].value)
+        np.testing.assert_allclose(sorted(n["ellipsoid"].scale), sorted(scale * frames.semi_axes[k]), rtol=1e-6)
+        # the contact force: from the brace point along the normal, the run's largest force FORCE_LENGTH long
+        force = run.measures["contact_force_N"]
+        arrow = np.asarray(n["forces"].points, dtype=float)[0]
+        np.testing.assert_allclose(arrow[0], frames.brace_points[k, 0], atol=1e-6)
+        np.testing.assert_allclose(
+            arrow[1] - arrow[0], FORCE_LENGTH * force[k] / force.max() * scene.braces[0].normal, atol=1e-6
+        )
+        n["strategy"].value = "free_space_min_norm"  # unbraced: no contact force, the free-space ellipsoid
+        free = run_frames(scene, scene.runs["preloaded"]["free_space_min_norm"])
+        assert "forces" not in n
+        np.testing.assert_allclose(n["ellipsoid"].position, free.tip[k], atol=1e-12)
+        n["model"].value = "constrained"
+        np.testing.assert_allclose(n["ellipsoid"].position, free.tip[k], atol=1e-12)
     finally:
         viewer.stop()
