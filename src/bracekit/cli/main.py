@@ -18,6 +18,7 @@ import numpy as np
 
 from bracekit._version import __version__
 from bracekit.cli import sweep as sweep_cli
+from bracekit.cli import view as view_cli
 from bracekit.errors import BracekitError, InputError, MissingDependencyError
 
 LIST_OPTIONS = ("--q", "--stiffness", "--normal", "--beta-x", "--brace-offset", "--first-normal", "--second-normal")
@@ -154,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--no-figures", action="store_true", help="write the table, summary and trajectories only")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    view_cli.add_run_flags(run)
 
     va = sub.add_parser("validate", help="check the compliance models against MuJoCo and a nonlinear static solve")
     va.add_argument("scenario", nargs="?", default="paper", help="scenario file or shipped name (default paper)")
@@ -174,6 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--quick", action="store_true", help="fewer repetitions")
     sweep_cli.add_parser(sub)
+    view_cli.add_parser(sub)
     return p
 
 
@@ -221,6 +224,7 @@ def _as_cli(message: str) -> str:
 def _dispatch(args: argparse.Namespace) -> int:
     commands = {"evaluate": _evaluate, "run": _run, "validate": _validate, "study": _study, "bench": _bench}
     commands["sweep"] = sweep_cli.run
+    commands["view"] = view_cli.run
     return commands[args.command](args)
 
 
@@ -570,6 +574,7 @@ def _run(args: argparse.Namespace) -> int:
     figures = not args.no_figures
     if figures:  # before any computation
         _needs("matplotlib", "viz", "bracekit run with figures (or pass --no-figures)")
+    view_cli.check_run_flags(args)
     with (
         _sigterm_as_interrupt(),
         prepare_output(
@@ -602,6 +607,8 @@ def _run(args: argparse.Namespace) -> int:
         if not s["completed"]:
             print(f"bracekit: warning: {name} did not complete: {s['failure']}", file=sys.stderr)
     print(f"wrote {len(written)} files to {args.out}/: " + ", ".join(p.name for p in written))
+    if args.view:
+        view_cli.serve_until_stopped(args.out, port=args.view_port)
     return 0 if result.completed else 1
 
 

@@ -39,17 +39,19 @@ import numpy as np
 from bracekit._version import __version__
 from bracekit.errors import MissingDependencyError, OutputError
 from bracekit.report.table import table_csv, table_markdown
+from bracekit.viewer.scene import scene_data
 
 if TYPE_CHECKING:
     from bracekit.simulation.run import RunResult
 
-#: Every file `write_run` may write (the first five without figures).
+#: Every file `write_run` may write (the first six without figures).
 FILES = (
     "summary.json",
     "summary_all_models.json",
     "table.md",
     "table.csv",
     "trajectories.npz",
+    "scene.json",
     "fig2_film_strip.png",
     "fig3_ellipsoids.png",
     "fig4_measures.png",
@@ -64,7 +66,7 @@ _SHOWN = 5  # names listed in an error message
 
 def run_files(figures: bool = True) -> tuple[str, ...]:
     """The names of the files `write_run` writes, with or without the figures."""
-    return FILES if figures else FILES[:5]
+    return FILES if figures else FILES[:6]
 
 
 def _clean(value: Any) -> Any:
@@ -627,7 +629,7 @@ def write_run(
     overwrite: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> list[Path]:
-    """Write summary.json, table.md/.csv, trajectories.npz and (optionally) Figures 2–4 and the GIF, whole.
+    """Write summary.json, table.md/.csv, trajectories.npz, scene.json and (optionally) Figures 2–4 and the GIF, whole.
 
     Args:
         result: The run to report.
@@ -648,6 +650,7 @@ def write_run(
         ("table.md", lambda p: p.write_text(table_markdown(result.summaries, result.scenario.name), encoding="utf-8")),
         ("table.csv", lambda p: p.write_text(table_csv(result.summaries, result.scenario.name), encoding="utf-8")),
         ("trajectories.npz", lambda p: save_trajectories(result, p)),
+        ("scene.json", lambda p: p.write_text(to_json(scene_data(result)) + "\n", encoding="utf-8")),
     ]
     if figures:
         try:
