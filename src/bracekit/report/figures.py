@@ -22,6 +22,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Polygon
 from matplotlib.ticker import MaxNLocator
 from numpy.typing import NDArray
+from PIL import Image
 
 from bracekit.compliance.first_order import compliance_ellipsoids, end_effector_compliance, free_space_compliance
 from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance, simulated_model
@@ -50,6 +51,7 @@ COLORS = STRATEGY_COLORS
 #: Resolution of the PNG figures, dots per inch.
 DPI = 100
 _FONT = 9.0
+_GIF_DPI = 90
 
 
 def _label(name: str) -> str:
@@ -76,6 +78,27 @@ def _new_figure(width: float, height: float) -> Figure:
     fig = Figure(figsize=(width, height), dpi=DPI)
     FigureCanvasAgg(fig)
     return fig
+
+
+def _wrapped(text: str, inches: float, size: float = _FONT + 1) -> str:
+    """`text` on two lines (at its middle space) when it is longer than `inches` at font size `size` (pt)."""
+    if len(text) * 0.55 * size / 72.0 <= inches or " " not in text:
+        return text
+    mid = len(text) // 2
+    cut = min((i for i, ch in enumerate(text) if ch == " "), key=lambda i: abs(i - mid))
+    return text[:cut] + "\n" + text[cut + 1 :]
+
+
+_SCENES: list[tuple[RunResult, RunScene]] = []
+
+
+def _scene(result: RunResult) -> RunScene:
+    """The scene of the run model's runs (the last one is kept: Fig. 2 and the animation share it)."""
+    if _SCENES and _SCENES[0][0] is result:
+        return _SCENES[0][1]
+    scene = RunScene(result, _runs(result))
+    _SCENES[:] = [(result, scene)]
+    return scene
 
 
 def _sample(tr: Trajectory, t: float) -> int:
@@ -110,25 +133,33 @@ def _scene_legend(scene: RunScene) -> tuple[list[Artist], list[str]]:
 
 
 def _scale_bar(ax: Axes, scene: RunScene) -> None:
-    """A bar of a round length (m) and the world axes, in the lower left corner of the panel."""
+    """A bar of a round length (m) and the world axes, each in an empty corner of the panel."""
     x0, x1, y0, y1 = scene.limits
-    width = x1 - x0
-    raw = 0.18 * width
-    length = min((m * 10.0**e for e in range(-3, 3) for m in (1, 2, 5) if m * 10.0**e <= raw), key=lambda v: -v)
-    px, py = x0 + 0.03 * width, y0 + 0.05 * (y1 - y0)
+    width, height = x1 - x0, y1 - y0
+    length = _nice(0.18 * width)
+    corners = scene.free_corners()
+
+    def anchor(corner: str, w: float, h: float) -> tuple[float, float]:
+        x = x0 + (0.03 * width if "left" in corner else width - 0.03 * width - w)
+        y = y0 + (0.05 * height if "lower" in corner else height - 0.05 * height - h)
+        return x, y
+
+    px, py = anchor(corners[0], length, 0.06 * height)
     ax.plot([px, px + length], [py, py], color="k", lw=2.0, solid_capstyle="butt", zorder=20)
     ax.text(px + length / 2, py + 0.012 * width, f"{length:g} m", ha="center", va="bottom", fontsize=7, zorder=20)
     cam = scene.camera
-    ox, oy = x1 - 0.09 * width, y0 + 0.12 * (y1 - y0)
+    arm = 0.06 * width
+    ox, oy = anchor(corners[1], 2 * arm, 2 * arm)
+    ox, oy = ox + arm, oy + arm
     for axis, name in zip(np.eye(3), "xyz", strict=True):
-        dx, dy = cam.project(axis) * 0.06 * width
-        if abs(dx) + abs(dy) < 1e-3 * width:
+        dx, dy = cam.project(axis) * arm
+        if abs(dx) + abs(dy) < 0.05 * arm:  # seen end on
             ax.plot([ox], [oy], "o", color="0.3", ms=2.0, zorder=20)
-            ax.text(ox + 0.012 * width, oy, name, fontsize=7, color="0.3", zorder=20)
+            ax.text(ox + 0.2 * arm, oy + 0.2 * arm, name, fontsize=7, color="0.3", zorder=20)
             continue
         ax.annotate("", (ox + dx, oy + dy), (ox, oy), arrowprops={"arrowstyle": "-|>", "color": "0.3", "lw": 0.8},
                     zorder=20)
-        ax.text(ox + 1.25 * dx, oy + 1.25 * dy, name, fontsize=7, color="0.3", ha="center", va="center", zorder=20)
+        ax.text(ox + 1.3 * dx, oy + 1.3 * dy, name, fontsize=7, color="0.3", ha="center", va="center", zorder=20)
 
 
 def _view_text(scene: RunScene) -> str:
@@ -137,15 +168,23 @@ def _view_text(scene: RunScene) -> str:
 
 
 def figure_film_strip(result: RunResult, path: Path, frames: int = 5) -> None:
-    """Fig. 2: every strategy's run at `frames` instants (rows: strategies), link volumes in an orthographic view."""
+    """Write Fig. 2 (:func:`film_strip`) as a PNG."""
+    film_strip(result, frames).savefig(path, dpi=DPI)
+
+
+def film_strip(result: RunResult, frames: int = 5) -> Figure:
+    """Fig. 2: every strategy's run at `frames` instants (rows: strategies), link volumes in an orthographic view.
+
+    The panels are the figure's axes, row by row (strategies in the run's order), `frames` per row.
+    """
     runs = _runs(result)
-    scene = RunScene(result, runs)
+    scene = _scene(result)
     names = list(runs)
     t_end = max(float(tr.t[-1]) for tr in runs.values())
     times = np.linspace(0.0, t_end, frames)
     pw = 2.9  # panel width, in
     ph = pw / float(np.clip(scene.aspect, 0.5, 4.0))
-    left, top, bottom, gap = 0.32, 0.62, 0.62, 0.06
+    left, top, bottom, gap = 0.45, 0.62, 0.62, 0.06
     width = left + frames * pw + (frames - 1) * gap + 0.1
     height = top + len(names) * ph + (len(names) - 1) * gap + bottom
     fig = _new_figure(width, height)
@@ -166,8 +205,8 @@ def figure_film_strip(result: RunResult, path: Path, frames: int = 5) -> None:
             if r == 0:
                 ax.set_title(f"t = {t:.1f} s", fontsize=_FONT + 1, pad=3)
             if c == 0:
-                fig.text((left - 0.06) / width, y + 0.5 * ph / height, _label(name), rotation=90, ha="right",
-                         va="center", fontsize=_FONT + 1, color=COLORS.get(name, "k"), fontweight="bold")
+                fig.text((left - 0.06) / width, y + 0.5 * ph / height, _wrapped(_label(name), ph), rotation=90,
+                         ha="right", va="center", fontsize=_FONT + 1, color=COLORS.get(name, "k"), fontweight="bold")
                 if r == 0:
                     _scale_bar(ax, scene)
     handles, labels = _scene_legend(scene)
@@ -178,47 +217,74 @@ def figure_film_strip(result: RunResult, path: Path, frames: int = 5) -> None:
         f"runs); {_view_text(scene)}",
         fontsize=_FONT + 2, y=1.0 - 0.1 / height, va="top",
     )
-    fig.savefig(path, dpi=DPI)
+    return fig
 
 
 def animate(result: RunResult, path: Path, frames: int = 60, fps: int = 12) -> None:
-    """Every strategy's run side by side as a looping GIF (link volumes, orthographic view, tip traces)."""
-    runs = _runs(result)
-    scene = RunScene(result, runs)
-    names = list(runs)
-    t_end = max(float(tr.t[-1]) for tr in runs.values())
-    longest = max(tr.t.size for tr in runs.values())
-    times = np.linspace(0.0, t_end, max(1, min(frames, longest)))
-    pw = 3.4
-    ph = pw / float(np.clip(scene.aspect, 0.6, 3.0))
-    top, bottom, gap = 0.5, 0.42, 0.05
-    width = len(names) * pw + (len(names) + 1) * gap
-    height = top + ph + bottom
-    fig = _new_figure(width, height)
-    fig.set_dpi(80)
-    views = []
-    for c, name in enumerate(names):
-        ax = fig.add_axes(((gap + c * (pw + gap)) / width, bottom / height, pw / width, ph / height))
-        ax.set_title(_label(name), fontsize=_FONT + 1, color=COLORS.get(name, "k"), fontweight="bold", pad=2)
-        views.append(SceneView(ax, scene, name, animated=True))
-    handles, labels = _scene_legend(scene)
-    keep = [i for i, lab in enumerate(labels) if not lab.startswith(("base", "b of"))]
-    fig.legend([handles[i] for i in keep], [labels[i] for i in keep], loc="lower center", ncol=len(keep),
-               fontsize=6.5, frameon=False, handlelength=1.6, columnspacing=1.0)
-    clock = fig.text(0.5, 1.0 - 0.06 / height, "", ha="center", va="top", fontsize=_FONT + 1, animated=True)
-    fig.text(0.99, 1.0 - 0.06 / height, f"scenario {result.scenario.name}", ha="right", va="top",
-             fontsize=_FONT - 1, color="0.35")
+    """Write every strategy's run side by side as a looping GIF (:class:`RunAnimation`)."""
+    anim = RunAnimation(result, frames)
+    save_gif(quantize(anim.images()), path, fps)
 
-    def draw(i: int) -> list[Artist]:
-        t = float(times[i])
-        clock.set_text(f"t = {t:4.1f} s of {t_end:.0f} s")
-        arts: list[Artist] = [clock]
-        for view, name in zip(views, names, strict=True):
-            arts += view.show(_sample(runs[name], t))
+
+class RunAnimation:
+    """Every strategy's run side by side (link volumes, orthographic view, tip traces), frame by frame.
+
+    Args:
+        result: the run.
+        frames: number of frames (at most the longest run's samples), evenly spaced in time.
+
+    Attributes:
+        figure: the figure; its axes are the panels, one per strategy in the run's order.
+        views: the panels' scene views.
+        times: the time of each frame (s).
+    """
+
+    def __init__(self, result: RunResult, frames: int = 60) -> None:
+        runs = _runs(result)
+        scene = _scene(result)
+        self.names = list(runs)
+        self.runs = runs
+        self.t_end = max(float(tr.t[-1]) for tr in runs.values())
+        longest = max(tr.t.size for tr in runs.values())
+        self.times = np.linspace(0.0, self.t_end, max(1, min(frames, longest)))
+        pw = 3.4
+        ph = pw / float(np.clip(scene.aspect, 0.6, 3.0))
+        top, bottom, gap = 0.5, 0.5, 0.05
+        width = len(self.names) * pw + (len(self.names) + 1) * gap
+        height = top + ph + bottom
+        fig = _new_figure(width, height)
+        fig.set_dpi(_GIF_DPI)
+        self.views = []
+        for c, name in enumerate(self.names):
+            ax = fig.add_axes(((gap + c * (pw + gap)) / width, bottom / height, pw / width, ph / height))
+            ax.set_title(_label(name), fontsize=_FONT + 1, color=COLORS.get(name, "k"), fontweight="bold", pad=2)
+            self.views.append(SceneView(ax, scene, name, animated=True))
+        handles, labels = _scene_legend(scene)
+        keep = [i for i, lab in enumerate(labels) if not lab.startswith(("base", "b of"))]
+        fig.legend([handles[i] for i in keep], [labels[i] for i in keep], loc="lower center",
+                   ncol=(len(keep) + 1) // 2, fontsize=7, frameon=False, handlelength=1.6, columnspacing=1.2,
+                   borderaxespad=0.2)
+        self.clock = fig.text(0.5, 1.0 - 0.06 / height, "", ha="center", va="top", fontsize=_FONT + 1, animated=True)
+        fig.text(0.99, 1.0 - 0.06 / height, f"scenario {result.scenario.name}", ha="right", va="top",
+                 fontsize=_FONT - 1, color="0.35")
+        self.figure = fig
+
+    def samples(self, i: int) -> list[int]:
+        """The sample of each run shown in frame i."""
+        t = float(self.times[i])
+        return [_sample(self.runs[name], t) for name in self.names]
+
+    def draw(self, i: int) -> list[Artist]:
+        """Set the artists to frame i; return the changing ones in drawing order."""
+        self.clock.set_text(f"t = {float(self.times[i]):4.1f} s of {self.t_end:.0f} s")
+        arts: list[Artist] = [self.clock]
+        for view, k in zip(self.views, self.samples(i), strict=True):
+            arts += view.show(k)
         return arts
 
-    images = render_frames(fig, len(times), draw)
-    save_gif(quantize(images), path, fps)
+    def images(self) -> list[Image.Image]:
+        """The RGB image of every frame."""
+        return render_frames(self.figure, len(self.times), self.draw)
 
 
 # --- Fig. 3: compliance ellipsoids -----------------------------------------------------------------------
@@ -266,7 +332,15 @@ def _nice(value: float) -> float:
 
 
 def figure_ellipsoids(result: RunResult, path: Path, points: int = 6) -> None:
-    """Fig. 3: translational compliance ellipsoids along the task, one column per strategy, two views per run."""
+    """Write Fig. 3 (:func:`ellipsoid_figure`) as a PNG."""
+    ellipsoid_figure(result, points).savefig(path, dpi=DPI)
+
+
+def ellipsoid_figure(result: RunResult, points: int = 6) -> Figure:
+    """Fig. 3: translational compliance ellipsoids along the task, one column per strategy, two views per run.
+
+    The axes are the panels, row by row: the first view for each strategy, then the second.
+    """
     runs = _runs(result)
     cases = []
     semis = []
@@ -297,7 +371,7 @@ def figure_ellipsoids(result: RunResult, path: Path, points: int = 6) -> None:
         boxes[v] = (lo - pad, hi + pad)
     pw = 3.3  # panel width, in
     heights = {v: pw * float((boxes[v][1][1] - boxes[v][0][1]) / (boxes[v][1][0] - boxes[v][0][0])) for v in views}
-    left, right, top, bottom, hgap, vgap = 0.75, 0.15, 0.75, 0.55, 0.55, 0.7
+    left, right, top, bottom, hgap, vgap = 0.75, 0.15, 0.95, 0.55, 0.8, 0.7
     ncol = len(cases)
     width = left + ncol * pw + (ncol - 1) * hgap + right
     height = top + sum(heights.values()) + vgap * (len(views) - 1) + bottom
@@ -324,8 +398,7 @@ def figure_ellipsoids(result: RunResult, path: Path, points: int = 6) -> None:
             ax.xaxis.set_major_locator(MaxNLocator(5))
             ax.yaxis.set_major_locator(MaxNLocator(5))
             ax.set_xlabel(f"{'xyz'[ix]} [m]", fontsize=_FONT, labelpad=2)
-            if c == 0:
-                ax.set_ylabel(f"{'xyz'[iy]} [m]", fontsize=_FONT, labelpad=2)
+            ax.set_ylabel(f"{'xyz'[iy]} [m]", fontsize=_FONT, labelpad=2)
             ax.grid(alpha=0.25)
             heading = f"({'abcdef'[c]}) {_label(name)}" if r == 0 else ""
             ax.set_title(f"{heading}\n{title}" if heading else title, fontsize=_FONT, pad=3,
@@ -337,17 +410,16 @@ def figure_ellipsoids(result: RunResult, path: Path, points: int = 6) -> None:
                         va="bottom", fontsize=_FONT - 2)
         y -= vgap
     fig.suptitle(
-        f"Fig. 3: translational compliance ellipsoids at {points} points of the task (semi-axes: eigenvalues of "
-        f"the force block of C_e, drawn at {scale:.2f} m per m/N; {result.compliance_model} model; dashed: task)",
+        f"Fig. 3: translational compliance ellipsoids at {points} points of the task ({result.compliance_model} "
+        f"model for the braced runs)\nsemi-axes: eigenvalues of the force block of the tip compliance, drawn at "
+        f"{scale:.2f} m per m/N; dashed: the task path",
         fontsize=_FONT + 1, y=1.0 - 0.08 / height, va="top",
     )
-    fig.savefig(path, dpi=DPI)
+    return fig
 
 
 # --- Fig. 4 and the capacity figure: measures along the task ---------------------------------------------
-def _curves(
-    result: RunResult, path: Path, panels: list[tuple[str, str, str]], title: str, margins: bool = False
-) -> None:
+def _curves(result: RunResult, panels: list[tuple[str, str, str]], title: str, margins: bool = False) -> Figure:
     """A 2×2 figure of measures over time: (key, panel title, y label with unit) per panel, one shared legend."""
     runs = _runs(result)
     fig = _new_figure(11.0, 7.4)
@@ -383,14 +455,18 @@ def _curves(
     fig.legend(handles, [_label(n) for n in runs], loc="lower center", ncol=len(handles), fontsize=_FONT + 1,
                frameon=False, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(title, fontsize=_FONT + 2)
-    fig.savefig(path, dpi=DPI)
+    return fig
 
 
 def figure_measures(result: RunResult, path: Path) -> None:
-    """Fig. 4: C_i, Πσ_t, Πσ_o and k of J̃ along the task for every strategy."""
-    _curves(
+    """Write Fig. 4 (:func:`measures_figure`) as a PNG."""
+    measures_figure(result).savefig(path, dpi=DPI)
+
+
+def measures_figure(result: RunResult) -> Figure:
+    """Fig. 4: C_i, Πσ_t, Πσ_o and k of J̃ along the task for every strategy (2×2 axes, one legend)."""
+    return _curves(
         result,
-        path,
         [
             ("Ci", "(a) compliance index C_i", "C_i [m/N]"),
             ("prod_sigma_t", "(b) Πσ_t of J̃ (rows 1–3, translational)", "Πσ_t [m³/rad³]"),
@@ -407,6 +483,11 @@ def has_capacity(result: RunResult) -> bool:
 
 
 def figure_capacity(result: RunResult, path: Path) -> None:
+    """Write the capacity figure (:func:`capacity_figure`) as a PNG."""
+    capacity_figure(result).savefig(path, dpi=DPI)
+
+
+def capacity_figure(result: RunResult) -> Figure:
     """Capacity along the task: the load margins of each braced run and the peak |τ_i|/effort_i of every run.
 
     Margins are scales of the listed tool wrenches (> 1: the brace holds the listed load), on a log axis clipped
@@ -415,9 +496,8 @@ def figure_capacity(result: RunResult, path: Path) -> None:
     """
     h = result.scenario.holding
     mu = "frictionless" if h.friction is None else f"μ = {h.friction:g}"
-    _curves(
+    return _curves(
         result,
-        path,
         [
             ("liftoff_margin", "(a) lift-off margin", "scale of the listed load [1]"),
             ("slip_margin", "(b) slip margin", "scale of the listed load [1]"),

@@ -70,7 +70,8 @@ def capsule_outlines(a: ArrayLike, b: ArrayLike, radius: ArrayLike, k: int = 8) 
     """Outlines of 2-D capsules (stadiums): the segments [a_i, b_i] grown by radius_i.
 
     Args:
-        a, b: end points (m, 2), screen m.
+        a: first end points (m, 2), screen m.
+        b: second end points (m, 2), screen m.
         radius: radii (m,), ≥ 0.
         k: points on each half circle (≥ 2).
 
@@ -90,7 +91,7 @@ def capsule_outlines(a: ArrayLike, b: ArrayLike, radius: ArrayLike, k: int = 8) 
 
 
 def circle_points(centre: ArrayLike, normal: ArrayLike, radius: float, k: int = 72) -> Array:
-    """k points (k, 3) of the circle of `radius` (m) about `centre` (3,) in the plane with `normal` (3,)."""
+    """K points (k, 3) of the circle of `radius` (m) about `centre` (3,) in the plane with `normal` (3,)."""
     c = as_array(centre, "circle centre (m)", (3,))
     n = as_array(normal, "circle normal", (3,))
     size = float(np.linalg.norm(n))

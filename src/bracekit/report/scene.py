@@ -13,17 +13,20 @@ within a layer the pieces are drawn far to near.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.axes import Axes
+import pinocchio as pin
 from matplotlib.artist import Artist
-from matplotlib.lines import Line2D
+from matplotlib.axes import Axes
 from matplotlib.patches import Polygon
+from matplotlib.path import Path as MplPath
 from numpy.typing import NDArray
 
+from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.report.projection import OrthoCamera, capsule_outlines, circle_points, convex_hull
 
 if TYPE_CHECKING:
@@ -32,10 +35,12 @@ if TYPE_CHECKING:
     from bracekit.simulation.simulate import Trajectory
 
 Array = NDArray[np.float64]
+IntArray = NDArray[np.intp]
 
 #: Colours of the robot's parts (light, dark per part, alternating link by link).
 PART_COLORS = (("#b9c4d0", "#93a3b5"), ("#5a5f66", "#383c42"), ("#c8b48a", "#a8946a"))
 SURFACE_COLOR = "#d8c8a0"
+EDGE_COLOR = "0.2"
 REGION_COLOR = "tab:purple"
 BRACE_COLOR = "tab:orange"
 TASK_COLOR = "k"
@@ -50,6 +55,8 @@ STRATEGY_COLORS = {
 NAMED_PARTS = {"paper_robot": (("PUMA 560", 6), ("HEBI X8-16 modules", 5))}
 _BASE_RADIUS = 0.09  # m, the base plate drawn at the world origin
 _CAP_POINTS = 7  # points per half circle of a capsule outline
+#: Samples of each run whose link volumes set the drawing's limits and judge the camera.
+SURVEY_SAMPLES = 41
 
 
 @dataclass(frozen=True)
@@ -120,58 +127,76 @@ class RunScene:
         self.cap_a = np.array([c.a for c in caps], dtype=float).reshape(-1, 3)
         self.cap_b = np.array([c.b for c in caps], dtype=float).reshape(-1, 3)
         self.cap_r = np.array([c.radius for c in caps], dtype=float)
-        self.cap_face, self.cap_edge = self._capsule_colors()
+        self.cap_face = self._capsule_colors()
         ts = np.linspace(0.0, sc.task.duration, 241)
         self.task_path = np.array([sc.task.position(t) for t in ts])
+        self._model = robot.model
+        self._data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
         #: tip (N, 3) and brace points (N, braces, 3) of each run, world m
         self.tips: dict[str, Array] = {}
         self.brace_points: dict[str, Array] = {}
+        self._cache: dict[tuple[str, int], tuple[Array, Array]] = {}
+        #: capsule ends (S, m, 3) twice at up to SURVEY_SAMPLES samples of each run (limits, camera)
         self._ends: dict[str, tuple[Array, Array]] = {}
         for name, tr in runs.items():
-            self.tips[name], self.brace_points[name], self._ends[name] = self._kinematics(tr.q)
+            self.tips[name], self.brace_points[name] = self._points(tr.q)
+            ks = np.unique(np.linspace(0, tr.q.shape[0] - 1, min(SURVEY_SAMPLES, tr.q.shape[0])).astype(int))
+            pairs = [self.capsule_ends(name, int(k)) for k in ks]
+            self._ends[name] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
         ends = np.concatenate([np.concatenate([a, b], axis=1) for a, b in self._ends.values()], axis=1)
-        self.camera = camera if camera is not None else choose_camera(ends.reshape(-1, 3), self.task_path)
+        main = self._ends.get("braced_gradient_projection") or next(iter(self._ends.values()))
+        self.camera = camera if camera is not None else choose_camera(main, self.cap_r, self.task_path)
+        first = np.array(robot.model.jointPlacements[1].translation) if robot.model.njoints > 1 else np.zeros(3)
+        #: the base: a plate at the world origin and, when joint 1 sits away from it, a column up to joint 1
+        self.base_column = (np.zeros(3), first, float(max(self.cap_r[:1].max(initial=0.0), 0.04)))
         self.planes = self._planes(ends.reshape(-1, 3))
         self.limits = self._limits()
 
     # --- geometry ---------------------------------------------------------------------------------------
-    def _capsule_colors(self) -> tuple[list[str], list[str]]:
-        face, edge = [], []
+    def _capsule_colors(self) -> list[str]:
+        """Each capsule's fill: its part's light and dark colour, alternating link by link."""
+        face = []
         for j in self.cap_joint:
-            for part in self.parts:
-                if j in part.joints:
-                    k = part.joints.index(int(j))
-                    face.append(part.colors[k % 2])
-                    edge.append(part.colors[1])
-                    break
-            else:
-                face.append(PART_COLORS[0][0])
-                edge.append(PART_COLORS[0][1])
-        return face, edge
+            part = next((p for p in self.parts if int(j) in p.joints), None)
+            face.append(PART_COLORS[0][0] if part is None else part.colors[part.joints.index(int(j)) % 2])
+        return face
 
-    def _kinematics(self, q: Array) -> tuple[Array, Array, tuple[Array, Array]]:
-        """Tips (N, 3), brace points (N, B, 3) and capsule ends (N, m, 3) twice, world m, of configurations q (N, n)."""
-        fk, tip_id = self._fk, self.robot.tip_id
+    def _points(self, q: Array) -> tuple[Array, Array]:
+        """Tips (N, 3) and brace points (N, B, 3), world m, of configurations q (N, n)."""
         count = q.shape[0]
         tips = np.empty((count, 3))
         bps = np.empty((count, len(self._brace_ids), 3))
-        rot = np.empty((count, self.cap_joint.size, 3, 3))
-        org = np.empty((count, self.cap_joint.size, 3))
+        tip_id, model, data = self.robot.tip_id, self._model, self._data
         for i in range(count):
-            pose = fk.pose(q[i])
-            tips[i] = fk.frame_placement(pose, tip_id)[:3, 3]
+            if data is not None:
+                pin.forwardKinematics(model, data, q[i])
+                tips[i] = pin.updateFramePlacement(model, data, tip_id).translation
+                for k, f in enumerate(self._brace_ids):
+                    bps[i, k] = pin.updateFramePlacement(model, data, f).translation
+                continue
+            pose = self._fk.pose(q[i])
+            tips[i] = self._fk.frame_placement(pose, tip_id)[:3, 3]
             for k, f in enumerate(self._brace_ids):
-                bps[i, k] = fk.frame_placement(pose, f)[:3, 3]
-            rot[i] = pose.rotations[self.cap_joint]
-            org[i] = pose.origins[self.cap_joint]
-        a = np.einsum("nmij,mj->nmi", rot, self.cap_a) + org
-        b = np.einsum("nmij,mj->nmi", rot, self.cap_b) + org
-        return tips, bps, (a, b)
+                bps[i, k] = self._fk.frame_placement(pose, f)[:3, 3]
+        return tips, bps
 
     def capsule_ends(self, name: str, k: int) -> tuple[Array, Array]:
         """Capsule end points a, b (m, 3), world m, of run `name` at sample k."""
-        a, b = self._ends[name]
-        return a[k], b[k]
+        key = (name, k)
+        if key not in self._cache:
+            q = self.runs[name].q[k]
+            if self._data is not None:
+                pin.forwardKinematics(self._model, self._data, q)
+                oMi = self._data.oMi
+                rot = np.array([oMi[int(j)].rotation for j in self.cap_joint])
+                org = np.array([oMi[int(j)].translation for j in self.cap_joint])
+            else:
+                pose = self._fk.pose(q)
+                rot, org = pose.rotations[self.cap_joint], pose.origins[self.cap_joint]
+            a = np.einsum("mij,mj->mi", rot, self.cap_a) + org
+            b = np.einsum("mij,mj->mi", rot, self.cap_b) + org
+            self._cache[key] = (a, b)
+        return self._cache[key]
 
     def _planes(self, points: Array) -> list[_Plane]:
         cam = self.camera
@@ -199,7 +224,9 @@ class RunScene:
     def _limits(self) -> tuple[float, float, float, float]:
         """(x0, x1, y0, y1), screen m: everything but the columns and whole planes, with a margin."""
         cam = self.camera
-        pts = [cam.project(self.task_path), cam.project(_base_disk())]
+        a0, b0, r0 = self.base_column
+        pts = [cam.project(self.task_path), cam.project(_base_disk()), cam.project(np.array([a0, b0])) + r0,
+               cam.project(np.array([a0, b0])) - r0]
         for plane in self.planes:
             if plane.column is not None:
                 pts.append(cam.project(plane.top))
@@ -217,13 +244,41 @@ class RunScene:
         pad = 0.03 * float(np.max(hi - lo))
         return float(lo[0] - pad), float(hi[0] + pad), float(lo[1] - pad), float(hi[1] + pad)
 
+    def free_corners(self, size: tuple[float, float] = (0.3, 0.25)) -> list[str]:
+        """The panel's corners ("lower left", "lower right", "upper left", "upper right"), emptiest first.
+
+        Args:
+            size: a corner's width and height as fractions of the panel's.
+        """
+        x0, x1, y0, y1 = self.limits
+        cam = self.camera
+        pts = [cam.project(self.task_path)]
+        for a, b in self._ends.values():
+            step = max(1, a.shape[0] // 40)
+            pts += [cam.project(a[::step]).reshape(-1, 2), cam.project(b[::step]).reshape(-1, 2)]
+        pts += [cam.project(p.top) for p in self.planes if p.column is not None]
+        a0, b0, _r0 = self.base_column
+        pts.append(cam.project(a0 + np.linspace(0.0, 1.0, 9)[:, None] * (b0 - a0)))
+        pts.append(cam.project(_base_disk()))
+        allp = np.vstack(pts)
+        u = (allp[:, 0] - x0) / (x1 - x0)
+        v = (allp[:, 1] - y0) / (y1 - y0)
+        w, h = size
+        boxes = {
+            "lower left": (u < w) & (v < h),
+            "lower right": (u > 1 - w) & (v < h),
+            "upper left": (u < w) & (v > 1 - h),
+            "upper right": (u > 1 - w) & (v > 1 - h),
+        }
+        return sorted(boxes, key=lambda k: int(np.count_nonzero(boxes[k])))
+
     @property
     def aspect(self) -> float:
         """Width over height of the drawn region."""
         x0, x1, y0, y1 = self.limits
         return (x1 - x0) / (y1 - y0)
 
-    def pieces(self, name: str, k: int) -> tuple[Array, Array, Array, Array, Array]:
+    def pieces(self, name: str, k: int) -> tuple[Array, IntArray, IntArray, Array, IntArray]:
         """The capsules of run `name` at sample k split at the brace planes, in drawing order.
 
         Returns:
@@ -247,7 +302,7 @@ class RunScene:
         starts, ends, caps = [], [], []
         for i in range(a.shape[0]):
             row = cuts[i][np.isfinite(cuts[i])]
-            for t0, t1 in zip(row[:-1], row[1:], strict=True):
+            for t0, t1 in itertools.pairwise(row):
                 if t1 - t0 <= 1e-12 and row.size > 2:
                     continue
                 starts.append(a[i] + t0 * (b[i] - a[i]))
@@ -266,14 +321,20 @@ class RunScene:
         return outlines, cap, layer, depth, order
 
 
-def choose_camera(points: Array, task_path: Array, elevation: float = 25.0) -> OrthoCamera:
-    """A view across the scene's long horizontal axis, from the task's side, turned 30° toward the task.
+def choose_camera(ends: tuple[Array, Array], radius: Array, task_path: Array) -> OrthoCamera:
+    """The view from the task's side of the robot in which its links overlap least.
+
+    Candidates: azimuths 0°, ±30° and ±60° about the horizontal direction across the robot's long horizontal
+    axis (toward the task's side), elevations 15°, 25° and 35°. Each is scored by the share of the links'
+    drawn area that another link covers, on a few samples (a coarse raster); ties go to 30° toward the task.
 
     Args:
-        points: the robot's points over the runs (k, 3), world m.
+        ends: the capsules' end points a and b (N, m, 3), world m, over the samples to judge.
+        radius: the capsules' radii (m,), m.
         task_path: the task's positions (p, 3), world m.
-        elevation: deg above the horizontal.
     """
+    a, b = ends
+    points = np.concatenate([a, b], axis=1).reshape(-1, 3)
     xy = points[:, :2] - points[:, :2].mean(axis=0)
     _, _, vt = np.linalg.svd(xy, full_matrices=False)
     axis = vt[0]
@@ -283,8 +344,32 @@ def choose_camera(points: Array, task_path: Array, elevation: float = 25.0) -> O
     side = np.array([-axis[1], axis[0]])
     if float(side @ task) < 0.0:
         side = -side  # the viewer stands on the task's side of the robot
-    view = side * math.cos(math.radians(30.0)) + axis * math.sin(math.radians(30.0))
-    return OrthoCamera(math.degrees(math.atan2(view[1], view[0])), elevation)
+    base = math.degrees(math.atan2(side[1], side[0]))
+    turn = 1.0 if float(np.cross(side, axis)) > 0.0 else -1.0  # the sense in which azimuth turns toward the task
+    samples = np.unique(np.linspace(0, a.shape[0] - 1, 3).astype(int))
+    best: tuple[float, OrthoCamera] | None = None
+    for offset in (30.0, 0.0, 60.0, -30.0, -60.0):
+        for elevation in (25.0, 15.0, 35.0):
+            cam = OrthoCamera(base + turn * offset, elevation)
+            score = float(np.mean([_overlap(cam, a[k], b[k], radius) for k in samples]))
+            score += 0.01 * (abs(offset - 30.0) / 30.0 + abs(elevation - 25.0) / 10.0)
+            if best is None or score < best[0]:
+                best = (score, cam)
+    assert best is not None
+    return best[1]
+
+
+def _overlap(cam: OrthoCamera, a: Array, b: Array, radius: Array, cells: int = 48) -> float:
+    """Share of the capsules' drawn area (summed one by one) that more than one capsule covers, on a raster."""
+    outlines = capsule_outlines(cam.project(a), cam.project(b), radius, 5)
+    lo, hi = outlines.reshape(-1, 2).min(axis=0), outlines.reshape(-1, 2).max(axis=0)
+    gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], cells), np.linspace(lo[1], hi[1], cells))
+    grid = np.column_stack([gx.ravel(), gy.ravel()])
+    count = np.zeros(grid.shape[0], dtype=np.intp)
+    for outline in outlines:
+        count += MplPath(outline).contains_points(grid)
+    total = int(count.sum())
+    return 0.0 if total == 0 else 1.0 - int(np.count_nonzero(count)) / total
 
 
 def _base_disk() -> Array:
@@ -320,7 +405,7 @@ class SceneView:
                 )
             arts.append(
                 ax.add_patch(
-                    Polygon(cam.project(plane.top), closed=True, fc=SURFACE_COLOR, ec="#8a7a50", lw=0.8, alpha=0.8,
+                    Polygon(cam.project(plane.top), closed=True, fc=SURFACE_COLOR, ec="#8a7a50", lw=0.8, alpha=0.7,
                             zorder=z + 0.01)
                 )
             )
@@ -331,14 +416,20 @@ class SceneView:
                 a.set_animated(animated)
             self.surfaces.append(arts)
         ax.add_patch(Polygon(cam.project(_base_disk()), closed=True, fc=BASE_COLOR, ec="none", zorder=0.5))
+        a0, b0, r0 = scene.base_column
+        if float(np.linalg.norm(b0 - a0)) > 1e-9:
+            column = capsule_outlines(cam.project(a0), cam.project(b0), [r0], _CAP_POINTS)[0]
+            ax.add_patch(Polygon(column, closed=True, fc="0.45", ec=BASE_COLOR, lw=0.6, zorder=0.55))
         task = cam.project(np.vstack([scene.task_path, scene.task_path[:1]]))
-        ax.plot(*task.T, color=TASK_COLOR, lw=0.9, ls=(0, (4, 2)), zorder=0.6)
+        top = 2.0 * len(scene.planes) + 3.0
+        (self.task,) = ax.plot(*task.T, color=TASK_COLOR, lw=0.9, ls=(0, (4, 2)), zorder=top - 0.1, animated=animated)
         slots = scene.cap_r.size * (len(scene.planes) + 1)
-        self.patches = [
-            ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=0.6, animated=animated, visible=False))
+        self.patches: list[Polygon] = [
+            Polygon(np.zeros((3, 2)), closed=True, lw=0.6, animated=animated, visible=False)
             for _ in range(slots)
         ]
-        top = 2.0 * len(scene.planes) + 3.0
+        for patch in self.patches:
+            ax.add_patch(patch)
         color = STRATEGY_COLORS.get(name, "C0")
         (self.trace,) = ax.plot([], [], color=color, lw=trace_width, zorder=top, animated=animated)
         self.brace_traces = [
@@ -355,7 +446,7 @@ class SceneView:
     def show(self, k: int) -> list[Artist]:
         """Put the robot at sample k of its run; return the changing artists in drawing order."""
         scene, cam = self.scene, self.scene.camera
-        outlines, cap, layer, depth, order = scene.pieces(self.name, k)
+        outlines, cap, layer, _depth, order = scene.pieces(self.name, k)
         drawn: list[Artist] = []
         surfaces_done = 0
         for slot, i in enumerate(order):
@@ -366,7 +457,7 @@ class SceneView:
             c = int(cap[i])
             patch.set_xy(outlines[i])
             patch.set_facecolor(scene.cap_face[c])
-            patch.set_edgecolor(scene.cap_edge[c])
+            patch.set_edgecolor(EDGE_COLOR)
             patch.set_zorder(float(layer[i]) + 0.5 * slot / max(len(order), 1))
             patch.set_visible(True)
             drawn.append(patch)
@@ -382,4 +473,4 @@ class SceneView:
             line.set_data(pts[:, 0], pts[:, 1])
         now = cam.project(bps[k])
         self.brace_dots.set_data(now[:, 0], now[:, 1])
-        return drawn + [self.trace, *self.brace_traces, self.tip_dot, self.brace_dots]
+        return [*drawn, self.task, self.trace, *self.brace_traces, self.tip_dot, self.brace_dots]
