@@ -52,6 +52,7 @@ COLORS = STRATEGY_COLORS
 DPI = 100
 _FONT = 9.0
 _GIF_DPI = 90
+_MIN_VIEW_M = 0.04  # the least extent of a view of Fig. 3, m
 
 
 def _label(name: str) -> str:
@@ -367,8 +368,11 @@ def ellipsoid_figure(result: RunResult, points: int = 6) -> Figure:
         cam = _VIEWS[v][1]
         pts = np.vstack([cam.project(path_pts)] + [o for case in outlines[v] for o in case])
         lo, hi = pts.min(axis=0), pts.max(axis=0)
-        pad = 0.06 * float(np.max(hi - lo))
-        boxes[v] = (lo - pad, hi + pad)
+        centre = 0.5 * (lo + hi)
+        half = 0.5 * np.maximum(hi - lo, _MIN_VIEW_M)
+        half[1] = max(half[1], 0.35 * half[0])  # a flat view gets room for its ticks
+        half *= 1.06
+        boxes[v] = (centre - half, centre + half)
     pw = 3.3  # panel width, in
     heights = {v: pw * float((boxes[v][1][1] - boxes[v][0][1]) / (boxes[v][1][0] - boxes[v][0][0])) for v in views}
     left, right, top, bottom, hgap, vgap = 0.75, 0.15, 0.95, 0.55, 0.8, 0.7
@@ -395,8 +399,8 @@ def ellipsoid_figure(result: RunResult, points: int = 6) -> Figure:
             ax.set_ylim(lo[1], hi[1])
             ax.set_aspect("equal", adjustable="box")
             ax.tick_params(labelsize=_FONT - 1)
-            ax.xaxis.set_major_locator(MaxNLocator(5))
-            ax.yaxis.set_major_locator(MaxNLocator(5))
+            ax.xaxis.set_major_locator(MaxNLocator(4))
+            ax.yaxis.set_major_locator(MaxNLocator(4))
             ax.set_xlabel(f"{'xyz'[ix]} [m]", fontsize=_FONT, labelpad=2)
             ax.set_ylabel(f"{'xyz'[iy]} [m]", fontsize=_FONT, labelpad=2)
             ax.grid(alpha=0.25)

@@ -345,7 +345,7 @@ def choose_camera(ends: tuple[Array, Array], radius: Array, task_path: Array) ->
     if float(side @ task) < 0.0:
         side = -side  # the viewer stands on the task's side of the robot
     base = math.degrees(math.atan2(side[1], side[0]))
-    turn = 1.0 if float(np.cross(side, axis)) > 0.0 else -1.0  # the sense in which azimuth turns toward the task
+    turn = 1.0 if float(side[0] * axis[1] - side[1] * axis[0]) > 0.0 else -1.0  # the sense in which azimuth turns toward the task
     samples = np.unique(np.linspace(0, a.shape[0] - 1, 3).astype(int))
     best: tuple[float, OrthoCamera] | None = None
     for offset in (30.0, 0.0, 60.0, -30.0, -60.0):
