@@ -8,6 +8,7 @@ the measures along the task with units on every axis and one legend for all pane
 
 from __future__ import annotations
 
+import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -90,15 +91,15 @@ def _wrapped(text: str, inches: float, size: float = _FONT + 1) -> str:
     return text[:cut] + "\n" + text[cut + 1 :]
 
 
-_SCENES: list[tuple[RunResult, RunScene]] = []
+_SCENES: list[tuple[weakref.ref[RunResult], RunScene]] = []
 
 
 def _scene(result: RunResult) -> RunScene:
-    """The scene of the run model's runs (the last one is kept: Fig. 2 and the animation share it)."""
-    if _SCENES and _SCENES[0][0] is result:
+    """The scene of the run model's runs; the last one is kept while its run lives (Fig. 2 and the animation)."""
+    if _SCENES and _SCENES[0][0]() is result:
         return _SCENES[0][1]
     scene = RunScene(result, _runs(result))
-    _SCENES[:] = [(result, scene)]
+    _SCENES[:] = [(weakref.ref(result), scene)]
     return scene
 
 
@@ -158,8 +159,9 @@ def _scale_bar(ax: Axes, scene: RunScene) -> None:
             ax.plot([ox], [oy], "o", color="0.3", ms=2.0, zorder=20)
             ax.text(ox + 0.2 * arm, oy + 0.2 * arm, name, fontsize=7, color="0.3", zorder=20)
             continue
-        ax.annotate("", (ox + dx, oy + dy), (ox, oy), arrowprops={"arrowstyle": "-|>", "color": "0.3", "lw": 0.8},
-                    zorder=20)
+        ax.annotate(
+            "", (ox + dx, oy + dy), (ox, oy), arrowprops={"arrowstyle": "-|>", "color": "0.3", "lw": 0.8}, zorder=20
+        )
         ax.text(ox + 1.3 * dx, oy + 1.3 * dy, name, fontsize=7, color="0.3", ha="center", va="center", zorder=20)
 
 
@@ -198,25 +200,47 @@ def film_strip(result: RunResult, frames: int = 5) -> Figure:
             view = SceneView(ax, scene, name)
             k = _sample(tr, float(t))
             view.show(k)
-            ax.add_patch(Polygon([[0, 0], [1, 0], [1, 1], [0, 1]], closed=True, transform=ax.transAxes, fc="none",
-                                 ec="0.8", lw=0.6))
+            ax.add_patch(
+                Polygon(
+                    [[0, 0], [1, 0], [1, 1], [0, 1]], closed=True, transform=ax.transAxes, fc="none", ec="0.8", lw=0.6
+                )
+            )
             if abs(float(tr.t[k]) - t) > 0.5 * (tr.t[1] - tr.t[0] if tr.t.size > 1 else 1.0):
-                ax.text(0.5, 0.04, f"run stopped at t = {tr.t[-1]:.1f} s", transform=ax.transAxes, ha="center",
-                        fontsize=7, color="tab:red")
+                ax.text(
+                    0.5,
+                    0.04,
+                    f"run stopped at t = {tr.t[-1]:.1f} s",
+                    transform=ax.transAxes,
+                    ha="center",
+                    fontsize=7,
+                    color="tab:red",
+                )
             if r == 0:
                 ax.set_title(f"t = {t:.1f} s", fontsize=_FONT + 1, pad=3)
             if c == 0:
-                fig.text((left - 0.06) / width, y + 0.5 * ph / height, _wrapped(_label(name), ph), rotation=90,
-                         ha="right", va="center", fontsize=_FONT + 1, color=COLORS.get(name, "k"), fontweight="bold")
+                fig.text(
+                    (left - 0.06) / width,
+                    y + 0.5 * ph / height,
+                    _wrapped(_label(name), ph),
+                    rotation=90,
+                    ha="right",
+                    va="center",
+                    fontsize=_FONT + 1,
+                    color=COLORS.get(name, "k"),
+                    fontweight="bold",
+                )
                 if r == 0:
                     _scale_bar(ax, scene)
     handles, labels = _scene_legend(scene)
-    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=_FONT - 1, frameon=False,
-               bbox_to_anchor=(0.5, 0.0))
+    fig.legend(
+        handles, labels, loc="lower center", ncol=5, fontsize=_FONT - 1, frameon=False, bbox_to_anchor=(0.5, 0.0)
+    )
     fig.suptitle(
         f"Fig. 2: the runs of scenario {result.scenario.name} ({result.compliance_model} compliance for the braced "
         f"runs); {_view_text(scene)}",
-        fontsize=_FONT + 2, y=1.0 - 0.1 / height, va="top",
+        fontsize=_FONT + 2,
+        y=1.0 - 0.1 / height,
+        va="top",
     )
     return fig
 
@@ -224,7 +248,7 @@ def film_strip(result: RunResult, frames: int = 5) -> Figure:
 def animate(result: RunResult, path: Path, frames: int = 60, fps: int = 12) -> None:
     """Write every strategy's run side by side as a looping GIF (:class:`RunAnimation`)."""
     anim = RunAnimation(result, frames)
-    save_gif(quantize(anim.images()), path, fps)
+    save_gif(quantize(anim.images(), keep=anim.colors), path, fps)
 
 
 class RunAnimation:
@@ -262,13 +286,40 @@ class RunAnimation:
             self.views.append(SceneView(ax, scene, name, animated=True))
         handles, labels = _scene_legend(scene)
         keep = [i for i, lab in enumerate(labels) if not lab.startswith(("base", "b of"))]
-        fig.legend([handles[i] for i in keep], [labels[i] for i in keep], loc="lower center",
-                   ncol=(len(keep) + 1) // 2, fontsize=7, frameon=False, handlelength=1.6, columnspacing=1.2,
-                   borderaxespad=0.2)
+        fig.legend(
+            [handles[i] for i in keep],
+            [labels[i] for i in keep],
+            loc="lower center",
+            ncol=(len(keep) + 1) // 2,
+            fontsize=7,
+            frameon=False,
+            handlelength=1.6,
+            columnspacing=1.2,
+            borderaxespad=0.2,
+        )
         self.clock = fig.text(0.5, 1.0 - 0.06 / height, "", ha="center", va="top", fontsize=_FONT + 1, animated=True)
-        fig.text(0.99, 1.0 - 0.06 / height, f"scenario {result.scenario.name}", ha="right", va="top",
-                 fontsize=_FONT - 1, color="0.35")
+        fig.text(
+            0.99,
+            1.0 - 0.06 / height,
+            f"scenario {result.scenario.name}",
+            ha="right",
+            va="top",
+            fontsize=_FONT - 1,
+            color="0.35",
+        )
         self.figure = fig
+        scene_colors = [c for p in scene.parts for c in p.colors]
+        #: the flat colours of the frames (kept exact in a GIF's palette)
+        self.colors = [
+            "white",
+            "black",
+            BRACE_COLOR,
+            SURFACE_COLOR,
+            REGION_COLOR,
+            BASE_COLOR,
+            *scene_colors,
+            *(COLORS.get(n, "C0") for n in self.names),
+        ]
 
     def samples(self, i: int) -> list[int]:
         """The sample of each run shown in frame i."""
@@ -399,25 +450,37 @@ def ellipsoid_figure(result: RunResult, points: int = 6) -> Figure:
             ax.set_ylim(lo[1], hi[1])
             ax.set_aspect("equal", adjustable="box")
             ax.tick_params(labelsize=_FONT - 1)
-            ax.xaxis.set_major_locator(MaxNLocator(4))
-            ax.yaxis.set_major_locator(MaxNLocator(4))
+            ax.xaxis.set_major_locator(MaxNLocator(5, steps=[1, 2, 2.5, 5, 10]))
+            ax.yaxis.set_major_locator(MaxNLocator(5, steps=[1, 2, 2.5, 5, 10]))
             ax.set_xlabel(f"{'xyz'[ix]} [m]", fontsize=_FONT, labelpad=2)
             ax.set_ylabel(f"{'xyz'[iy]} [m]", fontsize=_FONT, labelpad=2)
             ax.grid(alpha=0.25)
             heading = f"({'abcdef'[c]}) {_label(name)}" if r == 0 else ""
-            ax.set_title(f"{heading}\n{title}" if heading else title, fontsize=_FONT, pad=3,
-                         color=COLORS.get(name, "k") if r == 0 else "k")
+            ax.set_title(
+                f"{heading}\n{title}" if heading else title,
+                fontsize=_FONT,
+                pad=3,
+                color=COLORS.get(name, "k") if r == 0 else "k",
+            )
             if r == 0 and c == 0:
                 bx, by = lo[0] + 0.04 * (hi[0] - lo[0]), lo[1] + 0.05 * (hi[1] - lo[1])
                 ax.plot([bx, bx + scale * ref], [by, by], color="k", lw=2.0, solid_capstyle="butt")
-                ax.text(bx + 0.5 * scale * ref, by + 0.02 * (hi[1] - lo[1]), f"{ref:g} m/N", ha="center",
-                        va="bottom", fontsize=_FONT - 2)
+                ax.text(
+                    bx + 0.5 * scale * ref,
+                    by + 0.02 * (hi[1] - lo[1]),
+                    f"{ref:g} m/N",
+                    ha="center",
+                    va="bottom",
+                    fontsize=_FONT - 2,
+                )
         y -= vgap
     fig.suptitle(
         f"Fig. 3: translational compliance ellipsoids at {points} points of the task ({result.compliance_model} "
         f"model for the braced runs)\nsemi-axes: eigenvalues of the force block of the tip compliance, drawn at "
         f"{scale:.2f} m per m/N; dashed: the task path",
-        fontsize=_FONT + 1, y=1.0 - 0.08 / height, va="top",
+        fontsize=_FONT + 1,
+        y=1.0 - 0.08 / height,
+        va="top",
     )
     return fig
 
@@ -447,8 +510,10 @@ def _curves(result: RunResult, panels: list[tuple[str, str, str]], title: str, m
                 ax.set_yscale("log")
                 ax.set_ylim(1e-2, 1.2e2)
             else:
-                ax.set_ylim(0.0, max(1.2, *(float(np.max(tr.measures[key])) * 1.1 for tr in runs.values()
-                                            if key in tr.measures)))
+                ax.set_ylim(
+                    0.0,
+                    max(1.2, *(float(np.max(tr.measures[key])) * 1.1 for tr in runs.values() if key in tr.measures)),
+                )
         ax.set_title(heading, fontsize=_FONT + 1)
         ax.set_ylabel(ylabel, fontsize=_FONT)
         ax.tick_params(labelsize=_FONT - 0.5)
@@ -456,8 +521,15 @@ def _curves(result: RunResult, panels: list[tuple[str, str, str]], title: str, m
     for ax in axes[1]:
         ax.set_xlabel("time along the task [s]", fontsize=_FONT)
     handles = [Line2D([], [], color=COLORS.get(n), lw=2.0) for n in runs]
-    fig.legend(handles, [_label(n) for n in runs], loc="lower center", ncol=len(handles), fontsize=_FONT + 1,
-               frameon=False, bbox_to_anchor=(0.5, 0.0))
+    fig.legend(
+        handles,
+        [_label(n) for n in runs],
+        loc="lower center",
+        ncol=len(handles),
+        fontsize=_FONT + 1,
+        frameon=False,
+        bbox_to_anchor=(0.5, 0.0),
+    )
     fig.suptitle(title, fontsize=_FONT + 2)
     return fig
 

@@ -45,13 +45,29 @@ def render_frames(fig: Figure, frames: int, draw: Callable[[int], Sequence[Artis
     return images
 
 
-def quantize(images: Sequence[Image.Image], colors: int = PALETTE_COLORS) -> list[Image.Image]:
-    """The images in palette mode, all with one palette made from the first and the last image."""
+def quantize(
+    images: Sequence[Image.Image], colors: int = PALETTE_COLORS, keep: Sequence[str] = ()
+) -> list[Image.Image]:
+    """The images in palette mode, all with one palette made from the first and the last image.
+
+    Args:
+        images: RGB images of one size.
+        colors: palette size, ≤ 256.
+        keep: matplotlib colours the palette must hold (flat areas and markers keep their exact colour).
+    """
+    from matplotlib.colors import to_rgb
+
     first, last = images[0], images[-1]
-    both = Image.new("RGB", (first.width, first.height + last.height))
-    both.paste(first, (0, 0))
-    both.paste(last, (0, first.height))
-    palette = both.quantize(colors=colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+    block = 24
+    swatches = Image.new("RGB", (max(first.width, block * max(len(keep), 1)), block), "white")
+    for i, color in enumerate(keep):
+        rgb = tuple(round(255 * c) for c in to_rgb(color))
+        swatches.paste(Image.new("RGB", (block, block), rgb), (i * block, 0))
+    source = Image.new("RGB", (swatches.width, first.height + last.height + block), "white")
+    source.paste(first, (0, 0))
+    source.paste(last, (0, first.height))
+    source.paste(swatches, (0, first.height + last.height))
+    palette = source.quantize(colors=colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
     return [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
 
 

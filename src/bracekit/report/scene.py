@@ -225,8 +225,12 @@ class RunScene:
         """(x0, x1, y0, y1), screen m: everything but the columns and whole planes, with a margin."""
         cam = self.camera
         a0, b0, r0 = self.base_column
-        pts = [cam.project(self.task_path), cam.project(_base_disk()), cam.project(np.array([a0, b0])) + r0,
-               cam.project(np.array([a0, b0])) - r0]
+        pts = [
+            cam.project(self.task_path),
+            cam.project(_base_disk()),
+            cam.project(np.array([a0, b0])) + r0,
+            cam.project(np.array([a0, b0])) - r0,
+        ]
         for plane in self.planes:
             if plane.column is not None:
                 pts.append(cam.project(plane.top))
@@ -345,7 +349,8 @@ def choose_camera(ends: tuple[Array, Array], radius: Array, task_path: Array) ->
     if float(side @ task) < 0.0:
         side = -side  # the viewer stands on the task's side of the robot
     base = math.degrees(math.atan2(side[1], side[0]))
-    turn = 1.0 if float(side[0] * axis[1] - side[1] * axis[0]) > 0.0 else -1.0  # the sense in which azimuth turns toward the task
+    # the sense in which the azimuth turns toward the task
+    turn = 1.0 if float(side[0] * axis[1] - side[1] * axis[0]) > 0.0 else -1.0
     samples = np.unique(np.linspace(0, a.shape[0] - 1, 3).astype(int))
     best: tuple[float, OrthoCamera] | None = None
     for offset in (30.0, 0.0, 60.0, -30.0, -60.0):
@@ -405,8 +410,15 @@ class SceneView:
                 )
             arts.append(
                 ax.add_patch(
-                    Polygon(cam.project(plane.top), closed=True, fc=SURFACE_COLOR, ec="#8a7a50", lw=0.8, alpha=0.7,
-                            zorder=z + 0.01)
+                    Polygon(
+                        cam.project(plane.top),
+                        closed=True,
+                        fc=SURFACE_COLOR,
+                        ec="#8a7a50",
+                        lw=0.8,
+                        alpha=0.7,
+                        zorder=z + 0.01,
+                    )
                 )
             )
             if plane.region is not None:
@@ -425,8 +437,7 @@ class SceneView:
         (self.task,) = ax.plot(*task.T, color=TASK_COLOR, lw=0.9, ls=(0, (4, 2)), zorder=top - 0.1, animated=animated)
         slots = scene.cap_r.size * (len(scene.planes) + 1)
         self.patches: list[Polygon] = [
-            Polygon(np.zeros((3, 2)), closed=True, lw=0.6, animated=animated, visible=False)
-            for _ in range(slots)
+            Polygon(np.zeros((3, 2)), closed=True, lw=0.6, animated=animated, visible=False) for _ in range(slots)
         ]
         for patch in self.patches:
             ax.add_patch(patch)
@@ -437,11 +448,19 @@ class SceneView:
         ]
         braced = scene.runs[name].braced
         (self.brace_dots,) = ax.plot(
-            [], [], "o", ms=5.5, mfc=BRACE_COLOR if braced else "white", mec="k", mew=0.8, zorder=top + 0.5,
+            [],
+            [],
+            "o",
+            ms=5.5,
+            mfc=BRACE_COLOR if braced else "white",
+            mec="k",
+            mew=0.8,
+            zorder=top + 0.5,
             animated=animated,
         )
-        (self.tip_dot,) = ax.plot([], [], "o", ms=3.5, color=color, mec="k", mew=0.5, zorder=top + 0.5,
-                                  animated=animated)
+        (self.tip_dot,) = ax.plot(
+            [], [], "o", ms=3.5, color=color, mec="k", mew=0.5, zorder=top + 0.5, animated=animated
+        )
 
     def show(self, k: int) -> list[Artist]:
         """Put the robot at sample k of its run; return the changing artists in drawing order."""
@@ -462,7 +481,7 @@ class SceneView:
             patch.set_visible(True)
             drawn.append(patch)
         drawn += [a for arts in self.surfaces[surfaces_done:] for a in arts]
-        for patch in self.patches[len(order):]:
+        for patch in self.patches[len(order) :]:
             patch.set_visible(False)
         tips = cam.project(scene.tips[self.name][: k + 1])
         self.trace.set_data(tips[:, 0], tips[:, 1])
