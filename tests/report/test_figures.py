@@ -268,3 +268,28 @@ def test_every_shipped_scenario_is_drawn(name: str, tmp_path: Path) -> None:
         assert all(re.search(r"\[.+\]", ax.get_ylabel()) for ax in cap.axes) and len(cap.legends) == 1
         assert _texts_overlap(cap) == []
     assert (name == "panda-holding") == figures.has_capacity(result)
+
+
+def test_a_run_that_stopped_early_and_a_single_strategy_are_drawn(paper_run) -> None:
+    import dataclasses
+
+    model = paper_run.compliance_model
+    runs = dict(paper_run.trajectories[model])
+    tr = runs["braced_min_norm"]
+    cut = tr.t.size // 2
+    runs["braced_min_norm"] = dataclasses.replace(
+        tr, t=tr.t[:cut], q=tr.q[:cut], measures={k: v[:cut] for k, v in tr.measures.items()}, completed=False
+    )
+    stopped = dataclasses.replace(paper_run, trajectories={**paper_run.trajectories, model: runs})
+    fig = figures.film_strip(stopped, frames=3)
+    notes = [t.get_text() for ax in fig.axes for t in ax.texts if t.get_text().startswith("run stopped")]
+    times = np.linspace(0.0, tr.t[-1], 3)
+    after = int(np.sum(times > tr.t[cut - 1] + 0.05))  # instants after the stop (dt = 0.1 s)
+    assert after >= 1 and notes == [f"run stopped at t = {tr.t[cut - 1]:.1f} s"] * after
+    anim = figures.RunAnimation(stopped, frames=3)
+    assert anim.samples(2)[1] == cut - 1 and len(anim.images()) == 3
+    single = dataclasses.replace(paper_run, trajectories={model: {"braced_min_norm": tr}})
+    assert len(figures.film_strip(single, frames=2).axes) == 2
+    assert len(figures.RunAnimation(single, frames=2).views) == 1
+    assert len(figures.ellipsoid_figure(single, points=2).axes) == 2
+    assert len(figures.measures_figure(single).legends[0].get_texts()) == 1

@@ -143,13 +143,13 @@ class RunScene:
             ks = np.unique(np.linspace(0, tr.q.shape[0] - 1, min(SURVEY_SAMPLES, tr.q.shape[0])).astype(int))
             pairs = [self.capsule_ends(name, int(k)) for k in ks]
             self._ends[name] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
-        ends = np.concatenate([np.concatenate([a, b], axis=1) for a, b in self._ends.values()], axis=1)
+        ends = np.vstack([np.concatenate([a, b], axis=1).reshape(-1, 3) for a, b in self._ends.values()])
         main = self._ends.get("braced_gradient_projection") or next(iter(self._ends.values()))
         self.camera = camera if camera is not None else choose_camera(main, self.cap_r, self.task_path)
         first = np.array(robot.model.jointPlacements[1].translation) if robot.model.njoints > 1 else np.zeros(3)
         #: the base: a plate at the world origin and, when joint 1 sits away from it, a column up to joint 1
         self.base_column = (np.zeros(3), first, float(max(self.cap_r[:1].max(initial=0.0), 0.04)))
-        self.planes = self._planes(ends.reshape(-1, 3))
+        self.planes = self._planes(ends)
         self.limits = self._limits()
 
     # --- geometry ---------------------------------------------------------------------------------------
