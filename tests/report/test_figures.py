@@ -293,3 +293,57 @@ def test_a_run_that_stopped_early_and_a_single_strategy_are_drawn(paper_run) -> 
     assert len(figures.RunAnimation(single, frames=2).views) == 1
     assert len(figures.ellipsoid_figure(single, points=2).axes) == 2
     assert len(figures.measures_figure(single).legends[0].get_texts()) == 1
+
+
+# --- the animation drawn beside the figures --------------------------------------------------------------
+def test_the_animation_drawn_in_a_child_process_is_the_one_drawn_in_process(paper_run, tmp_path: Path, monkeypatch):
+    from bracekit.report import forked, write_run
+
+    written = write_run(paper_run, tmp_path / "out")
+    assert [p.name for p in written][5:] == figures.figure_files(paper_run)
+    reference = tmp_path / "reference.gif"
+    figures.animate(paper_run, reference)
+    assert (tmp_path / "out" / "animation.gif").read_bytes() == reference.read_bytes()
+    monkeypatch.setattr(forked, "available", lambda: False)  # one process: the same files
+    names = []
+    paths = figures.write_figures(paper_run, tmp_path, progress=names.append)
+    assert names == figures.figure_files(paper_run) and all(p.stat().st_size > 0 for p in paths)
+    assert (tmp_path / "animation.gif").read_bytes() == reference.read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("error", "kind"), [(RuntimeError("no frames"), bk.BracekitError), (OSError(28, "full"), None)]
+)
+def test_a_failure_in_the_child_is_raised_and_nothing_is_written(paper_run, tmp_path: Path, monkeypatch, error, kind):
+    from bracekit.errors import OutputError
+    from bracekit.report import forked, write_run
+
+    if not forked.available():
+        pytest.skip("no fork or a single core here: the animation is drawn in process")
+
+    def boom(*_a, **_k):
+        raise error
+
+    monkeypatch.setattr(figures, "animate", boom)
+    want = kind or OutputError
+    with pytest.raises(want, match=r"animation\.gif") as info:
+        write_run(paper_run, tmp_path / "never")
+    assert type(error).__name__ in str(info.value)
+    assert not (tmp_path / "never").exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_child_no_longer_wanted_is_stopped(tmp_path: Path) -> None:
+    import os
+    import time
+
+    from bracekit.report import forked
+
+    if not forked.available():
+        pytest.skip("no fork or a single core here")
+    job = forked.ForkedJob(lambda: time.sleep(60), "nothing")
+    pid = job.pid
+    start = time.perf_counter()
+    job.stop()
+    assert time.perf_counter() - start < 5 and job.pid is None
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pid, os.WNOHANG)  # reaped

@@ -9,6 +9,7 @@ the measures along the task with units on every axis and one legend for all pane
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,6 +28,7 @@ from PIL import Image
 
 from bracekit.compliance.first_order import compliance_ellipsoids, end_effector_compliance, free_space_compliance
 from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance, simulated_model
+from bracekit.report import forked
 from bracekit.report.gif import quantize, render_frames, save_gif
 from bracekit.report.projection import OrthoCamera, ellipsoid_outline
 from bracekit.report.scene import (
@@ -584,3 +586,52 @@ def capacity_figure(result: RunResult) -> Figure:
         f"{0 if h.wrenches is None else len(h.wrenches)} listed tool wrench(es)",
         margins=True,
     )
+
+
+# --- every figure of a run ---------------------------------------------------------------------------
+def figure_files(result: RunResult) -> list[str]:
+    """The names of the figure files of a run, in the order :func:`write_figures` writes them."""
+    names = ["fig2_film_strip.png", "fig3_ellipsoids.png", "fig4_measures.png", "animation.gif"]
+    return [*names, "fig_capacity.png"] if has_capacity(result) else names
+
+
+def write_figures(result: RunResult, folder: Path, progress: Callable[[str], None] | None = None) -> list[Path]:
+    """Write every figure of the run and the animation into `folder`.
+
+    The animation is drawn in a forked child process while the figures are drawn here, where that is
+    available (:mod:`bracekit.report.forked`); else one after the other.
+
+    Args:
+        result: the run.
+        folder: an existing folder.
+        progress: called with each file name before it is written (the animation's when it is waited for).
+
+    Returns:
+        The paths written, in the order of :func:`figure_files`.
+
+    Raises:
+        OutputError: the animation could not be written (its child process failed writing).
+        BracekitError: the animation could not be drawn.
+    """
+    names = figure_files(result)
+    writers: dict[str, Callable[[], None]] = {
+        "fig2_film_strip.png": lambda: figure_film_strip(result, folder / "fig2_film_strip.png"),
+        "fig3_ellipsoids.png": lambda: figure_ellipsoids(result, folder / "fig3_ellipsoids.png"),
+        "fig4_measures.png": lambda: figure_measures(result, folder / "fig4_measures.png"),
+        "animation.gif": lambda: animate(result, folder / "animation.gif"),
+        "fig_capacity.png": lambda: figure_capacity(result, folder / "fig_capacity.png"),
+    }
+    _scene(result)  # made once, shared with the child
+    job = forked.start(writers["animation.gif"], "animation.gif")
+    try:
+        for name in names:
+            if progress is not None:
+                progress(name)
+            if name == "animation.gif" and job is not None:
+                job.wait()
+            else:
+                writers[name]()
+    finally:
+        if job is not None:
+            job.stop()
+    return [folder / name for name in names]
