@@ -202,7 +202,7 @@ def film_strip(result: RunResult, frames: int = 5) -> Figure:
             view = SceneView(ax, scene, name)
             k = _sample(tr, float(t))
             view.show(k)
-            ax.add_patch(
+            ax.add_artist(
                 Polygon(
                     [[0, 0], [1, 0], [1, 1], [0, 1]], closed=True, transform=ax.transAxes, fc="none", ec="0.8", lw=0.6
                 )

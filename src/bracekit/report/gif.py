@@ -10,7 +10,6 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import numpy as np
 from matplotlib.artist import Artist
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -35,13 +34,14 @@ def render_frames(fig: Figure, frames: int, draw: Callable[[int], Sequence[Artis
     canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox)
+    renderer = canvas.get_renderer()
+    size = canvas.get_width_height(physical=True)
     images = []
     for i in range(frames):
         canvas.restore_region(background)
         for artist in draw(i):
-            fig.draw_artist(artist)
-        rgba = np.asarray(canvas.buffer_rgba())
-        images.append(Image.fromarray(np.ascontiguousarray(rgba[..., :3])))
+            artist.draw(renderer)
+        images.append(Image.frombuffer("RGBA", size, canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB"))
     return images
 
 

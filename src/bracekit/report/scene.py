@@ -406,10 +406,10 @@ class SceneView:
             arts: list[Artist] = []
             if plane.column is not None:
                 arts.append(
-                    ax.add_patch(Polygon(plane.column, closed=True, fc=SURFACE_COLOR, ec="none", alpha=0.35, zorder=z))
+                    ax.add_artist(Polygon(plane.column, closed=True, fc=SURFACE_COLOR, ec="none", alpha=0.35, zorder=z))
                 )
             arts.append(
-                ax.add_patch(
+                ax.add_artist(
                     Polygon(
                         cam.project(plane.top),
                         closed=True,
@@ -427,11 +427,11 @@ class SceneView:
             for a in arts:
                 a.set_animated(animated)
             self.surfaces.append(arts)
-        ax.add_patch(Polygon(cam.project(_base_disk()), closed=True, fc=BASE_COLOR, ec="none", zorder=0.5))
+        ax.add_artist(Polygon(cam.project(_base_disk()), closed=True, fc=BASE_COLOR, ec="none", zorder=0.5))
         a0, b0, r0 = scene.base_column
         if float(np.linalg.norm(b0 - a0)) > 1e-9:
             column = capsule_outlines(cam.project(a0), cam.project(b0), [r0], _CAP_POINTS)[0]
-            ax.add_patch(Polygon(column, closed=True, fc="0.45", ec=BASE_COLOR, lw=0.6, zorder=0.55))
+            ax.add_artist(Polygon(column, closed=True, fc="0.45", ec=BASE_COLOR, lw=0.6, zorder=0.55))
         task = cam.project(np.vstack([scene.task_path, scene.task_path[:1]]))
         top = 2.0 * len(scene.planes) + 3.0
         (self.task,) = ax.plot(*task.T, color=TASK_COLOR, lw=0.9, ls=(0, (4, 2)), zorder=top - 0.1, animated=animated)
@@ -440,7 +440,7 @@ class SceneView:
             Polygon(np.zeros((3, 2)), closed=True, lw=0.6, animated=animated, visible=False) for _ in range(slots)
         ]
         for patch in self.patches:
-            ax.add_patch(patch)
+            ax.add_artist(patch)
         color = STRATEGY_COLORS.get(name, "C0")
         (self.trace,) = ax.plot([], [], color=color, lw=trace_width, zorder=top, animated=animated)
         self.brace_traces = [
