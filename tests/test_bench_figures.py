@@ -15,9 +15,10 @@ def test_runs_alternate_into_fresh_folders_and_the_ratio_is_of_the_medians(monke
     times = [3.0, 1.0, 5.0, 2.0, 4.0, 1.5, 3.5, 1.2, 3.2, 1.1]
     clock = iter(times)
 
-    def fake(out: Path, figures: bool) -> float:
+    def fake(out: Path, figures: bool) -> tuple[float, float]:
         calls.append((out, figures))
-        return next(clock)
+        wall = next(clock)
+        return wall, 0.5 * wall
 
     monkeypatch.setattr(bench_figures, "_run", fake)
     r = bench_figures.figures_benchmarks(quick=False)
@@ -28,6 +29,9 @@ def test_runs_alternate_into_fresh_folders_and_the_ratio_is_of_the_medians(monke
     assert r["run_figures_s"] == statistics.median(with_figures)
     assert r["run_no_figures_s"] == statistics.median(without)
     assert r["figures_overhead_ratio"] == pytest.approx(r["run_figures_s"] / r["run_no_figures_s"])
+    assert (
+        r["run_figures_cpu_s"] == 0.5 * r["run_figures_s"] and r["run_no_figures_cpu_s"] == 0.5 * r["run_no_figures_s"]
+    )
 
 
 def test_a_failing_run_is_reported(monkeypatch, tmp_path: Path) -> None:
