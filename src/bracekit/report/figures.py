@@ -303,7 +303,7 @@ class RunAnimation:
         fig.text(
             0.99,
             1.0 - 0.06 / height,
-            f"scenario {result.scenario.name}",
+            f"scenario {result.scenario.name}, {self.t_end:g} s",
             ha="right",
             va="top",
             fontsize=_FONT - 1,
@@ -330,7 +330,7 @@ class RunAnimation:
 
     def draw(self, i: int) -> list[Artist]:
         """Set the artists to frame i; return the changing ones in drawing order."""
-        self.clock.set_text(f"t = {float(self.times[i]):4.1f} s of {self.t_end:.0f} s")
+        self.clock.set_text(f"t = {float(self.times[i]):4.1f} s")
         arts: list[Artist] = [self.clock]
         for view, k in zip(self.views, self.samples(i), strict=True):
             arts += view.show(k)

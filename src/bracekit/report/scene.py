@@ -13,7 +13,6 @@ within a layer the pieces are drawn far to near.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -293,26 +292,21 @@ class RunScene:
         a, b = self.capsule_ends(name, k)
         cam = self.camera
         ts = [np.zeros(a.shape[0]), np.ones(a.shape[0])]
-        sides = []
         for plane in self.planes:
             facing = 1.0 if float(plane.normal @ cam.toward) >= 0.0 else -1.0
             ha = facing * ((a - plane.point) @ plane.normal)
             hb = facing * ((b - plane.point) @ plane.normal)
             with np.errstate(divide="ignore", invalid="ignore"):
-                t = np.where((ha * hb < 0.0), ha / (ha - hb), np.nan)
-            ts.append(t)
-            sides.append((ha, hb))
-        cuts = np.sort(np.column_stack(ts), axis=1)  # nan last
-        starts, ends, caps = [], [], []
-        for i in range(a.shape[0]):
-            row = cuts[i][np.isfinite(cuts[i])]
-            for t0, t1 in itertools.pairwise(row):
-                if t1 - t0 <= 1e-12 and row.size > 2:
-                    continue
-                starts.append(a[i] + t0 * (b[i] - a[i]))
-                ends.append(a[i] + t1 * (b[i] - a[i]))
-                caps.append(i)
-        pa, pb, cap = np.array(starts), np.array(ends), np.array(caps, dtype=np.intp)
+                ts.append(np.where((ha * hb < 0.0), ha / (ha - hb), np.nan))
+        cuts = np.sort(np.column_stack(ts), axis=1)  # per capsule: 0, its crossings, 1, then nan
+        t0, t1 = cuts[:, :-1], cuts[:, 1:]
+        uncut = (np.count_nonzero(np.isfinite(cuts), axis=1) == 2)[:, None]  # keep a capsule of zero length
+        with np.errstate(invalid="ignore"):
+            keep = np.isfinite(t1) & ((t1 - t0 > 1e-12) | uncut)
+        cap, col = np.nonzero(keep)  # capsule by capsule, along each
+        d = b[cap] - a[cap]
+        pa = a[cap] + t0[cap, col][:, None] * d
+        pb = a[cap] + t1[cap, col][:, None] * d
         mid = 0.5 * (pa + pb)
         layer = np.ones(cap.size, dtype=np.intp)
         for j, plane in enumerate(self.planes):
