@@ -31,7 +31,7 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import TracebackType
+from types import ModuleType, TracebackType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -652,6 +652,8 @@ def write_run(
         ("trajectories.npz", lambda p: save_trajectories(result, p)),
         ("scene.json", lambda p: p.write_text(to_json(scene_data(result)) + "\n", encoding="utf-8")),
     ]
+    names = [name for name, _ in steps]
+    drawing: ModuleType | None = None
     if figures:
         try:
             from bracekit.report import figures as fig  # matplotlib only when figures are asked for
@@ -660,20 +662,14 @@ def write_run(
                 f"figures need matplotlib, which cannot be imported ({exc}): pip install 'bracekit[viz]', "
                 "or write without figures"
             ) from exc
-
-        steps += [
-            ("fig2_film_strip.png", lambda p: fig.figure_film_strip(result, p)),
-            ("fig3_ellipsoids.png", lambda p: fig.figure_ellipsoids(result, p)),
-            ("fig4_measures.png", lambda p: fig.figure_measures(result, p)),
-            ("animation.gif", lambda p: fig.animate(result, p)),
-        ]
-        if fig.has_capacity(result):
-            steps.append(("fig_capacity.png", lambda p: fig.figure_capacity(result, p)))
-    names = [name for name, _ in steps]
+        names += fig.figure_files(result)
+        drawing = fig
     with atomic_directory(out, overwrite=overwrite, files=names, command="bracekit.report.write_run") as tmp:
         for name, write in steps:
             if progress is not None:
                 progress(name)
             write(tmp / name)
+        if drawing is not None:
+            drawing.write_figures(result, tmp, progress)
     shown = out.shown if isinstance(out, OutputPlan) else os.fspath(out)
     return [Path(shown) / name for name in names]
