@@ -16,6 +16,7 @@ from PIL import Image
 
 import bracekit as bk
 from bracekit.report import figures
+from bracekit.report.output import run_files
 from bracekit.report.projection import OrthoCamera, capsule_outlines, ellipsoid_outline
 
 SCENARIOS = Path(bk.__file__).parent / "simulation" / "scenarios"
@@ -300,7 +301,7 @@ def test_the_animation_drawn_in_a_child_process_is_the_one_drawn_in_process(pape
     from bracekit.report import forked, write_run
 
     written = write_run(paper_run, tmp_path / "out")
-    assert [p.name for p in written][5:] == figures.figure_files(paper_run)
+    assert [p.name for p in written][len(run_files(False)) :] == figures.figure_files(paper_run)
     reference = tmp_path / "reference.gif"
     figures.animate(paper_run, reference)
     assert (tmp_path / "out" / "animation.gif").read_bytes() == reference.read_bytes()
