@@ -20,6 +20,7 @@ import bracekit
 from bracekit.cli.main import build_parser, main
 from bracekit.simulation import scenario as scenario_module
 from bracekit.simulation.scenario import load_scenario, parse_scenario, shipped_scenarios
+from bracekit.viewer import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -219,11 +220,15 @@ def test_tutorial_works_as_printed(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert sc.robot.n == 8 and sc.braced.n1 == 5
 
     commands = _tutorial_commands()
-    assert [c[0] for c in commands] == ["study", "evaluate", "run", "validate"]
+    assert [c[0] for c in commands] == ["study", "evaluate", "run", "view", "validate"]
     outputs: dict[str, str] = {}
     for argv in commands:
         if argv[0] == "run":
             argv = [*argv, "--no-figures", "--quiet"]  # the figures are tested with the report
+        if argv[0] == "view":  # serving is tested in tests/viewer; here: the command parses, the folder loads
+            args = build_parser().parse_args(argv)
+            assert load_scene(args.out_dir).name == sc.name
+            continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             code = main(argv)
