@@ -145,7 +145,7 @@ def table_markdown(run: SweepRun) -> str:
 def heatmap(run: SweepRun, path: Path) -> None:
     """Mean C_i of gradient projection (mm/N) over link × fraction (the least over other axes), completed runs.
 
-    Marks: none for a feasible candidate, x completed but not feasible, f run failed, · screened out.
+    Marks: ✓ feasible, x completed but not feasible, f run failed, · screened out.
     """
     import matplotlib
 
@@ -165,8 +165,8 @@ def heatmap(run: SweepRun, path: Path) -> None:
             if r["completed"] and r["Ci_mean_gp"] is not None:
                 grid[i, j] = np.nanmin([grid[i, j], 1e3 * r["Ci_mean_gp"]])
             if r["feasible"]:
-                mark[i, j] = ""
-            elif not r["screened_out"] and mark[i, j] != "":
+                mark[i, j] = "✓"
+            elif not r["screened_out"] and mark[i, j] != "✓":
                 mark[i, j] = "x" if r["completed"] else "f"
         edges = np.concatenate([[fracs[0]], 0.5 * (np.array(fracs[1:]) + np.array(fracs[:-1])), [fracs[-1]]])
         if len(fracs) == 1:
@@ -174,8 +174,21 @@ def heatmap(run: SweepRun, path: Path) -> None:
         mesh = ax.pcolormesh(edges, np.arange(len(links) + 1) - 0.5, np.ma.masked_invalid(grid), cmap="viridis_r")
         for i in range(len(links)):
             for j in range(len(fracs)):
-                if mark[i, j]:
-                    ax.text(fracs[j], i, mark[i, j], ha="center", va="center", color="0.35", fontsize=7)
+                bold = mark[i, j] == "✓"
+                shade = "0.1" if bold else "0.35"
+                if np.isfinite(grid[i, j]):  # white on the dark end of the colour map
+                    r, g, b, _ = mesh.cmap(mesh.norm(grid[i, j]))
+                    shade = "white" if 0.299 * r + 0.587 * g + 0.114 * b < 0.5 else "black"
+                ax.text(
+                    fracs[j],
+                    i,
+                    mark[i, j],
+                    ha="center",
+                    va="center",
+                    color=shade,
+                    fontsize=10 if bold else 8,
+                    fontweight="bold" if bold else "normal",
+                )
         ax.set_xlabel("fraction along the link (0: its joint, 1: the next joint)")
     else:
         ok = [r for r in rows if r["feasible"]]
@@ -184,8 +197,7 @@ def heatmap(run: SweepRun, path: Path) -> None:
     ax.set_yticks(range(len(links)), links)
     fig.colorbar(mesh, ax=ax, label="mean C_i, gradient projection (mm/N)")
     ax.set_title(
-        f"{run.spec.name}: mean C_i of completed runs; unmarked: feasible, x: not feasible, f: run failed, "
-        "·: screened out",
+        f"{run.spec.name}: mean C_i of completed runs; ✓: feasible, x: not feasible, f: run failed, ·: screened out",
         fontsize=9,
     )
     fig.tight_layout()
