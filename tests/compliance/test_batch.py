@@ -384,7 +384,9 @@ def test_numba_batch_reports_singular_configurations_like_the_numpy_batch() -> N
         frobenius_condition(braced.state(Q[3]).J_e)
     beta = np.r_[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
     for kw in ({}, {"k_braced": True, "chunk": 2}, {"k_braced": True, "chunk": 4}, {"errors": "nan", "k_braced": True}):
-        outcomes = [_outcome(lambda b=b: BatchEvaluator(braced, backend=b)(Q, beta, **kw)) for b in ("numba", "numpy")]
+        outcomes = [
+            _outcome(lambda b=b, kw=kw: BatchEvaluator(braced, backend=b)(Q, beta, **kw)) for b in ("numba", "numpy")
+        ]
         (nb, nb_warn), (npb, np_warn) = outcomes
         assert nb_warn == np_warn
         if isinstance(npb, tuple):
@@ -422,7 +424,7 @@ def test_numba_batch_warns_like_the_numpy_batch_when_the_contact_is_unloaded() -
     for contact in ("frictionless_point", "point_with_friction"):  # one constraint direction, and three (Jacobi)
         braced = BracedRobot(robot, Brace("pad", Surface(np.zeros(3), z), contact_type(contact)))
         (nb, nb_warn), (npb, np_warn) = (
-            _outcome(lambda b=b: evaluate_batch(braced, Q, np.r_[1.0, 0, 0, 0, 0, 0], backend=b))
+            _outcome(lambda b=b, br=braced: evaluate_batch(br, Q, np.r_[1.0, 0, 0, 0, 0, 0], backend=b))
             for b in ("numba", "numpy")
         )
         assert nb_warn == np_warn and len(nb_warn) == 1 and "at 5 of 5 configurations" in nb_warn[0][1]

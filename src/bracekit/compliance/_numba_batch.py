@@ -194,28 +194,70 @@ def _finish(ce, c2, out, beta, i, bi):  # pragma: no cover - compiled
 
 @njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
 def evaluate(
-    q, speed, along, col, parent, place_r, place_t, frame_parent, frame_r, support, kinv, n1, x, t_proj, env_inv,
-    unloaded_tol, cert2, beta, do_con, do_proj, do_kb, ce_con, ce_proj, ci_con, ci_proj, k, kb, flags,
+    q,
+    speed,
+    along,
+    col,
+    parent,
+    place_r,
+    place_t,
+    frame_parent,
+    frame_r,
+    support,
+    kinv,
+    n1,
+    x,
+    t_proj,
+    env_inv,
+    unloaded_tol,
+    cert2,
+    beta,
+    do_con,
+    do_proj,
+    do_kb,
+    ce_con,
+    ce_proj,
+    ci_con,
+    ci_proj,
+    k,
+    kb,
+    flags,
 ):  # pragma: no cover - compiled
     """C_e, C_i and k of every row of q (N×n) into the output arrays; per-row flags (see the module docstring).
 
     Args:
         q: configurations (N×n), chain order.
-        speed, along: per joint (J,): |ω| and the speed along the axis per unit q (ChainKinematics' motion).
-        col: per joint (J,), its column in q. parent: per joint (J,), its parent joint (0: the base).
-        place_r, place_t: per joint (J, 3, 3) and (J, 3): the placement in the parent's z-aligned frame.
-        frame_parent: joint of {e} and {b} (2,). frame_r: their offsets in that joint's frame (2, 3).
-        support: (2, n) 1 where a column moves the frame.
-        kinv: 1/K (n,). n1: joints of chain 1. x: X (6×c). t_proj: I − P (6×6).
-        env_inv: 1/k_env, or 0 for a rigid environment. unloaded_tol: UNLOADED_TOL. cert2: CERTIFIED_COND².
+        speed: per joint (J,), |ω| per unit q (0 for a prismatic joint).
+        along: per joint (J,), the speed along its axis per unit q (ChainKinematics' motion).
+        col: per joint (J,), its column in q.
+        parent: per joint (J,), its parent joint (0: the base; joint j is 1 + its index).
+        place_r: per joint (J, 3, 3), the rotation of its placement in the parent's z-aligned frame.
+        place_t: per joint (J, 3), the translation of that placement, m.
+        frame_parent: the joint that carries {e} and {b} (2,).
+        frame_r: the offsets of {e} and {b} in that joint's z-aligned frame (2, 3), m.
+        support: (2, n) 1 where a column moves the frame, else 0.
+        kinv: 1/K (n,).
+        n1: joints of chain 1.
+        x: X (6×c), the constraint wrenches.
+        t_proj: I − P (6×6).
+        env_inv: 1/k_env, or 0 for a rigid environment.
+        unloaded_tol: UNLOADED_TOL.
+        cert2: CERTIFIED_COND².
         beta: unit β_x, (1, 6) for every row or (N, 6).
-        do_con, do_proj, do_kb: which models (and k of J̃) to compute.
-        ce_con, ce_proj: (N, 6, 6) outputs. ci_con, ci_proj, k, kb: (N,) outputs. flags: (N,) int64 output.
+        do_con: compute the constrained model.
+        do_proj: compute the projection model.
+        do_kb: compute k of J̃ too.
+        ce_con: (N, 6, 6) output, C_e of the constrained model (or (0, 6, 6) when not computed).
+        ce_proj: (N, 6, 6) output, C_e of the projection model (or (0, 6, 6)).
+        ci_con: (N,) output, C_i of the constrained model (or empty).
+        ci_proj: (N,) output, C_i of the projection model (or empty).
+        k: (N,) output, k of J_e (NaN where flagged K_UNCERTIFIED).
+        kb: (N,) output, k of J̃ (or empty; NaN where flagged KB_UNCERTIFIED).
+        flags: (N,) int64 output, the row flags.
     """
     N, n = q.shape
     J = speed.shape[0]
     nc = x.shape[1]
-    n2 = n - n1
     nthreads = 4 * 16
     block = (N + nthreads - 1) // nthreads
     nblocks = (N + block - 1) // block if N > 0 else 0

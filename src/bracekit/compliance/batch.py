@@ -71,7 +71,10 @@ BACKENDS: tuple[str, ...] = ("numpy", "numba", "auto")
 
 
 def batch_kernels() -> ModuleType:
-    """The numba batch kernel (:mod:`bracekit.compliance._numba_batch`), imported on first use; InputError without numba."""
+    """The numba batch kernel (:mod:`bracekit.compliance._numba_batch`), imported on first use.
+
+    Raises InputError when numba cannot be imported.
+    """
     try:
         return importlib.import_module("bracekit.compliance._numba_batch")
     except ImportError as exc:
@@ -457,8 +460,10 @@ class BatchEvaluator:
     def _numba(
         self, q: Array, beta: Array, mods: tuple[str, ...], errors: str, k_braced: bool, size: int, threads: int | None
     ) -> tuple[BatchEvaluation, int] | None:
-        """The numba kernel's evaluation and its count of unloaded configurations; None if a compliance is not
-        finite somewhere (the NumPy code then runs, and raises its NumericalError)."""
+        """The numba kernel's evaluation and its count of unloaded configurations.
+
+        None if a compliance is not finite somewhere: the NumPy code then runs, and raises its NumericalError.
+        """
         kern = self._kernels
         assert kern is not None and self._kernel_args is not None
         N = q.shape[0]
@@ -625,10 +630,10 @@ def _reference_condition(j: Array, errors: str, index: int) -> float:
 
 
 def _max_threads() -> int:
-    """numba's thread-pool size (NUMBA_NUM_THREADS), the most threads one call can use."""
+    """The size of numba's thread pool (NUMBA_NUM_THREADS), the most threads one call can use."""
     import numba
 
-    return int(numba.config.NUMBA_NUM_THREADS)
+    return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
 
 
 def evaluate_batch(
@@ -647,6 +652,4 @@ def evaluate_batch(
     Build a :class:`BatchEvaluator` once when evaluating many batches of the same robot. ``backend`` and
     ``threads`` are those of :class:`BatchEvaluator` (numba when installed; ``threads=1`` for one thread).
     """
-    return BatchEvaluator(braced, backend)(
-        Q, beta_x, models=models, errors=errors, k_braced=k_braced, threads=threads
-    )
+    return BatchEvaluator(braced, backend)(Q, beta_x, models=models, errors=errors, k_braced=k_braced, threads=threads)
