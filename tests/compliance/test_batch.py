@@ -488,3 +488,26 @@ def test_numba_batch_runs_the_numpy_code_for_joints_the_product_of_exponentials_
     _same_evaluation(
         ev(Q[:5], sc.beta_x(0.0)), BatchEvaluator(sc.braced, backend="numpy")(Q[:5], sc.beta_x(0.0)), 1e-12
     )
+
+
+def _forked_k(Q: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    braced = load_scenario("paper").braced
+    return BatchEvaluator(braced, backend="numba")(Q, beta).k
+
+
+def test_numba_batch_in_a_process_forked_after_the_parallel_kernel_ran(paper) -> None:
+    pytest.importorskip("numba")
+    import multiprocessing
+
+    from bracekit.compliance import _numba_batch
+
+    sc, Q = paper
+    beta = sc.beta_x(0.0)
+    ev = BatchEvaluator(sc.braced, backend="numba")
+    one = ev(Q, beta, threads=1)  # the serial copy of the kernel
+    assert len(_numba_batch.evaluate_serial.signatures) >= 1
+    here = ev(Q, beta)  # starts numba's thread pool in this process
+    _same_evaluation(one, here, 0.0)
+    with multiprocessing.get_context("fork").Pool(1) as pool:  # the child runs the serial copy: no hang
+        k = pool.apply_async(_forked_k, (Q, beta)).get(timeout=120)
+    np.testing.assert_array_equal(k, here.k)

@@ -26,6 +26,8 @@ from numba import njit, prange
 
 #: Row flags of :func:`evaluate`.
 K_UNCERTIFIED, KB_UNCERTIFIED, NOT_FINITE, UNLOADED_ROW = 1, 2, 4, 8
+#: Blocks of configurations :func:`evaluate` shares among its threads (each block allocates its scratch once).
+BLOCKS = 64
 
 _jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
@@ -192,6 +194,232 @@ def _finish(ce, c2, out, beta, i, bi):  # pragma: no cover - compiled
     return ci, ok and math.isfinite(ci)
 
 
+@_jit
+def _rows(
+    start,
+    stop,
+    q,
+    speed,
+    along,
+    col,
+    parent,
+    place_r,
+    place_t,
+    frame_parent,
+    frame_r,
+    support,
+    kinv,
+    n1,
+    x,
+    t_proj,
+    env_inv,
+    unloaded_tol,
+    cert2,
+    beta,
+    do_con,
+    do_proj,
+    do_kb,
+    ce_con,
+    ce_proj,
+    ci_con,
+    ci_proj,
+    k,
+    kb,
+    flags,
+):  # pragma: no cover - compiled
+    """Rows start … stop − 1 of :func:`evaluate` (one thread's share), with their own scratch arrays."""
+    n = q.shape[1]
+    J = speed.shape[0]
+    nc = x.shape[1]
+    rot = np.empty((J + 1, 3, 3))
+    pos = np.zeros((J + 1, 3))
+    for a in range(3):
+        for b in range(3):
+            rot[0, a, b] = 1.0 if a == b else 0.0
+    axes = np.zeros((n, 3))
+    origins = np.zeros((n, 3))
+    revolute = np.zeros(n, dtype=np.bool_)
+    jac = np.zeros((2, 6, n))
+    fp = np.zeros((2, 3))
+    c2 = np.zeros((6, 6))
+    tj1 = np.zeros((6, n1))
+    work = np.zeros((6, 6))
+    c1 = np.zeros((6, 6))
+    cx = np.zeros((6, nc))
+    m = np.zeros((nc, nc))
+    g = np.zeros((nc, nc))
+    mm = np.zeros((6, 6))
+    for i in range(start, stop):
+        flag = 0
+        # --- frames: M_j = M_parent · placement_j · exp(S_j q_j), each joint about its own z axis
+        for j in range(J):
+            p = parent[j]
+            cj = col[j]
+            for a in range(3):
+                for b in range(3):
+                    s = 0.0
+                    for c in range(3):
+                        s += rot[p, a, c] * place_r[j, c, b]
+                    rot[j + 1, a, b] = s
+                s = pos[p, a]
+                for c in range(3):
+                    s += rot[p, a, c] * place_t[j, c]
+                pos[j + 1, a] = s
+            for a in range(3):
+                origins[cj, a] = pos[j + 1, a]
+            if along[j] != 0.0:
+                f = along[j] * q[i, cj]
+                for a in range(3):
+                    pos[j + 1, a] += rot[j + 1, a, 2] * f
+            if speed[j] != 0.0:
+                ang = q[i, cj] * speed[j] if speed[j] != 1.0 else q[i, cj]
+                co, si = math.cos(ang), math.sin(ang)
+                for a in range(3):
+                    x0, y0 = rot[j + 1, a, 0], rot[j + 1, a, 1]
+                    rot[j + 1, a, 0] = co * x0 + si * y0
+                    rot[j + 1, a, 1] = co * y0 - si * x0
+                    axes[cj, a] = rot[j + 1, a, 2] * speed[j]
+                revolute[cj] = True
+            else:
+                for a in range(3):
+                    axes[cj, a] = rot[j + 1, a, 2] * along[j]
+        for f in range(2):
+            p = frame_parent[f]
+            for a in range(3):
+                s = pos[p, a]
+                for c in range(3):
+                    s += rot[p, a, c] * frame_r[f, c]
+                fp[f, a] = s
+            for cj in range(n):
+                if support[f, cj] == 0:
+                    for r in range(6):
+                        jac[f, r, cj] = 0.0
+                    continue
+                z0, z1, z2 = axes[cj, 0], axes[cj, 1], axes[cj, 2]
+                if revolute[cj]:
+                    r0, r1, r2 = fp[f, 0] - origins[cj, 0], fp[f, 1] - origins[cj, 1], fp[f, 2] - origins[cj, 2]
+                    jac[f, 0, cj] = z1 * r2 - z2 * r1
+                    jac[f, 1, cj] = z2 * r0 - z0 * r2
+                    jac[f, 2, cj] = z0 * r1 - z1 * r0
+                    jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = z0, z1, z2
+                else:
+                    jac[f, 0, cj], jac[f, 1, cj], jac[f, 2, cj] = z0, z1, z2
+                    jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = 0.0, 0.0, 0.0
+        d0, d1, d2 = fp[1, 0] - fp[0, 0], fp[1, 1] - fp[0, 1], fp[1, 2] - fp[0, 2]  # b − e
+        bi = i if beta.shape[0] > 1 else 0
+        # --- S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ
+        for r in range(6):
+            for c in range(6):
+                s = 0.0
+                for p in range(n1, n):
+                    s += jac[0, r, p] * kinv[p] * jac[0, c, p]
+                c2[r, c] = s
+        # --- Ĵ1 = S_t1 (I − P) J1 (projection model and J̃)
+        if do_proj or do_kb:
+            for r in range(6):
+                for p in range(n1):
+                    s = 0.0
+                    for c in range(6):
+                        s += t_proj[r, c] * jac[1, c, p]
+                    tj1[r, p] = s
+            _shift_rows(tj1, d0, d1, d2)
+        if do_proj:
+            for r in range(6):
+                for c in range(6):
+                    s = 0.0
+                    for p in range(n1):
+                        s += tj1[r, p] * kinv[p] * tj1[c, p]
+                    work[r, c] = s
+            cival, ok = _finish(work, c2, ce_proj, beta, i, bi)
+            ci_proj[i] = cival
+            if not ok:
+                flag |= NOT_FINITE
+        if do_con:  # C̃1 = C1 − C1 X G Xᵀ C1, then S_t1 C̃1 S_t1ᵀ
+            tr = 0.0
+            for r in range(6):
+                for c in range(6):
+                    s = 0.0
+                    for p in range(n1):
+                        s += jac[1, r, p] * kinv[p] * jac[1, c, p]
+                    c1[r, c] = s
+                    if not math.isfinite(s):
+                        flag |= NOT_FINITE
+                tr += c1[r, r]
+            for r in range(6):
+                for c in range(nc):
+                    s = 0.0
+                    for p in range(6):
+                        s += c1[r, p] * x[p, c]
+                    cx[r, c] = s
+            for a in range(nc):
+                for b in range(nc):
+                    s = 0.0
+                    for p in range(6):
+                        s += x[p, a] * cx[p, b]
+                    m[a, b] = s
+                    if not math.isfinite(s):
+                        flag |= NOT_FINITE
+            if flag & NOT_FINITE == 0:
+                dropped, ok = _gain(m, tr, env_inv, unloaded_tol, g)
+                if not ok:
+                    flag |= NOT_FINITE
+                if dropped:
+                    flag |= UNLOADED_ROW
+                for r in range(6):
+                    for c in range(6):
+                        s = 0.0
+                        for a in range(nc):
+                            t = 0.0
+                            for b in range(nc):
+                                t += g[a, b] * cx[c, b]
+                            s += cx[r, a] * t
+                        work[r, c] = c1[r, c] - s
+                for r in range(6):
+                    for c in range(r, 6):
+                        v = 0.5 * (work[r, c] + work[c, r])
+                        work[r, c] = v
+                        work[c, r] = v
+                _shift_rows(work, d0, d1, d2)  # S_t1 C̃1
+                for r in range(6):  # (S_t1 (S_t1 C̃1)ᵀ)ᵀ: the same shift on each row
+                    w0, w1, w2 = work[r, 3], work[r, 4], work[r, 5]
+                    work[r, 0] += d1 * w2 - d2 * w1
+                    work[r, 1] += d2 * w0 - d0 * w2
+                    work[r, 2] += d0 * w1 - d1 * w0
+                cival, ok = _finish(work, c2, ce_con, beta, i, bi)
+                ci_con[i] = cival
+                if not ok:
+                    flag |= NOT_FINITE
+        # --- k of J_e (eq:manip), and of J̃ = [Ĵ1, J_e2]
+        for r in range(6):
+            for c in range(6):
+                s = 0.0
+                for p in range(n):
+                    s += jac[0, r, p] * jac[0, c, p]
+                mm[r, c] = s
+        k2 = _k2(mm)
+        if k2 < cert2:
+            k[i] = math.sqrt(k2) / 6.0
+        else:
+            k[i] = math.nan
+            flag |= K_UNCERTIFIED
+        if do_kb:
+            for r in range(6):
+                for c in range(6):
+                    s = 0.0
+                    for p in range(n1):
+                        s += tj1[r, p] * tj1[c, p]
+                    for p in range(n1, n):
+                        s += jac[0, r, p] * jac[0, c, p]
+                    mm[r, c] = s
+            k2 = _k2(mm)
+            if k2 < cert2:
+                kb[i] = math.sqrt(k2) / 6.0
+            else:
+                kb[i] = math.nan
+                flag |= KB_UNCERTIFIED
+        flags[i] = flag
+
+
 @njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
 def evaluate(
     q,
@@ -255,199 +483,105 @@ def evaluate(
         kb: (N,) output, k of J̃ (or empty; NaN where flagged KB_UNCERTIFIED).
         flags: (N,) int64 output, the row flags.
     """
-    N, n = q.shape
-    J = speed.shape[0]
-    nc = x.shape[1]
-    nthreads = 4 * 16
-    block = (N + nthreads - 1) // nthreads
-    nblocks = (N + block - 1) // block if N > 0 else 0
-    for bl in prange(nblocks):
-        rot = np.empty((J + 1, 3, 3))
-        pos = np.zeros((J + 1, 3))
-        for a in range(3):
-            for b in range(3):
-                rot[0, a, b] = 1.0 if a == b else 0.0
-        axes = np.zeros((n, 3))
-        origins = np.zeros((n, 3))
-        revolute = np.zeros(n, dtype=np.bool_)
-        jac = np.zeros((2, 6, n))
-        fp = np.zeros((2, 3))
-        c2 = np.zeros((6, 6))
-        tj1 = np.zeros((6, n1))
-        work = np.zeros((6, 6))
-        c1 = np.zeros((6, 6))
-        cx = np.zeros((6, nc))
-        m = np.zeros((nc, nc))
-        g = np.zeros((nc, nc))
-        mm = np.zeros((6, 6))
+    N = q.shape[0]
+    block = max(1, (N + BLOCKS - 1) // BLOCKS)
+    for bl in prange((N + block - 1) // block):
         start = bl * block
-        stop = min(N, start + block)
-        for i in range(start, stop):
-            flag = 0
-            # --- frames: M_j = M_parent · placement_j · exp(S_j q_j), each joint about its own z axis
-            for j in range(J):
-                p = parent[j]
-                cj = col[j]
-                for a in range(3):
-                    for b in range(3):
-                        s = 0.0
-                        for c in range(3):
-                            s += rot[p, a, c] * place_r[j, c, b]
-                        rot[j + 1, a, b] = s
-                    s = pos[p, a]
-                    for c in range(3):
-                        s += rot[p, a, c] * place_t[j, c]
-                    pos[j + 1, a] = s
-                for a in range(3):
-                    origins[cj, a] = pos[j + 1, a]
-                if along[j] != 0.0:
-                    f = along[j] * q[i, cj]
-                    for a in range(3):
-                        pos[j + 1, a] += rot[j + 1, a, 2] * f
-                if speed[j] != 0.0:
-                    ang = q[i, cj] * speed[j] if speed[j] != 1.0 else q[i, cj]
-                    co, si = math.cos(ang), math.sin(ang)
-                    for a in range(3):
-                        x0, y0 = rot[j + 1, a, 0], rot[j + 1, a, 1]
-                        rot[j + 1, a, 0] = co * x0 + si * y0
-                        rot[j + 1, a, 1] = co * y0 - si * x0
-                        axes[cj, a] = rot[j + 1, a, 2] * speed[j]
-                    revolute[cj] = True
-                else:
-                    for a in range(3):
-                        axes[cj, a] = rot[j + 1, a, 2] * along[j]
-            for f in range(2):
-                p = frame_parent[f]
-                for a in range(3):
-                    s = pos[p, a]
-                    for c in range(3):
-                        s += rot[p, a, c] * frame_r[f, c]
-                    fp[f, a] = s
-                for cj in range(n):
-                    if support[f, cj] == 0:
-                        for r in range(6):
-                            jac[f, r, cj] = 0.0
-                        continue
-                    z0, z1, z2 = axes[cj, 0], axes[cj, 1], axes[cj, 2]
-                    if revolute[cj]:
-                        r0, r1, r2 = fp[f, 0] - origins[cj, 0], fp[f, 1] - origins[cj, 1], fp[f, 2] - origins[cj, 2]
-                        jac[f, 0, cj] = z1 * r2 - z2 * r1
-                        jac[f, 1, cj] = z2 * r0 - z0 * r2
-                        jac[f, 2, cj] = z0 * r1 - z1 * r0
-                        jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = z0, z1, z2
-                    else:
-                        jac[f, 0, cj], jac[f, 1, cj], jac[f, 2, cj] = z0, z1, z2
-                        jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = 0.0, 0.0, 0.0
-            d0, d1, d2 = fp[1, 0] - fp[0, 0], fp[1, 1] - fp[0, 1], fp[1, 2] - fp[0, 2]  # b − e
-            bi = i if beta.shape[0] > 1 else 0
-            # --- S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ
-            for r in range(6):
-                for c in range(6):
-                    s = 0.0
-                    for p in range(n1, n):
-                        s += jac[0, r, p] * kinv[p] * jac[0, c, p]
-                    c2[r, c] = s
-            # --- Ĵ1 = S_t1 (I − P) J1 (projection model and J̃)
-            if do_proj or do_kb:
-                for r in range(6):
-                    for p in range(n1):
-                        s = 0.0
-                        for c in range(6):
-                            s += t_proj[r, c] * jac[1, c, p]
-                        tj1[r, p] = s
-                _shift_rows(tj1, d0, d1, d2)
-            if do_proj:
-                for r in range(6):
-                    for c in range(6):
-                        s = 0.0
-                        for p in range(n1):
-                            s += tj1[r, p] * kinv[p] * tj1[c, p]
-                        work[r, c] = s
-                cival, ok = _finish(work, c2, ce_proj, beta, i, bi)
-                ci_proj[i] = cival
-                if not ok:
-                    flag |= NOT_FINITE
-            if do_con:  # C̃1 = C1 − C1 X G Xᵀ C1, then S_t1 C̃1 S_t1ᵀ
-                tr = 0.0
-                for r in range(6):
-                    for c in range(6):
-                        s = 0.0
-                        for p in range(n1):
-                            s += jac[1, r, p] * kinv[p] * jac[1, c, p]
-                        c1[r, c] = s
-                        if not math.isfinite(s):
-                            flag |= NOT_FINITE
-                    tr += c1[r, r]
-                for r in range(6):
-                    for c in range(nc):
-                        s = 0.0
-                        for p in range(6):
-                            s += c1[r, p] * x[p, c]
-                        cx[r, c] = s
-                for a in range(nc):
-                    for b in range(nc):
-                        s = 0.0
-                        for p in range(6):
-                            s += x[p, a] * cx[p, b]
-                        m[a, b] = s
-                        if not math.isfinite(s):
-                            flag |= NOT_FINITE
-                if flag & NOT_FINITE == 0:
-                    dropped, ok = _gain(m, tr, env_inv, unloaded_tol, g)
-                    if not ok:
-                        flag |= NOT_FINITE
-                    if dropped:
-                        flag |= UNLOADED_ROW
-                    for r in range(6):
-                        for c in range(6):
-                            s = 0.0
-                            for a in range(nc):
-                                t = 0.0
-                                for b in range(nc):
-                                    t += g[a, b] * cx[c, b]
-                                s += cx[r, a] * t
-                            work[r, c] = c1[r, c] - s
-                    for r in range(6):
-                        for c in range(r, 6):
-                            v = 0.5 * (work[r, c] + work[c, r])
-                            work[r, c] = v
-                            work[c, r] = v
-                    _shift_rows(work, d0, d1, d2)  # S_t1 C̃1
-                    for r in range(6):  # (S_t1 (S_t1 C̃1)ᵀ)ᵀ: the same shift on each row
-                        w0, w1, w2 = work[r, 3], work[r, 4], work[r, 5]
-                        work[r, 0] += d1 * w2 - d2 * w1
-                        work[r, 1] += d2 * w0 - d0 * w2
-                        work[r, 2] += d0 * w1 - d1 * w0
-                    cival, ok = _finish(work, c2, ce_con, beta, i, bi)
-                    ci_con[i] = cival
-                    if not ok:
-                        flag |= NOT_FINITE
-            # --- k of J_e (eq:manip), and of J̃ = [Ĵ1, J_e2]
-            for r in range(6):
-                for c in range(6):
-                    s = 0.0
-                    for p in range(n):
-                        s += jac[0, r, p] * jac[0, c, p]
-                    mm[r, c] = s
-            k2 = _k2(mm)
-            if k2 < cert2:
-                k[i] = math.sqrt(k2) / 6.0
-            else:
-                k[i] = math.nan
-                flag |= K_UNCERTIFIED
-            if do_kb:
-                for r in range(6):
-                    for c in range(6):
-                        s = 0.0
-                        for p in range(n1):
-                            s += tj1[r, p] * tj1[c, p]
-                        for p in range(n1, n):
-                            s += jac[0, r, p] * jac[0, c, p]
-                        mm[r, c] = s
-                k2 = _k2(mm)
-                if k2 < cert2:
-                    kb[i] = math.sqrt(k2) / 6.0
-                else:
-                    kb[i] = math.nan
-                    flag |= KB_UNCERTIFIED
-            flags[i] = flag
+        _rows(
+            start,
+            min(N, start + block),
+            q,
+            speed,
+            along,
+            col,
+            parent,
+            place_r,
+            place_t,
+            frame_parent,
+            frame_r,
+            support,
+            kinv,
+            n1,
+            x,
+            t_proj,
+            env_inv,
+            unloaded_tol,
+            cert2,
+            beta,
+            do_con,
+            do_proj,
+            do_kb,
+            ce_con,
+            ce_proj,
+            ci_con,
+            ci_proj,
+            k,
+            kb,
+            flags,
+        )
+
+
+@_jit
+def evaluate_serial(
+    q,
+    speed,
+    along,
+    col,
+    parent,
+    place_r,
+    place_t,
+    frame_parent,
+    frame_r,
+    support,
+    kinv,
+    n1,
+    x,
+    t_proj,
+    env_inv,
+    unloaded_tol,
+    cert2,
+    beta,
+    do_con,
+    do_proj,
+    do_kb,
+    ce_con,
+    ce_proj,
+    ci_con,
+    ci_proj,
+    k,
+    kb,
+    flags,
+):  # pragma: no cover - compiled
+    """:func:`evaluate` on the calling thread only (no threading layer: safe after a fork, no pool start-up)."""
+    _rows(
+        0,
+        q.shape[0],
+        q,
+        speed,
+        along,
+        col,
+        parent,
+        place_r,
+        place_t,
+        frame_parent,
+        frame_r,
+        support,
+        kinv,
+        n1,
+        x,
+        t_proj,
+        env_inv,
+        unloaded_tol,
+        cert2,
+        beta,
+        do_con,
+        do_proj,
+        do_kb,
+        ce_con,
+        ce_proj,
+        ci_con,
+        ci_proj,
+        k,
+        kb,
+        flags,
+    )

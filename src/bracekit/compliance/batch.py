@@ -24,7 +24,8 @@ the reference is :class:`bracekit.model.chain.ChainFK`. The compliance formulas 
 Two backends compute the same numbers: ``"numpy"`` (vectorised over chunks of configurations) and ``"numba"``
 (``pip install bracekit[fast]``): one compiled kernel (:mod:`bracekit.compliance._numba_batch`, cached on disk
 after its first compilation) that runs the same formulas configuration by configuration, in parallel over
-configurations on numba's threads (``NUMBA_NUM_THREADS``, or the ``threads`` argument). Configurations where a
+configurations on numba's threads (``NUMBA_NUM_THREADS``, or the ``threads`` argument; ``threads=1`` and a
+process forked from one that already ran the parallel kernel use a serial copy of it). Configurations where a
 shortcut of k is not certified get the reference's SVD as in the NumPy path; a compliance that is not finite
 makes the whole call run the NumPy path, which raises its NumericalError. ``backend="auto"`` (the default) is
 numba when it can be imported and the product of exponentials models the robot, else NumPy; the evaluator's
@@ -34,6 +35,7 @@ numba when it can be imported and the product of exponentials models the robot, 
 from __future__ import annotations
 
 import importlib
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -68,6 +70,9 @@ CHUNK = 2048
 Backend = Literal["numpy", "numba", "auto"]
 #: The values of ``BatchEvaluator(..., backend=...)``.
 BACKENDS: tuple[str, ...] = ("numpy", "numba", "auto")
+#: The process that started numba's thread pool (a forked child runs the kernel on one thread: the pool's
+#: threads do not survive a fork, and OpenMP's runtime may hang in the child).
+_PARALLEL_PID: int | None = None
 
 
 def batch_kernels() -> ModuleType:
@@ -477,11 +482,16 @@ class BatchEvaluator:
         b = np.ascontiguousarray(beta[:1] if beta.strides[0] == 0 else beta)
         qc = np.ascontiguousarray(q)
         args = (qc, *self._kernel_args, b, con, proj, k_braced, ce_con, ce_proj, ci_con, ci_proj, k, kb, flags)
-        if threads is None:
+        global _PARALLEL_PID
+        if threads == 1 or _PARALLEL_PID not in (None, os.getpid()):  # one thread, or a fork of a parallel process
+            kern.evaluate_serial(*args)
+        elif threads is None:
+            _PARALLEL_PID = os.getpid()
             kern.evaluate(*args)
         else:
             import numba
 
+            _PARALLEL_PID = os.getpid()
             before = numba.get_num_threads()
             numba.set_num_threads(threads)
             try:
