@@ -33,9 +33,11 @@ _jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
 
 @_jit
-def _k2(m):  # pragma: no cover - compiled
-    """tr(M) tr(M⁻¹) = 36 k² of a symmetric 6×6 M = JJᵀ by Cholesky (‖L⁻¹‖²_F); inf if not positive definite."""
-    lo = np.zeros((6, 6))
+def _k2(m, lo, col):  # pragma: no cover - compiled
+    """tr(M) tr(M⁻¹) = 36 k² of a symmetric 6×6 M = JJᵀ by Cholesky (‖L⁻¹‖²_F); inf if not positive definite.
+
+    `lo` (6×6) and `col` (6,) are scratch space.
+    """
     for j in range(6):
         s = m[j, j]
         for p in range(j):
@@ -50,7 +52,6 @@ def _k2(m):  # pragma: no cover - compiled
             lo[i, j] = t / lo[j, j]
     bb = 0.0
     for c in range(6):  # column c of L⁻¹ by forward substitution
-        col = np.zeros(6)
         col[c] = 1.0 / lo[c, c]
         bb += col[c] * col[c]
         for i in range(c + 1, 6):
@@ -249,6 +250,9 @@ def _rows(
     m = np.zeros((nc, nc))
     g = np.zeros((nc, nc))
     mm = np.zeros((6, 6))
+    lo = np.zeros((6, 6))
+    col6 = np.zeros(6)
+    wk = np.zeros((6, n))
     for i in range(start, stop):
         flag = 0
         # --- frames: M_j = M_parent · placement_j · exp(S_j q_j), each joint about its own z axis
@@ -307,13 +311,17 @@ def _rows(
                     jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = 0.0, 0.0, 0.0
         d0, d1, d2 = fp[1, 0] - fp[0, 0], fp[1, 1] - fp[0, 1], fp[1, 2] - fp[0, 2]  # b − e
         bi = i if beta.shape[0] > 1 else 0
-        # --- S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ
+        # --- S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ (symmetric: the upper triangle, mirrored)
         for r in range(6):
-            for c in range(6):
+            for p in range(n):
+                wk[r, p] = jac[0, r, p] * kinv[p]
+        for r in range(6):
+            for c in range(r, 6):
                 s = 0.0
                 for p in range(n1, n):
-                    s += jac[0, r, p] * kinv[p] * jac[0, c, p]
+                    s += wk[r, p] * jac[0, c, p]
                 c2[r, c] = s
+                c2[c, r] = s
         # --- Ĵ1 = S_t1 (I − P) J1 (projection model and J̃)
         if do_proj or do_kb:
             for r in range(6):
@@ -325,11 +333,12 @@ def _rows(
             _shift_rows(tj1, d0, d1, d2)
         if do_proj:
             for r in range(6):
-                for c in range(6):
+                for c in range(r, 6):
                     s = 0.0
                     for p in range(n1):
                         s += tj1[r, p] * kinv[p] * tj1[c, p]
                     work[r, c] = s
+                    work[c, r] = s
             cival, ok = _finish(work, c2, ce_proj, beta, i, bi)
             ci_proj[i] = cival
             if not ok:
@@ -337,11 +346,12 @@ def _rows(
         if do_con:  # C̃1 = C1 − C1 X G Xᵀ C1, then S_t1 C̃1 S_t1ᵀ
             tr = 0.0
             for r in range(6):
-                for c in range(6):
+                for c in range(r, 6):
                     s = 0.0
                     for p in range(n1):
                         s += jac[1, r, p] * kinv[p] * jac[1, c, p]
                     c1[r, c] = s
+                    c1[c, r] = s
                     if not math.isfinite(s):
                         flag |= NOT_FINITE
                 tr += c1[r, r]
@@ -391,12 +401,13 @@ def _rows(
                     flag |= NOT_FINITE
         # --- k of J_e (eq:manip), and of J̃ = [Ĵ1, J_e2]
         for r in range(6):
-            for c in range(6):
+            for c in range(r, 6):
                 s = 0.0
                 for p in range(n):
                     s += jac[0, r, p] * jac[0, c, p]
                 mm[r, c] = s
-        k2 = _k2(mm)
+                mm[c, r] = s
+        k2 = _k2(mm, lo, col6)
         if k2 < cert2:
             k[i] = math.sqrt(k2) / 6.0
         else:
@@ -404,14 +415,15 @@ def _rows(
             flag |= K_UNCERTIFIED
         if do_kb:
             for r in range(6):
-                for c in range(6):
+                for c in range(r, 6):
                     s = 0.0
                     for p in range(n1):
                         s += tj1[r, p] * tj1[c, p]
                     for p in range(n1, n):
                         s += jac[0, r, p] * jac[0, c, p]
                     mm[r, c] = s
-            k2 = _k2(mm)
+                    mm[c, r] = s
+            k2 = _k2(mm, lo, col6)
             if k2 < cert2:
                 kb[i] = math.sqrt(k2) / 6.0
             else:
