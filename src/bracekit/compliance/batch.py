@@ -315,6 +315,9 @@ class BatchEvaluator:
         braced: the braced robot (one brace).
         backend: ``"auto"`` (default: numba if it can be imported, else NumPy), ``"numba"`` (InputError if
             numba is not installed) or ``"numpy"``. Both give the single-configuration path's numbers to ~1e-12.
+            The first numba call of a process loads the kernel from numba's disk cache (about 0.1 s), or
+            compiles it (20–30 s, once) when there is no cache yet; ``threads=1`` uses a serial copy, compiled
+            on its own first use.
 
     Attributes:
         backend: the backend in use, ``"numpy"`` or ``"numba"``.
