@@ -452,9 +452,11 @@ def test_numba_batch_threads(paper) -> None:
     sc, Q = paper
     ev = BatchEvaluator(sc.braced, backend="numba")
     beta = sc.beta_x(0.0)
+    before = numba.get_num_threads()
     one, many = ev(Q, beta, threads=1), ev(Q, beta)
     _same_evaluation(one, many, 0.0)  # configurations are independent: the same numbers on any thread
-    assert numba.get_num_threads() == numba.config.NUMBA_NUM_THREADS  # restored after the call
+    _same_evaluation(ev(Q, beta, threads=numba.config.NUMBA_NUM_THREADS), many, 0.0)
+    assert numba.get_num_threads() == before  # restored after the call
     for bad in (0, numba.config.NUMBA_NUM_THREADS + 1, 1.5, "2"):
         with pytest.raises(InputError):
             ev(Q, beta, threads=bad)
