@@ -302,12 +302,15 @@ def _batch(braced: BracedRobot, beta: np.ndarray, size: int, rounds: int, quick:
             cases["numba"] = lambda: nb(Q, beta, errors="nan")
             cases["numba_1thread"] = lambda: nb(Q, beta, errors="nan", threads=1)
         times: dict[str, list[float]] = {name: [] for name in cases}
+        cpu: list[float] = []  # CPU seconds of the one-thread numba call (its time on a core, whatever the load)
         results: dict[str, Any] = {}
         for _ in range(rounds):
             for name, fn in cases.items():
-                t = time.perf_counter()
+                c, t = time.thread_time(), time.perf_counter()
                 results[name] = fn()
                 times[name].append(time.perf_counter() - t)
+                if name == "numba_1thread":
+                    cpu.append(time.thread_time() - c)
         # equal to the single-configuration path
         worst = {name: 0.0 for name in results}
         checked = 0
@@ -349,6 +352,7 @@ def _batch(braced: BracedRobot, beta: np.ndarray, size: int, rounds: int, quick:
         "backend": "numba" if nb is not None else "numpy",
         "numba_configs_per_s": rate.get("numba"),
         "numba_1thread_configs_per_s": rate.get("numba_1thread"),
+        "numba_1thread_cpu_configs_per_s": size / float(np.median(cpu)) if cpu else None,
         "numba_threads": numba_threads,
         "numpy_configs_per_s": rate["numpy"],
         "numba_first_call": first,
@@ -411,9 +415,11 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
     ``numba_import_s`` + ``numba_cache_load_s`` = ``numba_import_and_cache_load_s`` (what every new process
     pays), ``pinocchio_floor_us``, ``batch_configs_per_s`` (the numba backend when installed, else NumPy;
     ``batch_backend`` says which) beside ``batch_numpy_configs_per_s``, ``batch_numba_configs_per_s`` and
-    ``batch_numba_1thread_configs_per_s`` (one thread), ``batch_numba_first_call_s`` and ``batch_numba_compile_s``
-    (the kernel's first call and compilation, not in the throughput), ``gp_step_split_numpy_us`` and
-    ``gp_step_split_numba_us`` (the fused step at the split ``gp_step_split_n1`` = 4), ``scenario_wall_s`` and more.
+    ``batch_numba_1thread_configs_per_s`` (one thread; ``batch_numba_1thread_cpu_configs_per_s`` per second of
+    that thread's CPU time, which other load on the machine changes little), ``batch_numba_first_call_s`` and
+    ``batch_numba_compile_s`` (the kernel's first call and compilation, not in the throughput),
+    ``gp_step_split_numpy_us`` and ``gp_step_split_numba_us`` (the fused step at the split ``gp_step_split_n1`` = 4),
+    ``scenario_wall_s`` and more.
     ``quick`` takes fewer rounds and a smaller batch (a few seconds plus one scenario run, and one short
     process for numba's cache load when numba is installed).
     """
@@ -516,6 +522,7 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         "batch_backend": batch["backend"],
         "batch_numba_configs_per_s": batch["numba_configs_per_s"],
         "batch_numba_1thread_configs_per_s": batch["numba_1thread_configs_per_s"],
+        "batch_numba_1thread_cpu_configs_per_s": batch["numba_1thread_cpu_configs_per_s"],
         "batch_numpy_configs_per_s": batch["numpy_configs_per_s"],
         "batch_numba_first_call_s": batch["numba_first_call"].get("first_call_s"),
         "batch_numba_compile_s": batch["numba_compile_s"],
@@ -675,7 +682,8 @@ def _table(r: dict[str, Any]) -> str:
             (
                 "Same, numba on one thread",
                 f"{b['numba_1thread_configs_per_s'] / 1e3:.0f} k configs/s",
-                "threads=1 (or NUMBA_NUM_THREADS=1)",
+                f"threads=1 (or NUMBA_NUM_THREADS=1); "
+                f"{b['numba_1thread_cpu_configs_per_s'] / 1e3:.0f} k per second of CPU time",
             ),
         ]
         if b["numba_compile_s"] is not None:
