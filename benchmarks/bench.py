@@ -11,8 +11,10 @@
   (full runs only) and importing numba plus loading the compiled kernel from its disk cache;
 * Pinocchio's own FK + Jacobian + kinematic Hessian of the tip frame: the floor of anything that calls it;
 * Robotics Toolbox for Python's ``jacob0`` / ``hessian0`` on the same URDF chain, when it is installed;
-* batch evaluation (:mod:`bracekit.compliance.batch`) of C_e in both models, C_i and k, against the single-configuration
-  path (throughput and the largest relative difference);
+* batch evaluation (:mod:`bracekit.compliance.batch`) of C_e in both models, C_i and k on both backends (numba on
+  all of numba's threads and on one, and NumPy), against the single-configuration path (throughput and the largest
+  relative difference), with the numba kernel's first call (cache load or compilation) apart;
+* the fused step at another split (a link-point brace on link 4: n1 = 4, dq1/db̃ a null space) on both backends;
 * the wall time of ``bracekit run paper --no-figures --quiet`` in a fresh process (start-up included).
 
 Timings depend on the machine and its load; the ratios are the robust part. No timing is asserted anywhere.
@@ -20,6 +22,7 @@ Timings depend on the machine and its load; the ratios are the robust part. No t
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import platform
@@ -37,9 +40,11 @@ import pinocchio as pin
 
 from bracekit.compliance import COMPLIANCE_MODELS, compliance_index, end_effector_compliance, frobenius_condition
 from bracekit.compliance.batch import BatchEvaluator
+from bracekit.contact import Brace, Surface
 from bracekit.errors import BracekitError, InputError
 from bracekit.kinematics import LWA, BracedRobot
 from bracekit.model import model_path
+from bracekit.objective import Objective, RegionBarrier
 from bracekit.resolution import GradientProjectionStep
 from bracekit.simulation import Scenario, load_scenario
 
@@ -48,6 +53,7 @@ TARGET_STEP_US = 100.0
 TARGET_STEP_RATIO = 20.0
 TARGET_SCENARIO_S = 5.0
 TARGET_BATCH_PER_S = 1e5
+TARGET_BATCH_NUMBA_PER_S = 6e5
 
 
 def _per_call(fn: Callable[[], object], calls: int) -> list[float]:
@@ -240,21 +246,73 @@ def _single_path(
     return c_e, {m: compliance_index(c, beta) for m, c in c_e.items()}, frobenius_condition(st.J_e)
 
 
-def _batch(braced: BracedRobot, beta: np.ndarray, size: int, rounds: int) -> dict[str, Any]:
+_BATCH_COLD = """
+import json, time
+import numpy as np
+from bracekit.compliance.batch import BatchEvaluator
+from bracekit.simulation.scenario import load_scenario
+sc = load_scenario("paper")
+t0 = time.perf_counter()
+ev = BatchEvaluator(sc.braced, backend="numba")
+t1 = time.perf_counter()
+ev(np.tile(sc.guess, (4, 1)), sc.beta_x(0.0), errors="nan")
+t2 = time.perf_counter()
+st = ev._kernels.evaluate.stats
+print(json.dumps({"import_s": t1 - t0, "first_call_s": t2 - t1, "cache_misses": sum(st.cache_misses.values())}))
+"""
+
+
+def _batch_cold() -> dict[str, Any]:
+    """The batch kernel's compilation in a fresh process with an empty numba cache (NUMBA_CACHE_DIR)."""
+    with tempfile.TemporaryDirectory(prefix="bracekit-numba-") as tmp:
+        env = {**os.environ, "NUMBA_CACHE_DIR": tmp}
+        proc = subprocess.run([sys.executable, "-c", _BATCH_COLD], capture_output=True, text=True, check=False, env=env)
+    if proc.returncode != 0:
+        return {"ok": False, "reason": (proc.stderr.strip().splitlines() or ["?"])[-1]}
+    return {"ok": True, **json.loads(proc.stdout.strip().splitlines()[-1])}
+
+
+def _batch(braced: BracedRobot, beta: np.ndarray, size: int, rounds: int, quick: bool) -> dict[str, Any]:
+    """Batch throughput on both backends, interleaved rounds (medians), and the agreement with the single path."""
     rng = np.random.default_rng(5)
     lo, hi = braced.robot.lower, braced.robot.upper
     Q = rng.uniform(lo, hi, size=(size, braced.n))
-    ev = BatchEvaluator(braced)
+    ev = BatchEvaluator(braced, backend="numpy")
+    nb: BatchEvaluator | None = None
+    first: dict[str, Any] = {}
+    try:
+        t0 = time.perf_counter()
+        nb = BatchEvaluator(braced, backend="numba")
+        t1 = time.perf_counter()
+        nb(Q[:4], beta, errors="nan")  # the first call: loads the kernel from numba's cache, or compiles it
+        t2 = time.perf_counter()
+        stats = nb._kernels.evaluate.stats  # type: ignore[union-attr]
+        first = {
+            "import_s": t1 - t0,
+            "first_call_s": t2 - t1,
+            "first_call_compiled": sum(stats.cache_misses.values()) > 0,
+        }
+    except InputError as exc:
+        first = {"reason": str(exc)}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ev(Q[:256], beta, errors="nan")  # warm up
-        times = []
+        cases: dict[str, Callable[[], Any]] = {"numpy": lambda: ev(Q, beta, errors="nan")}
+        if nb is not None:
+            cases["numba"] = lambda: nb(Q, beta, errors="nan")
+            cases["numba_1thread"] = lambda: nb(Q, beta, errors="nan", threads=1)
+        times: dict[str, list[float]] = {name: [] for name in cases}
+        cpu: list[float] = []  # CPU seconds of the one-thread numba call (its time on a core, whatever the load)
+        results: dict[str, Any] = {}
         for _ in range(rounds):
-            t = time.perf_counter()
-            res = ev(Q, beta, errors="nan")
-            times.append(time.perf_counter() - t)
+            for name, fn in cases.items():
+                c, t = time.thread_time(), time.perf_counter()
+                results[name] = fn()
+                times[name].append(time.perf_counter() - t)
+                if name == "numba_1thread":
+                    cpu.append(time.thread_time() - c)
         # equal to the single-configuration path
-        worst = 0.0
+        worst = {name: 0.0 for name in results}
         checked = 0
         for i in range(0, size, max(1, size // 64)):
             try:
@@ -262,10 +320,11 @@ def _batch(braced: BracedRobot, beta: np.ndarray, size: int, rounds: int) -> dic
             except BracekitError:
                 continue
             checked += 1
-            for m in COMPLIANCE_MODELS:
-                worst = max(worst, float(np.max(np.abs(res.C_e[m][i] - c_e[m])) / np.max(np.abs(c_e[m]))))
-                worst = max(worst, abs(res.Ci[m][i] - ci[m]) / ci[m])
-            worst = max(worst, abs(res.k[i] - k) / k)
+            for name, res in results.items():
+                for m in COMPLIANCE_MODELS:
+                    diff = float(np.max(np.abs(res.C_e[m][i] - c_e[m])) / np.max(np.abs(c_e[m])))
+                    worst[name] = max(worst[name], diff, abs(res.Ci[m][i] - ci[m]) / ci[m])
+                worst[name] = max(worst[name], abs(res.k[i] - k) / k)
         singles = []
         for i in range(min(size, 200)):
             t = time.perf_counter()
@@ -274,15 +333,74 @@ def _batch(braced: BracedRobot, beta: np.ndarray, size: int, rounds: int) -> dic
             except BracekitError:
                 pass
             singles.append(time.perf_counter() - t)
+    rate = {name: size / float(np.median(ts)) for name, ts in times.items()}
+    numba_threads = None
+    if nb is not None:
+        import numba
+
+        numba_threads = numba.get_num_threads()
+    compile_s = first.get("first_call_s") if first.get("first_call_compiled") else None
+    cold = None
+    if nb is not None and not quick:
+        cold = _batch_cold()
+        if cold.get("ok") and cold.get("cache_misses"):
+            compile_s = cold["first_call_s"]
+    res = results["numpy"]
     return {
         "configs": size,
-        "configs_per_s": size / float(np.median(times)),
+        "configs_per_s": rate.get("numba", rate["numpy"]),
+        "backend": "numba" if nb is not None else "numpy",
+        "numba_configs_per_s": rate.get("numba"),
+        "numba_1thread_configs_per_s": rate.get("numba_1thread"),
+        "numba_1thread_cpu_configs_per_s": size / float(np.median(cpu)) if cpu else None,
+        "numba_threads": numba_threads,
+        "numpy_configs_per_s": rate["numpy"],
+        "numba_first_call": first,
+        "numba_compile_s": compile_s,
+        "numba_compile_fresh_process": cold,
         "single_configs_per_s": 1.0 / float(np.median(singles)),
-        "max_rel_diff": worst,
+        "max_rel_diff": max(worst.values()),
+        "max_rel_diff_numba": worst.get("numba"),
+        "max_rel_diff_numpy": worst["numpy"],
         "checked": checked,
-        "jacobians": "product of exponentials (NumPy)" if ev.kinematics.exact else "Pinocchio loop",
+        "jacobians": "product of exponentials" if ev.kinematics.exact else "Pinocchio loop",
         "singular": int(np.sum(~np.isfinite(res.k))),
     }
+
+
+def _split_step(sc: Scenario, q: np.ndarray, xdot: np.ndarray, calls: int, rounds: int) -> dict[str, Any]:
+    """The fused step with a link-point brace on link 4 (n1 = 4) of the paper's robot, both backends.
+
+    The scenario's objective, with the bracing region centred on {b} at q (radius 1 m) and a pad direction.
+    """
+    robot = sc.robot.with_point_frame("pad4", "link4", (0.03, 0.02, 0.0))
+    probe = BracedRobot(robot, Brace("pad4", Surface(np.zeros(3), (0.0, 0.0, 1.0))))
+    b = probe.placements(q)[0]
+    braced = BracedRobot(robot, Brace("pad4", Surface(b, (0.0, 0.0, 1.0)), region_radius=1.0, pad_axis=True))
+    base = sc.strategy("braced_gradient_projection", gradient="analytic")
+    objective = base.objective  # type: ignore[attr-defined]
+    terms = [RegionBarrier(1.0, b) if isinstance(t, RegionBarrier) else t for t in objective.terms]
+    strategy = dataclasses.replace(base, objective=Objective(terms, objective.weights))  # type: ignore[type-var]
+    npb = GradientProjectionStep(braced, strategy, backend="numpy")  # type: ignore[arg-type]
+    ref_q = strategy.velocity(braced.state(q, hessians=True), xdot)  # type: ignore[attr-defined]
+    out: dict[str, Any] = {"n1": braced.n1, "numba_us": None, "kernel_used": False, "max_rel_diff_numba": None}
+    cases = {"numpy": (lambda: npb(q, xdot), calls)}
+    try:
+        nbs = GradientProjectionStep(braced, strategy, backend="numba")  # type: ignore[arg-type]
+    except InputError as exc:
+        out["reason"] = str(exc)
+    else:
+        kernel = nbs._numba_step(q, xdot, None)
+        out["kernel_used"] = kernel is not None
+        out["fallback_reason"] = nbs.fallback_reason
+        out["max_rel_diff_numba"] = float(np.max(np.abs(nbs(q, xdot) - ref_q)) / np.max(np.abs(ref_q)))
+        cases["numba"] = (lambda: nbs(q, xdot), calls)
+    t = _interleaved(cases, rounds)
+    out["numpy_us"] = 1e6 * t["numpy"]
+    out["max_rel_diff_numpy"] = float(np.max(np.abs(npb(q, xdot) - ref_q)) / np.max(np.abs(ref_q)))
+    if "numba" in t:
+        out["numba_us"] = 1e6 * t["numba"]
+    return out
 
 
 def run_benchmarks(quick: bool = False) -> dict[str, Any]:
@@ -295,7 +413,13 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
     faster backend, ``gp_step_fd_ratio_numpy`` / ``_numba`` against each), ``numba_compile_s`` (the kernel's
     compilation, in a fresh process with an empty cache; None in a quick run unless this process compiled),
     ``numba_import_s`` + ``numba_cache_load_s`` = ``numba_import_and_cache_load_s`` (what every new process
-    pays), ``pinocchio_floor_us``, ``batch_configs_per_s``, ``scenario_wall_s`` and more.
+    pays), ``pinocchio_floor_us``, ``batch_configs_per_s`` (the numba backend when installed, else NumPy;
+    ``batch_backend`` says which) beside ``batch_numpy_configs_per_s``, ``batch_numba_configs_per_s`` and
+    ``batch_numba_1thread_configs_per_s`` (one thread; ``batch_numba_1thread_cpu_configs_per_s`` per second of
+    that thread's CPU time, which other load on the machine changes little), ``batch_numba_first_call_s`` and
+    ``batch_numba_compile_s`` (the kernel's first call and compilation, not in the throughput),
+    ``gp_step_split_numpy_us`` and ``gp_step_split_numba_us`` (the fused step at the split ``gp_step_split_n1`` = 4),
+    ``scenario_wall_s`` and more.
     ``quick`` takes fewer rounds and a smaller batch (a few seconds plus one scenario run, and one short
     process for numba's cache load when numba is installed).
     """
@@ -350,7 +474,8 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         numba["empty_cache"] = None if quick else _numba_cold(q, xdot, empty_cache=True)
     floor = _pinocchio_floor(braced, q, 100 if quick else 1000, rounds)
     rtb = _rtb(braced, q, 20 if quick else 200, rounds)
-    batch = _batch(braced, beta, 20_000 if quick else 200_000, 2 if quick else 5)
+    batch = _batch(braced, beta, 50_000 if quick else 400_000, 3 if quick else 7, quick)
+    split = _split_step(sc, q, xdot, n_fast, rounds)
     one_model_s = None
     if not quick:
         from bracekit.simulation import run_scenario
@@ -394,7 +519,18 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         "gp_step_analytic_numpy_in_numpy_ops": t["fast"] / op,
         "rtb": rtb,
         "batch_configs_per_s": batch["configs_per_s"],
+        "batch_backend": batch["backend"],
+        "batch_numba_configs_per_s": batch["numba_configs_per_s"],
+        "batch_numba_1thread_configs_per_s": batch["numba_1thread_configs_per_s"],
+        "batch_numba_1thread_cpu_configs_per_s": batch["numba_1thread_cpu_configs_per_s"],
+        "batch_numpy_configs_per_s": batch["numpy_configs_per_s"],
+        "batch_numba_first_call_s": batch["numba_first_call"].get("first_call_s"),
+        "batch_numba_compile_s": batch["numba_compile_s"],
         "batch": batch,
+        "gp_step_split_n1": split["n1"],
+        "gp_step_split_numpy_us": split["numpy_us"],
+        "gp_step_split_numba_us": split["numba_us"],
+        "gp_step_split": split,
         "scenario_wall_s": scenario_s,
         "scenario_exit_code": code,
         "scenario_one_model_in_process_s": one_model_s,
@@ -420,6 +556,10 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         f"scenario ≤ {TARGET_SCENARIO_S:g} s": scenario_s <= TARGET_SCENARIO_S,
         f"batch ≥ {TARGET_BATCH_PER_S:.0e} configs/s": res["batch_configs_per_s"] >= TARGET_BATCH_PER_S,
     }
+    if res["batch_numba_configs_per_s"] is not None:
+        res["targets_met"][f"batch (numba) ≥ {TARGET_BATCH_NUMBA_PER_S:.0e} configs/s"] = (
+            res["batch_numba_configs_per_s"] >= TARGET_BATCH_NUMBA_PER_S
+        )
     res["table"] = _table(res)
     return res
 
@@ -512,12 +652,58 @@ def _table(r: dict[str, Any]) -> str:
         ]
     else:
         rows.append(("Robotics Toolbox jacob0 / hessian0", "skipped", rtb.get("reason", "")))
+    sp = r["gp_step_split"]
+    if sp["numba_us"] is not None:
+        rows.append(
+            (
+                f"GP step at n1 = {sp['n1']} (link-point brace), numba",
+                f"{sp['numba_us']:.1f} µs",
+                ("kernel" if sp["kernel_used"] else "NumPy code (kernel declined)")
+                + f"; max rel. diff {sp['max_rel_diff_numba']:.1e}",
+            )
+        )
+    rows.append(
+        (
+            f"GP step at n1 = {sp['n1']} (link-point brace), NumPy",
+            f"{sp['numpy_us']:.1f} µs",
+            (f"{sp['numpy_us'] / sp['numba_us']:.1f}× the numba step; " if sp["numba_us"] else "")
+            + f"max rel. diff {sp['max_rel_diff_numpy']:.1e}",
+        )
+    )
     b = r["batch"]
+    if b["numba_configs_per_s"] is not None:
+        rows += [
+            (
+                "Batch C_e (2 models) + C_i + k, numba",
+                f"{b['numba_configs_per_s'] / 1e3:.0f} k configs/s",
+                f"target ≥ 600 k/s; {b['numba_threads']} threads; {b['configs']} configs; "
+                f"max rel. diff {b['max_rel_diff_numba']:.1e}",
+            ),
+            (
+                "Same, numba on one thread",
+                f"{b['numba_1thread_configs_per_s'] / 1e3:.0f} k configs/s",
+                f"threads=1 (or NUMBA_NUM_THREADS=1); "
+                f"{b['numba_1thread_cpu_configs_per_s'] / 1e3:.0f} k per second of CPU time",
+            ),
+        ]
+        if b["numba_compile_s"] is not None:
+            rows.append(
+                ("Batch numba kernel: compilation", f"{b['numba_compile_s']:.1f} s", "once, then cached on disk")
+            )
+        fc = b["numba_first_call"]
+        if not fc.get("first_call_compiled"):
+            rows.append(
+                (
+                    "Batch numba kernel: first call",
+                    f"{fc['first_call_s']:.2f} s",
+                    "kernel loaded from disk; not in the throughput",
+                )
+            )
     rows += [
         (
-            "Batch C_e (2 models) + C_i + k",
-            f"{b['configs_per_s'] / 1e3:.0f} k configs/s",
-            f"target ≥ 100 k/s; {b['configs']} configs; max rel. diff {b['max_rel_diff']:.1e}",
+            "Batch C_e (2 models) + C_i + k, NumPy",
+            f"{b['numpy_configs_per_s'] / 1e3:.0f} k configs/s",
+            f"target ≥ 100 k/s; {b['configs']} configs; max rel. diff {b['max_rel_diff_numpy']:.1e}",
         ),
         ("Same, single-configuration path", f"{b['single_configs_per_s'] / 1e3:.1f} k configs/s", "one at a time"),
         (

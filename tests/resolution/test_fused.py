@@ -399,33 +399,114 @@ def test_numba_backend_with_other_contacts_on_the_paper_robot(paper, contact: st
 
 def test_numba_backend_runs_the_numpy_code_where_the_kernel_does_not_apply(paper) -> None:
     pytest.importorskip("numba")
+    from bracekit.resolution.task_space import TaskSpace
+
     sc, qs = paper
     beta = np.r_[1.0, 0, 0, 0, 0, 0]
     xdot = np.array([0.02, 0.0, 0.01, 0.0, 0.0, 0.0])
-    # n1 = 7: the chain-1 map is a null space, not J1⁻¹ H
-    robot = Robot.from_urdf(random_chain_urdf(11, seed=2, brace_link=7), tip="tip", stiffness=150.0)
-    chain = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), (0.0, 0.3, 1.0))))
     compliant = BracedRobot(sc.robot, dataclasses.replace(sc.braced.brace, environment_stiffness=2e4))
     fd = BracedGradientProjection(_objective(sc.braced, "constrained", beta), gradient="finite-difference")
     user = BracedGradientProjection(
         Objective([*_objective(sc.braced, "constrained", beta).terms, _Height()], [0.5, 100.0, 0.6, 0.01, 2.0])
     )
+    position = BracedGradientProjection(_objective(sc.braced, "constrained", beta), space=TaskSpace("position"))
     cases = [
-        (chain, BracedGradientProjection(_objective(chain, "constrained", beta, r_max=50.0)), robot.check_q(qs[0])),
-        (compliant, BracedGradientProjection(_objective(compliant, "constrained", beta)), qs[0]),
-        (sc.braced, fd, qs[0]),
-        (sc.braced, user, qs[0]),
+        (
+            compliant,
+            BracedGradientProjection(_objective(compliant, "constrained", beta)),
+            "term without a compiled copy",
+        ),
+        (sc.braced, fd, "finite-difference gradient"),
+        (sc.braced, user, "term without a compiled copy: height"),
+        (sc.braced, position, "task space other than the full pose"),
     ]
-    for braced, strategy, q in cases:
+    for braced, strategy, reason in cases:
         nb = GradientProjectionStep(braced, strategy, backend="numba")
         assert nb.backend == "numba" and not nb.uses_kernel
-        assert np.array_equal(nb(q, xdot), GradientProjectionStep(braced, strategy)(q, xdot))
+        assert nb.fallback_reason is not None and nb.fallback_reason.startswith(reason)
+        assert np.array_equal(nb(qs[0], xdot), GradientProjectionStep(braced, strategy)(qs[0], xdot))
     # a compliant environment with the projection model: the kernel applies (C̃1 does not involve k_env)
     proj = BracedGradientProjection(_objective(compliant, "projection", beta))
     nb = GradientProjectionStep(compliant, proj, backend="numba")
-    assert nb.uses_kernel
+    assert nb.uses_kernel and nb.fallback_reason is None
     for q in qs[:3]:
         _assert_same(proj.velocity(compliant.state(q, hessians=True), xdot), nb(q, xdot), rtol=1e-12)
+    assert GradientProjectionStep(compliant, proj).fallback_reason == "numpy backend"
+
+
+def _split_case(robot_name: str, link: str, contact: str) -> BracedRobot:
+    """A link-point brace on `link` with a pad direction (so θ_z is defined), its region about the origin."""
+    robot = load_model(robot_name).with_point_frame("pad", link, (0.04, 0.03, 0.02))
+    surface = Surface(np.zeros(3), (0.2, -0.1, 1.0))
+    return BracedRobot(robot, Brace("pad", surface, contact_type(contact), region_radius=50.0, pad_axis=True))
+
+
+#: (robot, link, contact, n1): splits n1 ∈ {3, …, 7} on the Panda (up to 6: its link 7 is the last) and the
+#: paper's robot, with one to four constraint directions, and l' = 0
+SPLITS = [
+    ("panda", "panda_link3", "frictionless_point", 3),
+    ("panda", "panda_link4", "frictionless_point", 4),
+    ("panda", "panda_link5", "frictionless_point", 5),
+    ("panda", "panda_link6", "frictionless_point", 6),
+    ("paper-robot", "link7", "frictionless_point", 7),
+    ("paper-robot", "link3", "point_with_friction", 3),  # Xᵀ J1 square: no chain-1 motion keeps the contact
+    ("paper-robot", "link4", "frictionless_point", 4),
+    ("paper-robot", "link5", "soft_finger", 5),
+    ("paper-robot", "link7", "point_with_friction", 7),
+]
+
+
+@pytest.mark.parametrize(("robot_name", "link", "contact", "n1"), SPLITS)
+def test_numba_kernel_equals_the_numpy_step_at_every_split(robot_name: str, link: str, contact: str, n1: int) -> None:
+    """The compiled step against the NumPy step and the reference, all four terms, both compliance models."""
+    pytest.importorskip("numba")
+    braced = _split_case(robot_name, link, contact)
+    assert braced.n1 == n1
+    rng = np.random.default_rng(n1 + len(contact))
+    lo = np.where(np.isfinite(braced.robot.lower), braced.robot.lower, -3.0)
+    hi = np.where(np.isfinite(braced.robot.upper), braced.robot.upper, 3.0)
+    served = tried = 0
+    for model in ("constrained", "projection"):
+        strategy = BracedGradientProjection(_objective(braced, model, rng.normal(size=6), r_max=50.0), alpha=-0.6)
+        nb = GradientProjectionStep(braced, strategy, backend="numba")
+        npb = GradientProjectionStep(braced, strategy, backend="numpy")
+        assert nb.uses_kernel and nb.fallback_reason is None
+        for _ in range(8):
+            q = rng.uniform(lo, hi)
+            xdot = rng.normal(scale=0.05, size=6)
+            tried += 1
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UnloadedContactWarning)
+                ref = _outcome(lambda q=q, x=xdot, s=strategy: s.velocity(braced.state(q, hessians=True), x))
+                want = _outcome(lambda q=q, x=xdot, f=npb: f(q, x))
+                got = _kernel_or_none(nb, q, xdot)
+                step = _outcome(lambda q=q, x=xdot, f=nb: f(q, x))
+            _assert_same(want, step, rtol=1e-9)  # the numba backend, kernel or not, equals the NumPy backend
+            if got is None:
+                continue
+            served += 1
+            assert not isinstance(want, tuple)  # the kernel serves only where the NumPy step succeeds
+            _assert_same(want, got, rtol=1e-9)
+            _assert_same(ref, got, rtol=1e-9)
+    assert served >= 0.6 * tried
+
+
+def test_null_space_kernel_matches_contact_null_space() -> None:
+    numba_step = pytest.importorskip("bracekit.resolution._numba_step")
+    from bracekit.kinematics import contact_null_space
+
+    rng = np.random.default_rng(4)
+    for c, k in [(1, 3), (3, 7), (4, 5), (3, 3), (4, 2)]:
+        m = rng.normal(size=(c, k))
+        basis, ok = numba_step._null_space(m, 1e6, 1e-10)
+        ref = contact_null_space(m)
+        assert ok and basis.shape == ref.shape
+        np.testing.assert_allclose(basis.T @ basis, np.eye(basis.shape[1]), atol=1e-13)
+        np.testing.assert_allclose(basis @ basis.T, ref @ ref.T, atol=1e-12)  # the same subspace
+    m = rng.normal(size=(3, 6))
+    m[2] = m[0] + m[1]  # rank 2: declined (the NumPy code finds the rank by SVD)
+    assert not numba_step._null_space(m, 1e6, 1e-10)[1]
+    assert not numba_step._null_space(1e-12 * rng.normal(size=(2, 5)), 1e6, 1e-10)[1]  # σ below the absolute limit
 
 
 @dataclasses.dataclass(frozen=True)
@@ -485,11 +566,11 @@ def test_numba_kernel_declines_an_unloaded_contact() -> None:
     ci = np.array([[1.0, 0, 0, 0, 0, 0, 100.0, 0.0]])  # constrained model
     kinv = np.ones(n)
     args = (je, jb, he, hb, mb, me, np.ones(6), h, x, np.eye(6) - x @ x.T, kinv, ci)
-    par = np.array([-1.0, 1e300, 1e-10, 0.0, 0.0])  # [α, CERTIFIED_COND², UNLOADED_TOL, w_k, w_θ]
-    status, _ = numba_step.gp_step(*args, np.zeros((0, 5)), np.array([0.0, 0, 1]), par)
+    par = np.array([-1.0, 1e300, 1e-10, 0.0, 0.0, 1e-10])  # [α, CERTIFIED_COND², UNLOADED_TOL, w_k, w_θ, rtol]
+    status, _ = numba_step.gp_step(*args, np.zeros((0, 5)), np.array([0.0, 0, 1]), par, 6)
     assert status == numba_step.OK
     kinv[2] = 1e-12
-    status, _ = numba_step.gp_step(*args, np.zeros((0, 5)), np.array([0.0, 0, 1]), par)
+    status, _ = numba_step.gp_step(*args, np.zeros((0, 5)), np.array([0.0, 0, 1]), par, 6)
     assert status == numba_step.UNLOADED
 
 

@@ -20,12 +20,26 @@ the reference is :class:`bracekit.model.chain.ChainFK`. The compliance formulas 
 * k = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) from a batched inverse of JJᵀ, with the reference's SVD for any
   configuration whose condition number is not certified below 10³ (so singular ones raise, or give NaN
   when ``errors="nan"``).
+
+Two backends compute the same numbers: ``"numpy"`` (vectorised over chunks of configurations) and ``"numba"``
+(``pip install bracekit[fast]``): one compiled kernel (:mod:`bracekit.compliance._numba_batch`, cached on disk
+after its first compilation) that runs the same formulas configuration by configuration, in parallel over
+configurations on numba's threads (``NUMBA_NUM_THREADS``, or the ``threads`` argument; ``threads=1`` and a
+process forked from one that already ran the parallel kernel use a serial copy of it). Configurations where a
+shortcut of k is not certified get the reference's SVD as in the NumPy path; a compliance that is not finite
+makes the whole call run the NumPy path, which raises its NumericalError. ``backend="auto"`` (the default) is
+numba when it can be imported and the product of exponentials models the robot, else NumPy; the evaluator's
+``backend`` says which one runs and ``fallback_reason`` why it is not numba.
 """
 
 from __future__ import annotations
 
+import importlib
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any, Literal
 
 import numpy as np
 import pinocchio as pin
@@ -46,12 +60,33 @@ from bracekit.kinematics import LWA, BracedRobot
 from bracekit.model.chain import DATA_JOINT_LIMIT, joint_axis
 from bracekit.model.robot import Robot
 from bracekit.spatial import unit
-from bracekit.tolerances import CERTIFIED_COND
+from bracekit.tolerances import CERTIFIED_COND, UNLOADED_TOL
 
 Array = NDArray[np.float64]
 
 #: Configurations evaluated together (bounds the memory: about 2 kB per configuration and chunk).
 CHUNK = 2048
+
+Backend = Literal["numpy", "numba", "auto"]
+#: The values of ``BatchEvaluator(..., backend=...)``.
+BACKENDS: tuple[str, ...] = ("numpy", "numba", "auto")
+#: The process that started numba's thread pool (a forked child runs the kernel on one thread: the pool's
+#: threads do not survive a fork, and OpenMP's runtime may hang in the child).
+_PARALLEL_PID: int | None = None
+
+
+def batch_kernels() -> ModuleType:
+    """The numba batch kernel (:mod:`bracekit.compliance._numba_batch`), imported on first use.
+
+    Raises InputError when numba cannot be imported.
+    """
+    try:
+        return importlib.import_module("bracekit.compliance._numba_batch")
+    except ImportError as exc:
+        raise InputError(
+            f"backend='numba' needs numba, which cannot be imported here ({exc}); install it with "
+            "`pip install bracekit[fast]` (or `pip install 'numba>=0.60'`), or use backend='numpy'"
+        ) from exc
 
 
 def _frame_with_z(axis: Array) -> Array:
@@ -274,11 +309,27 @@ class BatchEvaluation:
 
 
 class BatchEvaluator:
-    """Vectorised C_e, C_i and k of a braced robot; build once, call with arrays of configurations."""
+    """Vectorised C_e, C_i and k of a braced robot; build once, call with arrays of configurations.
 
-    def __init__(self, braced: BracedRobot) -> None:
+    Args:
+        braced: the braced robot (one brace).
+        backend: ``"auto"`` (default: numba if it can be imported, else NumPy), ``"numba"`` (InputError if
+            numba is not installed) or ``"numpy"``. Both give the single-configuration path's numbers to ~1e-12.
+            The first numba call of a process loads the kernel from numba's disk cache (about 0.1 s), or
+            compiles it (20–30 s, once) when there is no cache yet; ``threads=1`` uses a serial copy, compiled
+            on its own first use.
+
+    Attributes:
+        backend: the backend in use, ``"numpy"`` or ``"numba"``.
+        fallback_reason: why the NumPy code runs although numba was asked for (None otherwise): numba not
+            importable (``"auto"``), or a joint the product of exponentials does not model.
+    """
+
+    def __init__(self, braced: BracedRobot, backend: Backend = "auto") -> None:
         if not isinstance(braced, BracedRobot):
             raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
+        if not isinstance(backend, str) or backend not in BACKENDS:
+            raise InputError(f"unknown backend {show(backend)}; choose one of {', '.join(BACKENDS)}")
         self.braced = braced
         robot = braced.robot
         self.kinematics = ChainKinematics(robot, (robot.tip_id, braced.brace_id))
@@ -288,6 +339,49 @@ class BatchEvaluator:
         self._X = braced.X
         self._t = np.eye(6) - braced.P
         self._k_env = braced.brace.environment_stiffness
+        self.fallback_reason: str | None = None
+        kernels: ModuleType | None = None
+        if backend != "numpy":
+            try:
+                kernels = batch_kernels()
+            except InputError as exc:
+                if backend == "numba":
+                    raise
+                self.fallback_reason = f"numba cannot be imported ({exc.__cause__})"
+        if kernels is not None and not self.kinematics.exact:
+            kernels = None
+            self.fallback_reason = "a joint is not a revolute, prismatic or helical joint about its own origin"
+        self._kernels = kernels
+        self._kernel_args = None if kernels is None else self._kernel_constants()
+        self.backend: str = "numpy" if kernels is None else "numba"
+
+    def _kernel_constants(self) -> tuple[Any, ...]:
+        """The chain and contact as the arrays :func:`bracekit.compliance._numba_batch.evaluate` takes."""
+        kin = self.kinematics
+        joints = range(1, len(kin._parent))
+        n = kin.n
+        support = np.zeros((2, n), dtype=np.int64)
+        for f, cols in enumerate(kin._supports):
+            support[f, cols] = 1
+        k_env = self._k_env
+        return (
+            np.array([kin._motion[j][0] for j in joints], dtype=float),
+            np.array([kin._motion[j][1] for j in joints], dtype=float),
+            np.array([kin._col[j] for j in joints], dtype=np.int64),
+            np.array([kin._parent[j] for j in joints], dtype=np.int64),
+            np.ascontiguousarray([r for r, _ in kin._place], dtype=float).reshape(-1, 3, 3),
+            np.ascontiguousarray([t for _, t in kin._place], dtype=float).reshape(-1, 3),
+            np.array([p for p, _, _ in kin._frames], dtype=np.int64),
+            np.ascontiguousarray([t for _, _, t in kin._frames], dtype=float),
+            support,
+            np.ascontiguousarray(np.concatenate((self._k1inv, self._k2inv)), dtype=float),
+            int(self._n1),
+            np.ascontiguousarray(self._X, dtype=float),
+            np.ascontiguousarray(self._t, dtype=float),
+            0.0 if k_env is None else 1.0 / float(k_env),
+            float(UNLOADED_TOL),
+            float(CERTIFIED_COND**2),
+        )
 
     def __call__(
         self,
@@ -298,6 +392,7 @@ class BatchEvaluator:
         errors: str = "raise",
         k_braced: bool = False,
         chunk: int = CHUNK,
+        threads: int | None = None,
     ) -> BatchEvaluation:
         """Evaluate every row of Q (N×n).
 
@@ -309,7 +404,11 @@ class BatchEvaluator:
                 frobenius_condition does) or ``"nan"`` (k is NaN there). A compliance that is not finite
                 raises NumericalError in either case.
             k_braced: also compute k of J̃.
-            chunk: configurations evaluated together.
+            chunk: configurations evaluated together (NumPy backend; with numba, the order in which
+                singular configurations are reported is the same as with this chunk size).
+            threads: numba threads for this call (at most ``numba.config.NUMBA_NUM_THREADS``); None keeps
+                numba's setting (``NUMBA_NUM_THREADS`` in the environment). 1 runs single-threaded, for
+                callers that run several processes. The NumPy backend is single-threaded and ignores it.
         """
         n = self.kinematics.n
         q = as_array(Q, "the configurations Q", finite=False)
@@ -332,6 +431,17 @@ class BatchEvaluator:
             raise InputError(f"k_braced must be True or False, got {show(k_braced)}")
         size = as_count(chunk, "chunk")
         beta = _betas(beta_x, N)
+        nthreads = None
+        if threads is not None:
+            limit = _max_threads() if self._kernels is not None else None
+            nthreads = as_count(threads, "threads", high=limit)
+        if self._kernels is not None:
+            got = self._numba(q, beta, mods, errors, k_braced, size, nthreads)
+            if got is not None:
+                evaluation, unloaded = got
+                if unloaded:
+                    warn_unloaded(unloaded, configurations=N, stacklevel=2)
+                return evaluation
         c_e: dict[str, Array] = {m: np.empty((N, 6, 6)) for m in mods}
         ci: dict[str, Array] = {m: np.empty(N) for m in mods}
         k, kb = np.empty(N), (np.empty(N) if k_braced else None)
@@ -354,6 +464,67 @@ class BatchEvaluator:
         if unloaded:
             warn_unloaded(unloaded, configurations=N, stacklevel=2)
         return BatchEvaluation(C_e=c_e, Ci=ci, k=k, k_braced=kb, models=mods)
+
+    def _numba(
+        self, q: Array, beta: Array, mods: tuple[str, ...], errors: str, k_braced: bool, size: int, threads: int | None
+    ) -> tuple[BatchEvaluation, int] | None:
+        """The numba kernel's evaluation and its count of unloaded configurations.
+
+        None if a compliance is not finite somewhere: the NumPy code then runs, and raises its NumericalError.
+        """
+        kern = self._kernels
+        assert kern is not None and self._kernel_args is not None
+        N = q.shape[0]
+        con, proj = "constrained" in mods, "projection" in mods
+        empty = np.empty((0, 6, 6))
+        ce_con = np.empty((N, 6, 6)) if con else empty
+        ce_proj = np.empty((N, 6, 6)) if proj else empty
+        ci_con, ci_proj = np.empty(N if con else 0), np.empty(N if proj else 0)
+        k, kb = np.empty(N), np.empty(N if k_braced else 0)
+        flags = np.zeros(N, dtype=np.int64)
+        b = np.ascontiguousarray(beta[:1] if beta.strides[0] == 0 else beta)
+        qc = np.ascontiguousarray(q)
+        args = (qc, *self._kernel_args, b, con, proj, k_braced, ce_con, ce_proj, ci_con, ci_proj, k, kb, flags)
+        global _PARALLEL_PID
+        if threads == 1 or _PARALLEL_PID not in (None, os.getpid()):  # one thread, or a fork of a parallel process
+            kern.evaluate_serial(*args)
+        elif threads is None:
+            _PARALLEL_PID = os.getpid()
+            kern.evaluate(*args)
+        else:
+            import numba
+
+            _PARALLEL_PID = os.getpid()
+            before = numba.get_num_threads()
+            numba.set_num_threads(threads)
+            try:
+                kern.evaluate(*args)
+            finally:
+                numba.set_num_threads(before)
+        if np.any(flags & kern.NOT_FINITE):
+            return None
+        uncertified = np.flatnonzero(flags & (kern.K_UNCERTIFIED | kern.KB_UNCERTIFIED))
+        if uncertified.size:  # the reference's SVD, in the NumPy path's order (chunk by chunk, k then k of J̃)
+            fr = self.kinematics.frames(q[uncertified])
+            je, jb = fr.jacobian[0], fr.jacobian[1]
+            with np.errstate(all="ignore"):
+                jt = np.concatenate(
+                    (_shift(self._t @ jb[:, :, : self._n1], fr.position[1] - fr.position[0]), je[:, :, self._n1 :]),
+                    axis=2,
+                )
+            for s in range(0, N, size):
+                inside = np.flatnonzero((uncertified >= s) & (uncertified < s + size))
+                for out, jac, bit in ((k, je, kern.K_UNCERTIFIED), (kb, jt, kern.KB_UNCERTIFIED)):
+                    for r in inside.tolist():
+                        i = int(uncertified[r])
+                        if flags[i] & bit:
+                            out[i] = _reference_condition(jac[r], errors, i)
+        c_e: dict[str, Array] = {}
+        ci: dict[str, Array] = {}
+        for m in mods:
+            c_e[m], ci[m] = (ce_con, ci_con) if m == "constrained" else (ce_proj, ci_proj)
+        unloaded = int(np.count_nonzero(flags & kern.UNLOADED_ROW)) if con else 0
+        return BatchEvaluation(C_e=c_e, Ci=ci, k=k, k_braced=kb if k_braced else None, models=mods), unloaded
 
     def _compliance(
         self, je: Array, jb: Array, d: Array, models: tuple[str, ...], k_braced: bool, offset: int
@@ -457,13 +628,25 @@ def _frobenius(j: Array, errors: str, offset: int) -> Array:
         k2 = a * bb
         k = np.sqrt(k2) / 6.0
     for i in np.flatnonzero(~(k2 < CERTIFIED_COND**2)).tolist():  # 36 k² ≥ cond(J)²; also nan
-        try:
-            k[i] = frobenius_condition(j[i])
-        except SingularityError as exc:
-            if errors == "raise":
-                raise SingularityError(f"configuration {offset + int(i)}: {exc}") from exc
-            k[i] = np.nan
+        k[i] = _reference_condition(j[i], errors, offset + int(i))
     return k
+
+
+def _reference_condition(j: Array, errors: str, index: int) -> float:
+    """frobenius_condition(j) of configuration `index`: SingularityError naming it, or NaN with errors="nan"."""
+    try:
+        return frobenius_condition(j)
+    except SingularityError as exc:
+        if errors == "raise":
+            raise SingularityError(f"configuration {index}: {exc}") from exc
+        return float("nan")
+
+
+def _max_threads() -> int:
+    """The size of numba's thread pool (NUMBA_NUM_THREADS), the most threads one call can use."""
+    import numba
+
+    return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
 
 
 def evaluate_batch(
@@ -474,9 +657,12 @@ def evaluate_batch(
     models: Sequence[ComplianceModel | str] = COMPLIANCE_MODELS,
     errors: str = "raise",
     k_braced: bool = False,
+    backend: Backend = "auto",
+    threads: int | None = None,
 ) -> BatchEvaluation:
     """C_e (each model), C_i along β_x and k at every row of Q (N×n); see :class:`BatchEvaluator`.
 
-    Build a :class:`BatchEvaluator` once when evaluating many batches of the same robot.
+    Build a :class:`BatchEvaluator` once when evaluating many batches of the same robot. ``backend`` and
+    ``threads`` are those of :class:`BatchEvaluator` (numba when installed; ``threads=1`` for one thread).
     """
-    return BatchEvaluator(braced)(Q, beta_x, models=models, errors=errors, k_braced=k_braced)
+    return BatchEvaluator(braced, backend)(Q, beta_x, models=models, errors=errors, k_braced=k_braced, threads=threads)

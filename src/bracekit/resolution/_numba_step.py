@@ -5,7 +5,9 @@ Pinocchio still computes the placements, Jacobians and kinematic Hessians; :func
 linear algebra of eq:grad_proj after them in one compiled call, with the formulas, shortcuts and
 certificates of the NumPy backend (``bracekit/resolution/fused.py``):
 
-* dq1/db̃ = J1⁻¹ H (eq:q1) by LU with partial pivoting, certified by ‖J1‖²_F ‖J1⁻¹‖²_F < CERTIFIED_COND²;
+* dq1/db̃ = J1⁻¹ H (eq:q1) by LU with partial pivoting when n1 = 6, certified by ‖J1‖²_F ‖J1⁻¹‖²_F <
+  CERTIFIED_COND²; for any other n1, an orthonormal basis of the null space of Xᵀ J1 by Householder QR, certified
+  to have the rank ``contact_null_space`` finds (q̇ does not depend on the choice of orthonormal basis);
 * A⁺ = Q R⁻ᵀ and A⁺A = Q Qᵀ from a Householder QR Aᵀ = QR (eq:braced_kin), certified by
   ‖A‖²_F ‖R⁻¹‖²_F < CERTIFIED_COND² (the NumPy backend's bound, the same quantity);
 * ∂g/∂q of the four terms of eq:objective (k, C_i in either compliance model, θ_z, d) contracted with the
@@ -199,8 +201,81 @@ def _spd_inverse(m, shift):  # pragma: no cover - compiled
 
 
 @_jit
-def gp_step(je, jb, he, hb, mb, me, xd, h, x, t_proj, kinv, ci, reg, normal, par):  # pragma: no cover - compiled
-    """(status, q̇) of one braced gradient-projection step (eq:grad_proj) with n1 = 6 and the analytic ∇g.
+def _null_space(m, cert2, null_rtol):  # pragma: no cover - compiled
+    """(N, ok): an orthonormal basis N (k×max(k − c, 0)) of the null space of M (c×k), by Householder QR.
+
+    ok only where M has full rank min(c, k) with a margin: cond(M) ≤ ‖M‖_F ‖R⁻¹‖_F < √cert2 and
+    σ_min(M) ≥ 1/‖R⁻¹‖_F > 2 · null_rtol · max(1, ‖M‖_F), so that ``contact_null_space``'s SVD finds the
+    same rank (its basis may differ by a rotation within the null space, which q̇ does not depend on).
+    """
+    c, k = m.shape
+    tall = k > c  # QR of Mᵀ (k×c); else QR of M (c×k)
+    rows, cols = (k, c) if tall else (c, k)
+    r = np.empty((rows, cols))
+    for i in range(rows):
+        for j in range(cols):
+            r[i, j] = m[j, i] if tall else m[i, j]
+    vs = np.zeros((cols, rows))
+    for j in range(cols):
+        norm = 0.0
+        for i in range(j, rows):
+            norm += r[i, j] * r[i, j]
+        norm = math.sqrt(norm)
+        if not norm > 0.0:
+            return np.zeros((k, 0)), False
+        alpha = -norm if r[j, j] >= 0.0 else norm
+        for i in range(j, rows):
+            vs[j, i] = r[i, j]
+        vs[j, j] -= alpha
+        vn = 0.0
+        for i in range(j, rows):
+            vn += vs[j, i] * vs[j, i]
+        if vn > 0.0:
+            for cc in range(j, cols):
+                t = 0.0
+                for i in range(j, rows):
+                    t += vs[j, i] * r[i, cc]
+                t *= 2.0 / vn
+                for i in range(j, rows):
+                    r[i, cc] -= t * vs[j, i]
+            for i in range(j, rows):
+                vs[j, i] /= math.sqrt(vn)
+        r[j, j] = alpha
+    # ‖R⁻¹‖²_F by back substitution (R = the upper cols×cols block)
+    rinv2 = 0.0
+    for cc in range(cols):
+        col = np.zeros(cols)
+        col[cc] = 1.0 / r[cc, cc]
+        for i in range(cc - 1, -1, -1):
+            t = 0.0
+            for j in range(i + 1, cc + 1):
+                t += r[i, j] * col[j]
+            col[i] = -t / r[i, i]
+        for i in range(cc + 1):
+            rinv2 += col[i] * col[i]
+    m2 = _frobenius2(m)
+    if not (m2 * rinv2 < cert2 and 1.0 / math.sqrt(rinv2) > 2.0 * null_rtol * max(1.0, math.sqrt(m2))):
+        return np.zeros((k, 0)), False
+    if not tall:  # M has full column rank: no chain-1 motion keeps the contact
+        return np.zeros((k, 0)), True
+    # the last k − c columns of Q = H_0 … H_{c−1}
+    basis = np.zeros((k, k - c))
+    for i in range(k - c):
+        basis[c + i, i] = 1.0
+    for j in range(c - 1, -1, -1):
+        for cc in range(k - c):
+            t = 0.0
+            for i in range(j, k):
+                t += vs[j, i] * basis[i, cc]
+            t *= 2.0
+            for i in range(j, k):
+                basis[i, cc] -= t * vs[j, i]
+    return basis, True
+
+
+@_jit
+def gp_step(je, jb, he, hb, mb, me, xd, h, x, t_proj, kinv, ci, reg, normal, par, n1):  # pragma: no cover - compiled
+    """(status, q̇) of one braced gradient-projection step (eq:grad_proj) with the analytic ∇g, any n1 ≥ 1.
 
     Args:
         je: the frame Jacobian of {e} (6×n, world axes, LOCAL_WORLD_ALIGNED).
@@ -217,41 +292,56 @@ def gp_step(je, jb, he, hb, mb, me, xd, h, x, t_proj, kinv, ci, reg, normal, par
         ci: one row per compliance-index term: β_x (6), weight, 1.0 for the projection model else 0.0.
         reg: one row per region-barrier term: centre (3), r_max, weight.
         normal: the surface normal n̂ (3,).
-        par: [α, CERTIFIED_COND², UNLOADED_TOL, weight of k, weight of θ_z].
+        par: [α, CERTIFIED_COND², UNLOADED_TOL, weight of k, weight of θ_z, NULL_SPACE_RTOL].
+        n1: joints of chain 1 (1 ≤ n1 ≤ n). dq1/db̃ is J1⁻¹ H (eq:q1) when n1 = 6, else an orthonormal basis
+            of the null space of Xᵀ J1 (as ``BracedState.chain1_map``).
     """
     n = je.shape[1]
-    n1 = 6
     n2 = n - n1
-    l_ = h.shape[1]
-    kk = l_ + n2
     out = np.zeros(n)
     alpha, cert2, unloaded_tol, w_k, w_theta = par[0], par[1], par[2], par[3], par[4]
-    if kk < 6:
+    null_rtol = par[5]
+    nc = x.shape[1]
+    if n1 < 1 or n2 < 0 or nc < 1:
+        return NOT_CERTIFIED, out
+    l_ = h.shape[1] if n1 == 6 else max(n1 - nc, 0)
+    kk = l_ + n2
+    if kk < 6:  # fewer braced coordinates than twist components: no null space (as the NumPy code)
         return NOT_CERTIFIED, out
     d0, d1, d2 = mb[0, 3] - me[0, 3], mb[1, 3] - me[1, 3], mb[2, 3] - me[2, 3]
     # S_t1 = [[I, [b − e]×], [0, I]] (eq:twists)
     s1 = np.eye(6)
     s1[0, 4], s1[0, 5], s1[1, 3], s1[1, 5], s1[2, 3], s1[2, 4] = -d2, d1, d2, -d0, -d1, d0
-    j1 = np.empty((6, 6))
+    j1 = np.empty((6, n1))
     for r in range(6):
-        for i in range(6):
+        for i in range(n1):
             j1[r, i] = jb[r, i]
-    # dq1/db̃ = J1⁻¹ H (eq:q1)
-    lu, piv, ok = _lu(j1)
-    if not ok:
-        return NOT_CERTIFIED, out
-    j1inv = _lu_solve(lu, piv, np.eye(6))
-    if not _frobenius2(j1) * _frobenius2(j1inv) < cert2:
-        return NOT_CERTIFIED, out
-    g1 = _mm(j1inv, h)
-    # Aᵀ = [S_t1 H, J_e[:, n1:]]ᵀ (eq:braced_kin) and its QR
+    if n1 == 6:  # dq1/db̃ = J1⁻¹ H (eq:q1), and S_t1 J1 dq1/db̃ = S_t1 H
+        lu, piv, ok = _lu(j1)
+        if not ok:
+            return NOT_CERTIFIED, out
+        j1inv = _lu_solve(lu, piv, np.eye(6))
+        if not _frobenius2(j1) * _frobenius2(j1inv) < cert2:
+            return NOT_CERTIFIED, out
+        g1 = _mm(j1inv, h)
+        first = _mm(s1, h)
+    else:  # dq1/db̃ = an orthonormal basis of the null space of Xᵀ J1
+        xtj1 = np.empty((nc, n1))
+        for c in range(nc):
+            for i in range(n1):
+                s = 0.0
+                for r in range(6):
+                    s += x[r, c] * j1[r, i]
+                xtj1[c, i] = s
+        g1, ok = _null_space(xtj1, cert2, null_rtol)
+        if not ok:
+            return NOT_CERTIFIED, out
+        first = _mm(s1, _mm(j1, g1))
+    # Aᵀ = [S_t1 J1 dq1/db̃, J_e[:, n1:]]ᵀ (eq:braced_kin) and its QR
     at = np.empty((kk, 6))
     for c in range(l_):
         for r in range(6):
-            s = 0.0
-            for p in range(6):
-                s += s1[r, p] * h[p, c]
-            at[c, r] = s
+            at[c, r] = first[r, c]
     for c in range(n2):
         for r in range(6):
             at[l_ + c, r] = je[r, n1 + c]

@@ -24,12 +24,13 @@ evaluated by its own ``gradient``/``value`` on a BracedState.
 Two backends compute the same step: ``"numpy"`` (the default; no compilation, what :mod:`bracekit.simulation.simulate`
 uses) and ``"numba"`` (``pip install bracekit[fast]``), which hands everything after Pinocchio's pass to one
 compiled kernel (:mod:`bracekit.resolution._numba_step`, cached on disk after the first compilation) with the
-same shortcuts and certificates; the kernel holds compiled copies of the terms that give
-:meth:`~bracekit.objective.Term.numba_params`. Where the kernel does not apply (n1 ≠ 6, finite differences, a
-term without numba parameters) or declines (a certificate fails, an unloaded
-contact, {b} outside its region, a task space other than the full pose), the numba backend runs the NumPy
-code, so errors and warnings are the same. A task space other than the pose resolves its selected rows S A
-and S ẋ (:mod:`bracekit.resolution.task_space`) in the NumPy code.
+same shortcuts and certificates, for any split n1 (dq1/db̃ = J1⁻¹ H when n1 = 6, else an orthonormal basis of
+the null space of Xᵀ J1); the kernel holds compiled copies of the terms that give
+:meth:`~bracekit.objective.Term.numba_params`. Where the kernel does not apply (finite differences, a term
+without numba parameters, a task space other than the full pose: ``fallback_reason`` says which) or declines at
+a configuration (a certificate fails, an unloaded contact, {b} outside its region), the numba backend runs the
+NumPy code, so errors and warnings are the same. A task space other than the pose resolves its selected rows
+S A and S ẋ (:mod:`bracekit.resolution.task_space`) in the NumPy code.
 ``backend="auto"`` is numba when it can be imported, else NumPy.
 """
 
@@ -55,7 +56,7 @@ from bracekit.objective import Objective, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
-from bracekit.tolerances import CERTIFIED_COND, UNLOADED_TOL
+from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
 
 Array = NDArray[np.float64]
 
@@ -104,7 +105,10 @@ class GradientProjectionStep:
     Call it as ``step(q, xdot)``, or ``step(q, xdot, beta_x)`` to replace the β_x of the compliance-index
     terms (a task with a time-varying direction). It owns its Pinocchio data: one instance per thread.
     ``backend`` is then the backend in use; ``uses_kernel`` says whether the numba kernel computes the step
-    (False for the NumPy backend and where the kernel does not apply; see the module docstring).
+    (False for the NumPy backend and where the kernel does not apply; see the module docstring), and
+    ``fallback_reason`` why not (None when it does): ``"numpy backend"``, ``"numba cannot be imported"`` (with
+    ``backend="auto"``), ``"finite-difference gradient"``, ``"task space other than the full pose"`` or
+    ``"term without a compiled copy: <name>"``.
     """
 
     def __init__(self, braced: BracedRobot, strategy: BracedGradientProjection, backend: Backend = "numpy") -> None:
@@ -145,6 +149,7 @@ class GradientProjectionStep:
         self._space = strategy.space
         self._cert2 = CERTIFIED_COND**2
         kernels = None
+        self.fallback_reason: str | None = "numpy backend"
         if backend == "numba":
             kernels = numba_kernels()
         elif backend == "auto":
@@ -152,18 +157,27 @@ class GradientProjectionStep:
                 kernels = numba_kernels()
             except InputError:
                 kernels = None
+                self.fallback_reason = "numba cannot be imported"
         self.backend: str = "numpy" if kernels is None else "numba"
         self._kernel = None if kernels is None else self._numba_setup(kernels)
         self.uses_kernel: bool = self._kernel is not None
 
     def _numba_setup(self, kernels: ModuleType) -> Any:
-        """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs)."""
-        if self._fd or self._n1 != 6 or not self._space.is_pose:
+        """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs).
+
+        Sets ``fallback_reason`` (None when the kernel applies).
+        """
+        if self._fd:
+            self.fallback_reason = "finite-difference gradient"
             return None
-        params = [_call(t, "numba_params", None, self.braced, w) for t, w in _terms(self._objective)]
+        if not self._space.is_pose:
+            self.fallback_reason = "task space other than the full pose"
+            return None
         rows: dict[str, list[list[float]]] = {kind: [] for kind in KERNEL_TERMS}
-        for p in params:
+        for term, weight in _terms(self._objective):
+            p = _call(term, "numba_params", None, self.braced, weight)
             if p is None or p[0] not in KERNEL_TERMS:
+                self.fallback_reason = f"term without a compiled copy: {getattr(term, 'name', type(term).__name__)}"
                 return None
             rows[p[0]].append(list(p[1]))
         self._ci = np.array(rows["Ci"], dtype=float).reshape(-1, 8)
@@ -177,7 +191,8 @@ class GradientProjectionStep:
         self._nb_normal = np.ascontiguousarray(self._normal, dtype=float)
         w_k = sum(r[0] for r in rows["k"])
         w_theta = sum(r[0] for r in rows["theta_z"])
-        self._par = np.array([self._alpha, self._cert2, UNLOADED_TOL, w_k, w_theta])
+        self._par = np.array([self._alpha, self._cert2, UNLOADED_TOL, w_k, w_theta, NULL_SPACE_RTOL])
+        self.fallback_reason = None
         return kernels.gp_step
 
     # --- public API --------------------------------------------------------------------------------
@@ -253,7 +268,9 @@ class GradientProjectionStep:
         je, jb, mb, me, he, hb = self._kinematics(qa, True)
         h, x, t, kinv = self._nb_const
         assert self._kernel is not None
-        status, out = self._kernel(je, jb, he, hb, mb, me, xd, h, x, t, kinv, ci, self._reg, self._nb_normal, self._par)
+        status, out = self._kernel(
+            je, jb, he, hb, mb, me, xd, h, x, t, kinv, ci, self._reg, self._nb_normal, self._par, self._n1
+        )
         return out if status == 0 and math.isfinite(out.sum()) else None  # else the NumPy code (raises or warns)
 
     def _chain1(self, jb: Array) -> Array:

@@ -1,0 +1,599 @@
+"""numba kernel of the batch evaluation (internal; ``pip install bracekit[fast]``).
+
+:class:`bracekit.compliance.batch.BatchEvaluator` imports this module on first use when numba is installed.
+:func:`evaluate` computes, for every configuration and in parallel over configurations (``prange``), what the
+NumPy path of :mod:`bracekit.compliance.batch` computes, with the same formulas:
+
+* the frames of {e} and {b} by the product of exponentials of :class:`~bracekit.compliance.batch.ChainKinematics`
+  (its joint placements, axes and motion, as arrays);
+* C_e of both compliance models (eq:Ce), with the constrained model's loaded gain G as
+  ``compliance.loaded_gain`` (eigenvalues of Xᵀ C1 X by cyclic Jacobi, unloaded directions dropped and flagged);
+* C_i = ‖β_xᵀ C_e‖ (eq:compliance_index) and k of J_e (and of J̃) from a Cholesky factor of JJᵀ (eq:manip).
+
+The kernel never raises or warns. Each row gets flags: :data:`K_UNCERTIFIED` / :data:`KB_UNCERTIFIED` where the
+Cholesky shortcut of k is not certified below CERTIFIED_COND (the caller recomputes k there with
+``frobenius_condition``, as the NumPy path does), :data:`UNLOADED_ROW` where a constraint direction carries no
+load, and :data:`NOT_FINITE` where a compliance is not finite (the caller then runs the NumPy path, which
+raises its NumericalError). Compiled on first call and cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+#: Row flags of :func:`evaluate`.
+K_UNCERTIFIED, KB_UNCERTIFIED, NOT_FINITE, UNLOADED_ROW = 1, 2, 4, 8
+#: Blocks of configurations :func:`evaluate` shares among its threads (each block allocates its scratch once).
+BLOCKS = 64
+
+_jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
+
+
+@_jit
+def _k2(m, lo, col):  # pragma: no cover - compiled
+    """tr(M) tr(M⁻¹) = 36 k² of a symmetric 6×6 M = JJᵀ by Cholesky (‖L⁻¹‖²_F); inf if not positive definite.
+
+    `lo` (6×6) and `col` (6,) are scratch space.
+    """
+    for j in range(6):
+        s = m[j, j]
+        for p in range(j):
+            s -= lo[j, p] * lo[j, p]
+        if not s > 0.0:
+            return math.inf
+        lo[j, j] = math.sqrt(s)
+        for i in range(j + 1, 6):
+            t = m[i, j]
+            for p in range(j):
+                t -= lo[i, p] * lo[j, p]
+            lo[i, j] = t / lo[j, j]
+    bb = 0.0
+    for c in range(6):  # column c of L⁻¹ by forward substitution
+        col[c] = 1.0 / lo[c, c]
+        bb += col[c] * col[c]
+        for i in range(c + 1, 6):
+            s = 0.0
+            for p in range(c, i):
+                s -= lo[i, p] * col[p]
+            col[i] = s / lo[i, i]
+            bb += col[i] * col[i]
+    a = 0.0
+    for i in range(6):
+        a += m[i, i]
+    return a * bb
+
+
+@_jit
+def _jacobi(m):  # pragma: no cover - compiled
+    """Eigenvalues w and eigenvectors V (columns) of a small symmetric matrix by cyclic Jacobi rotations."""
+    c = m.shape[0]
+    a = m.copy()
+    v = np.eye(c)
+    for _ in range(60):
+        off = 0.0
+        diag = 0.0
+        for i in range(c):
+            diag += a[i, i] * a[i, i]
+            for j in range(i + 1, c):
+                off += a[i, j] * a[i, j]
+        if not off > 1e-36 * diag:  # converged (or nan)
+            break
+        for p in range(c - 1):
+            for q in range(p + 1, c):
+                apq = a[p, q]
+                if apq == 0.0:
+                    continue
+                theta = (a[q, q] - a[p, p]) / (2.0 * apq)
+                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                cs = 1.0 / math.sqrt(t * t + 1.0)
+                sn = t * cs
+                for k in range(c):
+                    akp, akq = a[k, p], a[k, q]
+                    a[k, p] = cs * akp - sn * akq
+                    a[k, q] = sn * akp + cs * akq
+                for k in range(c):
+                    apk, aqk = a[p, k], a[q, k]
+                    a[p, k] = cs * apk - sn * aqk
+                    a[q, k] = sn * apk + cs * aqk
+                for k in range(c):
+                    vkp, vkq = v[k, p], v[k, q]
+                    v[k, p] = cs * vkp - sn * vkq
+                    v[k, q] = sn * vkp + cs * vkq
+    w = np.empty(c)
+    for i in range(c):
+        w[i] = a[i, i]
+    return w, v
+
+
+@_jit
+def _gain(m, tr, env_inv, unloaded_tol, g):  # pragma: no cover - compiled
+    """G of ``compliance.loaded_gain`` into g (c×c); returns (unloaded directions, ok)."""
+    c = m.shape[0]
+    if env_inv > 0.0:  # (m + I/k_env)⁻¹ by Cholesky (symmetric positive definite)
+        lo = np.zeros((c, c))
+        for j in range(c):
+            s = m[j, j] + env_inv
+            for p in range(j):
+                s -= lo[j, p] * lo[j, p]
+            if not s > 0.0:
+                return 0, False
+            lo[j, j] = math.sqrt(s)
+            for i in range(j + 1, c):
+                t = m[i, j]
+                for p in range(j):
+                    t -= lo[i, p] * lo[j, p]
+                lo[i, j] = t / lo[j, j]
+        li = np.zeros((c, c))
+        for col in range(c):
+            li[col, col] = 1.0 / lo[col, col]
+            for i in range(col + 1, c):
+                s = 0.0
+                for p in range(col, i):
+                    s -= lo[i, p] * li[p, col]
+                li[i, col] = s / lo[i, i]
+        for i in range(c):
+            for j in range(c):
+                s = 0.0
+                for p in range(max(i, j), c):
+                    s += li[p, i] * li[p, j]
+                g[i, j] = s
+        return 0, True
+    limit = unloaded_tol * max(tr, 1e-300)
+    if c == 1:  # one constraint direction: m is its own eigenvalue
+        if m[0, 0] > limit:
+            g[0, 0] = 1.0 / m[0, 0]
+            return 0, True
+        g[0, 0] = 0.0
+        return 1, True
+    w, v = _jacobi(m)
+    dropped = 0
+    for i in range(c):
+        for j in range(c):
+            g[i, j] = 0.0
+    for k in range(c):
+        if w[k] > limit:
+            inv = 1.0 / w[k]
+            for i in range(c):
+                f = v[i, k] * inv
+                for j in range(c):
+                    g[i, j] += f * v[j, k]
+        else:
+            dropped += 1
+    return dropped, True
+
+
+@_jit
+def _shift_rows(a, d0, d1, d2):  # pragma: no cover - compiled
+    """S_t1 A in place for A (6×m): v += d × ω column by column (eq:twists)."""
+    for i in range(a.shape[1]):
+        w0, w1, w2 = a[3, i], a[4, i], a[5, i]
+        a[0, i] += d1 * w2 - d2 * w1
+        a[1, i] += d2 * w0 - d0 * w2
+        a[2, i] += d0 * w1 - d1 * w0
+
+
+@_jit
+def _finish(ce, c2, out, beta, i, bi):  # pragma: no cover - compiled
+    """C_e = sym(ce + c2) into out[i]; returns (C_i along beta[bi], finite)."""
+    ok = True
+    for r in range(6):
+        for c in range(6):
+            x = 0.5 * ((ce[r, c] + c2[r, c]) + (ce[c, r] + c2[c, r]))
+            out[i, r, c] = x
+            if not math.isfinite(x):
+                ok = False
+    s = 0.0
+    for c in range(6):
+        v = 0.0
+        for r in range(6):
+            v += beta[bi, r] * out[i, r, c]
+        s += v * v
+    ci = math.sqrt(s)
+    return ci, ok and math.isfinite(ci)
+
+
+@_jit
+def _rows(
+    start,
+    stop,
+    q,
+    speed,
+    along,
+    col,
+    parent,
+    place_r,
+    place_t,
+    frame_parent,
+    frame_r,
+    support,
+    kinv,
+    n1,
+    x,
+    t_proj,
+    env_inv,
+    unloaded_tol,
+    cert2,
+    beta,
+    do_con,
+    do_proj,
+    do_kb,
+    ce_con,
+    ce_proj,
+    ci_con,
+    ci_proj,
+    k,
+    kb,
+    flags,
+):  # pragma: no cover - compiled
+    """Rows start … stop − 1 of :func:`evaluate` (one thread's share), with their own scratch arrays."""
+    n = q.shape[1]
+    J = speed.shape[0]
+    nc = x.shape[1]
+    rot = np.empty((J + 1, 3, 3))
+    pos = np.zeros((J + 1, 3))
+    for a in range(3):
+        for b in range(3):
+            rot[0, a, b] = 1.0 if a == b else 0.0
+    axes = np.zeros((n, 3))
+    origins = np.zeros((n, 3))
+    revolute = np.zeros(n, dtype=np.bool_)
+    jac = np.zeros((2, 6, n))
+    fp = np.zeros((2, 3))
+    c2 = np.zeros((6, 6))
+    tj1 = np.zeros((6, n1))
+    work = np.zeros((6, 6))
+    c1 = np.zeros((6, 6))
+    cx = np.zeros((6, nc))
+    m = np.zeros((nc, nc))
+    g = np.zeros((nc, nc))
+    mm = np.zeros((6, 6))
+    lo = np.zeros((6, 6))
+    col6 = np.zeros(6)
+    wk = np.zeros((6, n))
+    for i in range(start, stop):
+        flag = 0
+        # --- frames: M_j = M_parent · placement_j · exp(S_j q_j), each joint about its own z axis
+        for j in range(J):
+            p = parent[j]
+            cj = col[j]
+            for a in range(3):
+                for b in range(3):
+                    s = 0.0
+                    for c in range(3):
+                        s += rot[p, a, c] * place_r[j, c, b]
+                    rot[j + 1, a, b] = s
+                s = pos[p, a]
+                for c in range(3):
+                    s += rot[p, a, c] * place_t[j, c]
+                pos[j + 1, a] = s
+            for a in range(3):
+                origins[cj, a] = pos[j + 1, a]
+            if along[j] != 0.0:
+                f = along[j] * q[i, cj]
+                for a in range(3):
+                    pos[j + 1, a] += rot[j + 1, a, 2] * f
+            if speed[j] != 0.0:
+                ang = q[i, cj] * speed[j] if speed[j] != 1.0 else q[i, cj]
+                co, si = math.cos(ang), math.sin(ang)
+                for a in range(3):
+                    x0, y0 = rot[j + 1, a, 0], rot[j + 1, a, 1]
+                    rot[j + 1, a, 0] = co * x0 + si * y0
+                    rot[j + 1, a, 1] = co * y0 - si * x0
+                    axes[cj, a] = rot[j + 1, a, 2] * speed[j]
+                revolute[cj] = True
+            else:
+                for a in range(3):
+                    axes[cj, a] = rot[j + 1, a, 2] * along[j]
+        for f in range(2):
+            p = frame_parent[f]
+            for a in range(3):
+                s = pos[p, a]
+                for c in range(3):
+                    s += rot[p, a, c] * frame_r[f, c]
+                fp[f, a] = s
+            for cj in range(n):
+                if support[f, cj] == 0:
+                    for r in range(6):
+                        jac[f, r, cj] = 0.0
+                    continue
+                z0, z1, z2 = axes[cj, 0], axes[cj, 1], axes[cj, 2]
+                if revolute[cj]:
+                    r0, r1, r2 = fp[f, 0] - origins[cj, 0], fp[f, 1] - origins[cj, 1], fp[f, 2] - origins[cj, 2]
+                    jac[f, 0, cj] = z1 * r2 - z2 * r1
+                    jac[f, 1, cj] = z2 * r0 - z0 * r2
+                    jac[f, 2, cj] = z0 * r1 - z1 * r0
+                    jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = z0, z1, z2
+                else:
+                    jac[f, 0, cj], jac[f, 1, cj], jac[f, 2, cj] = z0, z1, z2
+                    jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = 0.0, 0.0, 0.0
+        d0, d1, d2 = fp[1, 0] - fp[0, 0], fp[1, 1] - fp[0, 1], fp[1, 2] - fp[0, 2]  # b − e
+        bi = i if beta.shape[0] > 1 else 0
+        # --- S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ (symmetric: the upper triangle, mirrored)
+        for r in range(6):
+            for p in range(n):
+                wk[r, p] = jac[0, r, p] * kinv[p]
+        for r in range(6):
+            for c in range(r, 6):
+                s = 0.0
+                for p in range(n1, n):
+                    s += wk[r, p] * jac[0, c, p]
+                c2[r, c] = s
+                c2[c, r] = s
+        # --- Ĵ1 = S_t1 (I − P) J1 (projection model and J̃)
+        if do_proj or do_kb:
+            for r in range(6):
+                for p in range(n1):
+                    s = 0.0
+                    for c in range(6):
+                        s += t_proj[r, c] * jac[1, c, p]
+                    tj1[r, p] = s
+            _shift_rows(tj1, d0, d1, d2)
+        if do_proj:
+            for r in range(6):
+                for c in range(r, 6):
+                    s = 0.0
+                    for p in range(n1):
+                        s += tj1[r, p] * kinv[p] * tj1[c, p]
+                    work[r, c] = s
+                    work[c, r] = s
+            cival, ok = _finish(work, c2, ce_proj, beta, i, bi)
+            ci_proj[i] = cival
+            if not ok:
+                flag |= NOT_FINITE
+        if do_con:  # C̃1 = C1 − C1 X G Xᵀ C1, then S_t1 C̃1 S_t1ᵀ
+            tr = 0.0
+            for r in range(6):
+                for c in range(r, 6):
+                    s = 0.0
+                    for p in range(n1):
+                        s += jac[1, r, p] * kinv[p] * jac[1, c, p]
+                    c1[r, c] = s
+                    c1[c, r] = s
+                    if not math.isfinite(s):
+                        flag |= NOT_FINITE
+                tr += c1[r, r]
+            for r in range(6):
+                for c in range(nc):
+                    s = 0.0
+                    for p in range(6):
+                        s += c1[r, p] * x[p, c]
+                    cx[r, c] = s
+            for a in range(nc):
+                for b in range(nc):
+                    s = 0.0
+                    for p in range(6):
+                        s += x[p, a] * cx[p, b]
+                    m[a, b] = s
+                    if not math.isfinite(s):
+                        flag |= NOT_FINITE
+            if flag & NOT_FINITE == 0:
+                dropped, ok = _gain(m, tr, env_inv, unloaded_tol, g)
+                if not ok:
+                    flag |= NOT_FINITE
+                if dropped:
+                    flag |= UNLOADED_ROW
+                for r in range(6):
+                    for c in range(6):
+                        s = 0.0
+                        for a in range(nc):
+                            t = 0.0
+                            for b in range(nc):
+                                t += g[a, b] * cx[c, b]
+                            s += cx[r, a] * t
+                        work[r, c] = c1[r, c] - s
+                for r in range(6):
+                    for c in range(r, 6):
+                        v = 0.5 * (work[r, c] + work[c, r])
+                        work[r, c] = v
+                        work[c, r] = v
+                _shift_rows(work, d0, d1, d2)  # S_t1 C̃1
+                for r in range(6):  # (S_t1 (S_t1 C̃1)ᵀ)ᵀ: the same shift on each row
+                    w0, w1, w2 = work[r, 3], work[r, 4], work[r, 5]
+                    work[r, 0] += d1 * w2 - d2 * w1
+                    work[r, 1] += d2 * w0 - d0 * w2
+                    work[r, 2] += d0 * w1 - d1 * w0
+                cival, ok = _finish(work, c2, ce_con, beta, i, bi)
+                ci_con[i] = cival
+                if not ok:
+                    flag |= NOT_FINITE
+        # --- k of J_e (eq:manip), and of J̃ = [Ĵ1, J_e2]
+        for r in range(6):
+            for c in range(r, 6):
+                s = 0.0
+                for p in range(n):
+                    s += jac[0, r, p] * jac[0, c, p]
+                mm[r, c] = s
+                mm[c, r] = s
+        k2 = _k2(mm, lo, col6)
+        if k2 < cert2:
+            k[i] = math.sqrt(k2) / 6.0
+        else:
+            k[i] = math.nan
+            flag |= K_UNCERTIFIED
+        if do_kb:
+            for r in range(6):
+                for c in range(r, 6):
+                    s = 0.0
+                    for p in range(n1):
+                        s += tj1[r, p] * tj1[c, p]
+                    for p in range(n1, n):
+                        s += jac[0, r, p] * jac[0, c, p]
+                    mm[r, c] = s
+                    mm[c, r] = s
+            k2 = _k2(mm, lo, col6)
+            if k2 < cert2:
+                kb[i] = math.sqrt(k2) / 6.0
+            else:
+                kb[i] = math.nan
+                flag |= KB_UNCERTIFIED
+        flags[i] = flag
+
+
+@njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
+def evaluate(
+    q,
+    speed,
+    along,
+    col,
+    parent,
+    place_r,
+    place_t,
+    frame_parent,
+    frame_r,
+    support,
+    kinv,
+    n1,
+    x,
+    t_proj,
+    env_inv,
+    unloaded_tol,
+    cert2,
+    beta,
+    do_con,
+    do_proj,
+    do_kb,
+    ce_con,
+    ce_proj,
+    ci_con,
+    ci_proj,
+    k,
+    kb,
+    flags,
+):  # pragma: no cover - compiled
+    """C_e, C_i and k of every row of q (N×n) into the output arrays; per-row flags (see the module docstring).
+
+    Args:
+        q: configurations (N×n), chain order.
+        speed: per joint (J,), |ω| per unit q (0 for a prismatic joint).
+        along: per joint (J,), the speed along its axis per unit q (ChainKinematics' motion).
+        col: per joint (J,), its column in q.
+        parent: per joint (J,), its parent joint (0: the base; joint j is 1 + its index).
+        place_r: per joint (J, 3, 3), the rotation of its placement in the parent's z-aligned frame.
+        place_t: per joint (J, 3), the translation of that placement, m.
+        frame_parent: the joint that carries {e} and {b} (2,).
+        frame_r: the offsets of {e} and {b} in that joint's z-aligned frame (2, 3), m.
+        support: (2, n) 1 where a column moves the frame, else 0.
+        kinv: 1/K (n,).
+        n1: joints of chain 1.
+        x: X (6×c), the constraint wrenches.
+        t_proj: I − P (6×6).
+        env_inv: 1/k_env, or 0 for a rigid environment.
+        unloaded_tol: UNLOADED_TOL.
+        cert2: CERTIFIED_COND².
+        beta: unit β_x, (1, 6) for every row or (N, 6).
+        do_con: compute the constrained model.
+        do_proj: compute the projection model.
+        do_kb: compute k of J̃ too.
+        ce_con: (N, 6, 6) output, C_e of the constrained model (or (0, 6, 6) when not computed).
+        ce_proj: (N, 6, 6) output, C_e of the projection model (or (0, 6, 6)).
+        ci_con: (N,) output, C_i of the constrained model (or empty).
+        ci_proj: (N,) output, C_i of the projection model (or empty).
+        k: (N,) output, k of J_e (NaN where flagged K_UNCERTIFIED).
+        kb: (N,) output, k of J̃ (or empty; NaN where flagged KB_UNCERTIFIED).
+        flags: (N,) int64 output, the row flags.
+    """
+    N = q.shape[0]
+    block = max(1, (N + BLOCKS - 1) // BLOCKS)
+    for bl in prange((N + block - 1) // block):
+        start = bl * block
+        _rows(
+            start,
+            min(N, start + block),
+            q,
+            speed,
+            along,
+            col,
+            parent,
+            place_r,
+            place_t,
+            frame_parent,
+            frame_r,
+            support,
+            kinv,
+            n1,
+            x,
+            t_proj,
+            env_inv,
+            unloaded_tol,
+            cert2,
+            beta,
+            do_con,
+            do_proj,
+            do_kb,
+            ce_con,
+            ce_proj,
+            ci_con,
+            ci_proj,
+            k,
+            kb,
+            flags,
+        )
+
+
+@_jit
+def evaluate_serial(
+    q,
+    speed,
+    along,
+    col,
+    parent,
+    place_r,
+    place_t,
+    frame_parent,
+    frame_r,
+    support,
+    kinv,
+    n1,
+    x,
+    t_proj,
+    env_inv,
+    unloaded_tol,
+    cert2,
+    beta,
+    do_con,
+    do_proj,
+    do_kb,
+    ce_con,
+    ce_proj,
+    ci_con,
+    ci_proj,
+    k,
+    kb,
+    flags,
+):  # pragma: no cover - compiled
+    """:func:`evaluate` on the calling thread only (no threading layer: safe after a fork, no pool start-up)."""
+    _rows(
+        0,
+        q.shape[0],
+        q,
+        speed,
+        along,
+        col,
+        parent,
+        place_r,
+        place_t,
+        frame_parent,
+        frame_r,
+        support,
+        kinv,
+        n1,
+        x,
+        t_proj,
+        env_inv,
+        unloaded_tol,
+        cert2,
+        beta,
+        do_con,
+        do_proj,
+        do_kb,
+        ce_con,
+        ce_proj,
+        ci_con,
+        ci_proj,
+        k,
+        kb,
+        flags,
+    )
