@@ -48,6 +48,8 @@ from bracekit.objective import Objective, RegionBarrier
 from bracekit.resolution import GradientProjectionStep
 from bracekit.simulation import Scenario, load_scenario
 
+#: The parts of :func:`run_benchmarks`.
+PARTS = ("core", "sweep", "figures")
 #: The speed targets (README, Speed).
 TARGET_STEP_US = 100.0
 TARGET_STEP_RATIO = 20.0
@@ -403,7 +405,7 @@ def _split_step(sc: Scenario, q: np.ndarray, xdot: np.ndarray, calls: int, round
     return out
 
 
-def run_benchmarks(quick: bool = False) -> dict[str, Any]:
+def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS) -> dict[str, Any]:
     """Measure the hot paths on the paper's robot; a JSON-serialisable dict with a "table" string.
 
     Keys (SI, medians): ``gp_step_analytic_us`` (the faster backend, named by ``gp_step_analytic_backend``),
@@ -422,7 +424,22 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
     ``scenario_wall_s`` and more.
     ``quick`` takes fewer rounds and a smaller batch (a few seconds plus one scenario run, and one short
     process for numba's cache load when numba is installed).
+    ``parts``: "core" (all of the above), "sweep" (``sweep_candidates_per_s_1`` and ``_2``: benchmarks/bench_sweep.py,
+    1 then 2 local Dask workers on the same candidates; needs bracekit[sweep]) and "figures"
+    (``figures_overhead_ratio`` = ``bracekit run paper`` with figures / with ``--no-figures``, interleaved
+    processes: benchmarks/bench_figures.py).
     """
+    for part in parts:
+        if part not in PARTS:
+            raise InputError(f"unknown benchmark part '{part}'; choose from {', '.join(PARTS)}")
+    extra: dict[str, Any] = {}
+    if "figures" in parts:  # first: whole processes, before this one loads the machine's caches with the rest
+        extra.update(_sibling("bench_figures").figures_benchmarks(quick))
+    if "sweep" in parts:
+        extra.update(_sweep(quick))
+    if "core" not in parts:
+        extra["table"] = _extra_table(extra)
+        return extra
     rounds = 3 if quick else 15
     wall0 = time.perf_counter()
     sc = load_scenario("paper")
@@ -560,8 +577,63 @@ def run_benchmarks(quick: bool = False) -> dict[str, Any]:
         res["targets_met"][f"batch (numba) ≥ {TARGET_BATCH_NUMBA_PER_S:.0e} configs/s"] = (
             res["batch_numba_configs_per_s"] >= TARGET_BATCH_NUMBA_PER_S
         )
-    res["table"] = _table(res)
+    res.update(extra)
+    if "figures_overhead_ratio" in extra:
+        res["targets_met"]["figures overhead ≤ 2× the run without figures"] = extra["figures_overhead_ratio"] <= 2.0
+    res["table"] = _table(res) + ("\n" + _extra_table(extra) if extra else "")
     return res
+
+
+def _sibling(name: str) -> Any:
+    """benchmarks/NAME.py, loaded by path (this file is itself loaded by path by `bracekit bench`)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"bracekit_benchmarks_{name}", Path(__file__).with_name(f"{name}.py"))
+    if spec is None or spec.loader is None:  # pragma: no cover
+        raise InputError(f"benchmarks/{name}.py is missing from this clone")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _sweep(quick: bool) -> dict[str, Any]:
+    """The sweep benchmark, or the reason it was skipped (dask or pyarrow missing)."""
+    import importlib.util
+
+    missing = [m for m in ("distributed", "pyarrow") if importlib.util.find_spec(m) is None]
+    if missing:
+        return {"sweep_skipped": f"{', '.join(missing)} not installed: pip install 'bracekit[sweep]'"}
+    return dict(_sibling("bench_sweep").sweep_benchmarks(quick))
+
+
+def _extra_table(r: dict[str, Any]) -> str:
+    """Rows of the sweep and figures benchmarks."""
+    rows: list[tuple[str, str, str]] = []
+    if "sweep_candidates_per_s_1" in r:
+        one, two = r["sweep_candidates_per_s_1"], r["sweep_candidates_per_s_2"]
+        rows += [
+            (
+                "bracekit sweep, 1 local Dask worker",
+                f"{one:.2f} candidates/s",
+                f"{r['sweep_candidates']:.0f} whole-task candidates (paper-links), no screening",
+            ),
+            ("Same, 2 local Dask workers", f"{two:.2f} candidates/s", f"{two / one:.2f}× one worker"),
+        ]
+    elif "sweep_skipped" in r:
+        rows.append(("bracekit sweep", "skipped", r["sweep_skipped"]))
+    if "figures_overhead_ratio" in r:
+        rows += [
+            ("bracekit run paper, with figures and animation", f"{r['run_figures_s']:.2f} s", "new process"),
+            ("Same, --no-figures", f"{r['run_no_figures_s']:.2f} s", "interleaved with the above"),
+            (
+                "figures_overhead_ratio",
+                f"{r['figures_overhead_ratio']:.2f}",
+                f"target ≤ 2; CPU {r['run_figures_cpu_s']:.1f} s / {r['run_no_figures_cpu_s']:.1f} s",
+            ),
+        ]
+    w0 = max((len(a) for a, _, _ in rows), default=0)
+    w1 = max((len(b) for _, b, _ in rows), default=0)
+    return "\n".join(f"{a:<{w0}}  {b:>{w1}}  {c}" for a, b, c in rows)
 
 
 def _table(r: dict[str, Any]) -> str:

@@ -26,7 +26,7 @@ KEYS = (
 
 @pytest.fixture(scope="module")
 def results() -> dict:
-    return run_benchmarks(quick=True)
+    return run_benchmarks(quick=True, parts=("core",))  # sweep and figures: whole processes, run by bench
 
 
 def test_run_benchmarks_returns_positive_finite_numbers_and_a_table(results: dict) -> None:
@@ -84,3 +84,28 @@ def test_table_without_numba(results: dict) -> None:
     numba_rows = [line for line in table.splitlines() if line.startswith("|") and "numba backend" in line]
     assert len(numba_rows) == 1 and "skipped" in numba_rows[0] and "bracekit[fast]" in numba_rows[0]
     assert "NumPy backend" in table and "cache load" not in table
+
+
+def test_sweep_and_figures_rows_read_their_keys() -> None:
+    from bench import _extra_table
+
+    table = _extra_table(
+        {
+            "sweep_candidates_per_s_1": 0.8,
+            "sweep_candidates_per_s_2": 1.5,
+            "sweep_candidates": 8.0,
+            "run_figures_s": 3.0,
+            "run_no_figures_s": 2.0,
+            "figures_overhead_ratio": 1.5,
+            "run_figures_cpu_s": 3.5,
+            "run_no_figures_cpu_s": 2.1,
+        }
+    )
+    assert "1.88× one worker" in table and "figures_overhead_ratio" in table and "1.50" in table
+
+
+def test_an_unknown_part_is_refused() -> None:
+    from bracekit.errors import InputError
+
+    with pytest.raises(InputError, match="unknown benchmark part"):
+        run_benchmarks(quick=True, parts=("everything",))

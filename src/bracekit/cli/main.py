@@ -175,6 +175,13 @@ def build_parser() -> argparse.ArgumentParser:
     be = sub.add_parser("bench", help="measure the speed of the hot paths")
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--quick", action="store_true", help="fewer repetitions")
+    be.add_argument(
+        "--only",
+        action="append",
+        choices=("core", "sweep", "figures"),
+        help="run only this part (repeat for several; default all: core hot paths, sweep throughput on 1 and 2 "
+        "Dask workers, the figures' overhead)",
+    )
     sweep_cli.add_parser(sub)
     view_cli.add_parser(sub)
     return p
@@ -738,7 +745,8 @@ def _validate_braces(args: argparse.Namespace, scenario: Any) -> int:
 
 # --- bench ---------------------------------------------------------------------------------------
 def _bench(args: argparse.Namespace) -> int:
-    results = _bench_module().run_benchmarks(quick=args.quick)
+    module = _bench_module()
+    results = module.run_benchmarks(quick=args.quick, parts=tuple(args.only) if args.only else module.PARTS)
     print(json.dumps(results, indent=2) if args.json else results.get("table", ""))
     return 0
 
