@@ -340,3 +340,16 @@ def test_a_singular_jacobian_is_reported_not_inverted() -> None:
     st = braced.state(q_singular)
     with pytest.raises(SingularityError):
         FreeSpaceMinNorm().velocity(st, np.ones(6))
+
+
+@pytest.mark.parametrize("component", range(6))
+def test_a_tip_twist_too_large_to_invert_is_refused_not_overflowed(component: int) -> None:
+    from bracekit.errors import InputError
+    from bracekit.resolution.strategies import MAX_TIP_TWIST, tip_twist
+
+    xdot = np.zeros(6)
+    xdot[component] = 5e307  # J⁺ẋ overflows with this (found by hypothesis)
+    with pytest.raises(InputError, match="at most 1e"):
+        tip_twist(xdot)
+    xdot[component] = -MAX_TIP_TWIST  # the bound itself is accepted
+    assert np.array_equal(tip_twist(xdot), xdot)

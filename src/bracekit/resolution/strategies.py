@@ -118,9 +118,20 @@ def with_beta_x(strategy: Strategy, beta_x: ArrayLike) -> Strategy:
     return strategy if new is objective else replace(strategy, objective=new)  # type: ignore[type-var]
 
 
+#: Largest tip twist component accepted (m/s, rad/s): far beyond any robot, small enough that J⁺ẋ cannot overflow.
+MAX_TIP_TWIST = 1e12
+
+
 def tip_twist(xdot: ArrayLike) -> Array:
-    """ẋ as a finite (6,) float array [v; ω] (m/s, rad/s); InputError otherwise."""
-    return as_array(xdot, "the tip twist ẋ [v; ω]", (6,))
+    """ẋ as a finite (6,) float array [v; ω] (m/s, rad/s), each |component| ≤ MAX_TIP_TWIST; InputError otherwise."""
+    x = as_array(xdot, "the tip twist ẋ [v; ω]", (6,))
+    big = float(np.max(np.abs(x)))
+    if big > MAX_TIP_TWIST:
+        raise InputError(
+            f"the tip twist ẋ [v; ω] has a component of magnitude {big:.3g}: give at most {MAX_TIP_TWIST:.0e} "
+            "(m/s, rad/s)"
+        )
+    return x
 
 
 def finite_rates(qdot: Array) -> Array:
