@@ -66,6 +66,7 @@ DAMAGE: dict[str, Callable[[Path], None]] = {
     "t and q of different lengths": _npz(lambda a: _put(a, f"{RUN}/t", a[f"{RUN}/t"][:-1])),
     "t not increasing": _npz(lambda a: _put(a, f"{RUN}/t", a[f"{RUN}/t"][::-1].copy())),
     "t as text": _npz(lambda a: _put(a, f"{RUN}/t", np.array(["x"] * len(a[f"{RUN}/t"])))),
+    "a run without samples": _npz(lambda a: a.update({k: v[:0] for k, v in a.items() if k.startswith(f"{RUN}/")})),
     "q not finite": _npz(lambda a: _put(a, f"{RUN}/q", np.full_like(a[f"{RUN}/q"], np.nan))),
     "a measure of the wrong length": _npz(lambda a: _put(a, f"{RUN}/contact_force_N", np.zeros(3))),
     "no task": _scene(lambda d: d.pop("task")),

@@ -316,7 +316,7 @@ def _summary(summaries: dict[str, Any], model: str, strategy: str, where: str) -
 
 
 def _runs(folder: Path, checks: dict[str, Any], summaries: dict[str, Any], n: int) -> dict[str, dict[str, Run]]:
-    """The runs of trajectories.npz: t (N,) finite and increasing, q (N×n) finite, each measure (N,)."""
+    """The runs of trajectories.npz: t (N,) finite and increasing (N ≥ 1), q (N×n) finite, each measure (N,)."""
     path = folder / "trajectories.npz"
     grouped: dict[tuple[str, str], dict[str, NDArray[Any]]] = {}
     for key, values in _arrays(path).items():
@@ -332,7 +332,9 @@ def _runs(folder: Path, checks: dict[str, Any], summaries: dict[str, Any], n: in
             raise InputError(f"{path} has no t or q for {model}/{strategy}; {RERUN}")
         t = _numbers(items.pop("t"), f"{name}/t", (None,))
         q = _numbers(items.pop("q"), f"{name}/q", (t.size, n))
-        if t.size > 1 and not np.all(np.diff(t) > 0.0):
+        if t.size == 0:
+            raise InputError(f"{name} has no samples (a run has at least its start); {RERUN}")
+        if not np.all(np.diff(t) > 0.0):
             raise InputError(f"{name}/t is not increasing; {RERUN}")
         measures = {k: _numbers(v, f"{name}/{k}", (t.size,), finite=False) for k, v in items.items()}
         check = _object(checks.get(f"{model}/{strategy}", {}), f"{folder / SCENE_FILE}: runs[{model}/{strategy}]")
