@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 import socket
 import sys
@@ -137,3 +138,17 @@ def test_the_controls_move_the_scene_to_the_chosen_sample_and_run(preloaded_run)
         np.testing.assert_allclose(n["ellipsoid"].position, free.tip[k], atol=1e-12)
     finally:
         viewer.stop()
+
+
+def test_the_documented_address_is_the_one_the_command_prints(short_run) -> None:
+    from bracekit.cli.view import DEFAULT_HOST, DEFAULT_PORT
+    from bracekit.viewer.scene import load_scene
+    from bracekit.viewer.server import Viewer
+
+    _, out = short_run
+    printed = Viewer(load_scene(out), None, DEFAULT_HOST, DEFAULT_PORT, (np.zeros(3), np.zeros(3))).url
+    root = Path(__file__).resolve().parents[2]
+    for doc in ("README.md", "docs/tutorial.md", "docs/viewer.md"):
+        text = (root / doc).read_text(encoding="utf-8")
+        found = re.findall(rf"http://[\w.:\[\]]+:{DEFAULT_PORT}\b", text)
+        assert found and set(found) == {printed}, (doc, found, printed)

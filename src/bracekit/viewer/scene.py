@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -221,6 +223,34 @@ def _scene_json(folder: Path) -> dict[str, Any]:
     return data
 
 
+def _object(value: Any, where: str) -> dict[str, Any]:
+    """`value` when it is a JSON object, else InputError naming `where`."""
+    if not isinstance(value, dict):
+        raise InputError(f"{where} is not a JSON object (got {type(value).__name__}); {RERUN}")
+    return value
+
+
+def _text(value: Any, where: str) -> str:
+    if not isinstance(value, str):
+        raise InputError(f"{where} is not a string (got {type(value).__name__}); {RERUN}")
+    return value
+
+
+def _numbers(value: Any, where: str, shape: tuple[int | None, ...], finite: bool = True) -> Array:
+    """`value` as a float array of `shape` (None: any length), finite unless told; InputError otherwise."""
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{where} is not an array of numbers; {RERUN}") from None
+    fits = array.ndim == len(shape) and all(s is None or s == d for s, d in zip(shape, array.shape, strict=False))
+    if not fits:
+        want = "×".join("N" if s is None else str(s) for s in shape) or "a single number"
+        raise InputError(f"{where} has shape {array.shape}, expected {want}; {RERUN}")
+    if finite and not np.all(np.isfinite(array)):
+        raise InputError(f"{where} holds numbers that are not finite; {RERUN}")
+    return array
+
+
 def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
     model = pin.Model()
     try:
@@ -228,8 +258,8 @@ def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
         capsules = tuple(
             Capsule(
                 int(c["joint"]),
-                np.array(c["a"], dtype=float),
-                np.array(c["b"], dtype=float),
+                _numbers(c["a"], "a capsule end", (3,)),
+                _numbers(c["b"], "a capsule end", (3,)),
                 float(c["radius"]),
                 str(c["link"]),
             )
@@ -241,12 +271,16 @@ def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
     return robot, capsules
 
 
-def _braced(robot: Robot, braces: list[dict[str, Any]]) -> BracedRobot:
+def _braced(robot: Robot, braces: list[Any]) -> BracedRobot:
     try:
         built = [
             Brace(
                 frame=b["frame"],
-                surface=Surface(np.array(b["point"]), np.array(b["normal"]), np.array(b["tangent"])),
+                surface=Surface(
+                    _numbers(b["point"], "a brace point", (3,)),
+                    _numbers(b["normal"], "a brace normal", (3,)),
+                    _numbers(b["tangent"], "a brace tangent", (3,)),
+                ),
                 contact=contact_type(b["contact"]),
                 region_radius=b["region_radius"],
                 environment_stiffness=b["environment_stiffness"],
@@ -256,35 +290,59 @@ def _braced(robot: Robot, braces: list[dict[str, Any]]) -> BracedRobot:
             for b in braces
         ]
         return BracedRobot(robot, built[0] if len(built) == 1 else built)
-    except (KeyError, TypeError, IndexError, BracekitError) as exc:
+    except (KeyError, TypeError, IndexError, ValueError, BracekitError) as exc:
         raise InputError(f"the braces of scene.json cannot be rebuilt ({exc}); {RERUN}") from exc
 
 
-def _runs(folder: Path, checks: dict[str, Any], summaries: Any) -> dict[str, dict[str, Run]]:
-    path = folder / "trajectories.npz"
+def _arrays(path: Path) -> dict[str, NDArray[Any]]:
+    """Every array of trajectories.npz but joint_names; InputError when the file is damaged."""
     try:
         with np.load(path, allow_pickle=False) as npz:
-            arrays = {k: np.asarray(npz[k]) for k in npz.files if k != "joint_names"}
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read {path}: {exc}") from exc
-    grouped: dict[tuple[str, str], dict[str, Array]] = {}
-    for key, values in arrays.items():
+            return {k: np.asarray(npz[k]) for k in npz.files if k != "joint_names"}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error, AttributeError) as exc:
+        why = str(exc) or type(exc).__name__
+        raise InputError(f"cannot read {path} ({why}); {RERUN}") from None
+
+
+def _summary(summaries: dict[str, Any], model: str, strategy: str, where: str) -> dict[str, Any]:
+    """The strategy's entry of summary_all_models.json ({} when absent)."""
+    if model not in summaries:
+        return {}
+    by_model = _object(summaries[model], f"{where}[{model!r}]")
+    strategies = _object(by_model.get("strategies", {}), f"{where}[{model!r}]['strategies']")
+    if strategy not in strategies:
+        return {}
+    return _object(strategies[strategy], f"{where}[{model!r}]['strategies'][{strategy!r}]")
+
+
+def _runs(folder: Path, checks: dict[str, Any], summaries: dict[str, Any], n: int) -> dict[str, dict[str, Run]]:
+    """The runs of trajectories.npz: t (N,) finite and increasing (N ≥ 1), q (N×n) finite, each measure (N,)."""
+    path = folder / "trajectories.npz"
+    grouped: dict[tuple[str, str], dict[str, NDArray[Any]]] = {}
+    for key, values in _arrays(path).items():
         parts = key.split("/")
         if len(parts) != 3:
             continue
         grouped.setdefault((parts[0], parts[1]), {})[parts[2]] = values
+    where = str(folder / "summary_all_models.json")
     runs: dict[str, dict[str, Run]] = {}
     for (model, strategy), items in grouped.items():
+        name = f"{path}: {model}/{strategy}"
         if "t" not in items or "q" not in items:
             raise InputError(f"{path} has no t or q for {model}/{strategy}; {RERUN}")
-        check = checks.get(f"{model}/{strategy}", {})
-        summary = {}
-        if isinstance(summaries, dict):
-            summary = summaries.get(model, {}).get("strategies", {}).get(strategy, {})
-        t, q = items.pop("t").astype(float), items.pop("q").astype(float)
-        runs.setdefault(model, {})[strategy] = Run(
-            model, strategy, t, q, items, bool(check.get("braced", strategy != "free_space_min_norm")), summary
-        )
+        t = _numbers(items.pop("t"), f"{name}/t", (None,))
+        q = _numbers(items.pop("q"), f"{name}/q", (t.size, n))
+        if t.size == 0:
+            raise InputError(f"{name} has no samples (a run has at least its start); {RERUN}")
+        if not np.all(np.diff(t) > 0.0):
+            raise InputError(f"{name}/t is not increasing; {RERUN}")
+        measures = {k: _numbers(v, f"{name}/{k}", (t.size,), finite=False) for k, v in items.items()}
+        check = _object(checks.get(f"{model}/{strategy}", {}), f"{folder / SCENE_FILE}: runs[{model}/{strategy}]")
+        braced = check.get("braced", strategy != "free_space_min_norm")
+        if not isinstance(braced, bool):
+            raise InputError(f"{folder / SCENE_FILE}: runs[{model}/{strategy}].braced is not true or false; {RERUN}")
+        summary = _summary(summaries, model, strategy, where)
+        runs.setdefault(model, {})[strategy] = Run(model, strategy, t, q, measures, braced, summary)
     if not runs:
         raise InputError(f"{path} holds no runs; {RERUN}")
     return runs
@@ -297,10 +355,11 @@ def _check_tips(robot: Robot, runs: dict[str, dict[str, Run]], checks: dict[str,
             stored = checks.get(f"{model}/{name}", {}).get("tip_first_last")
             if run.q.shape[0] == 0:
                 continue
-            if stored is None or run.q.shape[1] != robot.n:
+            if stored is None:
                 raise InputError(f"{folder}: scene.json and trajectories.npz do not belong together; {RERUN}")
-            for q, want in zip((run.q[0], run.q[-1]), stored, strict=True):
-                gap = float(np.linalg.norm(_tip(robot, q) - np.asarray(want, dtype=float)))
+            ends = _numbers(stored, f"{folder / SCENE_FILE}: runs[{model}/{name}].tip_first_last", (2, 3))
+            for q, want in zip((run.q[0], run.q[-1]), ends, strict=True):
+                gap = float(np.linalg.norm(_tip(robot, q) - want))
                 if not gap <= TIP_TOLERANCE:
                     raise InputError(
                         f"{folder}: the rebuilt robot puts the tip {gap:.3g} m from where run {model}/{name} had it; "
@@ -308,49 +367,62 @@ def _check_tips(robot: Robot, runs: dict[str, dict[str, Run]], checks: dict[str,
                     )
 
 
+def _holding(data: dict[str, Any], count: int, where: str) -> tuple[bool, tuple[float, ...]]:
+    """(gravity, preloads P_i in N) of scene.json's `holding` (off and 0 N when it is absent)."""
+    holding = _object(data.get("holding", {}), f"{where}: holding")
+    gravity = holding.get("gravity", False)
+    if not isinstance(gravity, bool):
+        raise InputError(f"{where}: holding.gravity is not true or false; {RERUN}")
+    preloads = _numbers(holding.get("preloads", [0.0] * count), f"{where}: holding.preloads", (count,))
+    return gravity, tuple(float(p) for p in preloads)
+
+
 def load_scene(out_dir: str | os.PathLike[str]) -> Scene:
     """The scene of a `bracekit run` output folder (scene.json, trajectories.npz, summary.json).
 
     Raises:
         InputError: the folder is not a run output, has no scene.json (written by older bracekit versions), or
-            its files cannot be read or do not agree (one line, ending with what to do).
+            its files cannot be read, are malformed or do not agree (one line, ending with what to do).
     """
     folder = Path(os.fspath(out_dir))
     data = _scene_json(folder)
-    robot, capsules = _robot(data.get("robot", {}))
+    where = str(folder / SCENE_FILE)
+    robot, capsules = _robot(_object(data.get("robot", {}), f"{where}: robot"))
     braces = data.get("braces")
     if not isinstance(braces, list) or not braces:
-        raise InputError(f"{folder / SCENE_FILE} names no brace; {RERUN}")
+        raise InputError(f"{where} names no brace; {RERUN}")
     braced = _braced(robot, braces)
-    summaries: Any = {}
+    task = _object(data.get("task"), f"{where}: task")
+    if "path" not in task:
+        raise InputError(f"{where}: task has no path; {RERUN}")
+    path = _numbers(task["path"], f"{where}: task.path", (None, 3))
+    if path.shape[0] == 0:
+        raise InputError(f"{where}: task.path is empty; {RERUN}")
+    gravity, preloads = _holding(data, len(braces), where)
+    summaries: dict[str, Any] = {}
     if (folder / "summary_all_models.json").is_file():
-        summaries = _read_json(folder / "summary_all_models.json", "the summaries")
-    checks = data.get("runs", {})
-    runs = _runs(folder, checks, summaries)
+        found = _read_json(folder / "summary_all_models.json", "the summaries")
+        summaries = _object(found, str(folder / "summary_all_models.json"))
+    checks = _object(data.get("runs", {}), f"{where}: runs")
+    runs = _runs(folder, checks, summaries, braced.robot.n)
     _check_tips(braced.robot, runs, checks, folder)
-    model = str(data.get("compliance_model", ""))
+    model = _text(data.get("compliance_model", ""), f"{where}: compliance_model")
     if (folder / "summary.json").is_file():
-        model = str(_read_json(folder / "summary.json", "the summary").get("compliance_model", model))
-    holding = data.get("holding", {})
+        summary = _object(_read_json(folder / "summary.json", "the summary"), str(folder / "summary.json"))
+        model = _text(summary.get("compliance_model", model), f"{folder / 'summary.json'}: compliance_model")
     views = tuple(
-        BraceView(
-            b["frame"],
-            np.array(b["point"], dtype=float),
-            np.array(b["normal"], dtype=float),
-            b["region_radius"],
-            b["surface_radius"],
-        )
-        for b in braces
+        BraceView(b.frame, np.array(b.surface.point), np.array(b.surface.normal), b.region_radius, b.surface_radius)
+        for b in braced.braces
     )
     return Scene(
-        name=str(data.get("scenario", folder.name)),
-        description=str(data.get("description", "")),
+        name=_text(data.get("scenario", folder.name), f"{where}: scenario"),
+        description=_text(data.get("description", ""), f"{where}: description"),
         braced=braced,
         capsules=capsules,
         braces=views,
-        path=np.array(data["task"]["path"], dtype=float),
+        path=path,
         compliance_model=model,
         runs=runs,
-        gravity=bool(holding.get("gravity", False)),
-        preloads=tuple(float(p) for p in holding.get("preloads", [0.0] * len(braces))),
+        gravity=gravity,
+        preloads=preloads,
     )

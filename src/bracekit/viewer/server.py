@@ -303,7 +303,8 @@ def serve(out_dir: str | os.PathLike[str], port: int = 8080, host: str = "127.0.
 
     Raises:
         MissingDependencyError: viser is not installed.
-        InputError: the folder is not a run output with scene.json, or the port is taken.
+        InputError: the host is not an address of this machine, the port is taken, or the folder is not a run
+            output with a readable scene.json.
     """
     try:
         import viser
@@ -314,7 +315,7 @@ def serve(out_dir: str | os.PathLike[str], port: int = 8080, host: str = "127.0.
     if not isinstance(port, int) or isinstance(port, bool) or not 0 <= port <= 65535:
         raise InputError(f"the port must be a number from 0 to 65535, got {port!r}")
     scene = load_scene(out_dir)
-    if port != 0 and not port_free(host, port):
+    if not port_free(host, port):  # also for port 0: the host must be an address of this machine
         raise InputError(f"port {port} on {host} is in use; choose another with --port")
     model, strategy = scene.models[0], _first_strategy(scene)
     viewer = Viewer(scene, None, host, port, (np.zeros(3), np.zeros(3)))
