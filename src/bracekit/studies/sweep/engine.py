@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -17,10 +18,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bracekit._linalg import show
 from bracekit.errors import InputError
 from bracekit.studies.sweep.candidates import Candidate, expand
 from bracekit.studies.sweep.context import TaskContext, task_context
-from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns
+from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns, judge
 from bracekit.studies.sweep.screen import Screened, screen_context, select
 from bracekit.studies.sweep.spec import SweepSpec
 from bracekit.studies.sweep.store import RowStore
@@ -29,6 +31,8 @@ from bracekit.studies.sweep.store import RowStore
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: Seconds to wait for a scheduler to answer.
 CONNECT_TIMEOUT = 10.0
+#: Seconds allowed beyond CONNECT_TIMEOUT for the whole connection (handshake, identity) before giving up.
+GRACE = 2.0
 
 
 @dataclass
@@ -43,6 +47,43 @@ class SweepRun:
     screened_out: int = 0
     timings: dict[str, float] = field(default_factory=dict)
     workers: int = 0
+
+
+def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT) -> Any:
+    """A ``distributed.Client`` of the scheduler at `scheduler`, connected within about `timeout` seconds.
+
+    The connection runs in a daemon thread bounded as a whole: something that is not a Dask scheduler (an HTTP
+    server such as the dashboard) may never answer in Dask's protocol, or answer with garbage.
+
+    Raises:
+        InputError: no Dask scheduler answered at the address in time, or connecting failed in any way.
+    """
+    from distributed import Client
+
+    box: dict[str, Any] = {}
+
+    def attempt() -> None:
+        try:
+            box["client"] = Client(scheduler, timeout=timeout)
+        except BaseException as exc:  # noqa: BLE001 - reported below as one line
+            box["error"] = exc
+
+    thread = threading.Thread(target=attempt, name="bracekit-dask-connect", daemon=True)
+    thread.start()
+    thread.join(timeout + GRACE)
+    hint = "give the address of a running Dask scheduler, e.g. tcp://HOST:8786 (the scheduler port, not the dashboard's)"
+    if thread.is_alive():
+        raise InputError(
+            f"cannot connect to the Dask scheduler at {show(scheduler, 200)}: no answer in Dask's protocol within "
+            f"{timeout + GRACE:g} s; {hint}"
+        )
+    if "error" in box:
+        exc = box["error"]
+        if isinstance(exc, KeyboardInterrupt):
+            raise exc
+        text = show(" ".join(f"{type(exc).__name__}: {exc}".split()), 200)
+        raise InputError(f"cannot connect to the Dask scheduler at {show(scheduler, 200)} ({text}); {hint}")
+    return box["client"]
 
 
 @contextmanager
@@ -61,10 +102,7 @@ def dask_client(
     if (workers is None) == (scheduler is None):
         raise InputError("give a number of local workers or a scheduler address, not both")
     if scheduler is not None:
-        try:
-            client = Client(scheduler, timeout=connect_timeout)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError(f"cannot connect to the Dask scheduler at {scheduler}: {exc}") from None
+        client = connect(scheduler, connect_timeout)
         try:
             yield client
         finally:
@@ -184,8 +222,8 @@ def run_sweep(
         order = ["candidate", "index", *input_columns(spec), *RESULT_COLUMNS]
         screened_out = 0
         for c in chosen:
-            if c.id in done:
-                row = dict(done[c.id])
+            if c.id in done:  # judged by this spec's feasibility bounds, whatever the run that saved it
+                row = judge(spec, done[c.id])
             else:
                 row = empty_row(spec, c)
                 row["Ci_mean_free_space"] = contexts[c.context_key].free.get("Ci_mean")
