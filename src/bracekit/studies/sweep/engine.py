@@ -49,7 +49,7 @@ class SweepRun:
     workers: int = 0
 
 
-def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT) -> Any:
+def connect(scheduler: str, timeout: float) -> Any:
     """A ``distributed.Client`` of the scheduler at `scheduler`, connected within about `timeout` seconds.
 
     The connection runs in a daemon thread bounded as a whole: something that is not a Dask scheduler (an HTTP
@@ -65,13 +65,13 @@ def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT) -> Any:
     def attempt() -> None:
         try:
             box["client"] = Client(scheduler, timeout=timeout)
-        except BaseException as exc:  # noqa: BLE001 - reported below as one line
+        except Exception as exc:  # any failure (even a MemoryError on garbage) is reported below in one line
             box["error"] = exc
 
     thread = threading.Thread(target=attempt, name="bracekit-dask-connect", daemon=True)
     thread.start()
     thread.join(timeout + GRACE)
-    hint = "give the address of a running Dask scheduler, e.g. tcp://HOST:8786 (the scheduler port, not the dashboard's)"
+    hint = "give a running Dask scheduler's address, e.g. tcp://HOST:8786 (the scheduler port, not the dashboard's)"
     if thread.is_alive():
         raise InputError(
             f"cannot connect to the Dask scheduler at {show(scheduler, 200)}: no answer in Dask's protocol within "
@@ -79,20 +79,18 @@ def connect(scheduler: str, timeout: float = CONNECT_TIMEOUT) -> Any:
         )
     if "error" in box:
         exc = box["error"]
-        if isinstance(exc, KeyboardInterrupt):
-            raise exc
-        text = show(" ".join(f"{type(exc).__name__}: {exc}".split()), 200)
+        text = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
         raise InputError(f"cannot connect to the Dask scheduler at {show(scheduler, 200)} ({text}); {hint}")
     return box["client"]
 
 
 @contextmanager
 def dask_client(
-    workers: int | None = None, scheduler: str | None = None, *, connect_timeout: float = CONNECT_TIMEOUT
+    workers: int | None = None, scheduler: str | None = None, *, connect_timeout: float | None = None
 ) -> Iterator[Any]:
     """A Dask client: of a new LocalCluster (`workers` processes, one thread each) or of the scheduler at an address.
 
-    `connect_timeout` (s) bounds the wait for a scheduler to answer.
+    `connect_timeout` (s, default CONNECT_TIMEOUT) bounds the wait for a scheduler to answer.
 
     Raises:
         InputError: both or neither given, a bad worker count, or no scheduler answers at the address.
@@ -102,7 +100,7 @@ def dask_client(
     if (workers is None) == (scheduler is None):
         raise InputError("give a number of local workers or a scheduler address, not both")
     if scheduler is not None:
-        client = connect(scheduler, connect_timeout)
+        client = connect(scheduler, CONNECT_TIMEOUT if connect_timeout is None else connect_timeout)
         try:
             yield client
         finally:

@@ -132,7 +132,7 @@ def feasibility(spec: SweepSpec, row: dict[str, Any]) -> str | None:
     """
     f = spec.feasibility
     k = row.get("k_mean_gp")
-    if not finite(k):
+    if k is None or not finite(k):
         return "k_mean of gradient projection is not finite"
     if k > f.k_max:
         return f"k_mean {k:.3g} > k_max {f.k_max:g}"
