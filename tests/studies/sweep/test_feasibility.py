@@ -90,9 +90,7 @@ def test_ranking_survives_a_feasible_row_without_mean_ci() -> None:
     assert [r["candidate"] for r in ranked(rows)] == ["c", "b", "a", "d"]
 
 
-def test_refinement_ignores_an_evaluation_without_mean_ci(
-    tiny_spec: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
+def test_refinement_ignores_an_evaluation_without_mean_ci(tiny_spec: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import bracekit.studies.sweep.refine as refine
 
     spec = load_spec(tiny_spec)
