@@ -31,7 +31,7 @@ from bracekit.studies.sweep.store import RowStore
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: Seconds to wait for a scheduler to answer.
 CONNECT_TIMEOUT = 10.0
-#: Seconds allowed beyond CONNECT_TIMEOUT for the whole connection (handshake, identity) before giving up.
+#: Seconds allowed beyond CONNECT_TIMEOUT for the whole check of the address before giving up.
 GRACE = 2.0
 
 
@@ -49,39 +49,68 @@ class SweepRun:
     workers: int = 0
 
 
-def connect(scheduler: str, timeout: float) -> Any:
-    """A ``distributed.Client`` of the scheduler at `scheduler`, connected within about `timeout` seconds.
+def probe(scheduler: str, timeout: float) -> str | None:
+    """Ask the address for its identity in Dask's protocol, within `timeout` s overall; why not, or None if it is one.
 
-    The connection runs in a daemon thread bounded as a whole: something that is not a Dask scheduler (an HTTP
-    server such as the dashboard) may never answer in Dask's protocol, or answer with garbage.
+    Runs its own event loop in a daemon thread and cancels the attempt at the deadline, so something that is not
+    a Dask scheduler (an HTTP server such as the dashboard, which may answer garbage or nothing) leaves nothing
+    running behind.
+    """
+    import asyncio
+
+    from distributed.comm import connect as comm_connect
+
+    async def ask() -> Any:
+        comm = await comm_connect(scheduler, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    box: dict[str, Any] = {}
+
+    def attempt() -> None:
+        try:
+            box["answer"] = asyncio.run(asyncio.wait_for(ask(), timeout))
+        except Exception as exc:  # any failure (even a MemoryError on garbage) is one line below
+            box["error"] = exc
+
+    thread = threading.Thread(target=attempt, name="bracekit-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + GRACE)
+    if thread.is_alive():
+        return f"no answer within {timeout + GRACE:g} s"
+    if "error" in box:
+        exc = box["error"]
+        if isinstance(exc, TimeoutError):
+            return f"no answer in Dask's protocol within {timeout:g} s"
+        return " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+    answer = box.get("answer")
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        kind = answer.get("type") if isinstance(answer, dict) else None
+        return f"a {kind}, not a Dask scheduler" if isinstance(kind, str) else "not a Dask scheduler"
+    return None
+
+
+def connect(scheduler: str, timeout: float) -> Any:
+    """A ``distributed.Client`` of the Dask scheduler at `scheduler`, checked to be one within `timeout` s first.
 
     Raises:
         InputError: no Dask scheduler answered at the address in time, or connecting failed in any way.
     """
     from distributed import Client
 
-    box: dict[str, Any] = {}
-
-    def attempt() -> None:
-        try:
-            box["client"] = Client(scheduler, timeout=timeout)
-        except Exception as exc:  # any failure (even a MemoryError on garbage) is reported below in one line
-            box["error"] = exc
-
-    thread = threading.Thread(target=attempt, name="bracekit-dask-connect", daemon=True)
-    thread.start()
-    thread.join(timeout + GRACE)
     hint = "give a running Dask scheduler's address, e.g. tcp://HOST:8786 (the scheduler port, not the dashboard's)"
-    if thread.is_alive():
-        raise InputError(
-            f"cannot connect to the Dask scheduler at {show(scheduler, 200)}: no answer in Dask's protocol within "
-            f"{timeout + GRACE:g} s; {hint}"
-        )
-    if "error" in box:
-        exc = box["error"]
+    where = f"cannot connect to the Dask scheduler at {show(scheduler, 200)}"
+    why = probe(scheduler, timeout)
+    if why is not None:
+        raise InputError(f"{where} ({why}); {hint}")
+    try:
+        return Client(scheduler, timeout=timeout)
+    except Exception as exc:  # it answered the probe: a failure now is reported the same way
         text = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
-        raise InputError(f"cannot connect to the Dask scheduler at {show(scheduler, 200)} ({text}); {hint}")
-    return box["client"]
+        raise InputError(f"{where} ({text}); {hint}") from None
 
 
 @contextmanager

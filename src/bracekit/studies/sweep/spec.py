@@ -98,8 +98,8 @@ class Feasibility:
 
     Mean k of J̃ ≤ ``k_max``, link clearance ≥ ``min_clearance`` (m), joint-limit violation ≤
     ``joint_limit_tolerance`` (rad), holding margins ≥ ``min_margin`` when the base has statics (a margin is a
-    scale on the listed load: 1 = it holds under the listed wrenches), and then the run's ``holds`` not false
-    and no unstable sample.
+    scale on the listed load: 1 = it holds under the listed wrenches; above 1, a reserve), the run's ``holds``
+    not false and no unstable sample.
     """
 
     k_max: float = 50.0
