@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from bracekit.studies.sweep.engine import dask_client, run_sweep
     from bracekit.studies.sweep.report import FILES, summary, table_markdown, write_outputs
     from bracekit.studies.sweep.spec import load_spec
-    from bracekit.studies.sweep.store import RowStore
+    from bracekit.studies.sweep.store import check_state
 
     spec = load_spec(args.spec)
     out: Path = args.out
@@ -80,26 +80,28 @@ def run(args: argparse.Namespace) -> int:
             f"{out} holds files bracekit did not write: {', '.join(foreign[:5])}; choose another --out or pass "
             "--overwrite (they are kept)"
         )
+    check_state(out, spec)  # refuses another spec's partial results before any cluster starts
     workers = None if args.scheduler is not None else (args.workers or 1)
+    # OUT is checked and locked first; it is made only once the cluster answers, so a scheduler that cannot be
+    # reached leaves nothing behind
     with (
         _sigterm_as_interrupt(),
         prepare_output(out, overwrite=True, files=FILES, command=f"bracekit sweep {args.spec}") as plan,
+        dask_client(workers, args.scheduler) as client,
     ):
         try:
             plan.path.mkdir(exist_ok=True)
         except OSError as exc:
             raise InputError(f"cannot make {out}: {exc.strerror or exc}") from None
-        RowStore(plan.path, spec)  # refuses another spec's partial results before any cluster starts
-        with dask_client(workers, args.scheduler) as client:
-            result = run_sweep(
-                spec,
-                plan.path,
-                client,
-                limit=args.limit,
-                screen=False if args.no_screen else None,
-                refine=not args.no_refine,
-                progress=not args.quiet,
-            )
+        result = run_sweep(
+            spec,
+            plan.path,
+            client,
+            limit=args.limit,
+            screen=False if args.no_screen else None,
+            refine=not args.no_refine,
+            progress=not args.quiet,
+        )
         with atomic_directory(plan) as tmp:
             names = write_outputs(result, tmp, figures=figures)
     print(table_markdown(result), end="")
@@ -110,4 +112,10 @@ def run(args: argparse.Namespace) -> int:
         f"wrote {', '.join(names)} to {out}/",
         file=sys.stderr,
     )
+    if not any(r["completed"] for r in result.rows):
+        print(
+            f"warning: no candidate completed a run ({len(result.rows)} screened out or failed); the tables list "
+            "them with their reasons (try --no-screen or another --limit)",
+            file=sys.stderr,
+        )
     return 0

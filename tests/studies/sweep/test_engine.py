@@ -94,3 +94,73 @@ def test_screening_keeps_rows_for_every_candidate(
                 k: v for k, v in by_id[row["candidate"]].items() if k != "wall_s" and not k.startswith("screen_")
             }
     assert len(os.listdir(tmp_path / ".sweep" / "rows")) == run.evaluated
+
+
+def test_a_resumed_sweep_judges_saved_rows_by_the_current_bounds(
+    tiny_spec: Path, reference: Any, client2: Any, tmp_path: Path
+) -> None:
+    spec = load_spec(tiny_spec)
+    run_sweep(spec, tmp_path / "out", client2, screen=False, limit=2, refine=False)
+    k = [r["k_mean_gp"] for r in reference.rows[:2] if r["completed"]]
+    assert k, "no completed run among the first two candidates"
+    strict_text = tiny_spec.read_text() + f"[feasibility]\nk_max = {0.5 * min(k) + 0.5}\n"
+    strict_path = tiny_spec.with_name("tiny_strict.toml")
+    strict_path.write_text(strict_text, encoding="utf-8")
+    strict = load_spec(strict_path)
+    assert strict.fingerprint() == spec.fingerprint()  # the bounds may change between runs
+    resumed = run_sweep(strict, tmp_path / "out", client2, screen=False, limit=2, refine=False)
+    assert resumed.evaluated == 0 and resumed.reused == 2
+    fresh = run_sweep(strict, tmp_path / "fresh", client2, screen=False, limit=2, refine=False)
+    assert fresh.evaluated == 2
+    assert without_times(resumed.rows) == without_times(fresh.rows)
+    saved = reference.rows[:2]  # the verdicts the rows were saved with
+    assert any(r["failure"] != s["failure"] for r, s in zip(resumed.rows, saved, strict=True))
+    assert not any(r["feasible"] for r in resumed.rows)
+
+
+def copy_spec(tiny_spec: Path, folder: Path) -> Path:
+    folder.mkdir()
+    for name in ("tiny.toml", "short.toml"):
+        (folder / name).write_text((tiny_spec.parent / name).read_text(encoding="utf-8"), encoding="utf-8")
+    return folder / "tiny.toml"
+
+
+def test_rows_from_edited_base_files_are_refused(tiny_spec: Path, tmp_path: Path) -> None:
+    path = copy_spec(tiny_spec, tmp_path / "spec")
+    RowStore(tmp_path / "out", load_spec(path))
+    RowStore(tmp_path / "out", load_spec(path))  # the same files: accepted
+    base = path.with_name("short.toml")
+    base.write_text(base.read_text(encoding="utf-8") + "# edited\n", encoding="utf-8")
+    edited = load_spec(path)
+    assert edited.base_data == load_spec(tiny_spec).base_data  # the same data, other bytes
+    with pytest.raises(
+        SweepStateError, match=r"base scenario files .* changed since, not reused; give another --out"
+    ) as info:
+        RowStore(tmp_path / "out", edited)
+    assert "\n" not in str(info.value)
+
+
+def test_a_urdf_file_of_the_base_is_in_the_fingerprint(tiny_spec: Path, tmp_path: Path) -> None:
+    import dataclasses
+
+    spec = load_spec(tiny_spec)
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text("<robot name='a'/>", encoding="utf-8")
+    data = dict(spec.base_data) | {"robot": {"urdf": "arm.urdf", "tip": "tip"}}
+    with_urdf = dataclasses.replace(spec, base_data=data, base_dir=tmp_path)
+    assert with_urdf.base_files() == [spec.base_path, urdf]
+    before = with_urdf.fingerprint_parts()
+    urdf.write_text("<robot name='b'/>", encoding="utf-8")
+    after = with_urdf.fingerprint_parts()
+    assert before["files"] != after["files"] and before["spec"] == after["spec"]
+
+
+def test_rows_of_another_bracekit_version_are_refused(
+    tiny_spec: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import bracekit.studies.sweep.spec as spec_module
+
+    RowStore(tmp_path, load_spec(tiny_spec))
+    monkeypatch.setattr(spec_module, "__version__", "0.0.0-other")
+    with pytest.raises(SweepStateError, match=r"partial results of bracekit .* \(this is 0\.0\.0-other\)"):
+        RowStore(tmp_path, load_spec(tiny_spec))

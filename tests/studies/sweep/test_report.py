@@ -78,3 +78,22 @@ def test_outputs_are_written_and_read_back(tmp_path: Path) -> None:
     md = table_markdown(run)
     assert md.index("| 1 | c4 |") < md.index("| 2 | c3 |")
     assert summary(run)["not_feasible_by_reason"] == {"link clearance": 1, "screened out": 1}
+
+
+def test_outputs_with_no_completed_run_are_written(tmp_path: Path) -> None:
+    import pyarrow.parquet as pq
+
+    spec = load_spec("paper-links")
+    none: list[dict[str, Any]] = []
+    for r in rows():
+        r |= {"screened_out": True, "completed": False, "feasible": False, "failure": "screened out: k along the path"}
+        r |= {"Ci_mean_gp": None, "k_mean_gp": None, "wall_s": None}
+        none.append(r)
+    run = SweepRun(spec, none, screened_out=len(none))
+    names = write_outputs(run, tmp_path)
+    assert set(names) == {"results.parquet", "results.csv", "table.md", "summary.json", "heatmap.png", "pareto.png"}
+    assert (tmp_path / "pareto.png").stat().st_size > 0 and (tmp_path / "heatmap.png").stat().st_size > 0
+    assert pq.read_table(tmp_path / "results.parquet").to_pylist() == none
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["feasible"] == 0 and s["best"] is None and s["not_feasible_by_reason"] == {"screened out": 6}
+    assert "no feasible candidate" in table_markdown(run)

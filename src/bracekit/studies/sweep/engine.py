@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -17,10 +18,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bracekit._linalg import show
 from bracekit.errors import InputError
 from bracekit.studies.sweep.candidates import Candidate, expand
 from bracekit.studies.sweep.context import TaskContext, task_context
-from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns
+from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns, judge
 from bracekit.studies.sweep.screen import Screened, screen_context, select
 from bracekit.studies.sweep.spec import SweepSpec
 from bracekit.studies.sweep.store import RowStore
@@ -29,6 +31,8 @@ from bracekit.studies.sweep.store import RowStore
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: Seconds to wait for a scheduler to answer.
 CONNECT_TIMEOUT = 10.0
+#: Seconds allowed beyond CONNECT_TIMEOUT for the whole check of the address before giving up.
+GRACE = 2.0
 
 
 @dataclass
@@ -45,13 +49,77 @@ class SweepRun:
     workers: int = 0
 
 
+def probe(scheduler: str, timeout: float) -> str | None:
+    """Ask the address for its identity in Dask's protocol, within `timeout` s overall; why not, or None if it is one.
+
+    Runs its own event loop in a daemon thread and cancels the attempt at the deadline, so something that is not
+    a Dask scheduler (an HTTP server such as the dashboard, which may answer garbage or nothing) leaves nothing
+    running behind.
+    """
+    import asyncio
+
+    from distributed.comm import connect as comm_connect
+
+    async def ask() -> Any:
+        comm = await comm_connect(scheduler, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    box: dict[str, Any] = {}
+
+    def attempt() -> None:
+        try:
+            box["answer"] = asyncio.run(asyncio.wait_for(ask(), timeout))
+        except Exception as exc:  # any failure (even a MemoryError on garbage) is one line below
+            box["error"] = exc
+
+    thread = threading.Thread(target=attempt, name="bracekit-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + GRACE)
+    if thread.is_alive():
+        return f"no answer within {timeout + GRACE:g} s"
+    if "error" in box:
+        exc = box["error"]
+        if isinstance(exc, TimeoutError):
+            return f"no answer in Dask's protocol within {timeout:g} s"
+        return " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+    answer = box.get("answer")
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        kind = answer.get("type") if isinstance(answer, dict) else None
+        return f"a {kind}, not a Dask scheduler" if isinstance(kind, str) else "not a Dask scheduler"
+    return None
+
+
+def connect(scheduler: str, timeout: float) -> Any:
+    """A ``distributed.Client`` of the Dask scheduler at `scheduler`, checked to be one within `timeout` s first.
+
+    Raises:
+        InputError: no Dask scheduler answered at the address in time, or connecting failed in any way.
+    """
+    from distributed import Client
+
+    hint = "give a running Dask scheduler's address, e.g. tcp://HOST:8786 (the scheduler port, not the dashboard's)"
+    where = f"cannot connect to the Dask scheduler at {show(scheduler, 200)}"
+    why = probe(scheduler, timeout)
+    if why is not None:
+        raise InputError(f"{where} ({why}); {hint}")
+    try:
+        return Client(scheduler, timeout=timeout)
+    except Exception as exc:  # it answered the probe: a failure now is reported the same way
+        text = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+        raise InputError(f"{where} ({text}); {hint}") from None
+
+
 @contextmanager
 def dask_client(
-    workers: int | None = None, scheduler: str | None = None, *, connect_timeout: float = CONNECT_TIMEOUT
+    workers: int | None = None, scheduler: str | None = None, *, connect_timeout: float | None = None
 ) -> Iterator[Any]:
     """A Dask client: of a new LocalCluster (`workers` processes, one thread each) or of the scheduler at an address.
 
-    `connect_timeout` (s) bounds the wait for a scheduler to answer.
+    `connect_timeout` (s, default CONNECT_TIMEOUT) bounds the wait for a scheduler to answer.
 
     Raises:
         InputError: both or neither given, a bad worker count, or no scheduler answers at the address.
@@ -61,10 +129,7 @@ def dask_client(
     if (workers is None) == (scheduler is None):
         raise InputError("give a number of local workers or a scheduler address, not both")
     if scheduler is not None:
-        try:
-            client = Client(scheduler, timeout=connect_timeout)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError(f"cannot connect to the Dask scheduler at {scheduler}: {exc}") from None
+        client = connect(scheduler, CONNECT_TIMEOUT if connect_timeout is None else connect_timeout)
         try:
             yield client
         finally:
@@ -184,8 +249,8 @@ def run_sweep(
         order = ["candidate", "index", *input_columns(spec), *RESULT_COLUMNS]
         screened_out = 0
         for c in chosen:
-            if c.id in done:
-                row = dict(done[c.id])
+            if c.id in done:  # judged by this spec's feasibility bounds, whatever the run that saved it
+                row = judge(spec, done[c.id])
             else:
                 row = empty_row(spec, c)
                 row["Ci_mean_free_space"] = contexts[c.context_key].free.get("Ci_mean")

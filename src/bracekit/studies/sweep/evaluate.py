@@ -6,6 +6,7 @@ is the same whichever process computes it (no times or process names in it, apar
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 import warnings
@@ -43,6 +44,8 @@ RESULT_COLUMNS = (
     "min_liftoff_margin",
     "min_slip_margin",
     "min_torque_margin",
+    "holds",
+    "unstable_samples",
     "completed_min_norm",
     "failure_min_norm",
     "completed",
@@ -117,23 +120,58 @@ def _num(value: Any) -> float | None:
     return None if value is None or not np.isfinite(value) else float(value)
 
 
-def feasibility(spec: SweepSpec, gp: dict[str, Any]) -> str | None:
-    """Why the gradient-projection run is not feasible (the first reason), or None if it is."""
+def finite(value: Any) -> bool:
+    """Whether `value` is a finite number (not None, inf or NaN)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def feasibility(spec: SweepSpec, row: dict[str, Any]) -> str | None:
+    """Why a completed gradient-projection run, as its row's numbers, is not feasible (the first reason), or None.
+
+    Uses the spec's current ``[feasibility]`` bounds only, so a row saved by an earlier run is judged again.
+    """
     f = spec.feasibility
-    if not gp["completed"]:
-        return f"braced_gradient_projection did not complete: {gp['failure']}"
-    if gp["k_mean"] > f.k_max:
-        return f"k_mean {gp['k_mean']:.3g} > k_max {f.k_max:g}"
-    if gp["max_joint_limit_violation_rad"] > f.joint_limit_tolerance:
-        return f"outside the joint limits by {gp['max_joint_limit_violation_rad']:.3g} rad"
-    clearance = gp["min_link_clearance_m"]
+    k = row.get("k_mean_gp")
+    if k is None or not finite(k):
+        return "k_mean of gradient projection is not finite"
+    if k > f.k_max:
+        return f"k_mean {k:.3g} > k_max {f.k_max:g}"
+    violation = row.get("max_joint_limit_violation_rad")
+    if violation is not None and violation > f.joint_limit_tolerance:
+        return f"outside the joint limits by {violation:.3g} rad"
+    clearance = row.get("min_link_clearance_m")
     if clearance is not None and clearance < f.min_clearance:
         return f"a link comes {clearance:.3g} m from the surface (< {f.min_clearance:g} m)"
     for key in ("min_liftoff_margin", "min_slip_margin", "min_torque_margin"):
-        margin = gp.get(key)
+        margin = row.get(key)
         if margin is not None and margin < f.min_margin:
             return f"{key} {margin:.3g} < {f.min_margin:g}"
+    unstable = row.get("unstable_samples")
+    if unstable:
+        return f"unstable: {unstable} samples where the preloaded contact is not stable"
+    if row.get("holds") is False:
+        return "the brace does not hold (holds = false: a margin below 1 or a torque beyond the effort limit)"
+    if not finite(row.get("Ci_mean_gp")):
+        return "mean C_i of gradient projection is not finite"
     return None
+
+
+def judge(spec: SweepSpec, row: dict[str, Any]) -> dict[str, Any]:
+    """The row with ``feasible`` and ``failure`` set by the spec's current bounds (a new dict).
+
+    A screened-out row is returned as it is; a run that did not complete keeps its own failure reason.
+    """
+    out = dict(row)
+    if out.get("screened_out"):
+        out["feasible"] = False
+        return out
+    if not out.get("completed"):
+        out["feasible"] = False
+        return out
+    reason = feasibility(spec, out)
+    out["feasible"] = reason is None
+    out["failure"] = reason
+    return out
 
 
 def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> dict[str, Any]:
@@ -172,7 +210,7 @@ def summary_columns(spec: SweepSpec, strategies: dict[str, dict[str, Any]], cont
     out: dict[str, Any] = {
         "Ci_mean_min_norm": _num(mn["Ci_mean"]),
         "Ci_mean_gp": _num(gp["Ci_mean"]),
-        "Ci_reduction_gp": None if free is None or gp["Ci_mean"] is None else 1.0 - gp["Ci_mean"] / free,
+        "Ci_reduction_gp": None if not finite(free) or not finite(gp["Ci_mean"]) else 1.0 - gp["Ci_mean"] / free,
         "k_mean_min_norm": _num(mn["k_mean"]),
         "k_mean_gp": _num(gp["k_mean"]),
         "min_link_clearance_m": _num(gp["min_link_clearance_m"]),
@@ -183,9 +221,12 @@ def summary_columns(spec: SweepSpec, strategies: dict[str, dict[str, Any]], cont
         "min_torque_margin": _num(gp.get("min_torque_margin")),
         "completed_min_norm": bool(mn["completed"]),
         "failure_min_norm": mn["failure"],
+        "holds": gp.get("holds"),
+        "unstable_samples": gp.get("unstable_samples"),
         "completed": bool(gp["completed"]),
     }
-    reason = feasibility(spec, gp)
-    out["feasible"] = reason is None
-    out["failure"] = reason
-    return out
+    if not gp["completed"]:
+        out["feasible"] = False
+        out["failure"] = f"braced_gradient_projection did not complete: {gp['failure']}"
+        return out
+    return judge(spec, out)

@@ -15,7 +15,7 @@ from typing import Any
 
 from bracekit.studies.sweep.candidates import Candidate, candidate_id
 from bracekit.studies.sweep.context import TaskContext
-from bracekit.studies.sweep.evaluate import evaluate_candidate
+from bracekit.studies.sweep.evaluate import evaluate_candidate, finite
 from bracekit.studies.sweep.spec import SweepSpec
 from bracekit.studies.sweep.store import RowStore
 
@@ -23,6 +23,11 @@ from bracekit.studies.sweep.store import RowStore
 PENALTY = 1.0
 #: Half-width of the search interval with random sampling (fraction of the link).
 RANDOM_HALF_WIDTH = 0.1
+
+
+def usable(row: dict[str, Any]) -> bool:
+    """Whether a row is feasible with a finite mean C_i of gradient projection (a value to minimise)."""
+    return bool(row.get("feasible")) and finite(row.get("Ci_mean_gp"))
 
 
 def interval(spec: SweepSpec, fraction: float) -> tuple[float, float]:
@@ -48,13 +53,13 @@ def refine_candidate(
         inputs = dict(candidate.inputs) | {"fraction": float(x)}
         row = evaluate_candidate(spec, Candidate(-1, candidate_id(inputs), inputs), context)
         evaluations.append(row)
-        return float(row["Ci_mean_gp"]) if row["feasible"] else PENALTY
+        return float(row["Ci_mean_gp"]) if usable(row) else PENALTY
 
     r = spec.refinement
     minimize_scalar(
         objective, bounds=(low, high), method="bounded", options={"xatol": r.xatol, "maxiter": r.max_evaluations}
     )
-    feasible = [e for e in evaluations if e["feasible"]]
+    feasible = [e for e in evaluations if usable(e)]
     best = min(feasible, key=lambda e: (e["Ci_mean_gp"], e["fraction"])) if feasible else None
     return {
         "candidate": candidate.id,
@@ -70,8 +75,10 @@ def refine_candidate(
 
 
 def refinement_key(spec: SweepSpec, candidate: Candidate, low: float, high: float) -> str:
-    """The key a refinement is saved under: the candidate and the search settings."""
-    text = json.dumps([low, high, spec.refinement.max_evaluations, spec.refinement.xatol])
+    """The key a refinement is saved under: the candidate, the search settings and the feasibility bounds."""
+    f = spec.feasibility
+    bounds = [f.k_max, f.min_clearance, f.joint_limit_tolerance, f.min_margin]
+    text = json.dumps([low, high, spec.refinement.max_evaluations, spec.refinement.xatol, bounds])
     return f"{candidate.id}-{hashlib.sha256(text.encode()).hexdigest()[:8]}"
 
 
@@ -86,7 +93,7 @@ def refine_best(
 ) -> list[dict[str, Any]]:
     """Refine the best feasible rows on the Dask client (saved refinements are reused); in rank order."""
     by_id = {c.id: c for c in candidates}
-    feasible = [r for r in rows if r["feasible"] and r["Ci_mean_gp"] is not None]
+    feasible = [r for r in rows if usable(r)]
     best = sorted(feasible, key=lambda r: (r["Ci_mean_gp"], r["index"]))[: spec.refinement.top]
     saved = store.refined()
     out: list[Any] = []

@@ -6,6 +6,7 @@ order; then the others in candidate order. Units: C_i in m/N in the data files, 
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -13,17 +14,23 @@ import numpy as np
 
 from bracekit.report.output import to_json
 from bracekit.studies.sweep.engine import SweepRun
+from bracekit.studies.sweep.evaluate import finite
 from bracekit.studies.sweep.store import write_csv, write_parquet
 
 #: Every file a sweep writes into its output folder.
 FILES = ("results.parquet", "results.csv", "table.md", "summary.json", "heatmap.png", "pareto.png", "refined.csv")
+#: The note on a figure with no completed run.
+EMPTY_NOTE = "no completed run: every candidate was screened out or failed"
 #: Rows listed in table.md.
 TABLE_ROWS = 20
 
 
 def ranked(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Feasible rows by mean C_i of gradient projection (then candidate order), then the others in order."""
-    good = sorted((r for r in rows if r["feasible"]), key=lambda r: (r["Ci_mean_gp"], r["index"]))
+    good = sorted(
+        (r for r in rows if r["feasible"]),
+        key=lambda r: (r["Ci_mean_gp"] if finite(r["Ci_mean_gp"]) else math.inf, r["index"]),
+    )
     return good + [r for r in rows if not r["feasible"]]
 
 
@@ -47,9 +54,11 @@ def _reason(r: dict[str, Any]) -> str:
     text = r["failure"] or ""
     if r["screened_out"]:
         return "screened out"
-    for key in ("did not complete", "k_mean", "joint limits", "surface", "margin", "task context"):
+    names = {"surface": "link clearance", "did not complete": "run failed", "does not hold": "brace does not hold"}
+    keys = ("did not complete", "k_mean", "joint limits", "surface", "margin", "unstable", "does not hold", "C_i")
+    for key in (*keys, "task context"):
         if key in text:
-            return {"surface": "link clearance", "did not complete": "run failed"}.get(key, key)
+            return names.get(key, key)
     return text.split(":")[0] or "not feasible"
 
 
@@ -162,7 +171,7 @@ def heatmap(run: SweepRun, path: Path) -> None:
         mark = np.full(grid.shape, "·", dtype=object)  # screened out, unless a row says more
         for r in rows:
             i, j = links.index(r["link"]), fracs.index(r["fraction"])
-            if r["completed"] and r["Ci_mean_gp"] is not None:
+            if r["completed"] and finite(r["Ci_mean_gp"]):
                 grid[i, j] = np.nanmin([grid[i, j], 1e3 * r["Ci_mean_gp"]])
             if r["feasible"]:
                 mark[i, j] = "✓"
@@ -191,11 +200,13 @@ def heatmap(run: SweepRun, path: Path) -> None:
                 )
         ax.set_xlabel("fraction along the link (0: its joint, 1: the next joint)")
     else:
-        ok = [r for r in rows if r["feasible"]]
+        ok = [r for r in rows if r["feasible"] and finite(r["Ci_mean_gp"])]
         mesh = ax.scatter([links.index(r["link"]) for r in ok], [1e3 * r["Ci_mean_gp"] for r in ok])
         ax.set_xlabel("link")
     ax.set_yticks(range(len(links)), links)
     fig.colorbar(mesh, ax=ax, label="mean C_i, gradient projection (mm/N)")
+    if not any(r["completed"] and finite(r["Ci_mean_gp"]) for r in rows):
+        ax.text(0.5, 1.0, EMPTY_NOTE, ha="center", va="bottom", transform=ax.transAxes, color="0.3", fontsize=8)
     ax.set_title(
         f"{run.spec.name}: mean C_i of completed runs; ✓: feasible, x: not feasible, f: run failed, ·: screened out",
         fontsize=9,
@@ -223,7 +234,7 @@ def pareto(run: SweepRun, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    sim = [r for r in run.rows if r["completed"] and r["Ci_mean_gp"] is not None and r["k_mean_gp"] is not None]
+    sim = [r for r in run.rows if r["completed"] and finite(r["Ci_mean_gp"]) and finite(r["k_mean_gp"])]
     good = [r for r in sim if r["feasible"]]
     bad = [r for r in sim if not r["feasible"]]
     fig, ax = plt.subplots(figsize=(7, 5), dpi=110)
@@ -239,11 +250,14 @@ def pareto(run: SweepRun, path: Path) -> None:
     front = [good[i] for i in pareto_front(pts)]
     if front:
         ax.plot([r["k_mean_gp"] for r in front], [1e3 * r["Ci_mean_gp"] for r in front], "r.-", label="Pareto front")
-    ax.set_xscale("log")
+    if sim:
+        ax.set_xscale("log")
+        ax.legend()
+    else:  # nothing to place on a log axis
+        ax.text(0.5, 0.5, EMPTY_NOTE, ha="center", va="center", transform=ax.transAxes, color="0.3")
     ax.set_xlabel("mean k of J̃ (gradient projection, log scale)")
     ax.set_ylabel("mean C_i (mm/N, gradient projection)")
     ax.set_title(f"{run.spec.name}: compliance against conditioning")
-    ax.legend()
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from bracekit._linalg import show
+from bracekit._version import __version__
 from bracekit.contact import REGISTRY
 from bracekit.errors import InputError
 from bracekit.simulation.scenario import Scenario, parse_scenario, shipped_scenarios
@@ -96,13 +97,15 @@ class Feasibility:
     """What a candidate's gradient-projection run must meet to be feasible.
 
     Mean k of J̃ ≤ ``k_max``, link clearance ≥ ``min_clearance`` (m), joint-limit violation ≤
-    ``joint_limit_tolerance`` (rad), holding margins ≥ ``min_margin`` when available.
+    ``joint_limit_tolerance`` (rad), holding margins ≥ ``min_margin`` when the base has statics (a margin is a
+    scale on the listed load: 1 = it holds under the listed wrenches; above 1, a reserve), the run's ``holds``
+    not false and no unstable sample.
     """
 
     k_max: float = 50.0
     min_clearance: float = 0.0
     joint_limit_tolerance: float = 1e-9
-    min_margin: float = 0.0
+    min_margin: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -136,6 +139,7 @@ class SweepSpec:
     feasibility: Feasibility = field(default_factory=Feasibility)
     refinement: Refinement = field(default_factory=Refinement)
     source: Path | None = None
+    base_path: Path | None = None
 
     def axis(self, name: str) -> Axis | None:
         """The axis called `name`, or None."""
@@ -150,8 +154,19 @@ class SweepSpec:
         """The base scenario as given (validated)."""
         return parse_scenario(self.base_data, base=self.base_dir, name=self.base_name)
 
-    def fingerprint(self) -> str:
-        """A hash of everything a candidate's row depends on (not screening, refinement or feasibility bounds)."""
+    def base_files(self) -> list[Path]:
+        """The files the base scenario is read from: its TOML and, if it names one, its URDF file."""
+        files = [] if self.base_path is None else [self.base_path]
+        urdf = self.base_data.get("robot", {}).get("urdf")
+        if isinstance(urdf, str) and urdf:
+            files.append(Path(urdf) if Path(urdf).is_absolute() else self.base_dir / urdf)
+        return files
+
+    def fingerprint_parts(self) -> dict[str, str]:
+        """What a candidate's row depends on, in three hashes: the spec's inputs, bracekit's version, the files.
+
+        Not the screening, refinement or feasibility bounds: a row's feasibility is judged again on every run.
+        """
         data = {
             "base": self.base_data,
             "axes": [a.__dict__ for a in self.axes],
@@ -159,6 +174,22 @@ class SweepSpec:
             "brace": [self.normal, self.region_radius, self.surface_radius, self.contact, self.dt],
         }
         text = json.dumps(data, sort_keys=True, default=str)
+        files = hashlib.sha256()
+        for path in self.base_files():
+            files.update(path.name.encode() + b"\0")
+            try:
+                files.update(path.read_bytes())
+            except OSError:
+                files.update(b"(unreadable)")
+        return {
+            "spec": hashlib.sha256(text.encode()).hexdigest()[:16],
+            "bracekit": __version__,
+            "files": files.hexdigest()[:16],
+        }
+
+    def fingerprint(self) -> str:
+        """A hash of :meth:`fingerprint_parts`: the spec's inputs, bracekit's version and the base's files."""
+        text = json.dumps(self.fingerprint_parts(), sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -231,8 +262,8 @@ def _vector(v: Any, key: str) -> list[float]:
     return [_number(x, key) for x in v]
 
 
-def _base(value: Any, base: Path) -> tuple[str, dict[str, Any], Path]:
-    """The base scenario's name, TOML data and folder (relative paths are from the spec's folder)."""
+def _base(value: Any, base: Path) -> tuple[Path, dict[str, Any], Path]:
+    """The base scenario's TOML path, data and folder (relative paths are from the spec's folder)."""
     if not isinstance(value, str) or not value:
         raise SpecError(f"'base' must be a scenario: a shipped name or a .toml path, got {show(value)}")
     shipped = shipped_scenarios()
@@ -245,7 +276,7 @@ def _base(value: Any, base: Path) -> tuple[str, dict[str, Any], Path]:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
         raise SpecError(f"'base' = {show(value)} cannot be read: {show(str(exc), 200)}") from exc
-    return path.stem, data, path.parent
+    return path, data, path.parent
 
 
 def _axis(name: str, raw: Any, links: tuple[str, ...]) -> Axis:
@@ -315,7 +346,8 @@ def parse_spec(
     )
     if "base" not in top:
         raise SpecError("missing key 'base' (the base scenario: a shipped name such as \"paper\" or a .toml path)")
-    base_name, base_data, base_dir = _base(top["base"], base)
+    base_path, base_data, base_dir = _base(top["base"], base)
+    base_name = base_path.stem
     try:
         scenario = parse_scenario(base_data, base=base_dir, name=base_name)
     except InputError as exc:
@@ -377,7 +409,7 @@ def parse_spec(
         joint_limit_tolerance=_number(
             feas_t.get("joint_limit_tolerance", 1e-9), "feasibility.joint_limit_tolerance", low=0.0, high=1.0
         ),
-        min_margin=_number(feas_t.get("min_margin", 0.0), "feasibility.min_margin"),
+        min_margin=_number(feas_t.get("min_margin", 1.0), "feasibility.min_margin"),
     )
     ref_t = _table(top.get("refine", {}), "refine", ("top", "max_evaluations", "xatol"))
     refinement = Refinement(
@@ -412,6 +444,7 @@ def parse_spec(
         feasibility=feasibility,
         refinement=refinement,
         source=source,
+        base_path=base_path,
     )
     _check_candidate_scenario(spec)
     return spec

@@ -15,7 +15,6 @@ import secrets
 from pathlib import Path
 from typing import Any
 
-from bracekit._version import __version__
 from bracekit.errors import InputError, OutputError
 from bracekit.studies.sweep.spec import SweepSpec
 
@@ -41,6 +40,36 @@ def _write_whole(path: Path, text: str) -> None:
             tmp.unlink()
 
 
+def check_state(out: Path, spec: SweepSpec) -> str:
+    """The spec's fingerprint, after checking that ``OUT/.sweep`` (if any) holds this spec's rows; reads only.
+
+    Raises:
+        SweepStateError: the work folder was written for another spec, by another bracekit version, or from base
+            scenario files that have changed since (one line saying which, and what to do).
+    """
+    marker = Path(out) / WORK / "spec.json"
+    fingerprint = spec.fingerprint()
+    if not marker.is_file():
+        return fingerprint
+    work = marker.parent
+    try:
+        held = json.loads(marker.read_text(encoding="utf-8"))
+        if not isinstance(held, dict):
+            raise ValueError("not a JSON object")
+    except (OSError, ValueError) as exc:
+        raise SweepStateError(f"{marker} cannot be read ({exc}); give another --out or move {work} away") from exc
+    if held.get("fingerprint") == fingerprint:
+        return fingerprint
+    parts, now = held.get("parts"), spec.fingerprint_parts()
+    if not isinstance(parts, dict) or parts.get("spec") != now["spec"]:
+        why = f"partial results of another sweep spec ({held.get('name')!r}, fingerprint {held.get('fingerprint')})"
+    elif parts.get("bracekit") != now["bracekit"]:
+        why = f"partial results of bracekit {parts.get('bracekit')} (this is {now['bracekit']}), not reused"
+    else:
+        why = "partial results from base scenario files (TOML, URDF) that have changed since, not reused"
+    raise SweepStateError(f"{out} holds {why}; give another --out (or move {work} away)")
+
+
 class RowStore:
     """The finished rows of a sweep in ``OUT/.sweep``; create it once the output folder is checked and locked."""
 
@@ -49,24 +78,12 @@ class RowStore:
         self.rows_dir = self.work / "rows"
         self.refined_dir = self.work / "refined"
         marker = self.work / "spec.json"
-        fingerprint = spec.fingerprint()
-        if marker.is_file():
-            try:
-                held = json.loads(marker.read_text(encoding="utf-8"))
-            except (OSError, ValueError) as exc:
-                raise SweepStateError(
-                    f"{marker} cannot be read ({exc}); move {self.work} away to start afresh"
-                ) from exc
-            if held.get("fingerprint") != fingerprint:
-                raise SweepStateError(
-                    f"{out} holds partial results of another sweep spec ({held.get('name')!r}, fingerprint "
-                    f"{held.get('fingerprint')}); give another --out or move {self.work} away"
-                )
+        fingerprint = check_state(out, spec)
         try:
             self.rows_dir.mkdir(parents=True, exist_ok=True)
             self.refined_dir.mkdir(exist_ok=True)
             if not marker.is_file():
-                data = {"name": spec.name, "fingerprint": fingerprint, "bracekit": __version__}
+                data = {"name": spec.name, "fingerprint": fingerprint, "parts": spec.fingerprint_parts()}
                 _write_whole(marker, json.dumps(data, indent=2) + "\n")
         except OSError as exc:
             raise OutputError(f"cannot write the work folder {self.work}: {exc.strerror or exc}") from exc
