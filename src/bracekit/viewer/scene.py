@@ -12,6 +12,7 @@ the run had it.
 from __future__ import annotations
 
 import json
+import math
 import os
 import zipfile
 import zlib
@@ -253,8 +254,11 @@ def _numbers(value: Any, where: str, shape: tuple[int | None, ...], finite: bool
 
 def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
     model = pin.Model()
+    text = data.get("pinocchio_model")
+    if not isinstance(text, str):
+        raise InputError(f"the robot of scene.json has no Pinocchio model text; {RERUN}")
     try:
-        model.loadFromString(data["pinocchio_model"])
+        model.loadFromString(text)
         capsules = tuple(
             Capsule(
                 int(c["joint"]),
@@ -267,7 +271,14 @@ def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
         )
         robot = Robot(model=model, tip=data["tip"], stiffness=np.array(data["stiffness"], dtype=float))
     except (RuntimeError, KeyError, TypeError, ValueError, BracekitError) as exc:
-        raise InputError(f"the robot of scene.json cannot be rebuilt ({exc}); {RERUN}") from exc
+        reason = " ".join(str(exc).split())[:200]
+        raise InputError(f"the robot of scene.json cannot be rebuilt ({reason}); {RERUN}") from exc
+    for c in capsules:  # a capsule's joint is 1 … n (0 is the universe), its radius finite and ≥ 0
+        if not 1 <= c.joint <= robot.n or not (math.isfinite(c.radius) and c.radius >= 0.0):
+            raise InputError(
+                f"scene.json has a link capsule ({c.link!r}) with joint {c.joint} or radius {c.radius} out of range "
+                f"(joint 1…{robot.n}, radius ≥ 0); {RERUN}"
+            )
     return robot, capsules
 
 

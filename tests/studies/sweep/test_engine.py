@@ -164,3 +164,35 @@ def test_rows_of_another_bracekit_version_are_refused(
     monkeypatch.setattr(spec_module, "__version__", "0.0.0-other")
     with pytest.raises(SweepStateError, match=r"partial results of bracekit .* \(this is 0\.0\.0-other\)"):
         RowStore(tmp_path, load_spec(tiny_spec))
+
+
+def test_an_older_work_folder_is_refused_as_another_version(tiny_spec: Path, tmp_path: Path) -> None:
+    import json
+
+    RowStore(tmp_path, load_spec(tiny_spec))
+    marker = tmp_path / ".sweep" / "spec.json"
+    held = json.loads(marker.read_text(encoding="utf-8"))
+    old = {k: v for k, v in held.items() if k not in ("parts", "fingerprint")}
+    old |= {"bracekit": "0.0.1", "fingerprint": "x"}
+    marker.write_text(json.dumps(old), encoding="utf-8")  # as an older bracekit wrote it: no "parts"
+    with pytest.raises(SweepStateError, match=r"partial results of bracekit 0\.0\.1"):
+        RowStore(tmp_path, load_spec(tiny_spec))
+
+
+def test_the_probe_connects_with_the_clients_security_arguments(monkeypatch: pytest.MonkeyPatch) -> None:
+    import distributed
+    import distributed.comm
+
+    from bracekit.studies.sweep.engine import probe
+
+    seen: dict[str, Any] = {}
+
+    async def fake_connect(address: str, timeout: float, **kwargs: Any) -> Any:
+        seen.update(kwargs)
+        raise OSError("refused")
+
+    marker = {"ssl_context": "from the Dask config", "require_encryption": True}
+    monkeypatch.setattr(distributed.Security, "get_connection_args", lambda self, role: dict(marker))
+    monkeypatch.setattr(distributed.comm, "connect", fake_connect)
+    assert "refused" in (probe("tls://127.0.0.1:9", 2.0) or "")
+    assert seen == marker  # a TLS scheduler configured for Client() is reached by the probe too

@@ -97,3 +97,14 @@ def test_outputs_with_no_completed_run_are_written(tmp_path: Path) -> None:
     s = json.loads((tmp_path / "summary.json").read_text())
     assert s["feasible"] == 0 and s["best"] is None and s["not_feasible_by_reason"] == {"screened out": 6}
     assert "no feasible candidate" in table_markdown(run)
+
+
+def test_a_brace_that_does_not_hold_is_counted_as_such_not_as_a_margin() -> None:
+    from bracekit.studies.sweep.report import _reason
+
+    row = {
+        "screened_out": False,
+        "failure": "the brace does not hold (holds = false: a margin below 1 or a torque beyond the effort limit)",
+    }
+    assert _reason(row) == "brace does not hold"
+    assert _reason({"screened_out": False, "failure": "min_slip_margin 0.5 < 1"}) == "margin"

@@ -55,7 +55,7 @@ def _reason(r: dict[str, Any]) -> str:
     if r["screened_out"]:
         return "screened out"
     names = {"surface": "link clearance", "did not complete": "run failed", "does not hold": "brace does not hold"}
-    keys = ("did not complete", "k_mean", "joint limits", "surface", "margin", "unstable", "does not hold", "C_i")
+    keys = ("did not complete", "k_mean", "joint limits", "surface", "does not hold", "unstable", "margin", "C_i")
     for key in (*keys, "task context"):
         if key in text:
             return names.get(key, key)

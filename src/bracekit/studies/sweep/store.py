@@ -61,7 +61,9 @@ def check_state(out: Path, spec: SweepSpec) -> str:
     if held.get("fingerprint") == fingerprint:
         return fingerprint
     parts, now = held.get("parts"), spec.fingerprint_parts()
-    if not isinstance(parts, dict) or parts.get("spec") != now["spec"]:
+    if not isinstance(parts, dict) and held.get("bracekit") not in (None, now["bracekit"]):
+        why = f"partial results of bracekit {held.get('bracekit')} (this is {now['bracekit']}), not reused"
+    elif not isinstance(parts, dict) or parts.get("spec") != now["spec"]:
         why = f"partial results of another sweep spec ({held.get('name')!r}, fingerprint {held.get('fingerprint')})"
     elif parts.get("bracekit") != now["bracekit"]:
         why = f"partial results of bracekit {parts.get('bracekit')} (this is {now['bracekit']}), not reused"
