@@ -216,3 +216,18 @@ def test_bad_input_is_an_input_error(paper_start, kwargs: dict, match: str) -> N
     sc, q = paper_start
     with pytest.raises(InputError, match=match):
         preloaded_compliance(sc.braced, q, **kwargs)
+
+
+def test_a_runs_compliance_is_the_one_its_model_names(paper_start) -> None:
+    from bracekit.compliance.preloaded import run_compliance
+
+    sc, q = paper_start
+    st = sc.braced.state(q)
+    for model in ("constrained", "projection"):
+        np.testing.assert_array_equal(run_compliance(st, model, True), end_effector_compliance(st, model))
+        np.testing.assert_array_equal(run_compliance(st, model, False), free_space_compliance(st))
+    loaded = run_compliance(st, "preloaded", True, preload=5.0, gravity=True)
+    np.testing.assert_array_equal(loaded, preloaded_compliance(sc.braced, q, 5.0, gravity=True))
+    assert rel(loaded, end_effector_compliance(st, "constrained")) > 1e-4  # the preload and gravity change it
+    free = run_compliance(st, "preloaded", False, gravity=True)
+    np.testing.assert_array_equal(free, loaded_free_space_compliance(sc.braced, q, gravity=True))

@@ -10,6 +10,8 @@ models. docs/model.md, "The preloaded compliance", derives the signs and the tre
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
@@ -21,6 +23,8 @@ from bracekit.compliance.first_order import (
     c1_unchecked,
     check_finite,
     check_model,
+    end_effector_compliance,
+    free_space_compliance,
     warn_unloaded,
 )
 from bracekit.errors import InputError, SingularityError, UnstableEquilibriumError
@@ -29,7 +33,7 @@ from bracekit.tolerances import UNLOADED_TOL
 
 Array = NDArray[np.float64]
 
-__all__ = ["loaded_free_space_compliance", "preloaded_compliance", "tangent_stiffness"]
+__all__ = ["loaded_free_space_compliance", "preloaded_compliance", "run_compliance", "tangent_stiffness"]
 
 
 def _check(braced: object, gravity: object, wrench: ArrayLike | None) -> tuple[BracedRobot, Array]:
@@ -200,3 +204,26 @@ def check_run_model(model: object) -> str:
 def simulated_model(model: str) -> ComplianceModel:
     """The first-order model the runs of `model` simulate with (``preloaded`` runs are the constrained ones)."""
     return check_model("constrained" if model == "preloaded" else model)
+
+
+def run_compliance(state: Any, model: str, braced: bool, *, preload: float = 0.0, gravity: bool = False) -> Array:
+    """The 6×6 tip compliance C_e that a run under `model` reports at `state` (what its figures and views draw).
+
+    Args:
+        state: the run's state at q: a ``BracedState``, or a ``MultiBracedState`` with several braces.
+        model: the run's compliance model ("constrained", "projection" or "preloaded").
+        braced: False for the free-space run.
+        preload: P, N (only with "preloaded").
+        gravity: statics with gravity (only with "preloaded").
+
+    Returns:
+        With "preloaded" and one brace: :func:`preloaded_compliance` (braced) or :func:`loaded_free_space_compliance`;
+        otherwise C_e of :func:`simulated_model` (eq:Ce; stacked with several braces) or J K⁻¹ Jᵀ unbraced.
+    """
+    if model == "preloaded" and isinstance(state, BracedState):
+        if braced:
+            return preloaded_compliance(state.braced, state.q, preload, gravity=gravity)
+        return loaded_free_space_compliance(state.braced, state.q, gravity=gravity)
+    if not braced:
+        return free_space_compliance(state)
+    return end_effector_compliance(state, simulated_model(model))

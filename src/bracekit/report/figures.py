@@ -26,8 +26,8 @@ from matplotlib.ticker import MaxNLocator
 from numpy.typing import NDArray
 from PIL import Image
 
-from bracekit.compliance.first_order import compliance_ellipsoids, end_effector_compliance, free_space_compliance
-from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance, simulated_model
+from bracekit.compliance.first_order import compliance_ellipsoids
+from bracekit.compliance.preloaded import run_compliance
 from bracekit.report import forked
 from bracekit.report.gif import quantize, render_frames, save_gif
 from bracekit.report.projection import OrthoCamera, ellipsoid_outline
@@ -344,13 +344,8 @@ class RunAnimation:
 # --- Fig. 3: compliance ellipsoids -----------------------------------------------------------------------
 def _tip_compliance(result: RunResult, st: Any, braced: bool) -> Array:
     """The tip compliance (6×6) of the run's model at a state (free space for the unbraced run)."""
-    model = result.compliance_model
-    if model == "preloaded":
-        h = result.scenario.holding
-        if braced:
-            return preloaded_compliance(st.braced, st.q, h.preload, gravity=h.gravity)
-        return loaded_free_space_compliance(st.braced, st.q, gravity=h.gravity)
-    return end_effector_compliance(st, simulated_model(model)) if braced else free_space_compliance(st)
+    h = result.scenario.holding
+    return run_compliance(st, result.compliance_model, braced, preload=h.preload, gravity=h.gravity)
 
 
 def _state(result: RunResult, q: Array) -> BracedState | Any:

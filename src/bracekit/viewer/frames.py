@@ -8,12 +8,8 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from bracekit.compliance.first_order import (
-    compliance_ellipsoids,
-    end_effector_compliance,
-    free_space_compliance,
-)
-from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance, simulated_model
+from bracekit.compliance.first_order import compliance_ellipsoids
+from bracekit.compliance.preloaded import run_compliance
 from bracekit.viewer.scene import Run, Scene
 
 Array = NDArray[np.float64]
@@ -46,16 +42,9 @@ def tip_compliance(scene: Scene, model: str, braced: bool, q: Array) -> Array:
     the scene), the others :func:`end_effector_compliance` (the stacked model with several braces).
     """
     b = scene.braced
-    several = len(b.braces) > 1
-    state = b.stacked_state(q) if several else b.state(q)
-    if model == "preloaded" and not several:
-        preload = scene.preloads[0] if scene.preloads else 0.0
-        if braced:
-            return preloaded_compliance(b, q, preload, gravity=scene.gravity)
-        return loaded_free_space_compliance(b, q, gravity=scene.gravity)
-    if not braced:
-        return free_space_compliance(state)
-    return end_effector_compliance(state, simulated_model(model))
+    state = b.stacked_state(q) if len(b.braces) > 1 else b.state(q)
+    preload = scene.preloads[0] if scene.preloads else 0.0
+    return run_compliance(state, model, braced, preload=preload, gravity=scene.gravity)
 
 
 def run_frames(scene: Scene, run: Run) -> RunFrames:
