@@ -44,14 +44,14 @@ q0 = np.array([0.3, 0.9, 0.4, 1.2, -0.5, -0.6, 0.3, 0.4])
 
 # A vertical wall through the pad, normal pointing back at the robot.
 probe = bk.BracedRobot(robot, bk.Brace("pad", bk.Surface([0, 0, 0], [-1, 0, 0]))).state(q0)
-braced = bk.BracedRobot(robot, bk.Brace("pad", bk.Surface(probe.b, [-1, 0, 0]), region_radius=0.2))
-print(f"n1 = {braced.n1} (chain 1 is not 6 joints: the braced motions of b are the null space of Xᵀ J1)")
+braced = bk.BracedRobot(robot, bk.Brace("pad", bk.Surface(probe.split.b, [-1, 0, 0]), region_radius=0.2))
+print(f"n1 = {braced.split.n1} (chain 1 is not 6 joints: the braced motions of b are the null space of Xᵀ J1)")
 
 e0 = braced.state(q0).e
 task = bk.Line(e0, e0 + np.array([0.0, 0.1, -0.05]), duration=2.0)
 beta_x = lambda t: np.array([1.0, 0, 0, 0, 0, 0])  # noqa: E731 - compliance along the wall normal
 objective = bk.Objective(
-    [bk.ComplianceIndex(beta_x(0.0)), bk.ConditionNumber(), bk.RegionBarrier(0.2, probe.b)], [100.0, 0.5, 0.01]
+    [bk.ComplianceIndex(beta_x(0.0)), bk.ConditionNumber(), bk.RegionBarrier(0.2, probe.split.b)], [100.0, 0.5, 0.01]
 )
 for strategy in (bk.FreeSpaceMinNorm(), bk.BracedMinNorm(), bk.BracedGradientProjection(objective, alpha=-1.0)):
     with warnings.catch_warnings():

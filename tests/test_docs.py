@@ -217,7 +217,7 @@ def test_tutorial_works_as_printed(tmp_path: Path, monkeypatch: pytest.MonkeyPat
         (tmp_path / name).write_text(body, encoding="utf-8")
     monkeypatch.chdir(tmp_path)
     sc = load_scenario("arm8.toml")
-    assert sc.robot.n == 8 and sc.braced.n1 == 5
+    assert sc.robot.n == 8 and sc.braced.split.n1 == 5
 
     commands = _tutorial_commands()
     assert [c[0] for c in commands] == ["study", "evaluate", "run", "view", "validate"]

@@ -107,7 +107,7 @@ def test_pinocchio_loop_fallback_gives_the_same_frames(paper) -> None:
 
 def _single(braced: BracedRobot, q: np.ndarray, beta: np.ndarray) -> dict:
     st = braced.state(q)
-    out = {"k": frobenius_condition(st.J_e), "k_braced": frobenius_condition(st.J_braced)}
+    out = {"k": frobenius_condition(st.J_e), "k_braced": frobenius_condition(st.split.J_braced)}
     for m in ("constrained", "projection"):
         c_e = end_effector_compliance(st, m)  # type: ignore[arg-type]
         out[m] = c_e
@@ -356,7 +356,7 @@ def test_numba_batch_equals_the_numpy_batch_and_the_single_configuration_path(ca
                 assert got.Ci[m][i] == pytest.approx(compliance_index(c_e, beta), rel=1e-10)
         assert got.k[i] == pytest.approx(frobenius_condition(st.J_e), rel=1e-10)
         try:
-            kb = frobenius_condition(st.J_braced)
+            kb = frobenius_condition(st.split.J_braced)
         except SingularityError:
             assert np.isnan(got.k_braced[i])
         else:

@@ -69,7 +69,7 @@ class Case:
             self.ref = pin.buildModelFromXML(urdf)
         self.surface = Surface(np.zeros(3), normal)
         self.braced = BracedRobot(robot, Brace("brace", self.surface, contact=contact, environment_stiffness=env))
-        self.q, self.K, self.n1 = q, np.asarray(stiffness, dtype=float), self.braced.n1
+        self.q, self.K, self.n1 = q, np.asarray(stiffness, dtype=float), self.braced.split.n1
         self.state = self.braced.state(q)
         self.J_e = pin_frame_jacobian(self.ref, self.tip, q)
         self.J_b = pin_frame_jacobian(self.ref, "brace", q)
@@ -239,7 +239,7 @@ def test_projection_model_is_the_papers_formula_and_differs_from_the_constrained
         P[:3, :3] = np.outer(n, n)  # X (XᵀX)⁻¹ Xᵀ with X = [n̂; 0]
         j1, je2 = c.J_b[:, :6], c.J_e[:, 6:]
         c1t = (np.eye(6) - P) @ j1 @ np.diag(1.0 / c.K[:6]) @ j1.T @ (np.eye(6) - P)  # eq:C1wave_detail
-        b, e = c.state.b, c.state.e
+        b, e = c.state.split.b, c.state.e
         S1 = np.eye(6)
         S1[:3, 3:] = cross_matrix(b - e)  # [b − e]×
         paper = S1 @ c1t @ S1.T + je2 @ np.diag(1.0 / c.K[6:]) @ je2.T  # S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ
@@ -262,7 +262,7 @@ def test_bracing_never_increases_compliance_in_the_loewner_order(chain: tuple[in
 
 def test_printed_S_w2_would_make_C_e_non_symmetric_while_the_dual_map_keeps_it_symmetric() -> None:
     for c in (paper_case(), random_case(9, seed=5, link=4)):
-        b, e, R = c.state.b, c.state.e, c.state.R_b
+        b, e, R = c.state.split.b, c.state.e, c.state.split.R_b
         S1 = np.eye(6)
         S1[:3, 3:] = cross_matrix(b - e)  # [b − e]×
         S2 = np.kron(np.eye(2), R)
@@ -451,9 +451,7 @@ def test_generic_contact_emits_no_unloaded_warning() -> None:
 
 
 # ---------------------------------------------------------------------------------------------- bad input
-@pytest.mark.parametrize(
-    "c_e", [np.eye(3), np.full((6, 6), np.inf), "C", None, [[1.0] * 6] * 5, np.ones((6, 6, 1))]
-)
+@pytest.mark.parametrize("c_e", [np.eye(3), np.full((6, 6), np.inf), "C", None, [[1.0] * 6] * 5, np.ones((6, 6, 1))])
 def test_compliance_measures_refuse_anything_but_a_finite_6x6_matrix(c_e: object) -> None:
     e_x = np.r_[1.0, 0, 0, 0, 0, 0]
     for call in (

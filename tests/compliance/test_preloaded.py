@@ -49,7 +49,7 @@ def static_fd(
         "gravity": gravity,
         "base_wrench": tool,
         "environment_stiffness": braced.brace.environment_stiffness,
-        "constraint_wrenches": braced.X,
+        "constraint_wrenches": braced.split.X,
         "contact": contact,
     }
     h = 1e-2
@@ -184,7 +184,7 @@ def test_unstable_loaded_equilibrium_is_a_numerical_error(paper_start) -> None:
     # independent: V(q) = ½ (q − q_s)ᵀ K (q − q_s) + V_g(q) restricted to Xᵀ J_b δq = 0 is not convex at q
     model, data = r.model, r.model.createData()
     st = soft.state(q)
-    a = st.J_b.T @ soft.X
+    a = st.split.J_b.T @ soft.split.X
     z = np.linalg.svd(a.T)[2][1:].T  # allowed joint motions (n × (n − 1))
     k = soft.robot.stiffness
     q_s = q + pin.computeGeneralizedGravity(model, data, q) / k

@@ -102,16 +102,16 @@ CHAINS = st.tuples(st.integers(7, 10), st.integers(0, 10_000)).flatmap(
 # ---------------------------------------------------------------------------------------------- structure
 def test_paper_robot_splits_into_six_plus_five_joints() -> None:
     braced, _ = paper_robot()
-    assert (braced.n, braced.n1, braced.n2) == (11, 6, 5)
+    assert (braced.n, braced.split.n1, braced.split.n2) == (11, 6, 5)
 
 
 @pytest.mark.parametrize("link", [2, 5, 7])
 def test_random_chain_split_follows_the_brace_link(link: int) -> None:
     braced, _ = braced_chain(9, seed=3, brace_link=link)
-    assert (braced.n1, braced.n2) == (link, 9 - link)
+    assert (braced.split.n1, braced.split.n2) == (link, 9 - link)
     st_ = braced.state(np.zeros(9))
-    assert st_.J1.shape == (6, link) and st_.J2.shape == (6, 9 - link)
-    assert st_.dJ_e is None and st_.dJ_b is None  # Hessians only on request
+    assert st_.split.J1.shape == (6, link) and st_.split.J2.shape == (6, 9 - link)
+    assert st_.dJ_e is None and st_.split.dJ_b is None  # Hessians only on request
 
 
 def test_state_rejects_bad_joint_values() -> None:
@@ -126,14 +126,14 @@ def test_state_positions_and_rotations_match_pinocchio() -> None:
     braced, ref = paper_robot()
     st_ = braced.state(WRIST_DOWN_Q)
     mb, me = pin_frame_placement(ref, "brace", WRIST_DOWN_Q), pin_frame_placement(ref, "tool", WRIST_DOWN_Q)
-    np.testing.assert_allclose(st_.b, mb.translation, atol=1e-14)
+    np.testing.assert_allclose(st_.split.b, mb.translation, atol=1e-14)
     np.testing.assert_allclose(st_.e, me.translation, atol=1e-14)
-    np.testing.assert_allclose(st_.R_b, mb.rotation, atol=1e-14)
+    np.testing.assert_allclose(st_.split.R_b, mb.rotation, atol=1e-14)
     np.testing.assert_allclose(st_.R_e, me.rotation, atol=1e-14)
-    np.testing.assert_allclose(st_.z_b, mb.rotation[:, 2], atol=1e-14)
+    np.testing.assert_allclose(st_.split.z_b, mb.rotation[:, 2], atol=1e-14)
     # MODEL/URDF note A4: in this pose the pad is at (0.700, −0.150, −0.300) m with z_b up
-    np.testing.assert_allclose(st_.b, [0.700, -0.150, -0.300], atol=1e-3)
-    np.testing.assert_allclose(st_.z_b, [0.0, 0.0, 1.0], atol=1e-3)
+    np.testing.assert_allclose(st_.split.b, [0.700, -0.150, -0.300], atol=1e-3)
+    np.testing.assert_allclose(st_.split.z_b, [0.0, 0.0, 1.0], atol=1e-3)
 
 
 # ---------------------------------------------------------------------------------------------- Jacobians
@@ -145,14 +145,14 @@ def test_free_space_J_equals_pinocchio_tip_jacobian_on_random_chains(chain: tupl
     q = np.random.default_rng(qseed).uniform(-3.0, 3.0, n)
     st_ = braced.state(q)
     j_ref = pin_frame_jacobian(ref, "tip", q)
-    np.testing.assert_allclose(st_.J, j_ref, atol=1e-12)
+    np.testing.assert_allclose(st_.split.J, j_ref, atol=1e-12)
     np.testing.assert_allclose(st_.J_e, j_ref, atol=1e-12)
 
 
 def test_free_space_J_equals_pinocchio_tip_jacobian_on_the_paper_robot() -> None:
     braced, ref = paper_robot()
     for q in [WRIST_DOWN_Q, *paper_configurations(5, seed=1)]:
-        np.testing.assert_allclose(braced.state(q).J, pin_frame_jacobian(ref, "tool", q), atol=1e-12)
+        np.testing.assert_allclose(braced.state(q).split.J, pin_frame_jacobian(ref, "tool", q), atol=1e-12)
 
 
 @SETTINGS
@@ -163,14 +163,14 @@ def test_J1_is_the_brace_jacobian_restricted_to_chain_1(chain: tuple[int, int, i
     q = np.random.default_rng(qseed).uniform(-3.0, 3.0, n)
     st_ = braced.state(q)
     j_b = pin_frame_jacobian(ref, "brace", q)
-    np.testing.assert_allclose(st_.J1, j_b[:, :link], atol=1e-12)
+    np.testing.assert_allclose(st_.split.J1, j_b[:, :link], atol=1e-12)
     np.testing.assert_allclose(j_b[:, link:], 0.0, atol=0)  # premise: chain 2 does not move b
 
 
 def test_J1_of_the_paper_robot_is_the_brace_jacobian_of_joints_1_to_6() -> None:
     braced, ref = paper_robot()
     q = paper_configurations(1, seed=2)[0]
-    np.testing.assert_allclose(braced.state(q).J1, pin_frame_jacobian(ref, "brace", q)[:, :6], atol=1e-12)
+    np.testing.assert_allclose(braced.state(q).split.J1, pin_frame_jacobian(ref, "brace", q)[:, :6], atol=1e-12)
 
 
 @pytest.mark.parametrize("case", ["paper", "chain-n1=4", "chain-n1=7"])
@@ -181,10 +181,10 @@ def test_J2_equals_finite_differences_of_the_relative_pose_of_e_in_b(case: str) 
     else:
         braced, ref = braced_chain(9, seed=17, brace_link=int(case[-1]))
         qs, tip = list(np.random.default_rng(5).uniform(-2.5, 2.5, (2, 9))), "tip"
-    n1 = braced.n1
+    n1 = braced.split.n1
     for q in qs:
-        J2 = braced.state(q).J2
-        for i in range(braced.n2):
+        J2 = braced.state(q).split.J2
+        for i in range(braced.split.n2):
             qdot = np.zeros(braced.n)
             qdot[n1 + i] = 1.0
             np.testing.assert_allclose(J2[:, i], fd_relative_twist(ref, tip, q, qdot), atol=2e-8)
@@ -195,8 +195,8 @@ def test_S_t1_and_S_t2_are_built_from_the_brace_and_tip_poses() -> None:
     q = paper_configurations(1, seed=4)[0]
     st_ = braced.state(q)
     mb, me = pin_frame_placement(ref, "brace", q), pin_frame_placement(ref, "tool", q)
-    np.testing.assert_allclose(st_.S_t1, hand_S_t1(mb.translation, me.translation), atol=1e-14)
-    np.testing.assert_allclose(st_.S_t2, block_diag(mb.rotation, mb.rotation), atol=1e-14)
+    np.testing.assert_allclose(st_.split.S_t1, hand_S_t1(mb.translation, me.translation), atol=1e-14)
+    np.testing.assert_allclose(st_.split.S_t2, block_diag(mb.rotation, mb.rotation), atol=1e-14)
 
 
 def test_J_braced_projects_the_chain_1_columns_off_the_contact_normal() -> None:
@@ -206,10 +206,10 @@ def test_J_braced_projects_the_chain_1_columns_off_the_contact_normal() -> None:
     P = np.zeros((6, 6))
     P[:3, :3] = np.outer([0.0, 0.6, 0.8], [0.0, 0.6, 0.8])
     j_e, j_b = pin_frame_jacobian(ref, "tip", q), pin_frame_jacobian(ref, "brace", q)
-    S = hand_S_t1(st_.b, st_.e)
-    np.testing.assert_allclose(st_.P, P, atol=1e-15)
-    np.testing.assert_allclose(st_.J_braced[:, :6], j_e[:, :6] - S @ P @ j_b[:, :6], atol=1e-12)
-    np.testing.assert_allclose(st_.J_braced[:, 6:], j_e[:, 6:], atol=1e-12)
+    S = hand_S_t1(st_.split.b, st_.e)
+    np.testing.assert_allclose(st_.split.P, P, atol=1e-15)
+    np.testing.assert_allclose(st_.split.J_braced[:, :6], j_e[:, :6] - S @ P @ j_b[:, :6], atol=1e-12)
+    np.testing.assert_allclose(st_.split.J_braced[:, 6:], j_e[:, 6:], atol=1e-12)
 
 
 # ---------------------------------------------------------------------------------------------- braced map
@@ -220,11 +220,15 @@ def test_A_maps_braced_coordinates_to_the_finite_difference_twist_of_e_for_n1_6(
         st_ = braced.state(q)
         j1 = pin_frame_jacobian(ref, "brace", q)[:, :6]
         bdot, q2dot = rng.normal(size=5), rng.normal(size=5)
-        q1dot = np.linalg.solve(j1, braced.H @ bdot)  # eq:q1, computed here
+        q1dot = np.linalg.solve(j1, braced.split.H @ bdot)  # eq:q1, computed here
         twist = fd_twist(ref, "tool", q, np.concatenate([q1dot, q2dot]))
-        np.testing.assert_allclose(st_.A @ np.concatenate([bdot, q2dot]), twist, atol=1e-7 * np.linalg.norm(twist))
-        np.testing.assert_allclose(st_.A[:, :5], hand_S_t1(st_.b, st_.e) @ braced.H, atol=1e-13)  # eq:braced_kin
-        np.testing.assert_allclose(st_.chain1_map, np.linalg.solve(j1, braced.H), atol=1e-10)
+        np.testing.assert_allclose(
+            st_.split.A @ np.concatenate([bdot, q2dot]), twist, atol=1e-7 * np.linalg.norm(twist)
+        )
+        np.testing.assert_allclose(
+            st_.split.A[:, :5], hand_S_t1(st_.split.b, st_.e) @ braced.split.H, atol=1e-13
+        )  # eq:braced_kin
+        np.testing.assert_allclose(st_.split.chain1_map, np.linalg.solve(j1, braced.split.H), atol=1e-10)
 
 
 @pytest.mark.parametrize("link", [3, 5, 7])
@@ -234,13 +238,13 @@ def test_chain1_map_keeps_the_contact_and_A_is_consistent_with_J_for_n1_not_6(li
     braced, ref = braced_chain(9, seed=31, brace_link=link, normal=normal)
     q = np.random.default_rng(link).uniform(-2.5, 2.5, 9)
     st_ = braced.state(q)
-    G = st_.chain1_map
+    G = st_.split.chain1_map
     j_b, j_e = pin_frame_jacobian(ref, "brace", q), pin_frame_jacobian(ref, "tip", q)
     assert G.shape == (link, link - 1)  # one constraint removes one direction
     np.testing.assert_allclose(normal @ j_b[:3, :link] @ G, 0.0, atol=1e-12)  # Xᵀ J1 G = 0
     np.testing.assert_allclose(G.T @ G, np.eye(link - 1), atol=1e-12)  # orthonormal basis
-    assert st_.A.shape == (6, link - 1 + 9 - link)
-    np.testing.assert_allclose(st_.A, j_e @ block_diag(G, np.eye(9 - link)), atol=1e-12)
+    assert st_.split.A.shape == (6, link - 1 + 9 - link)
+    np.testing.assert_allclose(st_.split.A, j_e @ block_diag(G, np.eye(9 - link)), atol=1e-12)
 
 
 @pytest.mark.parametrize("case", ["paper", "chain-n1=5", "chain-n1=7"])
@@ -253,16 +257,16 @@ def test_braced_motion_has_zero_normal_velocity_at_b(case: str) -> None:
         braced, ref = braced_chain(9, seed=41, brace_link=int(case[-1]), normal=normal)
         q = np.random.default_rng(2).uniform(-2.0, 2.0, 9)
     st_ = braced.state(q)
-    G = st_.chain1_map
+    G = st_.split.chain1_map
     rng = np.random.default_rng(9)
     for _ in range(3):
         bdot = rng.normal(size=G.shape[1])
-        qdot = np.concatenate([G @ bdot, rng.normal(size=braced.n2)])
+        qdot = np.concatenate([G @ bdot, rng.normal(size=braced.split.n2)])
         v_b = fd_twist(ref, "brace", q, qdot)
         assert abs(normal @ v_b[:3]) < 1e-8 * max(1.0, np.linalg.norm(v_b))
         assert np.linalg.norm(v_b[:3]) > 1e-3  # the brace point does move (tangentially)
-        if braced.n1 == 6:  # b moves exactly with the allowed twist H ḃ
-            np.testing.assert_allclose(v_b, braced.H @ bdot, atol=1e-7 * np.linalg.norm(bdot))
+        if braced.split.n1 == 6:  # b moves exactly with the allowed twist H ḃ
+            np.testing.assert_allclose(v_b, braced.split.H @ bdot, atol=1e-7 * np.linalg.norm(bdot))
 
 
 # ---------------------------------------------------------------------------------------------- Hessians
@@ -286,10 +290,10 @@ def test_kinematic_hessians_equal_finite_differences_of_the_jacobians(case: str)
         braced, ref = braced_chain(10, seed=51, brace_link=int(case[-1]))
         q, tip = np.random.default_rng(3).uniform(-2.5, 2.5, 10), "tip"
     st_ = braced.state(q, hessians=True)
-    assert st_.dJ_e is not None and st_.dJ_b is not None
+    assert st_.dJ_e is not None and st_.split.dJ_b is not None
     fd_e, fd_b = fd_jacobian_derivative(ref, tip, q), fd_jacobian_derivative(ref, "brace", q)
     np.testing.assert_allclose(st_.dJ_e, fd_e, atol=1e-7)
-    np.testing.assert_allclose(st_.dJ_b, fd_b, atol=1e-7)
+    np.testing.assert_allclose(st_.split.dJ_b, fd_b, atol=1e-7)
     # the guard is sensitive to the memory layout: the swapped index order differs by far more than atol
     assert np.max(np.abs(fd_e - fd_e.transpose(0, 2, 1))) > 1e-2
     assert np.max(np.abs(fd_b - fd_b.transpose(0, 2, 1))) > 1e-2
@@ -315,9 +319,7 @@ def test_a_misread_hessian_layout_raises_and_the_layout_is_checked_once_per_fram
     monkeypatch.setattr(pin, "getFrameKinematicHessian", real)
     calls: list[int] = []
     check = kinematics.check_hessian_layout
-    monkeypatch.setattr(
-        kinematics, "check_hessian_layout", lambda m, f, **kw: (calls.append(f), check(m, f, **kw))
-    )
+    monkeypatch.setattr(kinematics, "check_hessian_layout", lambda m, f, **kw: (calls.append(f), check(m, f, **kw)))
     braced, _ = braced_chain(7, seed=61, brace_link=4)
     for _ in range(3):
         braced.state(q, hessians=True)
@@ -332,7 +334,7 @@ def test_puma_flange_at_qn_matches_corkes_toolbox() -> None:
     st_ = braced.state(qn)
     np.testing.assert_allclose(st_.e, [0.5963, -0.1501, -0.0144], atol=1e-4)
     np.testing.assert_allclose(skeleton(puma, qn)[-1], st_.e, atol=1e-14)
-    assert (braced.n1, braced.n2) == (3, 3)
+    assert (braced.split.n1, braced.split.n2) == (3, 3)
 
 
 def test_skeleton_lists_base_joint_origins_and_tip() -> None:
@@ -387,7 +389,7 @@ def test_singular_J1_at_the_puma_wrist_singularity_raises_singularity_error() ->
     assert s[-1] < 1e-12 * s[0]  # premise: J1 is singular
     st_ = braced.state(q)
     with pytest.raises(SingularityError) as info:
-        _ = st_.chain1_map
+        _ = st_.split.chain1_map
     assert "\n" not in str(info.value)
 
 
@@ -403,13 +405,13 @@ def test_a_long_chain_state_equals_pinocchio_without_its_data() -> None:
     data = ref.createData()  # the reference, one Pinocchio pass
     pin.computeJointJacobians(ref, data, q)
     pin.updateFramePlacements(ref, data)
-    for frame, jac in (("tip", st.J_e), ("brace", st.J_b)):
+    for frame, jac in (("tip", st.J_e), ("brace", st.split.J_b)):
         fid = ref.getFrameId(frame)
         np.testing.assert_allclose(jac, pin.getFrameJacobian(ref, data, fid, pin.LOCAL_WORLD_ALIGNED), atol=1e-11)
-    np.testing.assert_allclose(st.b, data.oMf[ref.getFrameId("brace")].translation, rtol=0, atol=1e-11)
-    b, e, r_b, r_e = braced.placements(q)
-    np.testing.assert_allclose(np.concatenate([b, e]), np.concatenate([st.b, st.e]), rtol=0, atol=1e-14)
-    np.testing.assert_allclose(np.hstack([r_b, r_e]), np.hstack([st.R_b, st.R_e]), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(st.split.b, data.oMf[ref.getFrameId("brace")].translation, rtol=0, atol=1e-11)
+    e, r_e, (b,), (r_b,) = braced.frame_placements(q)
+    np.testing.assert_allclose(np.concatenate([b, e]), np.concatenate([st.split.b, st.e]), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(np.hstack([r_b, r_e]), np.hstack([st.split.R_b, st.R_e]), rtol=0, atol=1e-14)
     pts = skeleton(braced.robot, q)
     assert pts.shape == (n + 2, 3) and np.allclose(pts[-1], st.e)
 

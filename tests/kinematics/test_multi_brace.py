@@ -1,4 +1,4 @@
-"""Tests of several braces at once (bracekit.kinematics.multi and the stacked C_e of compliance.first_order).
+"""Tests of several braces at once (bracekit.kinematics.constraint and the stacked C_e of compliance.first_order).
 
 References: Pinocchio models built independently from the same URDF text (computeFrameJacobian), the bordered
 KKT system of the Lagrange-multiplier equilibrium built here, validate.statics.lagrange_compliance, SciPy's
@@ -17,14 +17,13 @@ from scipy.linalg import null_space
 from bracekit.compliance.first_order import (
     C1,
     braced_C1,
+    constrained_compliance,
     end_effector_compliance,
     free_space_compliance,
-    stacked_compliance,
 )
 from bracekit.contact import Brace, Surface
 from bracekit.errors import ContactError, InputError, RedundantContactWarning, UnloadedContactWarning
-from bracekit.kinematics import BracedRobot
-from bracekit.kinematics.multi import MultiBracedState
+from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
 from bracekit.validate.statics import lagrange_compliance
@@ -99,7 +98,7 @@ def rel(a: np.ndarray, b: np.ndarray) -> float:
         ),
     ],
 )
-def test_stacked_compliance_equals_the_bordered_kkt_solve_on_random_chains(
+def test_constrained_compliance_equals_the_bordered_kkt_solve_on_random_chains(
     seed: int, pads: list[tuple[str, int]], contacts: list[str], k_env: list[float | None]
 ) -> None:
     n = 12
@@ -113,7 +112,7 @@ def test_stacked_compliance_equals_the_bordered_kkt_solve_on_random_chains(
         q = rng.uniform(-np.pi, np.pi, n)
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # generic configurations: independent, loaded rows
-            st = braced.stacked_state(q)
+            st = braced.state(q)
             c_e = end_effector_compliance(st)
         g, d = reference_constraint(model, braces, q)
         j_e = pin_frame_jacobian(model, "tip", q)
@@ -129,7 +128,7 @@ def test_stacked_compliance_equals_the_bordered_kkt_solve_on_random_chains(
         assert np.linalg.eigvalsh(free_space_compliance(st) - c_e).min() > -1e-12 * np.abs(c_e).max()
 
 
-def test_stacked_compliance_on_the_paper_robot_with_two_and_three_braces_equals_the_kkt_solve() -> None:
+def test_constrained_compliance_on_the_paper_robot_with_two_and_three_braces_equals_the_kkt_solve() -> None:
     base = load_model("paper-robot").with_point_frames(
         [
             ("pad_a", "link3", (0.05, 0.02, 0.1), None),
@@ -144,7 +143,7 @@ def test_stacked_compliance_on_the_paper_robot_with_two_and_three_braces_equals_
         (["pad_a", "pad_b", "pad_c"], ["frictionless_point", "soft_finger", "frictionless_point"]),
     ):
         braces = random_braces(rng, pads, contacts, [None] * len(pads))
-        st = BracedRobot(base, braces).stacked_state(q)
+        st = BracedRobot(base, braces).state(q)
         g, d = reference_constraint(base.model, braces, q)
         j_e = pin_frame_jacobian(base.model, base.tip, q)
         c_e = end_effector_compliance(st, "constrained")
@@ -158,7 +157,7 @@ def test_braced_motions_are_an_orthonormal_complete_basis_of_the_null_space_of_g
     rng = np.random.default_rng(5)
     braces = random_braces(rng, ["pa", "pb"], ["point_with_friction", "soft_finger"], [None, None])
     braced = BracedRobot(Robot.from_urdf(text, tip="tip"), braces)
-    st = braced.stacked_state(rng.uniform(-np.pi, np.pi, n))
+    st = braced.state(rng.uniform(-np.pi, np.pi, n))
     g, nn = st.G, st.N
     assert g.shape == (7, n) and nn.shape == (n, n - 7) and st.constraint.rank == 7
     np.testing.assert_allclose(g @ nn, 0.0, atol=1e-12 * np.abs(g).max())
@@ -178,7 +177,7 @@ def test_a_duplicated_brace_warns_and_gives_the_one_brace_compliance() -> None:
         twice = BracedRobot(robot, [brace, brace])
         q = rng.uniform(-np.pi, np.pi, n)
         with pytest.warns(RedundantContactWarning, match=r"braces\[1\] .* row 0 depends on braces\[0\]"):
-            st = twice.stacked_state(q)
+            st = twice.state(q)
             c_two = end_effector_compliance(st)
         c_one = end_effector_compliance(BracedRobot(robot, brace).state(q))
         assert np.abs(c_two - c_one).max() < 1e-12 * np.abs(c_one).max()
@@ -196,7 +195,7 @@ def test_a_duplicated_compliant_brace_is_two_springs_in_parallel() -> None:
     q = rng.uniform(-np.pi, np.pi, n)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # compliant rows never make G K⁻¹ Gᵀ + D singular
-        c_two = end_effector_compliance(BracedRobot(robot, [brace, brace]).stacked_state(q))
+        c_two = end_effector_compliance(BracedRobot(robot, [brace, brace]).state(q))
     c_one = end_effector_compliance(BracedRobot(robot, stiffer).state(q))
     assert rel(c_two, c_one) < 1e-12
 
@@ -210,7 +209,7 @@ def test_two_contacts_locking_the_same_joints_drop_the_dependent_rows() -> None:
     braces = random_braces(rng, ["pa", "pb"], ["point_with_friction"] * 2, [None, None])
     q = rng.uniform(-np.pi, np.pi, n)
     with pytest.warns(RedundantContactWarning, match=r"braces\[1\] \(frame 'pb'"):
-        st = BracedRobot(robot, braces).stacked_state(q)
+        st = BracedRobot(robot, braces).state(q)
         c_e = end_effector_compliance(st)
     assert st.constraint.independent == (0, 1, 2) and st.constraint.dependent == (3, 4, 5)
     assert np.all(np.isfinite(c_e))
@@ -231,7 +230,7 @@ def test_a_row_no_joint_can_push_warns_unloaded_and_is_dropped() -> None:
     along = Brace("pa", Surface(np.zeros(3), axis))
     other = random_braces(rng, ["pb"], ["soft_finger"], [None])[0]
     with pytest.warns(UnloadedContactWarning, match=r"braces\[0\] \(frame 'pa'"):
-        c_e = end_effector_compliance(BracedRobot(robot, [along, other]).stacked_state(q))
+        c_e = end_effector_compliance(BracedRobot(robot, [along, other]).state(q))
     c_other = end_effector_compliance(BracedRobot(robot, other).state(q))
     assert rel(c_e, c_other) < 1e-10
 
@@ -244,21 +243,35 @@ def test_a_list_of_one_brace_is_the_one_brace_model(contact: str, k_env: float |
     rng = np.random.default_rng(12)
     brace = Brace("brace", Surface(np.zeros(3), random_unit(rng)), contact=contact, environment_stiffness=k_env)
     single, listed = BracedRobot(robot, brace), BracedRobot(robot, [brace])
-    assert listed.braces == (brace,) and listed.brace is brace and single.braces == (brace,)
-    assert (listed.brace_id, listed.n1, listed.n2) == (single.brace_id, single.n1, single.n2)
+    assert listed.braces == (brace,) and listed.split.brace is brace and single.braces == (brace,)
+    assert (listed.split.brace_id, listed.split.n1, listed.split.n2) == (
+        single.split.brace_id,
+        single.split.n1,
+        single.split.n2,
+    )
     for name in ("H", "X", "P"):
-        assert np.array_equal(getattr(listed, name), getattr(single, name))
+        assert np.array_equal(getattr(listed.split, name), getattr(single.split, name))
     for _ in range(3):
         q = rng.uniform(-np.pi, np.pi, n)
         one, other = single.state(q), listed.state(q)
-        for name in ("J_e", "J_b", "J1", "J2", "A", "J_braced", "chain1_map"):
-            assert np.array_equal(getattr(one, name), getattr(other, name))
+        assert np.array_equal(one.J_e, other.J_e)
+        for name in ("J_b", "J1", "J2", "A", "J_braced", "chain1_map"):
+            assert np.array_equal(getattr(one.split, name), getattr(other.split, name))
         for model in ("constrained", "projection"):
             assert np.array_equal(end_effector_compliance(one, model), end_effector_compliance(other, model))
-        reference = end_effector_compliance(one)
-        stacked = end_effector_compliance(listed.stacked_state(q))
+        # the stacked constrained C_e of one brace is the paper's eq:Ce through the chain split, with the
+        # constrained C̃1 = C1 − C1 X (Xᵀ C1 X + I/k_env)⁻¹ Xᵀ C1 (assembled here by hand)
+        sp, k = one.split, robot.stiffness
+        c1 = sp.J1 @ np.diag(1.0 / k[: sp.n1]) @ sp.J1.T
+        c2 = sp.J2 @ np.diag(1.0 / k[sp.n1 :]) @ sp.J2.T
+        m = sp.X.T @ c1 @ sp.X + (0.0 if k_env is None else 1.0 / k_env) * np.eye(sp.X.shape[1])
+        c1t = c1 - c1 @ sp.X @ np.linalg.pinv(m, rcond=1e-10, hermitian=True) @ sp.X.T @ c1
+        reference = sp.S_t1 @ c1t @ sp.S_t1.T + sp.S_t2 @ c2 @ sp.S_t2.T
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UnloadedContactWarning)
+            stacked = end_effector_compliance(listed.state(q))
         assert np.abs(stacked - reference).max() < 1e-12 * np.abs(reference).max()
-        np.testing.assert_array_equal(listed.stacked_state(q).J_b_i[0], one.J_b)
+        np.testing.assert_array_equal(listed.state(q).J_b_i[0], one.split.J_b)
 
 
 def test_one_brace_quantities_refuse_several_braces_with_a_pointer() -> None:
@@ -267,24 +280,24 @@ def test_one_brace_quantities_refuse_several_braces_with_a_pointer() -> None:
     braces = random_braces(np.random.default_rng(13), ["pa", "pb"], ["frictionless_point"] * 2, [None, None])
     braced = BracedRobot(robot, braces)
     assert braced.braces == tuple(braces) and len(braced.brace_ids) == 2
-    for name in ("brace", "brace_id", "n1", "n2", "H", "X", "P"):
-        with pytest.raises(ContactError, match="defined for one brace; this robot has 2 braces: use"):
+    for name in ("split", "brace", "brace_id"):  # the chain split (n1, n2, H, X, P) and what needs it
+        with pytest.raises(ContactError, match=r"defined for one brace; this robot has 2 braces .*: use"):
             getattr(braced, name)
-    for call in (braced.state, braced.placements):
-        with pytest.raises(ContactError, match="defined for one brace; this robot has 2 braces: use"):
-            call(np.zeros(n))
-    st = braced.stacked_state(np.zeros(n))
-    assert isinstance(st, MultiBracedState)
-    for name in ("b", "R_b", "J_b", "n1", "H", "X", "P", "J1", "J2", "S_t1", "S_t2", "J", "A", "J_braced"):
-        with pytest.raises(ContactError, match="defined for one brace; this robot has 2 braces: use"):
-            getattr(st, name)
-    with pytest.raises(ContactError, match="projection model is defined for one brace"):
+    st = braced.state(np.zeros(n))
+    assert isinstance(st, BracedState)
+    with pytest.raises(ContactError, match=r"defined for one brace; this robot has 2 braces .*: use the stacked"):
+        _ = st.split  # b, R_b, J_b, n1, H, X, P, J1, J2, S_t1, S_t2, J, A, J̃, dq1/db̃
+    placements = braced.frame_placements(np.zeros(n))
+    for i in range(2):  # what has a meaning for every brace count is there for each brace
+        np.testing.assert_array_equal(placements.b_i[i], st.contacts[i].b)
+        np.testing.assert_array_equal(placements.R_b_i[i], st.R_b_i[i])
+    with pytest.raises(ContactError, match=r"projection model .* is defined for one brace"):
         end_effector_compliance(st, "projection")
     for fn in (C1, braced_C1):
         with pytest.raises(ContactError, match="defined for one brace"):
             fn(st)  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="stacked state"):
-        stacked_compliance(BracedRobot(robot, braces[0]).state(np.zeros(n)))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="expected a BracedState"):
+        constrained_compliance(np.zeros(n))  # type: ignore[arg-type]
 
 
 def test_braced_robot_refuses_bad_brace_lists() -> None:
@@ -307,7 +320,7 @@ def test_stacked_state_of_a_long_chain_matches_pinocchio_beyond_the_data_limit()
     q = rng.uniform(-np.pi, np.pi, n)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        st = BracedRobot(Robot.from_urdf(text, tip="tip"), braces).stacked_state(q)
+        st = BracedRobot(Robot.from_urdf(text, tip="tip"), braces).state(q)
         c_e = end_effector_compliance(st)
     model = pin.buildModelFromXML(text)
     for brace, j_b in zip(braces, st.J_b_i, strict=True):

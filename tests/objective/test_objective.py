@@ -65,7 +65,7 @@ class Setup:
         self.env = env
         surface = Surface(self.centre, self.normal)
         self.braced = BracedRobot(robot, Brace("brace", surface, environment_stiffness=env))
-        self.n1 = self.braced.n1
+        self.n1 = self.braced.split.n1
         self.beta = random_unit(rng, 6)
         self.r_max = 0.0  # set per configuration by with_region
 
@@ -264,7 +264,7 @@ def test_braced_gradient_gives_the_slope_of_g_along_braced_motion_for_n1_not_6(l
     state = s.braced.state(q, hessians=True)
     term = ComplianceIndex(s.beta)
     grad = braced_gradient(state, term.gradient(state))
-    G = state.chain1_map
+    G = state.split.chain1_map
     assert grad.shape == (G.shape[1] + 9 - link,)
     rng = np.random.default_rng(1)
     for _ in range(3):
@@ -292,7 +292,7 @@ def test_analytic_gradient_without_hessians_is_an_input_error(term: object) -> N
 def test_region_barrier_raises_barrier_error_outside_the_region() -> None:
     s = Setup(None, seed=11)
     state = s.braced.state(WRIST_DOWN_Q, hessians=True)
-    r = np.linalg.norm(state.b - s.centre)
+    r = np.linalg.norm(state.split.b - s.centre)
     for r_max in (0.5 * r, r):
         term = RegionBarrier(r_max, s.centre)
         with pytest.raises(BarrierError):

@@ -229,7 +229,7 @@ def _unloaded_braced() -> BracedRobot:
 
 def test_fused_step_warns_like_the_reference_when_the_contact_is_unloaded() -> None:
     braced = _unloaded_braced()
-    assert braced.n1 == 1
+    assert braced.split.n1 == 1
     strategy = BracedGradientProjection(_objective(braced, "constrained", np.r_[0, 0, 1.0, 0, 0, 0], r_max=50.0))
     step = GradientProjectionStep(braced, strategy)
     q = np.array([0.3, 0.5, -0.4, 0.8, 0.2, -0.6])
@@ -278,8 +278,8 @@ def test_inverse_and_placements(paper) -> None:
     assert inverse(np.zeros((3, 3))) is None
     for q in qs[:5]:  # forward kinematics alone gives state()'s placements bit for bit
         st = sc.braced.state(q)
-        b, e, r_b, r_e = sc.braced.placements(q)
-        for x, y in ((b, st.b), (e, st.e), (r_b, st.R_b), (r_e, st.R_e)):
+        e, r_e, (b,), (r_b,) = sc.braced.frame_placements(q)
+        for x, y in ((b, st.split.b), (e, st.e), (r_b, st.split.R_b), (r_e, st.R_e)):
             assert np.array_equal(x, y)
 
 
@@ -461,7 +461,7 @@ def test_numba_kernel_equals_the_numpy_step_at_every_split(robot_name: str, link
     """The compiled step against the NumPy step and the reference, all four terms, both compliance models."""
     pytest.importorskip("numba")
     braced = _split_case(robot_name, link, contact)
-    assert braced.n1 == n1
+    assert braced.split.n1 == n1
     rng = np.random.default_rng(n1 + len(contact))
     lo = np.where(np.isfinite(braced.robot.lower), braced.robot.lower, -3.0)
     hi = np.where(np.isfinite(braced.robot.upper), braced.robot.upper, 3.0)

@@ -83,7 +83,7 @@ def test_braced_min_norm_with_two_braces_keeps_every_contact_and_equals_the_kkt_
     rng = np.random.default_rng(3)
     for _ in range(3):
         braced, model, q = case(rng)
-        st = braced.stacked_state(q)
+        st = braced.state(q)
         xdot = rng.normal(size=6)
         qdot = BracedMinNorm(space=space).velocity(st, xdot)
         g, j_e = reference(braced, model, q)
@@ -120,7 +120,7 @@ def test_gradient_projection_with_two_braces_equals_the_kkt_solve_with_the_objec
     space = TaskSpace("position")
     for _ in range(2):
         braced, model, q = case(rng)
-        st = braced.stacked_state(q)
+        st = braced.state(q)
         objective = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01)
         strategy = BracedGradientProjection(objective, alpha=-0.5, space=space)
         g_ref = reference_objective(braced, model, beta, 100.0, 0.01)
@@ -145,7 +145,7 @@ def test_a_task_the_braces_leave_no_motion_for_raises_a_singularity_error() -> N
     robot = Robot.from_urdf(text, tip="tip").with_point_frames([("pad", "l6", (0.03, 0.0, 0.04), None)])
     q = rng.uniform(-2.0, 2.0, n)
     braces = braces_through(robot.model, q, ["brace", "pad"], ["point_with_friction", "point_with_friction"], rng)
-    st = BracedRobot(robot, braces).stacked_state(q)  # 6 rows of G: one braced motion for the 6-D pose
+    st = BracedRobot(robot, braces).state(q)  # 6 rows of G: one braced motion for the 6-D pose
     assert st.N.shape == (n, 1)
     with pytest.raises(SingularityError, match=r"1 braced motion\(s\) for 6 task rows"):
         BracedMinNorm().velocity(st, np.ones(6))
@@ -154,7 +154,7 @@ def test_a_task_the_braces_leave_no_motion_for_raises_a_singularity_error() -> N
     # the paper robot with {b} of link9 stuck (3 rows): only rotations about it and joints 10, 11 move the tip, 5
     # motions for the 6-D pose although N has 7 columns
     braced, _, q = paper_case(rng, ("frictionless_point", "point_with_friction"))
-    st = braced.stacked_state(q)
+    st = braced.state(q)
     assert st.N.shape == (11, 7)
     with pytest.raises(SingularityError, match="S J_e N is singular"):
         BracedMinNorm().velocity(st, np.ones(6))
@@ -210,7 +210,7 @@ def test_the_joint_limit_barrier_of_the_several_brace_objective_matches_central_
     w_q = 0.05
     objective = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01, joint_limit_weight=w_q)
     g_ref = reference_objective(braced, model, beta, 100.0, 0.01)
-    st = braced.stacked_state(q)
+    st = braced.state(q)
     h = chan_dubey(q, lower, upper)
     assert h > 0.0
     assert objective.values(st)["joint_limit_barrier"] == pytest.approx(h, rel=1e-12)
@@ -230,7 +230,7 @@ def test_a_zero_joint_limit_weight_leaves_the_several_brace_objective_bit_identi
     rng = np.random.default_rng(12)
     beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     braced, _, q = case(rng)
-    st = braced.stacked_state(q)
+    st = braced.state(q)
     plain = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01)
     zero = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01, joint_limit_weight=0.0)
     assert zero.values(st) == plain.values(st)
@@ -251,7 +251,7 @@ def test_the_two_brace_scenario_passes_its_joint_limit_weight_to_the_stacked_obj
     assert (objective.ci_weight, objective.region_weight, objective.joint_limit_weight) == (100.0, 0.2, 0.01)
     q = scenario.guess
     lower, upper = scenario.robot.lower, scenario.robot.upper
-    st = scenario.braced.stacked_state(q)
+    st = scenario.braced.state(q)
     plain = MultiBraceObjective(objective.beta_x, ci_weight=100.0, region_weight=0.2)
     assert objective.value(st) == pytest.approx(plain.value(st) + 0.01 * chan_dubey(q, lower, upper), rel=1e-12)
 
@@ -263,7 +263,7 @@ def test_theta_z_of_each_brace_with_a_pad_axis_enters_the_several_brace_objectiv
     braced, model, q = paper_case(rng)
     pads = [replace(b, pad_axis=True) if b.frame == "brace" else b for b in braced.braces]  # `brace` has a pad axis
     braced = BracedRobot(braced.robot, pads)
-    st = braced.stacked_state(q)
+    st = braced.state(q)
     beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     base = MultiBraceObjective(beta, ci_weight=100.0)
     with_theta = MultiBraceObjective(beta, ci_weight=100.0, theta_weight=0.3)

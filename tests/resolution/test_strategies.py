@@ -51,7 +51,7 @@ def paper():
 
 def _braced_at(sc, q):
     """The scenario's brace moved so that the surface passes through b at q (the contact is closed)."""
-    b = sc.braced.state(q).b
+    b = sc.braced.state(q).split.b
     brace = sc.braced.brace
     return BracedRobot(sc.robot, Brace(brace.frame, Surface(b, brace.surface.normal), region_radius=0.5))
 
@@ -149,7 +149,7 @@ def chain_problem(n: int, brace_link: int, seed: int, model: str) -> tuple[Probl
     robot = Robot.from_urdf(urdf, tip="tip", stiffness=np.linspace(80.0, 240.0, n))
     rng = np.random.default_rng(seed)
     q = rng.uniform(-2.0, 2.0, n)
-    b = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), [0, 0, 1]))).state(q).b
+    b = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), [0, 0, 1]))).state(q).split.b
     braced = BracedRobot(robot, Brace("brace", Surface(b, random_unit(rng))))
     frame = braced.brace.surface.frame
     centre = b + 0.05 * frame[:, 0] + 0.04 * frame[:, 1]
@@ -177,7 +177,7 @@ def test_braced_min_norm_is_the_pseudo_inverse_of_an_independent_A_on_the_paper_
         H = h_point(pr.braced.brace.surface.frame)
         A = np.hstack([p.at_e(H), p.in_world(p.J2)])  # eq:braced_kin
         st = pr.braced.state(q)
-        np.testing.assert_allclose(st.A, A, atol=1e-12)
+        np.testing.assert_allclose(st.split.A, A, atol=1e-12)
         xdot = rng.normal(scale=0.05, size=6)
         y = np.linalg.lstsq(A, xdot, rcond=None)[0]  # [ḃ; q̇2], the minimum-norm solution
         np.testing.assert_allclose(np.linalg.pinv(A) @ xdot, y, atol=1e-12)
@@ -193,7 +193,9 @@ def test_braced_min_norm_on_chains_with_n1_not_6_is_the_min_norm_contact_keeping
     p = pr.pieces(q)
     assert p.n1 == brace_link != 6
     st = pr.braced.state(q)
-    np.testing.assert_allclose(st.A, np.hstack([p.at_e(p.J1 @ st.chain1_map), p.in_world(p.J2)]), atol=1e-12)
+    np.testing.assert_allclose(
+        st.split.A, np.hstack([p.at_e(p.J1 @ st.split.chain1_map), p.in_world(p.J2)]), atol=1e-12
+    )
     rng = np.random.default_rng(n)
     for _ in range(3):
         xdot = rng.normal(scale=0.05, size=6)
@@ -284,7 +286,7 @@ def test_braced_strategies_realise_the_commanded_tip_twist_and_keep_the_contact(
             # independent check with Pinocchio's full Jacobian: J_e q̇ = ẋ
             assert np.allclose(st.J_e @ qdot, xdot, atol=1e-10), strategy.name
             # normal velocity of the bracing point is zero
-            assert abs(n_hat @ (st.J_b[:3] @ qdot)) < 1e-10
+            assert abs(n_hat @ (st.split.J_b[:3] @ qdot)) < 1e-10
 
 
 def test_null_space_term_never_changes_the_tip_twist(paper) -> None:

@@ -66,12 +66,12 @@ def test_strategies_resolve_the_selected_rows_whatever_the_perpendicular_basis(b
         s = _selection(kind, st.R_e, np.asarray(axis if axis is not None else [0, 0, 1.0]), turn)
         free = np.linalg.pinv(s @ st.J_e) @ (s @ xdot)
         assert np.allclose(FreeSpaceMinNorm(space=space).velocity(st, xdot), free, atol=1e-12)
-        sa = s @ st.A
+        sa = s @ st.split.A
         sa_pinv = np.linalg.pinv(sa)
-        l_ = st.chain1_map.shape[1]
+        l_ = st.split.chain1_map.shape[1]
 
         def joint(y: np.ndarray, st=st, l_=l_) -> np.ndarray:
-            return np.r_[st.chain1_map @ y[:l_], y[l_:]]
+            return np.r_[st.split.chain1_map @ y[:l_], y[l_:]]
 
         assert np.allclose(BracedMinNorm(space=space).velocity(st, xdot), joint(sa_pinv @ (s @ xdot)), atol=1e-12)
         grad = braced_gradient(st, objective.gradient(st))

@@ -114,7 +114,7 @@ def test_a_line_task_with_two_braces_keeps_every_contact_and_the_task(paper_star
     assert run.redundancy == 11 - 2 - space.rows
 
 
-def test_gradient_projection_lowers_the_mean_stacked_compliance_index_against_braced_min_norm(paper_start) -> None:
+def test_gradient_projection_lowers_the_mean_constrained_compliance_index_against_braced_min_norm(paper_start) -> None:
     braced, q0 = paper_start
     e0 = pin_frame_placement(braced.robot.model, braced.robot.tip, q0).translation
     task = Line(e0, e0 + np.array([0.0, 0.0, 0.05]), 1.0)

@@ -16,7 +16,7 @@ from helpers import PAPER_TOML, scenario_text
 def test_paper_scenario_matches_the_paper_setup() -> None:
     sc = load_scenario("paper")
     assert "paper" in shipped_scenarios()
-    assert sc.robot.n == 11 and sc.braced.n1 == 6 and sc.braced.n2 == 5
+    assert sc.robot.n == 11 and sc.braced.split.n1 == 6 and sc.braced.split.n2 == 5
     assert np.all(sc.robot.stiffness == 170.0)
     assert sc.braced.brace.contact.name == "frictionless_point"
     assert np.allclose(sc.braced.brace.surface.normal, [0, 0, 1])  # horizontal plane
@@ -119,8 +119,8 @@ def test_brace_can_be_placed_at_a_link_point_and_urdf_paths_are_relative_to_the_
     # the new frame is the URDF's own brace frame (same link, same offset, z_b = −z_flange)
     ref = load_scenario("paper").braced.state(q)
     st = sc.braced.state(q)
-    assert np.allclose(st.b, ref.b, atol=1e-12)
-    np.testing.assert_allclose(st.R_b, ref.R_b, atol=1e-12)
+    assert np.allclose(st.split.b, ref.split.b, atol=1e-12)
+    np.testing.assert_allclose(st.split.R_b, ref.split.R_b, atol=1e-12)
 
 
 def _link_point_scenario(tmp_path: Path, extra: str = "", weights: str | None = None, start: str = "") -> Path:

@@ -47,7 +47,7 @@ def test_two_braces_on_the_paper_robot_give_the_stacked_model() -> None:
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, sc.guess)
     expected = data.oMf[robot.frame_id("link8")].act(np.array(SECOND["offset"]))
-    state = sc.braced.stacked_state(sc.guess)
+    state = sc.braced.state(sc.guess)
     assert np.allclose(state.b_i[1], expected, atol=1e-12)
     assert state.G.shape == (2, 11) and state.constraint.rank == 2
     assert sc.compliance_model == "constrained" and sc.weights["theta_z"] == 0.0 and sc.weights["d"] == 0.0
@@ -124,7 +124,7 @@ def test_one_brace_table_is_unchanged_and_one_array_entry_is_the_same_model() ->
     data = copy.deepcopy(PAPER)
     data["brace"] = [data["brace"]]
     array = parse_scenario(data)
-    assert table.braced.n1 == array.braced.n1 == 6
+    assert table.braced.split.n1 == array.braced.split.n1 == 6
     assert table.braced.brace.frame == array.braced.brace.frame == "brace"
     assert np.array_equal(table.braced.brace.surface.point, array.braced.brace.surface.point)
     assert table.weights == array.weights and table.start_theta_weight == array.start_theta_weight == 0.3

@@ -37,8 +37,8 @@ def test_solved_start_has_the_tip_on_the_task_and_the_contact_closed(setup) -> N
     sc, start, _ = setup
     brace = sc.braced.brace
     assert np.linalg.norm(start.e - sc.task.position(0.0)) < 1e-10
-    assert abs(brace.surface.signed_distance(start.b)) < 1e-10
-    assert np.linalg.norm(start.b - brace.surface.point) < brace.region_radius
+    assert abs(brace.surface.signed_distance(start.split.b)) < 1e-10
+    assert np.linalg.norm(start.split.b - brace.surface.point) < brace.region_radius
     assert np.all(start.q >= sc.robot.lower) and np.all(start.q <= sc.robot.upper)
 
 
@@ -51,7 +51,7 @@ def test_braced_runs_keep_the_bracing_point_on_the_surface_and_the_tip_on_the_ta
     surface = sc.braced.brace.surface
     for q, t in zip(tr.q, tr.t, strict=True):
         st = sc.braced.state(q)
-        assert abs(surface.signed_distance(st.b)) < 1e-9  # recomputed, not the recorded value
+        assert abs(surface.signed_distance(st.split.b)) < 1e-9  # recomputed, not the recorded value
         assert np.linalg.norm(st.e - task.position(t)) < 1e-9
     assert tr.summary()["max_contact_violation_m"] < 1e-9
     # the largest joint motion between samples, recorded per sample and in the summary
@@ -154,7 +154,7 @@ def test_runs_report_joint_limits_and_surface_penetration(setup) -> None:
     tr = simulate(sc.braced, FreeSpaceMinNorm(), task, start.q, 0.1, sc.beta_x)
     s = tr.summary()
     surface = sc.braced.brace.surface
-    recomputed = min(surface.signed_distance(sc.braced.state(q).b) for q in tr.q)
+    recomputed = min(surface.signed_distance(sc.braced.state(q).split.b) for q in tr.q)
     assert s["min_surface_distance_m"] == pytest.approx(recomputed)
     assert s["max_joint_limit_violation_rad"] == 0.0
     # a robot whose limits sit just around the start: the run stops at the first step and says where
@@ -269,9 +269,9 @@ def test_an_iiwa_braced_at_its_forearm_starts_conditioned_and_completes_the_brac
     ratios = conditioning(start, ("A", "J_braced"))
     assert ratios["A"] > 0.01 and ratios["J_braced"] > 0.05
     assert np.linalg.norm(start.e - position) < 1e-10
-    assert abs(sc.braced.brace.surface.signed_distance(start.b)) < 1e-10
+    assert abs(sc.braced.brace.surface.signed_distance(start.split.b)) < 1e-10
     if pad_axis:  # the pad axis is pulled toward the normal
-        assert np.degrees(np.arccos(start.z_b @ sc.braced.brace.surface.normal)) < 20.0
+        assert np.degrees(np.arccos(start.split.z_b @ sc.braced.brace.surface.normal)) < 20.0
     unconditioned = solve_start(
         sc.braced,
         position,

@@ -122,7 +122,7 @@ def test_the_contact_jacobian_is_the_derivative_of_the_contact_residual(tmp_path
     sc = _scenario(tmp_path, "soft", contact='"soft_finger"')
     q = sc.guess + 0.05
     st = sc.braced.state(sc.guess)
-    anchor = (st.b, pin.exp3(np.array([0.7, -0.6, 0.1])) @ st.R_b)  # 0.9 rad from {b}
+    anchor = (st.split.b, pin.exp3(np.array([0.7, -0.6, 0.1])) @ st.split.R_b)  # 0.9 rad from {b}
     jac = contact_jacobian(sc.braced.state(q), anchor[1])
     h = 1e-6
     fd = np.column_stack(
@@ -136,7 +136,7 @@ def test_the_contact_jacobian_is_the_derivative_of_the_contact_residual(tmp_path
         ]
     )
     assert np.max(np.abs(jac - fd)) < 1e-8
-    assert np.max(np.abs(sc.braced.X.T @ sc.braced.state(q).J_b - fd)) > 1e-2  # the plain rows are not
+    assert np.max(np.abs(sc.braced.split.X.T @ sc.braced.state(q).split.J_b - fd)) > 1e-2  # the plain rows are not
 
 
 def test_the_correction_tolerance_is_relative_to_the_robots_reach() -> None:
@@ -151,14 +151,14 @@ def test_the_correction_tolerance_is_relative_to_the_robots_reach() -> None:
 
         robot = Robot.from_urdf(re.sub(r'<origin xyz="([^"]+)"', scaled, urdf), tip="tip")
         q0 = np.full(8, 0.3)
-        b0 = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), up))).state(q0).b
+        b0 = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), up))).state(q0).split.b
         braced = BracedRobot(robot, Brace("brace", Surface(b0, up)))
         st = braced.state(q0)
         length = reach(robot)
         assert length == pytest.approx(scale * metres, rel=1e-12)
-        out = correct(braced, q0 + 0.01 * np.arange(8), st.e, st.R_e, (st.b, st.R_b))
+        out = correct(braced, q0 + 0.01 * np.arange(8), st.e, st.R_e, (st.split.b, st.split.R_b))
         assert np.max(np.abs(out.e - st.e)) < 1e-10 * length
-        assert abs(braced.brace.surface.signed_distance(out.b)) < 1e-10 * length
+        assert abs(braced.brace.surface.signed_distance(out.split.b)) < 1e-10 * length
 
 
 def test_the_joint_step_bound_comes_from_the_velocity_limits_with_a_default_and_a_cap() -> None:

@@ -39,7 +39,7 @@ def _braced_chain(
     q = rng.uniform(-1.5, 1.5, robot.n)
     normal = rng.normal(size=3)
     probe = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), normal)))
-    b = probe.placements(q)[0]
+    b = probe.frame_placements(q).b_i[0]
     brace = Brace("brace", Surface(b, normal), contact=contact, environment_stiffness=k_env)
     return BracedRobot(robot, brace), q
 

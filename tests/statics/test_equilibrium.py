@@ -177,11 +177,11 @@ def test_without_geometric_stiffness_torques_balance_the_loads_at_q(chain) -> No
         braced, q = chain(contact=contact)
         r = contact_response(braced, q, preload=1.0, geometric=False)
         st = braced.state(q)
-        np.testing.assert_allclose(r.torque_gain, -st.J_e.T - st.J_b.T @ r.contact_gain, atol=1e-10)
+        np.testing.assert_allclose(r.torque_gain, -st.J_e.T - st.split.J_b.T @ r.contact_gain, atol=1e-10)
         # the contact wrench stays in span(X) and b does not move along the constraints
         x = r.X
         np.testing.assert_allclose(x @ np.linalg.lstsq(x, r.contact_gain, rcond=None)[0], r.contact_gain, atol=1e-10)
-        np.testing.assert_allclose(x.T @ st.J_b @ r.joint_gain, 0.0, atol=1e-10)
+        np.testing.assert_allclose(x.T @ st.split.J_b @ r.joint_gain, 0.0, atol=1e-10)
 
 
 def test_pressing_the_tool_toward_the_surface_adds_normal_force(paper) -> None:

@@ -39,7 +39,7 @@ def two_braces(stiffness: float | None = None) -> BracedRobot:
     probe = BracedRobot(
         robot, [Brace(f, Surface(np.zeros(3), nh)) for f, nh in zip(("pad_a", "brace"), NORMALS, strict=True)]
     )
-    points = probe.stacked_state(Q).b_i
+    points = probe.state(Q).b_i
     return BracedRobot(
         robot, [Brace(f, Surface(b, nh)) for f, b, nh in zip(("pad_a", "brace"), points, NORMALS, strict=True)]
     )
@@ -200,7 +200,7 @@ def test_free_space_run_and_relief_with_two_braces_against_rnea() -> None:
     holding = Holding(gravity=True, wrenches=w[None, :], preloads=(6.0, 10.0))
     e = effort_limits(braced.robot)
     free = holding_measures(braced, Q[None, :], holding, False)
-    j_e = braced.stacked_state(Q).J_e
+    j_e = braced.state(Q).J_e
     tau_free = rnea_with_contacts(braced, Q, [np.zeros(3), np.zeros(3)]) - j_e.T @ w
     np.testing.assert_allclose(free["torque_ratio_loaded"][0], np.max(np.abs(tau_free) / e), rtol=1e-12)
     forces = [p * b.surface.normal for p, b in zip((6.0, 10.0), braced.braces, strict=True)]

@@ -150,7 +150,7 @@ def _kkt_compliance(j_e: np.ndarray, k: np.ndarray, a: np.ndarray) -> np.ndarray
     return j_e @ np.linalg.solve(kkt, rhs)[:n]
 
 
-def test_pair_candidates_match_the_stacked_compliance_and_a_kkt_solve_with_both_braces() -> None:
+def test_pair_candidates_match_the_constrained_compliance_and_a_kkt_solve_with_both_braces() -> None:
     robot = load_model("paper-robot")
     n_1, n_2 = np.array([0.0, 0.0, 1.0]), np.array([0.0, -1.0, 0.0])
     cands = brace_pair_study(robot, Q, "brace", first_normal=n_1, second_normal=n_2, points_per_link=2)
@@ -186,9 +186,9 @@ def test_pair_candidates_match_the_stacked_compliance_and_a_kkt_solve_with_both_
         offset = c.fraction * np.asarray(model.jointPlacements[c.joint + 1].translation)
         two = robot.with_point_frame("second", c.link, offset)
         braced = BracedRobot(two, [Brace("brace", Surface(b_1, n_1)), Brace("second", Surface(c.point, n_2))])
-        c_e = end_effector_compliance(braced.stacked_state(Q), "constrained")
+        c_e = end_effector_compliance(braced.state(Q), "constrained")
         assert c.Ci_pair == pytest.approx(compliance_index(c_e, beta), rel=1e-10)
-        assert c.k_pair == pytest.approx(frobenius_condition(braced.stacked_state(Q).braced_jacobian), rel=1e-10)
+        assert c.k_pair == pytest.approx(frobenius_condition(braced.state(Q).braced_jacobian), rel=1e-10)
 
 
 def test_a_second_brace_on_the_first_braces_own_point_is_marked_redundant_without_warnings() -> None:

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from bracekit import load_model
-from bracekit.compliance.first_order import end_effector_compliance, stacked_compliance
+from bracekit.compliance.first_order import constrained_compliance, end_effector_compliance
 from bracekit.contact import Brace, Surface, contact_type
 from bracekit.errors import ContactError, InputError, RedundantContactWarning
 from bracekit.kinematics import BracedRobot
@@ -38,7 +38,7 @@ def _kkt_compliance(j_e: np.ndarray, k: np.ndarray, a: np.ndarray) -> np.ndarray
     return j_e @ dq
 
 
-def test_two_braces_match_the_stacked_compliance_and_a_kkt_solve() -> None:
+def test_two_braces_match_the_constrained_compliance_and_a_kkt_solve() -> None:
     robot = _robot()
     r = evaluate(
         robot, ["brace", "p2"], Q, normal=[[0, 0, 1], N2], contact=["frictionless_point", "point_with_friction"]
@@ -68,7 +68,7 @@ def test_two_braces_match_the_stacked_compliance_and_a_kkt_solve() -> None:
             Brace("p2", Surface(r["braces"][1]["b"], N2), contact_type("point_with_friction")),
         ],
     )
-    direct = stacked_compliance(braced.stacked_state(Q))
+    direct = constrained_compliance(braced.state(Q))
     assert np.allclose(r["C_e_constrained"], direct, rtol=0, atol=1e-12 * scale)
     assert r["G_rank"] == 4 and len(r["G_rows"]) == 4 and r["G_dependent_rows"] == []
     assert np.array(r["N"]).shape == (11, 7) and np.array(r["braced_jacobian"]).shape == (6, 7)

@@ -332,13 +332,13 @@ class BatchEvaluator:
             raise InputError(f"unknown backend {show(backend)}; choose one of {', '.join(BACKENDS)}")
         self.braced = braced
         robot = braced.robot
-        self.kinematics = ChainKinematics(robot, (robot.tip_id, braced.brace_id))
-        self._n1 = braced.n1
-        self._k1inv = 1.0 / robot.stiffness[: braced.n1]
-        self._k2inv = 1.0 / robot.stiffness[braced.n1 :]
-        self._X = braced.X
-        self._t = np.eye(6) - braced.P
-        self._k_env = braced.brace.environment_stiffness
+        self.kinematics = ChainKinematics(robot, (robot.tip_id, braced.split.brace_id))
+        self._n1 = braced.split.n1
+        self._k1inv = 1.0 / robot.stiffness[: braced.split.n1]
+        self._k2inv = 1.0 / robot.stiffness[braced.split.n1 :]
+        self._X = braced.split.X
+        self._t = np.eye(6) - braced.split.P
+        self._k_env = braced.split.brace.environment_stiffness
         self.fallback_reason: str | None = None
         kernels: ModuleType | None = None
         if backend != "numpy":

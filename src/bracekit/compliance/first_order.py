@@ -8,9 +8,9 @@ m/N, m/(N·m) = 1/N, rad/N and rad/(N·m). Two models of the bracing-consistent 
   constraint, C̃1 = C1 − C1 X (Xᵀ C1 X)⁻¹ Xᵀ C1 (docs/model.md). With a finite environment stiffness k_env the
   inverse becomes (Xᵀ C1 X + I / k_env)⁻¹.
 
-Several braces (``BracedRobot(robot, [brace_1, brace_2, …]).stacked_state(q)``) have the ``constrained`` model
-only, with the stacked constraint G (:func:`stacked_compliance`); the chain does not split, so C1, C2, C̃1 and
-the ``projection`` model are defined for one brace.
+The ``constrained`` C_e of any number of braces is :func:`constrained_compliance`, over the stacked constraint
+G of the state; with several braces the chain does not split at one {b}, so C1, C2, C̃1 and the
+``projection`` model (the state's ``split``) are defined for one brace and raise ContactError otherwise.
 """
 
 from __future__ import annotations
@@ -25,8 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, finite_math, show
 from bracekit.errors import ContactError, InputError, NumericalError, UnloadedContactWarning
-from bracekit.kinematics import BracedState
-from bracekit.kinematics.multi import MultiBracedState
+from bracekit.kinematics import BracedState, ChainSplit
 from bracekit.spatial import unit
 from bracekit.tolerances import UNLOADED_TOL
 
@@ -44,18 +43,21 @@ def check_model(model: str) -> ComplianceModel:
 
 
 def check_state(state: object) -> BracedState:
-    """`state` if it is a BracedState (from ``BracedRobot.state(q)``); InputError otherwise.
-
-    A stacked state (several braces) raises ContactError: C1, C2 and C̃1 split the chain at one {b}.
-    """
-    if isinstance(state, MultiBracedState):
-        raise ContactError(
-            "C1, C2 and C̃1 are defined for one brace (the chain splits at {b}); this is a stacked state with "
-            f"{len(state.b_i)} brace(s): use end_effector_compliance(state, 'constrained')"
-        )
+    """`state` if it is a BracedState (from ``BracedRobot.state(q)``); InputError otherwise."""
     if not isinstance(state, BracedState):
         raise InputError(f"expected a BracedState (from BracedRobot.state(q)), got {type(state).__name__}")
     return state
+
+
+def check_split(state: object, what: str = "C1, C2 and C̃1 are") -> ChainSplit:
+    """The chain split of a one-brace state; ContactError naming `what` (with its verb) with several braces."""
+    st = check_state(state)
+    if len(st.contacts) != 1:
+        raise ContactError(
+            f"{what} defined for one brace (the chain splits at {{b}}); this state has {len(st.contacts)} "
+            "braces: use end_effector_compliance(state, 'constrained')"
+        )
+    return st.split
 
 
 def compliance_matrix(c_e: ArrayLike, what: str = "the compliance C_e") -> Array:
@@ -68,14 +70,14 @@ def c1_unchecked(state: BracedState) -> Array:
 
     For callers that check what they build from it, with their own message.
     """
-    j1 = state.J1
+    j1 = check_split(state).J1
     with np.errstate(all="ignore"):
-        return (j1 / state.K[: state.n1]) @ j1.T
+        return (j1 / state.K[: state.split.n1]) @ j1.T
 
 
 def C1(state: BracedState) -> Array:
     """Free compliance of chain 1 at b, world axes: J1 K1⁻¹ J1ᵀ (6×6), eq:C1_def. NumericalError on overflow."""
-    return check_finite(c1_unchecked(check_state(state)), "C1")
+    return check_finite(c1_unchecked(state), "C1")
 
 
 def C2(state: BracedState) -> Array:
@@ -84,9 +86,9 @@ def C2(state: BracedState) -> Array:
 
 
 def _c2(state: BracedState) -> Array:
-    j2 = state.J2
+    j2 = check_split(state).J2
     with np.errstate(all="ignore"):
-        return (j2 / state.K[state.n1 :]) @ j2.T
+        return (j2 / state.K[state.split.n1 :]) @ j2.T
 
 
 def check_finite(a: _T, what: str) -> _T:
@@ -138,10 +140,10 @@ def constraint_gain(state: BracedState, c1: Array | None = None) -> Array:
     Directions in which chain 1 cannot move {b} (Xᵀ C1 X singular, rigid environment) carry no load:
     they are dropped (pseudo-inverse) and an UnloadedContactWarning says so. NumericalError if C1 is not finite.
     """
-    c1 = c1_unchecked(check_state(state)) if c1 is None else c1
-    x = state.X
+    c1 = c1_unchecked(state) if c1 is None else c1
+    x = state.split.X
     with np.errstate(all="ignore"):  # a non-finite Xᵀ C1 X raises NumericalError in loaded_gain
-        g, unloaded = loaded_gain(x.T @ c1 @ x, np.trace(c1), state.braced.brace.environment_stiffness)
+        g, unloaded = loaded_gain(x.T @ c1 @ x, np.trace(c1), state.braced.split.brace.environment_stiffness)
     if unloaded:
         warn_unloaded(int(unloaded), stacklevel=3)
     return g
@@ -151,9 +153,9 @@ def braced_c1_unchecked(state: BracedState, model: ComplianceModel, c1: Array) -
     """C̃1 of :func:`braced_C1` from C1, without the final finiteness check (the callers check)."""
     with np.errstate(all="ignore"):
         if model == "projection":
-            t = np.eye(6) - state.P
+            t = np.eye(6) - state.split.P
             return t @ c1 @ t
-        cx = c1 @ state.X
+        cx = c1 @ state.split.X
         out = c1 - cx @ constraint_gain(state, c1) @ cx.T
         return 0.5 * (out + out.T)
 
@@ -165,45 +167,39 @@ def braced_C1(state: BracedState, model: ComplianceModel = "constrained") -> Arr
     G = (Xᵀ C1 X)⁻¹ (docs/model.md; the Lagrange-multiplier equilibrium). NumericalError on overflow.
     """
     model = check_model(model)
-    return check_finite(braced_c1_unchecked(state, model, c1_unchecked(check_state(state))), "C̃1")
+    return check_finite(braced_c1_unchecked(state, model, c1_unchecked(state)), "C̃1")
 
 
-def end_effector_compliance(state: BracedState | MultiBracedState, model: ComplianceModel = "constrained") -> Array:
-    """C_e = S_t1 C̃1 S_w1 + S_t2 C2 S_w2 (6×6), eq:Ce, with the dual wrench maps S_w = S_tᵀ (erratum).
+def end_effector_compliance(state: BracedState, model: ComplianceModel = "constrained") -> Array:
+    """C_e (6×6) of the state: tip wrench [f; m] at e (world axes) → tip deflection [Δp; Δθ] (world axes).
 
-    Maps a tip wrench [f; m] at e (world axes) to the tip deflection [Δp; Δθ] (world axes).
-    A stacked state (``BracedRobot.stacked_state(q)``, any number of braces) gives :func:`stacked_compliance`;
-    it has the ``constrained`` model only (ContactError for ``projection``).
+    ``constrained`` (any number of braces): :func:`constrained_compliance`. ``projection`` (one brace, the
+    paper's model): C_e = S_t1 C̃1 S_w1 + S_t2 C2 S_w2, eq:Ce, with the dual wrench maps S_w = S_tᵀ (erratum)
+    and C̃1 = (I − P) C1 (I − P); ContactError with several braces (it needs the chain split).
     Raises NumericalError if it overflows float64.
     """
-    if isinstance(state, MultiBracedState):
-        if check_model(model) != "constrained":
-            raise ContactError(
-                f"the projection model is defined for one brace (the paper's C̃1 of chain 1); this is a stacked "
-                f"state with {len(state.b_i)} brace(s): use model='constrained'"
-            )
-        return stacked_compliance(state)
-    check_state(state)
     model = check_model(model)
+    if model == "constrained":
+        return constrained_compliance(state)
+    split = check_split(state, "the projection model (the paper's C̃1) is")
     c1t = braced_c1_unchecked(state, model, c1_unchecked(state))
     with np.errstate(all="ignore"):  # an overflow gives inf or NaN, which check_finite refuses
-        s1, s2 = state.S_t1, state.S_t2
+        s1, s2 = split.S_t1, split.S_t2
         out = s1 @ c1t @ s1.T + s2 @ _c2(state) @ s2.T
         return check_finite(0.5 * (out + out.T), "C_e")
 
 
-def stacked_compliance(state: MultiBracedState) -> Array:
-    """C_e of several braces: the exact first-order equilibrium with every contact as a constraint (6×6).
+def constrained_compliance(state: BracedState) -> Array:
+    """C_e of N ≥ 1 braces: the exact first-order equilibrium with every contact as a constraint (6×6), eq:Ce.
 
     C_e = J_e K⁻¹ J_eᵀ − J_e K⁻¹ Gᵀ (G K⁻¹ Gᵀ + D)⁻¹ G K⁻¹ J_eᵀ, over the independent rows of the stacked
     constraint G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (``state.constraint``: dependent rigid rows are dropped with a
     RedundantContactWarning, rows carrying no load with an UnloadedContactWarning); D = diag(1/k_env) of each
     row's brace, 0 for a rigid contact. Maps a tip wrench [f; m] at e (world axes) to the tip deflection
-    [Δp; Δθ] (world axes); with one brace it is the ``constrained`` C_e of eq:Ce. NumericalError on overflow.
+    [Δp; Δθ] (world axes); with one brace it is the paper's C_e with the ``constrained`` C̃1 (docs/model.md).
+    NumericalError on overflow.
     """
-    if not isinstance(state, MultiBracedState):
-        raise InputError(f"expected a stacked state (from BracedRobot.stacked_state(q)), got {type(state).__name__}")
-    con = state.constraint
+    con = check_state(state).constraint
     rows = list(con.independent)
     k, j_e = state.K, state.J_e
     with np.errstate(all="ignore"):  # an overflow gives inf or NaN, which check_finite refuses
@@ -217,9 +213,9 @@ def stacked_compliance(state: MultiBracedState) -> Array:
         return check_finite(0.5 * (out + out.T), "C_e")
 
 
-def free_space_compliance(state: BracedState | MultiBracedState) -> Array:
+def free_space_compliance(state: BracedState) -> Array:
     """Compliance of the unbraced robot at e: J K⁻¹ Jᵀ (6×6), world axes."""
-    j = state.J_e if isinstance(state, MultiBracedState) else check_state(state).J_e
+    j = check_state(state).J_e
     with np.errstate(all="ignore"):
         return check_finite((j / state.K) @ j.T, "the free-space compliance J K⁻¹ Jᵀ")
 

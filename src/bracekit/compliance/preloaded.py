@@ -61,14 +61,14 @@ def tangent_stiffness(
         symmetrised (round-off only); the tool moment's term −∂(J_e,ωᵀ m)/∂q is not symmetric (a dead moment
         is not conservative) and is kept as it is.
     """
-    if not isinstance(state, BracedState) or state.dJ_e is None or state.dJ_b is None:
+    if not isinstance(state, BracedState) or state.dJ_e is None or state.split.dJ_b is None:
         raise InputError("tangent_stiffness needs a BracedState with Hessians: braced.state(q, hessians=True)")
     p = as_number(preload, "the preload (the contact pushes)", nonnegative=True, unit="N")
     braced, w0 = _check(state.braced, gravity, wrench)
-    nhat = braced.brace.surface.normal
+    nhat = braced.split.brace.surface.normal
     with finite_math("the tangent stiffness"):
         k_sym = np.diag(state.K) - np.einsum("r,rik->ik", w0[:3], state.dJ_e[:3])
-        k_sym -= p * np.einsum("r,rik->ik", nhat, state.dJ_b[:3])
+        k_sym -= p * np.einsum("r,rik->ik", nhat, state.split.dJ_b[:3])
         if gravity:
             model = braced.robot.model
             k_sym += pin.computeGeneralizedGravityDerivatives(model, model.createData(), state.q)
@@ -78,7 +78,7 @@ def tangent_stiffness(
 
 def _loaded_directions(state: BracedState, k_env: float | None) -> Array:
     """X, with the unloaded directions dropped (rigid environment) as the ``constrained`` model drops them."""
-    x = state.X
+    x = state.split.X
     if k_env is not None:
         return x
     c1 = c1_unchecked(state)
@@ -95,7 +95,7 @@ def _kkt_compliance(state: BracedState, k_t: Array, x: Array, k_env: float | Non
     """C = J_e δq/δw from [K_t, −J_bᵀX; −XᵀJ_b, −I/k_env] [δq; δλ] = [J_eᵀ δw; 0] (−I/k_env → 0 when rigid)."""
     n, c = state.q.size, x.shape[1]
     with finite_math("the preloaded compliance"):
-        a = state.J_b.T @ x
+        a = state.split.J_b.T @ x
         kkt = np.zeros((n + c, n + c))
         kkt[:n, :n] = k_t
         kkt[:n, n:] = -a
@@ -171,7 +171,7 @@ def preloaded_compliance(
     p = as_number(preload, "the preload (the contact pushes)", nonnegative=True, unit="N")
     st = braced.state(q, hessians=True)
     k_t = tangent_stiffness(st, p, gravity=gravity, wrench=w0)
-    k_env = braced.brace.environment_stiffness
+    k_env = braced.split.brace.environment_stiffness
     return _kkt_compliance(st, k_t, _loaded_directions(st, k_env), k_env, not w0[3:].any())
 
 
@@ -210,7 +210,7 @@ def run_compliance(state: Any, model: str, braced: bool, *, preload: float = 0.0
     """The 6×6 tip compliance C_e that a run under `model` reports at `state` (what its figures and views draw).
 
     Args:
-        state: the run's state at q: a ``BracedState``, or a ``MultiBracedState`` with several braces.
+        state: the run's state at q: a ``BracedState``, or a ``BracedState`` with several braces.
         model: the run's compliance model ("constrained", "projection" or "preloaded").
         braced: False for the free-space run.
         preload: P, N (only with "preloaded").

@@ -101,9 +101,9 @@ def register_term(cls: type[Term]) -> type[Term]:
 
 def hessians(state: BracedState) -> tuple[Array, Array]:
     """(∂J_e/∂q, ∂J_b/∂q) of the state; InputError if it was computed without Hessians."""
-    if state.dJ_e is None or state.dJ_b is None:
+    if state.dJ_e is None or state.split.dJ_b is None:
         raise InputError("analytic gradients need the kinematic Hessians: compute the state with hessians=True")
-    return state.dJ_e, state.dJ_b
+    return state.dJ_e, state.split.dJ_b
 
 
 def contract(d_j: Array, u: Array) -> Array:
@@ -187,9 +187,8 @@ def finite_difference_gradient(
 
 
 def braced_gradient(state: BracedState, dg_dq: ArrayLike) -> Array:
-    """∇g over [b̃; q2] from ∂g/∂q (eq:grad_g): [(∂g/∂q1) dq1/db̃, ∂g/∂q2]ᵀ, shape (l + n2,)."""
-    g = np.asarray(dg_dq, dtype=float)
-    n1 = state.n1
-    return np.concatenate([state.chain1_map.T @ g[:n1], g[n1:]])
+    """∇g over the braced coordinates from ∂g/∂q: one brace [(∂g/∂q1) dq1/db̃, ∂g/∂q2]ᵀ (eq:grad_g), (l + n2,).
 
-
+    Several braces: Nᵀ ∂g/∂q over the braced motions N (``state.motions``).
+    """
+    return state.motions.gradient(np.asarray(dg_dq, dtype=float))

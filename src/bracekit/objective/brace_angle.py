@@ -29,16 +29,16 @@ class BraceAngle(Term):
     def value(self, state: BracedState) -> float:
         """The term's value at the state (the class docstring gives its units)."""
         _check_pad_axis(state.braced)
-        return theta_z(state.braced.brace.surface.normal, state.z_b)
+        return theta_z(state.braced.split.brace.surface.normal, state.split.z_b)
 
     def gradient(self, state: BracedState) -> Array:
         """∂value/∂q (n,), exact through the state's kinematic Hessians."""
         _check_pad_axis(state.braced)
-        u = cross3(state.braced.brace.surface.normal, state.z_b)
+        u = cross3(state.braced.split.brace.surface.normal, state.split.z_b)
         s = float(np.linalg.norm(u))
         if s < 1e-12:
             return np.zeros(state.q.size)
-        return state.J_b[3:].T @ (u / s)
+        return state.split.J_b[3:].T @ (u / s)
 
     def fused_value(self, kin: FusedKinematics) -> float:
         """The value from the fused step's kinematics (the same as :meth:`value`)."""
@@ -67,8 +67,9 @@ class BraceAngle(Term):
 
 def _check_pad_axis(braced: BracedRobot) -> None:
     """InputError if the brace has no pad axis (θ_z is then undefined)."""
-    if not braced.brace.pad_axis:
+    if not braced.split.brace.pad_axis:
         raise InputError(
-            f"θ_z needs a pad axis, and the brace at {braced.brace.frame!r} (a link point) has none; give the brace "
+            f"θ_z needs a pad axis, and the brace at {braced.split.brace.frame!r} (a link point) has none; give the "
+            "brace "
             "a pad axis (a frame, or a link point with a pad direction) or drop the θ_z term"
         )

@@ -116,7 +116,7 @@ class BraceMargin(Term):
         object.__setattr__(self, "preload", p)
         object.__setattr__(self, "friction", mu)
         object.__setattr__(self, "margin", delta)
-        object.__setattr__(self, "_x", load_contact_wrenches(self.braced.brace, mu))
+        object.__setattr__(self, "_x", load_contact_wrenches(self.braced.split.brace, mu))
 
     @property
     def slip(self) -> bool:
@@ -132,7 +132,7 @@ class BraceMargin(Term):
             a = jb.T @ x
             ka = kinv[:, None] * a
             s = a.T @ ka
-            k_env = self.braced.brace.environment_stiffness
+            k_env = self.braced.split.brace.environment_stiffness
             if k_env is not None:
                 s = s + np.eye(s.shape[0]) / k_env
             else:
@@ -148,13 +148,13 @@ class BraceMargin(Term):
             u = je.T @ self.wrenches.T  # J_eᵀ w_j (n×m)
             lam = -s_inv @ (ka.T @ u)
             dq = kinv[:, None] * (u + a @ lam)
-            nhat = self.braced.brace.surface.normal
+            nhat = self.braced.split.brace.surface.normal
             force = self.preload * nhat[:, None] + x[:3] @ lam
         return _Response(ka, s_inv, lam, dq, force)
 
     def _residuals(self, force: Array) -> tuple[Array, Array | None, Array, Array | None]:
         """(r_n, r_t, ∂r_n/∂F, ∂r_t/∂F): residuals (m,), N, and their gradients in F (3×m); r_t None if μ = 0."""
-        nhat = self.braced.brace.surface.normal
+        nhat = self.braced.split.brace.surface.normal
         r_n = nhat @ force
         g_n = np.repeat(nhat[:, None], force.shape[1], axis=1)
         if not self.slip:
@@ -166,14 +166,14 @@ class BraceMargin(Term):
 
     def forces(self, state: BracedState) -> tuple[Array, Array]:
         """(f_n, ‖f_t‖) under each listed wrench at scale 1 (m,), N: the contact force of the K-only response."""
-        force = self._response(state.J_e, state.J_b).force
-        nhat = self.braced.brace.surface.normal
+        force = self._response(state.J_e, state.split.J_b).force
+        nhat = self.braced.split.brace.surface.normal
         f_n = nhat @ force
         return f_n, np.linalg.norm(force - np.outer(nhat, f_n), axis=0)
 
     def residuals(self, state: BracedState) -> Array:
         """[r_n,1 … r_n,m, r_t,1 … r_t,m] (2m,; m without slip), N: > 0 while the brace holds each load."""
-        r_n, r_t, _, _ = self._residuals(self._response(state.J_e, state.J_b).force)
+        r_n, r_t, _, _ = self._residuals(self._response(state.J_e, state.split.J_b).force)
         return r_n if r_t is None else np.concatenate([r_n, r_t])
 
     # --- the barrier -------------------------------------------------------------------------------
@@ -232,12 +232,12 @@ class BraceMargin(Term):
     # --- Term --------------------------------------------------------------------------------------
     def value(self, state: BracedState) -> float:
         """The term's value at the state (the class docstring gives it)."""
-        return self._value(state.J_e, state.J_b)
+        return self._value(state.J_e, state.split.J_b)
 
     def gradient(self, state: BracedState) -> Array:
         """∂value/∂q (n,), exact through the state's kinematic Hessians."""
         d_je, d_jb = hessians(state)
-        u_e, u_b = self._coefficients(state.J_e, state.J_b)
+        u_e, u_b = self._coefficients(state.J_e, state.split.J_b)
         return np.asarray(contract(d_je, u_e) + contract(d_jb, u_b), dtype=float)
 
     def fused_value(self, kin: FusedKinematics) -> float:

@@ -51,11 +51,11 @@ class ComplianceIndex(Term):
     def gradient(self, state: BracedState) -> Array:
         """∂value/∂q (n,), exact through the state's kinematic Hessians."""
         d_je, d_jb = hessians(state)
-        n1 = state.n1
+        n1 = state.split.n1
         beta = self.beta_x
         c1 = c1_unchecked(state)
         c1t = braced_c1_unchecked(state, self.model, c1)
-        s1 = state.S_t1
+        s1 = state.split.S_t1
         # chain 2: S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ with J_e2 = S_t2 J2 = J_e[:, n1:]
         j_e2 = state.J_e[:, n1:]
         k2 = state.K[n1:]
@@ -70,16 +70,16 @@ class ComplianceIndex(Term):
         # S_t1 depends on b − e
         b1, v1 = s1.T @ beta, s1.T @ v
         w = cross3((c1t @ v1)[3:], beta[:3]) + cross3((c1t @ b1)[3:], v[:3])
-        grad += (state.J_b[:3] - state.J_e[:3]).T @ w
+        grad += (state.split.J_b[:3] - state.J_e[:3]).T @ w
         # C̃1 through C1: β̂ᵀ dC1 v̂ with the model's (constant or compliance-weighted) projector
         if self.model == "projection":
-            t = np.eye(6) - state.P
+            t = np.eye(6) - state.split.P
             bh, vh = t @ b1, t @ v1
         else:
-            x = state.X
+            x = state.split.X
             tt = np.eye(6) - x @ constraint_gain(state, c1) @ x.T @ c1  # (I − P_C)ᵀ
             bh, vh = tt @ b1, tt @ v1
-        j1, k1 = state.J1, state.K[:n1]
+        j1, k1 = state.split.J1, state.K[:n1]
         u = np.zeros((6, state.q.size))
         u[:, :n1] = np.outer(bh, (j1.T @ vh) / k1) + np.outer(vh, (j1.T @ bh) / k1)
         grad += contract(d_jb, u)
@@ -119,7 +119,7 @@ class ComplianceIndex(Term):
 
     def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]] | None:
         """(kind, parameters) of the numba kernel's compiled copy of this term."""
-        if braced.brace.environment_stiffness is not None and self.model != "projection":
+        if braced.split.brace.environment_stiffness is not None and self.model != "projection":
             return None  # the kernel's T C1 Tᵀ form needs a rigid environment
         return "Ci", [*self.beta_x.tolist(), weight, float(self.model == "projection")]
 

@@ -36,7 +36,7 @@ class RegionBarrier(Term):
 
     def radius(self, state: BracedState) -> float:
         """r, m."""
-        return float(np.linalg.norm(state.b - self.centre))
+        return float(np.linalg.norm(state.split.b - self.centre))
 
     def value(self, state: BracedState) -> float:
         """The term's value at the state (the class docstring gives its units)."""
@@ -44,11 +44,11 @@ class RegionBarrier(Term):
 
     def gradient(self, state: BracedState) -> Array:
         """∂value/∂q (n,), exact through the state's kinematic Hessians."""
-        rel = state.b - self.centre
+        rel = state.split.b - self.centre
         r2 = float(rel @ rel)
         if r2 >= self.r_max**2:
             raise BarrierError(f"the bracing point is outside the bracing region (r = {np.sqrt(r2):.4g} m)")
-        return (self.r_max**2 / (self.r_max**2 - r2) ** 2) * 2.0 * (state.J_b[:3].T @ rel)
+        return (self.r_max**2 / (self.r_max**2 - r2) ** 2) * 2.0 * (state.split.J_b[:3].T @ rel)
 
     def fused_value(self, kin: FusedKinematics) -> float:
         """The value from the fused step's kinematics (the same as :meth:`value`)."""
@@ -75,7 +75,7 @@ class RegionBarrier(Term):
     @classmethod
     def from_scenario(cls, context: TermContext) -> RegionBarrier:
         """The term as a scenario configures it (its weight key is ``key``)."""
-        brace = context.braced.brace
+        brace = context.braced.split.brace
         if brace.region_radius is None:
             raise InputError("the region barrier d needs the brace's region_radius (r_max, m)")
         return cls(brace.region_radius, brace.surface.point)

@@ -126,15 +126,15 @@ class GradientProjectionStep:
                 f"kinematic Hessians); the robot has {braced.n}"
             )
         self._data = robot.model.createData()
-        self._tip, self._bid = robot.tip_id, braced.brace_id
-        self._n, self._n1 = braced.n, braced.n1
-        self._k1inv = 1.0 / robot.stiffness[: braced.n1]
+        self._tip, self._bid = robot.tip_id, braced.split.brace_id
+        self._n, self._n1 = braced.n, braced.split.n1
+        self._k1inv = 1.0 / robot.stiffness[: braced.split.n1]
         self._kinv = 1.0 / robot.stiffness
-        self._H, self._X = braced.H, braced.X
-        self._t = np.eye(6) - braced.P
+        self._H, self._X = braced.split.H, braced.split.X
+        self._t = np.eye(6) - braced.split.P
         self._eye = np.eye(6)
-        self._k_env = braced.brace.environment_stiffness
-        self._normal = braced.brace.surface.normal
+        self._k_env = braced.split.brace.environment_stiffness
+        self._normal = braced.split.brace.surface.normal
         self._nl = self._normal.tolist()
         self._fk: FusedKinematics | None = None
         obj = strategy.objective

@@ -2,7 +2,7 @@
 
 With several braces the chain does not split at one {b}, so the paper's A, eq:q1 and eq:grad_g have no
 meaning. Their counterparts act on the braced motions q̇ = N y (N: orthonormal basis of the null space of
-G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …], :mod:`bracekit.kinematics.multi`), with S the task rows of a
+G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …], :mod:`bracekit.kinematics.constraint`), with S the task rows of a
 :class:`~bracekit.resolution.task_space.TaskSpace` and B = S J_e N (m×(n − rank G)):
 
 * braced minimum norm (eq:general_inv with η = 0): q̇ = N B⁺ S ẋ. As N is orthonormal, this is the least-norm
@@ -19,22 +19,18 @@ task undoable and SingularityError says so.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_number
-from bracekit.compliance.first_order import compliance_index, stacked_compliance, unit6
+from bracekit.compliance.first_order import compliance_index, constrained_compliance, unit6
 from bracekit.compliance.measures import region_barrier, theta_z
-from bracekit.errors import BarrierError, InputError, NumericalError, SingularityError
-from bracekit.kinematics.multi import MultiBracedState
+from bracekit.errors import BarrierError, InputError, NumericalError
+from bracekit.kinematics.braced import BracedRobot, BracedState
 from bracekit.objective.joint_limit_barrier import JointLimitBarrier
 from bracekit.resolution.task_space import POSE, TaskSpace, select
-from bracekit.tolerances import STEP_SINGULAR_RATIO
-
-if TYPE_CHECKING:
-    from bracekit.kinematics.braced import BracedRobot
 
 Array = NDArray[np.float64]
 
@@ -49,7 +45,7 @@ MULTI_TERM_KEYS = ("Ci", "theta_z", "d", "joint_limit_barrier")
 class MultiBraceObjective:
     """g = w_Ci C_i + w_θ Σ_i θ_z,i + w_d Σ_i d_i + w_q h(q): g of eq:objective with several braces.
 
-    C_i = ‖β_xᵀ C_e‖ (eq:compliance_index, m/N) of the stacked constrained C_e (``stacked_compliance``);
+    C_i = ‖β_xᵀ C_e‖ (eq:compliance_index, m/N) of the stacked constrained C_e (``constrained_compliance``);
     d_i = r_max_i² / (r_max_i² − r_i²) the region barrier of brace i (after eq:theta), r_i = ‖b_i − p_t,i‖ (m)
     with p_t,i the brace's ``surface.point``, for each brace with a ``region_radius`` r_max_i (the others
     have no d_i). BarrierError when a brace is at or beyond its r_max_i. θ_z,i (eq:theta, rad) is the angle
@@ -124,7 +120,7 @@ class MultiBraceObjective:
         """The objective with β_x replaced by a new twist (6,), normalised."""
         return replace(self, beta_x=np.asarray(beta_x, dtype=float))
 
-    def values(self, state: MultiBracedState) -> dict[str, float]:
+    def values(self, state: BracedState) -> dict[str, float]:
         """Each term's unweighted value: ``Ci`` (m/N), ``d_<i>`` and, when w_q > 0, ``joint_limit_barrier``.
 
         ``d_<i>`` for each brace i with a region; ``joint_limit_barrier`` is h (dimensionless).
@@ -134,8 +130,8 @@ class MultiBraceObjective:
             out["joint_limit_barrier"] = _limit_barrier(state).of_q(state.q)
         return out
 
-    def _braced_values(self, state: MultiBracedState) -> dict[str, float]:
-        out = {"Ci": compliance_index(stacked_compliance(_stacked(state)), self.beta_x)}
+    def _braced_values(self, state: BracedState) -> dict[str, float]:
+        out = {"Ci": compliance_index(constrained_compliance(_stacked(state)), self.beta_x)}
         for i, r in enumerate(region_radii(state)):
             r_max = state.braced.braces[i].region_radius
             if r_max is not None:
@@ -150,7 +146,7 @@ class MultiBraceObjective:
                 out[f"theta_z_{i}"] = theta_z(brace.surface.normal, state.R_b_i[i][:, 2])
         return out
 
-    def _braced_value(self, state: MultiBracedState) -> float:
+    def _braced_value(self, state: BracedState) -> float:
         """w_Ci C_i + w_d Σ_i d_i: the terms that need the stacked kinematics."""
         vals = self._braced_values(state)
         d = sum(v for k, v in vals.items() if k.startswith("d_"))
@@ -158,7 +154,7 @@ class MultiBraceObjective:
         out = self.ci_weight * vals["Ci"] + (self.region_weight * d if self.region_weight else 0.0)
         return float(out + (self.theta_weight * theta if self.theta_weight else 0.0))
 
-    def value(self, state: MultiBracedState) -> float:
+    def value(self, state: BracedState) -> float:
         """G at the state (the weighted sum of :meth:`values`)."""
         out = self._braced_value(state)
         if self.joint_limit_weight:
@@ -176,9 +172,7 @@ class MultiBraceObjective:
         for i in range(x.size):
             dq = np.zeros(x.size)
             dq[i] = step
-            out[i] = (
-                self._braced_value(braced.stacked_state(x + dq)) - self._braced_value(braced.stacked_state(x - dq))
-            ) / (2 * step)
+            out[i] = (self._braced_value(braced.state(x + dq)) - self._braced_value(braced.state(x - dq))) / (2 * step)
         if self.joint_limit_weight:
             out += self.joint_limit_weight * JointLimitBarrier(braced.robot.lower, braced.robot.upper).gradient_of_q(x)
         if not np.all(np.isfinite(out)):
@@ -186,7 +180,7 @@ class MultiBraceObjective:
         return out
 
 
-def _limit_barrier(state: MultiBracedState) -> JointLimitBarrier:
+def _limit_barrier(state: BracedState) -> JointLimitBarrier:
     """The joint-limit barrier over the URDF limits of the state's robot."""
     robot = state.braced.robot
     return JointLimitBarrier(robot.lower, robot.upper)
@@ -196,65 +190,25 @@ def _key(term: object) -> str:
     return str(getattr(term, "key", ""))
 
 
-def _stacked(state: object) -> MultiBracedState:
-    if not isinstance(state, MultiBracedState):
-        raise InputError(f"expected a stacked state (from BracedRobot.stacked_state(q)), got {type(state).__name__}")
+def _stacked(state: object) -> BracedState:
+    if not isinstance(state, BracedState):
+        raise InputError(f"expected a BracedState (from BracedRobot.state(q)), got {type(state).__name__}")
     return state
 
 
-def region_radii(state: MultiBracedState) -> tuple[float, ...]:
+def region_radii(state: BracedState) -> tuple[float, ...]:
     """r_i = ‖b_i − surface_i.point‖ (m) of each brace, in the order of ``braced.braces``."""
     return tuple(
         float(np.linalg.norm(b - brace.surface.point)) for b, brace in zip(state.b_i, state.braced.braces, strict=True)
     )
 
 
-def task_rows(state: MultiBracedState, xdot: Array, space: TaskSpace = POSE) -> tuple[Array, Array]:
+def task_rows(state: BracedState, xdot: Array, space: TaskSpace = POSE) -> tuple[Array, Array]:
     """(B = S J_e N (m×(n − rank G)), S ẋ (m,)) at the state."""
     return select(space, _stacked(state).R_e, state.braced_jacobian, xdot)
 
 
-def checked_task_inverse(b: Array) -> Array:
-    """B⁺ of B = S J_e N; SingularityError with fewer braced motions than task rows, or B singular."""
-    m, k = b.shape
-    if k < m:
-        raise SingularityError(
-            f"the braces leave {k} braced motion(s) for {m} task rows: S J_e N ({m}×{k}) cannot do the task; "
-            "remove a brace, use a contact with more freedom or a task space with fewer rows"
-        )
-    u, s, vt = np.linalg.svd(b, full_matrices=False)
-    if not s[-1] > STEP_SINGULAR_RATIO * s[0]:
-        raise SingularityError(
-            f"S J_e N is singular (σ_min/σ_max = {s[-1] / max(s[0], 1e-300):.2e}): the braced motions cannot move "
-            "the tip along every task row here"
-        )
-    return np.asarray((vt.T / s) @ u.T, dtype=np.float64)
-
-
-def braced_min_norm_rates(state: MultiBracedState, xdot: Array, space: TaskSpace = POSE) -> Array:
-    """Q̇ = N (S J_e N)⁺ S ẋ (n,): the least-norm joint rates that keep every contact and do the task rows."""
-    b, x = task_rows(state, xdot, space)
-    return _finite(state.N @ (checked_task_inverse(b) @ x))
-
-
-def braced_gradient_projection_rates(
-    state: MultiBracedState, xdot: Array, dg_dq: Array, alpha: float, space: TaskSpace = POSE
-) -> Array:
-    """Q̇ = N [B⁺ S ẋ + α (I − B⁺ B) Nᵀ ∂g/∂q] (n,), B = S J_e N: eq:grad_proj over the braced motions."""
-    b, x = task_rows(state, xdot, space)
-    b_pinv = checked_task_inverse(b)
-    grad = state.N.T @ np.asarray(dg_dq, dtype=float)
-    null = grad - b_pinv @ (b @ grad)
-    return _finite(state.N @ (b_pinv @ x + alpha * null))
-
-
-def _finite(qdot: Array) -> Array:
-    if not np.all(np.isfinite(qdot)):
-        raise NumericalError("the joint velocities are not finite: the tip twist or the gains are too large")
-    return np.asarray(qdot, dtype=np.float64)
-
-
-def sigma_ratios(state: MultiBracedState, space: TaskSpace = POSE) -> dict[str, float]:
+def sigma_ratios(state: BracedState, space: TaskSpace = POSE) -> dict[str, float]:
     """σ_min/σ_max of G over its independent rows (key ``G``) and of S J_e N (key ``SJN``); 0 when rank deficient.
 
     A matrix with more rows than columns has rank below its rows: its ratio is 0.

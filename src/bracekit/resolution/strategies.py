@@ -7,7 +7,7 @@
 Each takes a :class:`~bracekit.resolution.task_space.TaskSpace` (``space``, the full pose by default) and
 resolves its selected rows S(⁰R_e) only: J and A above become S J and S A, ẋ becomes S ẋ.
 
-With several braces (a stacked state, ``braced.stacked_state(q)``) the braced strategies resolve over the
+With several braces (a stacked state, ``braced.state(q)``) the braced strategies resolve over the
 braced motions N instead (:mod:`bracekit.resolution.multi`): q̇ = N (S J_e N)⁺ S ẋ, and gradient projection
 adds N α (I − B⁺B) Nᵀ ∇g with the objective's C_i and d weights (:class:`MultiBraceObjective`), ∇g by central
 differences. :class:`FreeSpaceMinNorm` takes either state.
@@ -24,13 +24,8 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit._linalg import as_array, as_number, show
 from bracekit.errors import InputError, NumericalError, SingularityError
 from bracekit.kinematics import BracedState
-from bracekit.kinematics.multi import MultiBracedState
-from bracekit.objective import Objective, braced_gradient, finite_difference_gradient
-from bracekit.resolution.multi import (
-    MultiBraceObjective,
-    braced_gradient_projection_rates,
-    braced_min_norm_rates,
-)
+from bracekit.objective import Objective, finite_difference_gradient
+from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.task_space import POSE, TaskSpace, select
 from bracekit.tolerances import STEP_SINGULAR_RATIO
 
@@ -59,7 +54,12 @@ def inverted_matrices(braced: bool, n1: int) -> tuple[str, ...]:
 
 def conditioning(state: BracedState, keys: tuple[str, ...]) -> dict[str, float]:
     """σ_min / σ_max at `state` of each matrix named in `keys` (J1, A, J = J_e, J_braced = J̃)."""
-    mats = {"J1": lambda: state.J1, "A": lambda: state.A, "J": lambda: state.J_e, "J_braced": lambda: state.J_braced}
+    mats = {
+        "J1": lambda: state.split.J1,
+        "A": lambda: state.split.A,
+        "J": lambda: state.J_e,
+        "J_braced": lambda: state.split.J_braced,
+    }
     return {key: singular_ratio(mats[key]()) for key in keys}
 
 
@@ -103,7 +103,7 @@ class FreeSpaceMinNorm:
     needs_hessians: bool = False
     space: TaskSpace = POSE
 
-    def velocity(self, state: BracedState | MultiBracedState, xdot: Array) -> Array:
+    def velocity(self, state: BracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
         j, x = select(self.space, state.R_e, state.J_e, tip_twist(xdot))
         return finite_rates(pinv_checked(j, "the Jacobian J") @ x)
@@ -141,12 +141,6 @@ def finite_rates(qdot: Array) -> Array:
     return qdot
 
 
-def braced_to_joint(state: BracedState, y: Array) -> Array:
-    """[ḃ; q̇2] → q̇ = [dq1/db̃ · ḃ; q̇2] (eq:q1)."""
-    l_ = state.chain1_map.shape[1]
-    return np.concatenate([state.chain1_map @ y[:l_], y[l_:]])
-
-
 @dataclass(frozen=True)
 class BracedMinNorm:
     """[ḃ; q̇2] = A⁺ ẋ, then q̇1 = J1⁻¹ H ḃ: keeps the contact, minimum norm in (b̃, q2).
@@ -159,13 +153,11 @@ class BracedMinNorm:
     needs_hessians: bool = False
     space: TaskSpace = POSE
 
-    def velocity(self, state: BracedState | MultiBracedState, xdot: Array) -> Array:
+    def velocity(self, state: BracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
-        if isinstance(state, MultiBracedState):
-            return braced_min_norm_rates(state, tip_twist(xdot), self.space)
-        a, x = select(self.space, state.R_e, state.A, tip_twist(xdot))
-        y = pinv_checked(a, "the braced Jacobian A") @ x
-        return finite_rates(braced_to_joint(state, y))
+        motions = state.motions
+        a, x = select(self.space, state.R_e, motions.A, tip_twist(xdot))
+        return finite_rates(motions.to_joint(motions.inverse(a) @ x))
 
 
 @dataclass(frozen=True)
@@ -202,9 +194,9 @@ class BracedGradientProjection:
         """Whether the analytic gradient (kinematic Hessians) is used."""
         return self.gradient == "analytic"
 
-    def dg_dq(self, state: BracedState | MultiBracedState) -> Array:
+    def dg_dq(self, state: BracedState) -> Array:
         """∂g/∂q (n,) in the chosen gradient mode (central differences for a stacked state)."""
-        if isinstance(state, MultiBracedState):
+        if len(state.contacts) > 1:
             return MultiBraceObjective.from_objective(self.objective).gradient(state.braced, state.q, self.fd_step)
         if isinstance(self.objective, MultiBraceObjective):
             raise InputError("a MultiBraceObjective is for several braces: give a one-brace robot an Objective")
@@ -212,14 +204,11 @@ class BracedGradientProjection:
             return self.objective.gradient(state)
         return finite_difference_gradient(state.braced, self.objective.value, state.q, self.fd_step)
 
-    def velocity(self, state: BracedState | MultiBracedState, xdot: ArrayLike) -> Array:
+    def velocity(self, state: BracedState, xdot: ArrayLike) -> Array:
         """Joint velocities q̇ (n,) that realise the selected rows of the tip twist ẋ (6,) at the state."""
-        if isinstance(state, MultiBracedState):
-            x = tip_twist(xdot)
-            return braced_gradient_projection_rates(state, x, self.dg_dq(state), float(self.alpha), self.space)
-        a, x = select(self.space, state.R_e, state.A, tip_twist(xdot))
-        a_pinv = pinv_checked(a, "the braced Jacobian A")
-        grad = braced_gradient(state, self.dg_dq(state))
+        motions = state.motions
+        a, x = select(self.space, state.R_e, motions.A, tip_twist(xdot))
+        a_pinv = motions.inverse(a)
+        grad = motions.gradient(self.dg_dq(state))
         null = grad - a_pinv @ (a @ grad)
-        y = a_pinv @ x + self.alpha * null
-        return finite_rates(braced_to_joint(state, y))
+        return finite_rates(motions.to_joint(a_pinv @ x + self.alpha * null))

@@ -178,7 +178,7 @@ def _statics_or_unstable(braced: BracedRobot, q: Array, holding: Holding, is_bra
     except UnstableEquilibriumError:
         st = braced.state(q)
         g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        tau0 = g - holding.preload * (st.J_b[:3].T @ braced.brace.surface.normal)
+        tau0 = g - holding.preload * (st.split.J_b[:3].T @ braced.split.brace.surface.normal)
         ratio = peak_ratio(tau0, effort_limits(braced.robot))
         zero = np.zeros(1)
         rows = {"torque_ratio": np.atleast_1d(ratio), "torque_ratio_loaded": np.atleast_1d(ratio)}
@@ -273,7 +273,7 @@ def _braces_statics_or_unstable(braced: BracedRobot, q: Array, holding: Holding)
         out["unstable"] = np.zeros(1)
         return out
     except UnstableEquilibriumError:
-        st = braced.stacked_state(q)
+        st = braced.state(q)
         count = len(braced.braces)
         preloads = holding.brace_preloads(count)
         tau0 = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
@@ -307,8 +307,8 @@ def braces_holding_summary(measures: dict[str, Array], count: int) -> list[dict[
 
 
 def _tip_jacobian(braced: BracedRobot, q: Array) -> Array:
-    """J_e (6×n) at q, of the one-brace state or, with several braces, of the stacked state."""
-    return braced.state(q).J_e if len(braced.braces) == 1 else braced.stacked_state(q).J_e
+    """J_e (6×n) at q."""
+    return braced.state(q).J_e
 
 
 #: measure → what falls short when it is below 1 (a margin) or above 1 (a torque ratio).
@@ -418,12 +418,12 @@ def relief_summary(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str
 
 def _peak_with_preload(braced: BracedRobot, qs: Array, holding: Holding, effort: Array) -> float:
     """Peak |τ_i|/effort_i over samples and listed wrenches with the run's preload (rigid statics)."""
-    nhat = braced.brace.surface.normal
+    nhat = braced.split.brace.surface.normal
     peak = 0.0
     for q in qs:
         st = braced.state(q)
         g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        tau = g[None, :] - holding.loads @ st.J_e - holding.preload * (st.J_b[:3].T @ nhat)[None, :]
+        tau = g[None, :] - holding.loads @ st.J_e - holding.preload * (st.split.J_b[:3].T @ nhat)[None, :]
         peak = max(peak, float(np.max(peak_ratio(tau, effort))))
     return peak
 
@@ -434,7 +434,7 @@ def _relief_braces(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str
     preloads = holding.brace_preloads(len(braced.braces))
     free = braced_peak = 0.0
     for q in qs:
-        st = braced.stacked_state(q)
+        st = braced.state(q)
         g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
         tau = g[None, :] - holding.loads @ st.J_e
         free = max(free, float(np.max(peak_ratio(tau, effort))))

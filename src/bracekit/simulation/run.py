@@ -90,9 +90,9 @@ def _summaries(result: RunResult) -> None:
 
 def _start_warnings(sc: Scenario, start: BracedState) -> list[str]:
     """Warnings about the solved start: a pad axis that points away from the surface (θ_z > π/2)."""
-    if not sc.braced.brace.pad_axis:
+    if not sc.braced.split.brace.pad_axis:
         return []
-    angle = theta_z(sc.braced.brace.surface.normal, start.z_b)
+    angle = theta_z(sc.braced.split.brace.surface.normal, start.split.z_b)
     if angle <= 0.5 * np.pi:
         return []
     line = (

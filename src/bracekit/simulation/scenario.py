@@ -292,11 +292,11 @@ def parse_scenario(
     else:
         holding = _holding(robot_t, brace_ts[0], loads_t)
     robot = braced.robot
-    pad_axis = any(b.pad_axis for b in braced.braces) if several else braced.brace.pad_axis
+    pad_axis = any(b.pad_axis for b in braced.braces) if several else braced.split.brace.pad_axis
     region = (
         next((b.region_radius for b in braced.braces if b.region_radius is not None), None)
         if several
-        else braced.brace.region_radius
+        else braced.split.brace.region_radius
     )
     task_t = top.table(
         "task",

@@ -41,9 +41,9 @@ from bracekit._linalg import angle_between, as_number
 from bracekit.compliance.first_order import (
     COMPLIANCE_MODELS,
     compliance_index,
+    constrained_compliance,
     end_effector_compliance,
     free_space_compliance,
-    stacked_compliance,
 )
 from bracekit.compliance.measures import frobenius_condition, singular_value_measures
 from bracekit.errors import (
@@ -64,7 +64,6 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot, BracedState, skeleton
 from bracekit.kinematics.clearance import link_clearance
-from bracekit.kinematics.multi import MultiBracedState
 from bracekit.model.robot import Robot
 from bracekit.objective import RegionBarrier
 from bracekit.resolution.multi import MULTI_MATRIX_LABELS, MultiBraceObjective, sigma_ratios
@@ -165,7 +164,7 @@ def contact_residual(state: BracedState, anchor: Array, anchor_rotation: Array) 
 
     For the frictionless point this is n̂ᵀ(b − b0), the distance of {b} from the plane through b0.
     """
-    return state.X.T @ np.concatenate([state.b - anchor, pin.log3(state.R_b @ anchor_rotation.T)])
+    return state.split.X.T @ np.concatenate([state.split.b - anchor, pin.log3(state.split.R_b @ anchor_rotation.T)])
 
 
 def contact_jacobian(state: BracedState, anchor_rotation: Array) -> Array:
@@ -175,11 +174,11 @@ def contact_jacobian(state: BracedState, anchor_rotation: Array) -> Array:
     grow to O(1 rad) along a run, where the plain rows Xᵀ J_b make the correction converge only linearly.
     A contact without constraint moments (frictionless point, point with friction) gives Xᵀ J_b.
     """
-    x = state.X
+    x = state.split.X
     if not np.any(x[3:]):
-        return x.T @ state.J_b
-    r = state.R_b @ anchor_rotation.T
-    return x[:3].T @ state.J_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ state.J_b[3:])
+        return x.T @ state.split.J_b
+    r = state.split.R_b @ anchor_rotation.T
+    return x[:3].T @ state.split.J_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ state.split.J_b[3:])
 
 
 def reach(robot: Robot) -> float:
@@ -217,7 +216,7 @@ def correct(
     scale_len = reach(braced.robot) if length is None else float(length)
     scale = np.array([scale_len] * 3 + [1.0] * (space.rows - 3))
     if anchor is not None:
-        x = braced.X  # unit force and moment columns: a length and an angle residual
+        x = braced.split.X  # unit force and moment columns: a length and an angle residual
         scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
     roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
     previous = np.inf
@@ -296,7 +295,7 @@ def _jump_failure(
         f"joint{'s' if over.size > 1 else ''} {joints} moved {np.max(step[over]):.3g} {unit} in one {dt:.3g} s step "
         f"({limit}: {'; '.join(sources)})"
     )
-    keys = inverted_matrices(strategy.braced, braced.n1)
+    keys = inverted_matrices(strategy.braced, braced.split.n1)
     probes = [braced.state(before + s * (after - before)) for s in np.linspace(0.0, 1.0, JUMP_PROBES)]
     ratios = {key: min(conditioning(p, (key,))[key] for p in probes) for key in keys}
     drop = {key: ratios[key] / max(start[f"sigma_ratio_{key}"], 1e-300) for key in keys}
@@ -415,21 +414,21 @@ def measure(
     least clearance of the link capsules from the surface as a solid obstacle (m, negative = penetration; inf
     only without capsules; :mod:`bracekit.kinematics.clearance`).
     """
-    sv = singular_value_measures(state.J_braced)
+    sv = singular_value_measures(state.split.J_braced)
     lower, upper = state.braced.robot.lower, state.braced.robot.upper
-    surface = state.braced.brace.surface
+    surface = state.braced.split.brace.surface
     out = {
         "Ci_free": compliance_index(free_space_compliance(state), beta_x),
         "prod_sigma_t": sv.prod_sigma_t,
         "prod_sigma_o": sv.prod_sigma_o,
         "sigma_t_min": sv.sigma_t_min,
         "sigma_o_min": sv.sigma_o_min,
-        "k": frobenius_condition(state.J_braced),
+        "k": frobenius_condition(state.split.J_braced),
         "k_free": frobenius_condition(state.J_e),
-        "theta_z": angle_between(surface.normal, state.z_b),
-        "region_radius": float(np.linalg.norm(state.b - centre)),
-        "contact_violation": abs(surface.signed_distance(state.b)),
-        "surface_distance": surface.signed_distance(state.b),
+        "theta_z": angle_between(surface.normal, state.split.z_b),
+        "region_radius": float(np.linalg.norm(state.split.b - centre)),
+        "contact_violation": abs(surface.signed_distance(state.split.b)),
+        "surface_distance": surface.signed_distance(state.split.b),
         "joint_limit_violation": float(np.max(np.maximum(0.0, np.maximum(lower - state.q, state.q - upper)))),
         "task_error": task_error,
         "joint_step": joint_step,
@@ -489,10 +488,10 @@ def simulate(
     space = getattr(strategy, "space", POSE)
     if not isinstance(space, TaskSpace):
         raise InputError(f"the strategy's space must be a TaskSpace, got {space!r}")
-    free_dims = redundancy(space, st.R_e, st.A if strategy.braced else st.J_e)
-    anchor = (st.b.copy(), st.R_b.copy()) if strategy.braced else None
-    centre = braced.brace.surface.point
-    r_max = braced.brace.region_radius
+    free_dims = redundancy(space, st.R_e, st.split.A if strategy.braced else st.J_e)
+    anchor = (st.split.b.copy(), st.split.R_b.copy()) if strategy.braced else None
+    centre = braced.split.brace.surface.point
+    r_max = braced.split.brace.region_radius
     fast = None
     if type(strategy) is BracedGradientProjection:
         from bracekit.resolution.fused import GradientProjectionStep
@@ -502,7 +501,7 @@ def simulate(
     substeps = 0
     length = reach(braced.robot)
     bound = joint_step_bound(braced.robot, dt)
-    checked = inverted_matrices(strategy.braced, braced.n1)
+    checked = inverted_matrices(strategy.braced, braced.split.n1)
 
     scalable = isinstance(strategy, BracedGradientProjection)
     scaled_steps: dict[float, Any] = {}
@@ -545,10 +544,10 @@ def simulate(
                     break
             else:
                 raise _limit_failure(braced.robot, new.q, t + h, scalable)
-        if guard and np.linalg.norm(new.b - centre) >= r_max:  # type: ignore[operator]
+        if guard and np.linalg.norm(new.split.b - centre) >= r_max:  # type: ignore[operator]
             if depth >= MAX_SUBSTEP_DEPTH:
                 raise BarrierError(
-                    f"the bracing point leaves the region (r = {np.linalg.norm(new.b - centre):.4g} m ≥ r_max) "
+                    f"the bracing point leaves the region (r = {np.linalg.norm(new.split.b - centre):.4g} m ≥ r_max) "
                     f"even with steps of {h:.3g} s; reduce dt or raise the region weight"
                 )
             substeps += 1
@@ -722,7 +721,7 @@ def solve_start(
     if rot is not None and not (np.allclose(rot.T @ rot, np.eye(3), atol=1e-9) and np.linalg.det(rot) > 0):
         raise InputError("the start rotation must be a rotation matrix (orthonormal, determinant +1)")
     q_guess = braced.robot.check_q(guess)
-    pad = braced.brace.pad_axis
+    pad = braced.split.brace.pad_axis
     if theta_weight is None:
         theta_weight = START_THETA_WEIGHT if pad else 0.0
     for what, value in (
@@ -735,14 +734,14 @@ def solve_start(
             raise InputError(f"{what} must be a finite number ≥ 0, got {value!r}")
     if theta_weight > 0 and not pad:
         raise InputError(
-            f"theta_weight = {theta_weight:g} needs a brace with a pad axis, and {braced.brace.frame!r} (a link "
+            f"theta_weight = {theta_weight:g} needs a brace with a pad axis, and {braced.split.brace.frame!r} (a link "
             "point) has none; give the brace a pad axis or theta_weight = 0"
         )
     if isinstance(conditioning_floor, bool) or not isinstance(conditioning_floor, int | float):
         raise InputError(f"conditioning_floor must be a number in (0, 1), got {conditioning_floor!r}")
     if not 0.0 < conditioning_floor < 1.0:
         raise InputError(f"conditioning_floor must be a number in (0, 1), got {conditioning_floor!r}")
-    surface = braced.brace.surface
+    surface = braced.split.brace.surface
     lo, hi = braced.robot.lower, braced.robot.upper
 
     x_t, y_t = surface.frame[:, 0], surface.frame[:, 1]
@@ -750,12 +749,12 @@ def solve_start(
 
     def residual(q: Array, conditioned: bool) -> Array:
         st = braced.state(q)
-        hard = [target - st.e, np.array([surface.signed_distance(st.b)])]
+        hard = [target - st.e, np.array([surface.signed_distance(st.split.b)])]
         if rot is not None:
             hard.append(pin.log3(rot @ st.R_e.T))
-        soft = [region_weight * (st.b - surface.point)]
+        soft = [region_weight * (st.split.b - surface.point)]
         if use_theta:  # ẑ_b's tangential components: ≈ θ_z for small angles and smooth at 0, unlike θ_z itself
-            soft.append(theta_weight * np.array([x_t @ st.z_b, y_t @ st.z_b]))
+            soft.append(theta_weight * np.array([x_t @ st.split.z_b, y_t @ st.split.z_b]))
         soft.append(posture_weight * (q - q_guess))
         if conditioned:
             soft.append(conditioning_weight * _conditioning_residual(st, conditioning_floor))
@@ -763,13 +762,16 @@ def solve_start(
 
     def jacobian(q: Array, conditioned: bool) -> Array:
         st = braced.state(q)
-        hard = [-st.J_e[:3], surface.normal @ st.J_b[:3]]
+        hard = [-st.J_e[:3], surface.normal @ st.split.J_b[:3]]
         if rot is not None:
             hard.append(-st.J_e[3:])  # first-order (exact at the solution)
-        soft = [region_weight * st.J_b[:3]]
+        soft = [region_weight * st.split.J_b[:3]]
         if use_theta:
             soft.append(
-                theta_weight * np.vstack([np.cross(st.z_b, x_t) @ st.J_b[3:], np.cross(st.z_b, y_t) @ st.J_b[3:]])
+                theta_weight
+                * np.vstack(
+                    [np.cross(st.split.z_b, x_t) @ st.split.J_b[3:], np.cross(st.split.z_b, y_t) @ st.split.J_b[3:]]
+                )
             )
         soft.append(posture_weight * np.eye(q.size))
         if conditioned:
@@ -796,16 +798,16 @@ def solve_start(
     st = braced.state(sol.x)
     rotation_target = rot if rot is not None else st.R_e
     # the plane point under b: an anchor on the surface
-    anchor_point = st.b - surface.normal * surface.signed_distance(st.b)
+    anchor_point = st.split.b - surface.normal * surface.signed_distance(st.split.b)
     try:
-        st = correct(braced, st.q, target, rotation_target, (anchor_point, st.R_b))
+        st = correct(braced, st.q, target, rotation_target, (anchor_point, st.split.R_b))
     except ConvergenceError:
         raise ConvergenceError(
             f"no start configuration puts the tip at {np.round(target, 4).tolist()} m with the brace closed "
             f"(closest: {np.linalg.norm(target - st.e):.3g} m away); move the task or the surface, or change the guess"
         ) from None
-    r_max = braced.brace.region_radius
-    r = float(np.linalg.norm(st.b - surface.point))
+    r_max = braced.split.brace.region_radius
+    r = float(np.linalg.norm(st.split.b - surface.point))
     if r_max is not None and r >= r_max:
         raise ConvergenceError(
             f"no start configuration with the bracing point inside the region: r = {r:.4f} m ≥ r_max = {r_max} m; "
@@ -851,7 +853,7 @@ def _finite(value: ArrayLike, shape: tuple[int, ...], what: str) -> Array:
 # --- several braces -------------------------------------------------------------------------------------------
 
 
-def braces_residual(state: MultiBracedState, anchors: Sequence[tuple[Array, Array]]) -> Array:
+def braces_residual(state: BracedState, anchors: Sequence[tuple[Array, Array]]) -> Array:
     """Violation of every contact (c,): X_iᵀ [b_i − b0_i; log3(R_b_i R_b0_iᵀ)] per brace, stacked in brace order.
 
     Each brace's rows are :func:`contact_residual` of that brace: for a point contact on a plane the
@@ -863,7 +865,7 @@ def braces_residual(state: MultiBracedState, anchors: Sequence[tuple[Array, Arra
     return np.concatenate(out)
 
 
-def braces_jacobian(state: MultiBracedState, anchors: Sequence[tuple[Array, Array]]) -> Array:
+def braces_jacobian(state: BracedState, anchors: Sequence[tuple[Array, Array]]) -> Array:
     """∂(braces_residual)/∂q (c×n): :func:`contact_jacobian` of each brace (exact Jlog3 on moment rows)."""
     out = []
     for brace, j_b, r_b, (_, r0) in zip(state.braced.braces, state.J_b_i, state.R_b_i, anchors, strict=True):
@@ -887,7 +889,7 @@ def correct_braces(
     max_iter: int = 20,
     length: float | None = None,
     space: TaskSpace = POSE,
-) -> MultiBracedState:
+) -> BracedState:
     """:func:`correct` for several braces: the stacked state nearest q on the task rows and on every contact.
 
     The residual stacks the task rows (as :func:`correct`) and each brace's :func:`braces_residual` rows
@@ -903,9 +905,9 @@ def correct_braces(
     roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
     previous = np.inf
     for _ in range(max_iter):
-        st = braced.stacked_state(q)
+        st = braced.state(q)
         if space.is_pose:
-            res, rows = pose_error(st, position, rotation), st.J_e  # type: ignore[arg-type]
+            res, rows = pose_error(st, position, rotation), st.J_e
         else:
             sel = space.selection(st.R_e)
             res, rows = sel @ space.error(position - st.e, st.R_e, rotation), sel @ st.J_e
@@ -926,7 +928,7 @@ def correct_braces(
 
 
 def measure_braces(
-    state: MultiBracedState,
+    state: BracedState,
     beta_x: Array,
     task_error: float,
     space: TaskSpace = POSE,
@@ -948,7 +950,7 @@ def measure_braces(
     lower, upper = state.braced.robot.lower, state.braced.robot.upper
     out = {
         "Ci_free": compliance_index(free_space_compliance(state), beta_x),
-        "Ci_constrained": compliance_index(stacked_compliance(state), beta_x),
+        "Ci_constrained": compliance_index(constrained_compliance(state), beta_x),
         "prod_sigma_t": sv.prod_sigma_t,
         "prod_sigma_o": sv.prod_sigma_o,
         "sigma_t_min": sv.sigma_t_min,
@@ -978,7 +980,7 @@ def measure_braces(
     return out
 
 
-def _braces_outside(braced: BracedRobot, state: MultiBracedState) -> list[int]:
+def _braces_outside(braced: BracedRobot, state: BracedState) -> list[int]:
     """The braces (0-based) whose {b_i} is at or beyond its region radius r_max_i."""
     return [
         i
@@ -1023,7 +1025,7 @@ def _simulate_braces(
     space = getattr(strategy, "space", POSE)
     if not isinstance(space, TaskSpace):
         raise InputError(f"the strategy's space must be a TaskSpace, got {space!r}")
-    st = braced.stacked_state(q0)
+    st = braced.state(q0)
     rotation = task.rotation if task.rotation is not None else st.R_e.copy()
     jn = st.braced_jacobian if strategy.braced else st.J_e
     free_dims = redundancy(space, st.R_e, jn)
@@ -1042,13 +1044,13 @@ def _simulate_braces(
     substeps = 0
     limited = 0
 
-    def rate(st: MultiBracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
+    def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
         current = with_beta_x(strategy if scale == 1.0 else _scaled_alpha(strategy, scale), beta_x(t))
-        return current.velocity(st, xdot)  # type: ignore[arg-type]
+        return current.velocity(st, xdot)
 
-    def advance(st: MultiBracedState, t: float, h: float, depth: int = 0) -> MultiBracedState:
+    def advance(st: BracedState, t: float, h: float, depth: int = 0) -> BracedState:
         nonlocal substeps, limited
-        err = task_error(st, task.position(t), rotation, space)  # type: ignore[arg-type]
+        err = task_error(st, task.position(t), rotation, space)
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
         qdot = rate(st, t, xdot)
         goal = task.position(t + h)
@@ -1074,7 +1076,7 @@ def _simulate_braces(
             return advance(mid, t + h / 2, h / 2, depth + 1)
         return new
 
-    def sample(st: MultiBracedState, t: float, joint_step: float = 0.0) -> dict[str, float]:
+    def sample(st: BracedState, t: float, joint_step: float = 0.0) -> dict[str, float]:
         return measure_braces(st, beta_x(t), float(np.linalg.norm(task.position(t) - st.e)), space, joint_step)
 
     with warnings.catch_warnings(record=True) as caught:
@@ -1193,7 +1195,7 @@ def _jump_failure_braces(
     )
     ratios = dict.fromkeys(keys, np.inf)
     for s in np.linspace(0.0, 1.0, JUMP_PROBES):
-        probe = braced.stacked_state(before + s * (after - before))
+        probe = braced.state(before + s * (after - before))
         found = {**sigma_ratios(probe, space), "J": singular_ratio(probe.J_e)}
         ratios = {key: min(ratios[key], found[key]) for key in keys}
     labels = {**MULTI_MATRIX_LABELS, "J": "J"}
@@ -1216,7 +1218,7 @@ def solve_start_braces(
     rotation: ArrayLike | None = None,
     region_weight: float = 1.0,
     posture_weight: float = 0.01,
-) -> MultiBracedState:
+) -> BracedState:
     """A start with several braces: tip at `position` (and `rotation` if given), every {b_i} on its surface.
 
     SciPy least squares from `guess` (n,) within the joint limits: the tip and each brace's plane distance are
@@ -1233,7 +1235,7 @@ def solve_start_braces(
     surfaces = [brace.surface for brace in braced.braces]
 
     def residual(q: Array) -> Array:
-        st = braced.stacked_state(q)
+        st = braced.state(q)
         hard = [target - st.e, np.array([s.signed_distance(b) for s, b in zip(surfaces, st.b_i, strict=True)])]
         if rot is not None:
             hard.append(pin.log3(rot @ st.R_e.T))
@@ -1241,7 +1243,7 @@ def solve_start_braces(
         return np.concatenate([1e3 * np.concatenate(hard), *soft, posture_weight * (q - q_guess)])
 
     sol = least_squares(residual, np.clip(q_guess, lo + 1e-6, hi - 1e-6), bounds=(lo, hi), xtol=1e-12, ftol=1e-12)
-    st = braced.stacked_state(sol.x)
+    st = braced.state(sol.x)
     anchors = [(b - s.normal * s.signed_distance(b), r) for s, b, r in zip(surfaces, st.b_i, st.R_b_i, strict=True)]
     try:
         st = correct_braces(braced, st.q, target, rot if rot is not None else st.R_e, anchors)

@@ -49,8 +49,8 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS, contact_null_space
+from bracekit.kinematics.constraint import _independent_rows
 from bracekit.kinematics.hessian import ensure_hessian_layout, frame_hessian
-from bracekit.kinematics.multi import _independent_rows
 from bracekit.model.robot import Robot
 
 Array = NDArray[np.float64]
@@ -238,9 +238,9 @@ def contact_responses(
             raise InputError(f"{name} must be True or False, got {show(flag)}")
     q_all = configurations(robot, qs)
     n, count = robot.n, q_all.shape[0]
-    nhat = braced.brace.surface.normal
+    nhat = braced.split.brace.surface.normal
     f_c0 = np.concatenate([p * nhat, np.zeros(3)])
-    x_l = load_contact_wrenches(braced.brace, mu)
+    x_l = load_contact_wrenches(braced.split.brace, mu)
     k = robot.stiffness
     hessians = geometric and p > 0.0
     if gravity or hessians:
@@ -254,15 +254,15 @@ def contact_responses(
     k_t[:, np.arange(n), np.arange(n)] = k
     for i, q in enumerate(q_all):
         st = braced.state(q, hessians=hessians)
-        j_e[i], j_b[i] = st.J_e, st.J_b
+        j_e[i], j_b[i] = st.J_e, st.split.J_b
         if data is not None:
             if geometric:
                 dg = pin.computeGeneralizedGravityDerivatives(robot.model, data, q)
                 k_t[i] += np.asarray(dg, dtype=float)  # ∂g/∂q: the Hessian of the potential energy
             g[i] = pin.computeGeneralizedGravity(robot.model, data, q)
-        if hessians and st.dJ_b is not None:
-            k_t[i] -= np.einsum("r,rik->ik", f_c0, st.dJ_b)
-    k_env = braced.brace.environment_stiffness
+        if hessians and st.split.dJ_b is not None:
+            k_t[i] -= np.einsum("r,rik->ik", f_c0, st.split.dJ_b)
+    k_env = braced.split.brace.environment_stiffness
     with finite_math("the contact response"):
         k_t = 0.5 * (k_t + np.swapaxes(k_t, 1, 2))
         tau0 = g - np.einsum("nri,r->ni", j_b, f_c0)
@@ -440,7 +440,7 @@ def multi_contact_responses(
 
     C = diag(1/k_env of each row's brace) (0 rigid), gives δf_c,i = X_L,i δλ_i and δτ = −K δq. K_t = K + ∂g/∂q
     − Σ_i ∂(J_b_iᵀ f_c0,i)/∂q (``geometric``) or K. Rigid rows of A that depend on earlier ones (or carry no load)
-    are dropped as in :func:`bracekit.kinematics.multi.stacked_constraint`, so their force is carried by the
+    are dropped as in :func:`bracekit.kinematics.constraint.stacked_constraint`, so their force is carried by the
     rows they depend on (one RedundantContactWarning or UnloadedContactWarning for the stack).
 
     Args:
@@ -496,7 +496,7 @@ def multi_contact_responses(
     dropped: set[tuple[int, int]] = set()
     unloaded_rows: set[tuple[int, int]] = set()
     for s, q in enumerate(q_all):
-        st = braced.stacked_state(q)
+        st = braced.state(q)
         k_t = np.diag(k).astype(float)
         g = np.zeros(n)
         if gravity:

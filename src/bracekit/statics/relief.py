@@ -69,7 +69,7 @@ def actuator_torques(
     robot = braced.robot
     q_all = configurations(robot, qs)
     ws = np.zeros((1, 6)) if wrenches is None else wrench_list(wrenches)
-    nhat = braced.brace.surface.normal
+    nhat = braced.split.brace.surface.normal
     count, n = q_all.shape
     tau = np.empty((count, ws.shape[0], n))
     a = np.empty((count, n))
@@ -81,7 +81,7 @@ def actuator_torques(
             st = braced.state(q)
             g = np.zeros(n) if data is None else pin.computeGeneralizedGravity(robot.model, data, q)
             tau[i] = g - ws @ st.J_e
-            a[i] = st.J_b[:3].T @ nhat
+            a[i] = st.split.J_b[:3].T @ nhat
     return tau, a
 
 

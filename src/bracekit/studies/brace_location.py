@@ -26,8 +26,7 @@ from bracekit.errors import (
     SingularityError,
     UnloadedContactWarning,
 )
-from bracekit.kinematics import BracedRobot
-from bracekit.kinematics.multi import MultiBracedState
+from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.model.robot import Robot
 from bracekit.spatial import unit
 
@@ -150,20 +149,20 @@ def brace_location_study(
             continue
         seen.setdefault(j, []).append(b)
         braced = BracedRobot(frames, Brace(name, Surface(b, n_hat), kind))
-        st = braced.state_from_kinematics(qa, tip, j_e, placement, j_b)
+        st = braced.state_from_kinematics(qa, [(tip, j_e), (placement, j_b)])
         if ci_free is None:  # the free robot is the same for every candidate
             ci_free = compliance_index(free_space_compliance(st), beta)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UnloadedContactWarning)
             c_con = end_effector_compliance(st, "constrained")
         try:
-            k_b: float | None = frobenius_condition(st.J_braced)
+            k_b: float | None = frobenius_condition(st.split.J_braced)
         except SingularityError:
             k_b = None
         out.append(
             BraceCandidate(
                 link=link,
-                n1=braced.n1,
+                n1=braced.split.n1,
                 fraction=f,
                 point=b,
                 Ci_free=ci_free,
@@ -204,12 +203,12 @@ class BracePairCandidate:
         return None if self.Ci_first <= 1e-15 else 1.0 - self.Ci_pair / self.Ci_first
 
 
-def _stacked(braced: BracedRobot, q: Array, kinematics: list[tuple[Array, Array]]) -> MultiBracedState:
+def _stacked(braced: BracedRobot, q: Array, kinematics: list[tuple[Array, Array]]) -> BracedState:
     """The stacked state of `braced` at q from (⁰M, J) of the tip and of each brace, in brace order."""
-    return braced.stacked_state_from_kinematics(q, kinematics)
+    return braced.state_from_kinematics(q, kinematics)
 
 
-def _k(state: MultiBracedState) -> float | None:
+def _k(state: BracedState) -> float | None:
     """The condition number k of J_e N; None where it is singular (fewer than 6 braced motions, or σ_min ≈ 0)."""
     try:
         return frobenius_condition(state.braced_jacobian)
@@ -234,7 +233,7 @@ def brace_pair_study(
     Candidate second points are placed as in :func:`brace_location_study` (the same points, coincident ones
     dropped), each on its own plane through the point with normal `second_normal`. For each candidate,
     C_i,pair = ‖β_xᵀ C_e‖ with C_e the stacked constrained compliance of both braces
-    (:func:`~bracekit.compliance.first_order.stacked_compliance`, first brace's rows first). A candidate whose
+    (:func:`~bracekit.compliance.first_order.constrained_compliance`, first brace's rows first). A candidate whose
     rows depend on the first brace's is kept and marked ``redundant`` (its RedundantContactWarning is not
     repeated); candidates the model refuses (a frame it cannot brace, a non-finite G) are left out. The
     kinematics are evaluated once for all candidates.

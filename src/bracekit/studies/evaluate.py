@@ -14,9 +14,9 @@ from bracekit._linalg import as_array, show
 from bracekit.compliance.first_order import (
     compliance_ellipsoids,
     compliance_index,
+    constrained_compliance,
     end_effector_compliance,
     free_space_compliance,
-    stacked_compliance,
     unit6,
 )
 from bracekit.compliance.measures import SingularValues, frobenius_condition, singular_value_measures, theta_z
@@ -24,7 +24,6 @@ from bracekit.compliance.preloaded import preloaded_compliance
 from bracekit.contact import Brace, ContactType, Surface, contact_type
 from bracekit.errors import ChainSingularWarning, ContactError, InputError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
-from bracekit.kinematics.multi import MultiBracedState
 from bracekit.model.robot import Robot
 from bracekit.simulation.holding import Holding
 from bracekit.spatial import unit
@@ -67,12 +66,12 @@ def chain1_motions(state: BracedState) -> dict[str, Any]:
     ``A_rank``: rank of [S_t1 J1 N, S_t2 J2], the braced Jacobian that chain 1 actually realises (equal to the
     rank of A, built from H, wherever J1 is regular).
     """
-    j1 = state.J1
+    j1 = state.split.J1
     s = np.linalg.svd(j1, compute_uv=False)
     top = float(s[0]) if s.size else 0.0
-    keep = contact_null_space(state.X.T @ j1)
+    keep = contact_null_space(state.split.X.T @ j1)
     motions = j1 @ keep
-    realised = np.hstack([state.S_t1 @ motions, state.S_t2 @ state.J2])
+    realised = np.hstack([state.split.S_t1 @ motions, state.split.S_t2 @ state.split.J2])
     return {
         "J1_condition": float(s[0] / s[-1]) if s.size and s[-1] > 0 else None,
         "J1_singular": bool(not s.size or not s[-1] > top / J1_COND_LIMIT),
@@ -121,11 +120,11 @@ def evaluate(
     kind = contact_type(contact)
     n_raw = as_array(normal, "the surface normal", error=ContactError)
     probe = BracedRobot(robot, Brace(brace_frame, Surface(np.zeros(3), n_raw)))
-    b = probe.state(qa).b
+    b = probe.state(qa).split.b
     braced = BracedRobot(robot, Brace(brace_frame, Surface(b, n_raw), kind))
     st = braced.state(qa)
     if beta_x is None:
-        beta = np.concatenate([braced.brace.surface.normal, np.zeros(3)])
+        beta = np.concatenate([braced.split.brace.surface.normal, np.zeros(3)])
     else:
         beta = as_array(beta_x, "beta_x", finite=False).reshape(-1)
         unit6(beta, "beta_x")  # 6 finite numbers, not all zero
@@ -136,46 +135,47 @@ def evaluate(
         name: compliance_index(c, beta)
         for name, c in (("free", c_free), ("constrained", c_con), ("projection", c_proj))
     }
-    sv = singular_value_measures(st.J_braced)
+    sv = singular_value_measures(st.split.J_braced)
     chain1 = chain1_motions(st)
     if chain1["J1_singular"]:
         cond = chain1["J1_condition"]
         warnings.warn(
             f"J1 is singular at this configuration (cond = {'inf' if cond is None else f'{cond:.3g}'}): chain 1 "
-            f"realises {chain1['braced_motions']} of the {st.H.shape[1]} braced motions of {{b}} that A's columns "
+            f"realises {chain1['braced_motions']} of the {st.split.H.shape[1]} braced motions of {{b}} that A's "
+            "columns "
             f"assume (A_rank = {chain1['A_rank']}); move chain 1 away from its singularity",
             ChainSingularWarning,
             stacklevel=2,
         )
     out = {
         "n": robot.n,
-        "n1": braced.n1,
-        "n2": braced.n2,
+        "n1": braced.split.n1,
+        "n2": braced.split.n2,
         "joint_names": list(robot.joint_names),
         "brace_frame": brace_frame,
         "tip_frame": robot.tip,
         "contact": kind.name,
         "q": qa,
-        "b": st.b,
+        "b": st.split.b,
         "e": st.e,
-        "R_b": st.R_b,
+        "R_b": st.split.R_b,
         "R_e": st.R_e,
-        "normal": braced.brace.surface.normal,
-        "J": st.J,
-        "J1": st.J1,
-        "J2": st.J2,
-        "H": st.H,
-        "X": st.X,
-        "A": st.A,
+        "normal": braced.split.brace.surface.normal,
+        "J": st.split.J,
+        "J1": st.split.J1,
+        "J2": st.split.J2,
+        "H": st.split.H,
+        "X": st.split.X,
+        "A": st.split.A,
         **chain1,
-        "J_braced": st.J_braced,
+        "J_braced": st.split.J_braced,
         "C_free": c_free,
         "C_e_constrained": c_con,
         "C_e_projection": c_proj,
-        "k": frobenius_condition(st.J),
-        "k_braced": frobenius_condition(st.J_braced),
+        "k": frobenius_condition(st.split.J),
+        "k_braced": frobenius_condition(st.split.J_braced),
         **{f.name: getattr(sv, f.name) for f in dataclasses.fields(sv)},
-        "theta_z": theta_z(braced.brace.surface.normal, st.z_b),
+        "theta_z": theta_z(braced.split.brace.surface.normal, st.split.z_b),
         "beta_x": _unit(beta),
         "Ci_free": ci["free"],
         "Ci_constrained": ci["constrained"],
@@ -255,7 +255,7 @@ def evaluate_braces(
 
     `normal` is one normal (3,) for every brace or one per brace (m×3), `contact` one type or one per brace,
     in the order of `brace_frames`. The compliance is the constrained model with the stacked constraint
-    G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (:func:`~bracekit.compliance.first_order.stacked_compliance`).
+    G = [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (:func:`~bracekit.compliance.first_order.constrained_compliance`).
 
     Keys (SI; as :func:`evaluate`): n, joint_names, brace_frames, tip_frame, q, e, R_e, J (= J_e, 6×n),
     C_free, C_e_constrained, k (of J), k_braced and the Πσ measures of J_e N (None where J_e N is singular),
@@ -277,10 +277,10 @@ def evaluate_braces(
     normals = _normals(normal, len(frames))
     kinds = _contacts(contact, len(frames))
     probe = BracedRobot(robot, [Brace(f, Surface(np.zeros(3), n)) for f, n in zip(frames, normals, strict=True)])
-    points = probe.stacked_state(qa).b_i
+    points = probe.state(qa).b_i
     braces = [Brace(f, Surface(b, n), kind) for f, b, n, kind in zip(frames, points, normals, kinds, strict=True)]
     braced = BracedRobot(robot, braces)
-    st: MultiBracedState = braced.stacked_state(qa)
+    st: BracedState = braced.state(qa)
     first = braces[0].surface.normal
     if beta_x is None:
         beta = np.concatenate([first, np.zeros(3)])
@@ -288,7 +288,7 @@ def evaluate_braces(
         beta = as_array(beta_x, "beta_x", finite=False).reshape(-1)
         unit6(beta, "beta_x")
     c_free = free_space_compliance(st)
-    c_con = stacked_compliance(st)
+    c_con = constrained_compliance(st)
     con = st.constraint
     ci_free, ci_con = compliance_index(c_free, beta), compliance_index(c_con, beta)
     j_n = st.braced_jacobian

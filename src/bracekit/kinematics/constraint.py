@@ -1,4 +1,4 @@
-"""Several braces at once: the stacked contact constraint G, its independent rows and the braced motions N.
+"""The stacked contact constraint G of N ≥ 1 braces, its independent rows and the braced motions N.
 
 Brace i touches its surface at {b_i} through a contact with constraint wrenches X_i (6×(6−l_i), world axes).
 A joint motion Δq keeps that contact when X_iᵀ J_b_i Δq = 0, with J_b_i the LOCAL_WORLD_ALIGNED Jacobian of
@@ -10,34 +10,37 @@ and the braced motions are the null space of G (orthonormal basis N, n×(n − r
 constrain the same motion (the same frame twice, or two links that only move together): their rows of G are
 then dependent. :func:`stacked_constraint` keeps a maximal independent set of the rigid rows, in the order of
 the braces, and warns which rows it dropped and on which kept rows they depend (docs/model.md, "Several
-braces"). The compliance with these constraints is :func:`bracekit.compliance.first_order.stacked_compliance`.
+braces"). The compliance with these constraints is :func:`bracekit.compliance.first_order.constrained_compliance`.
 """
 
 from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from functools import cached_property
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.errors import ContactError, NumericalError, RedundantContactWarning, UnloadedContactWarning
-from bracekit.kinematics.braced import contact_null_space
-from bracekit.tolerances import UNLOADED_TOL
+from bracekit.errors import NumericalError, RedundantContactWarning, UnloadedContactWarning
+from bracekit.tolerances import NULL_SPACE_RTOL, UNLOADED_TOL
 
 if TYPE_CHECKING:
-    from bracekit.kinematics.braced import BracedRobot
+    from bracekit.kinematics.braced import BracedRobot, BracedState
 
 Array = NDArray[np.float64]
 
-_STACKED = "the stacked constraint (state.G, state.N, state.braced_jacobian)"
+
+def contact_null_space(g: Array) -> Array:
+    """Orthonormal basis (n×(n − rank g)) of the null space of a constraint g (rows × n), e.g. Xᵀ J1 or G."""
+    _, s, vt = np.linalg.svd(g)
+    rank = int(np.sum(s > NULL_SPACE_RTOL * max(1.0, s[0] if s.size else 1.0)))
+    return np.ascontiguousarray(vt[rank:].T, dtype=np.float64)
 
 
 @dataclass(frozen=True, eq=False)
 class StackedConstraint:
-    """The stacked contact constraint of several braces at one configuration.
+    """The stacked contact constraint of the braces at one configuration (one brace: G = Xᵀ J_b).
 
     Attributes:
         G: [X_1ᵀ J_b1; X_2ᵀ J_b2; …] (c×n): row r is constraint wrench ``rows[r]`` applied to the twist of its
@@ -63,7 +66,7 @@ class StackedConstraint:
         return self.G.shape[1] - self.N.shape[1]
 
 
-def stacked_constraint(state: MultiBracedState) -> StackedConstraint:
+def stacked_constraint(state: BracedState) -> StackedConstraint:
     """Build G from a stacked state, pick its independent rows and the braced motions N.
 
     Rows are compared in the compliance metric, w_r = G_r K^(−1/2) (so w_r w_sᵀ is an entry of G K⁻¹ Gᵀ, the
@@ -96,7 +99,11 @@ def stacked_constraint(state: MultiBracedState) -> StackedConstraint:
         raise NumericalError("the stacked contact constraint G K^(-1/2) is not finite (float64 overflow)")
     compliance = np.array(comp, dtype=np.float64)
     rigid = [r for r in range(len(rows)) if compliance[r] == 0.0]
-    _, unloaded, redundant = _independent_rows(w, rigid, max((traces[rows[r][0]] for r in rigid), default=0.0))
+    _, unloaded, dependent = _independent_rows(w, rigid, max((traces[rows[r][0]] for r in rigid), default=0.0))
+    # a row that depends on rows of its own brace only is a direction no joint can load: the contact is unloaded
+    # there (chain 1 moves {b} in fewer directions than it constrains); across braces it is redundant
+    unloaded += [r for r, deps in dependent if all(rows[s][0] == rows[r][0] for s in deps)]
+    redundant = [(r, deps) for r, deps in dependent if r not in unloaded]
     if unloaded:
         warnings.warn(
             "the contact carries no load along "
@@ -167,91 +174,3 @@ def _label(braced: BracedRobot, row: tuple[int, int]) -> str:
     i, col = row
     brace = braced.braces[i]
     return f"braces[{i}] (frame '{brace.frame}', {brace.kind.name}) row {col}"
-
-
-def _one_brace(name: str, use: str) -> Any:
-    """A property that refuses a one-brace quantity of the stacked state with a message naming `use`."""
-
-    def get(self: MultiBracedState) -> NoReturn:
-        count = len(self.b_i)
-        if count == 1:
-            raise ContactError(f"{name} is not part of the stacked state: for one brace use braced.state(q)")
-        raise ContactError(f"{name} is defined for one brace; this robot has {count} braces: use {use}")
-
-    return property(get, doc=f"{name}: one-brace model only (ContactError here).")
-
-
-@dataclass(frozen=True, eq=False)
-class MultiBracedState:
-    """A robot with one or several braces at a configuration q (from ``BracedRobot.stacked_state(q)``).
-
-    Positions in m, world frame; Jacobians LOCAL_WORLD_ALIGNED (reference point = the frame's origin, world
-    axes), 6×n, twists [v; ω]. The one-brace quantities of :class:`~bracekit.kinematics.BracedState` (b, R_b,
-    J_b, n1, H, X, P, J1, J2, S_t1, S_t2, J, A, J_braced, chain1_map) raise ContactError here.
-
-    Attributes:
-        braced: the model.
-        q: joint values (n,).
-        e, R_e, J_e: position (3,), orientation ⁰R_e (3×3) and Jacobian (6×n) of the tip {e}.
-        b_i, R_b_i, J_b_i: position (3,), orientation ⁰R_b_i (3×3) and Jacobian (6×n) of each brace's {b_i},
-            in the order of ``braced.braces``.
-    """
-
-    braced: BracedRobot
-    q: Array
-    e: Array
-    R_e: Array
-    J_e: Array
-    b_i: tuple[Array, ...]
-    R_b_i: tuple[Array, ...]
-    J_b_i: tuple[Array, ...]
-
-    @property
-    def K(self) -> Array:
-        """Joint stiffnesses (n,), N·m/rad (N/m for a prismatic joint)."""
-        return self.braced.robot.stiffness
-
-    @property
-    def X_i(self) -> tuple[Array, ...]:
-        """Constraint wrench basis X_i of each brace (6×(6−l_i), world axes)."""
-        return tuple(brace.X() for brace in self.braced.braces)
-
-    @cached_property
-    def constraint(self) -> StackedConstraint:
-        """The stacked constraint G, its independent rows and N (warns about dependent rows once)."""
-        return stacked_constraint(self)
-
-    @property
-    def G(self) -> Array:
-        """[X_1ᵀ J_b1; X_2ᵀ J_b2; …] (c×n, c = Σ (6 − l_i)): every contact is kept when G Δq = 0."""
-        return self.constraint.G
-
-    @property
-    def N(self) -> Array:
-        """Orthonormal basis of the braced motions, the null space of G (n×(n − rank G))."""
-        return self.constraint.N
-
-    @cached_property
-    def braced_jacobian(self) -> Array:
-        """J_e N (6×(n − rank G)): the tip twist per coordinate of the braced motions.
-
-        Its k and Πσ (``frobenius_condition``, ``singular_value_measures``) are the several-brace counterparts
-        of the measures of J̃.
-        """
-        return np.asarray(self.J_e @ self.N, dtype=np.float64)
-
-    b = _one_brace("b", "state.b_i[i]")
-    R_b = _one_brace("R_b", "state.R_b_i[i]")
-    J_b = _one_brace("J_b", "state.J_b_i[i]")
-    n1 = _one_brace("the chain split n1 at {b}", _STACKED)
-    H = _one_brace("H", "braced.braces[i].H()")
-    X = _one_brace("X", "state.X_i[i]")
-    P = _one_brace("the paper's projector P", _STACKED)
-    J1 = _one_brace("J1 (chain 1)", _STACKED)
-    J2 = _one_brace("J2 (chain 2)", _STACKED)
-    S_t1 = _one_brace("S_t1", _STACKED)
-    S_t2 = _one_brace("S_t2", _STACKED)
-    J = _one_brace("J = [S_t1 J1, S_t2 J2]", "state.J_e")
-    A = _one_brace("the braced Jacobian A", "state.braced_jacobian (J_e N)")
-    J_braced = _one_brace("J̃", "state.braced_jacobian (J_e N)")
-    chain1_map = _one_brace("chain1_map", "state.N")
