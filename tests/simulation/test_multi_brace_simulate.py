@@ -12,13 +12,12 @@ import pinocchio as pin
 import pytest
 
 from bracekit.contact import Brace, Surface
-from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
 from bracekit.resolution import BracedGradientProjection, BracedMinNorm, TaskSpace
 from bracekit.resolution.multi import MultiBraceObjective
-from bracekit.simulation.simulate import simulate, solve_start_braces
+from bracekit.simulation.simulate import simulate, solve_start
 from bracekit.simulation.tasks import Line
 from helpers import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
@@ -69,7 +68,7 @@ def reference_ci(braced: BracedRobot, q: np.ndarray, beta: np.ndarray) -> float:
 @pytest.fixture(scope="module")
 def paper_start() -> tuple[BracedRobot, np.ndarray]:
     braced = paper_two_braces()
-    st = solve_start_braces(braced, [1.34, -0.32, -0.17], PAPER_GUESS)
+    st = solve_start(braced, [1.34, -0.32, -0.17], PAPER_GUESS)
     return braced, st.q
 
 
@@ -162,17 +161,26 @@ def test_a_random_chain_with_a_sticking_and_a_sliding_brace_keeps_both_contacts(
             )
 
 
-def test_a_one_brace_strategy_without_a_several_brace_form_is_refused(paper_start) -> None:
+def test_any_braced_strategy_runs_with_several_braces_over_the_state_s_braced_motions(paper_start) -> None:
+    # a strategy of the user's own (not a bracekit class): the loop calls its velocity for any brace count
     braced, q0 = paper_start
 
     class Other:
         name = "other"
         braced = True
-        space = TaskSpace()
+        needs_hessians = False
+        space = TaskSpace("position")
 
-        def velocity(self, state, xdot):  # pragma: no cover - refused before any step
-            raise AssertionError
+        def velocity(self, state, xdot):
+            motions = state.motions  # q̇ = N y keeps every contact; the task rows by least squares
+            a = motions.A[:3]
+            return motions.to_joint(np.linalg.lstsq(a, xdot[:3], rcond=None)[0])
 
     e0 = pin_frame_placement(braced.robot.model, braced.robot.tip, q0).translation
-    with pytest.raises(InputError, match="no several-brace form"):
-        simulate(braced, Other(), Line(e0, e0 + 0.01, 1.0), q0, 0.1, lambda t: RADIAL)
+    task = Line(e0, e0 + np.array([0.0, 0.0, 0.02]), 1.0)
+    run = simulate(braced, Other(), task, q0, 0.1, lambda t: RADIAL)
+    assert run.completed, run.failure
+    for t, q in zip(run.t, run.q, strict=True):
+        assert np.all(contact_distances(braced, q) <= 1e-9)  # independent: Pinocchio placements of each {b_i}
+        tip = pin_frame_placement(braced.robot.model, braced.robot.tip, q).translation
+        np.testing.assert_allclose(tip, task.position(t), atol=1e-9)

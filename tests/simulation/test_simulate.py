@@ -20,7 +20,8 @@ from bracekit import (
 )
 from bracekit.errors import ConvergenceError, NoRedundancyWarning, RegionWarning
 from bracekit.resolution.strategies import conditioning
-from bracekit.simulation.simulate import START_CONDITIONING_FLOOR, correct
+from bracekit.simulation.simulate import correct
+from bracekit.simulation.start import START_CONDITIONING_FLOOR
 from helpers import iiwa_like_urdf, iiwa_scenario_text
 
 
@@ -141,7 +142,7 @@ def test_a_step_that_jumps_over_the_region_barrier_is_split_and_the_run_stays_in
     assert tr.substeps > 0 and any("split" in w for w in tr.warnings)
     assert tr.summary()["max_region_radius_m"] < 0.05
     # without splitting, the same run hits the barrier and says so
-    monkeypatch.setattr(importlib.import_module("bracekit.simulation.simulate"), "MAX_SUBSTEP_DEPTH", 0)
+    monkeypatch.setattr(importlib.import_module("bracekit.simulation.loop"), "MAX_SUBSTEP_DEPTH", 0)
     tr0 = simulate(braced, BracedGradientProjection(obj), task, start.q, 0.1, sc.beta_x)
     assert not tr0.completed and "leaves the region" in tr0.failure
 

@@ -41,7 +41,8 @@ from bracekit.simulation.simulate import (
 from bracekit.tolerances import DEFAULT_JOINT_SPEED, JOINT_STEP_SAFETY, MAX_JOINT_STEP
 from helpers import random_chain_urdf, scenario_text
 
-SIM = importlib.import_module("bracekit.simulation.simulate")
+GUARDS = importlib.import_module("bracekit.simulation.guards")
+START = importlib.import_module("bracekit.simulation.start")
 
 
 def _scenario(tmp_path: Path, name: str, **keys: Any) -> Scenario:
@@ -123,13 +124,13 @@ def test_the_contact_jacobian_is_the_derivative_of_the_contact_residual(tmp_path
     q = sc.guess + 0.05
     st = sc.braced.state(sc.guess)
     anchor = (st.split.b, pin.exp3(np.array([0.7, -0.6, 0.1])) @ st.split.R_b)  # 0.9 rad from {b}
-    jac = contact_jacobian(sc.braced.state(q), anchor[1])
+    jac = contact_jacobian(sc.braced.state(q), [anchor])
     h = 1e-6
     fd = np.column_stack(
         [
             (
-                contact_residual(sc.braced.state(q + h * e), *anchor)
-                - contact_residual(sc.braced.state(q - h * e), *anchor)
+                contact_residual(sc.braced.state(q + h * e), [anchor])
+                - contact_residual(sc.braced.state(q - h * e), [anchor])
             )
             / (2 * h)
             for e in np.eye(q.size)
@@ -156,7 +157,7 @@ def test_the_correction_tolerance_is_relative_to_the_robots_reach() -> None:
         st = braced.state(q0)
         length = reach(robot)
         assert length == pytest.approx(scale * metres, rel=1e-12)
-        out = correct(braced, q0 + 0.01 * np.arange(8), st.e, st.R_e, (st.split.b, st.split.R_b))
+        out = correct(braced, q0 + 0.01 * np.arange(8), st.e, st.R_e, [(st.split.b, st.split.R_b)])
         assert np.max(np.abs(out.e - st.e)) < 1e-10 * length
         assert abs(braced.brace.surface.signed_distance(out.split.b)) < 1e-10 * length
 
@@ -188,7 +189,7 @@ def test_a_sample_below_the_singular_ratio_stops_the_run_and_names_the_matrix(mo
         assert tr.measures[key].shape == tr.t.shape
     assert tr.measures["joint_step"][0] == 0.0
     # a threshold above J̃'s σ_min/σ_max at the start (0.02–0.05): the run stops there, before any step
-    monkeypatch.setattr(SIM, "PATH_SINGULAR_RATIO", 0.9)
+    monkeypatch.setattr(GUARDS, "PATH_SINGULAR_RATIO", 0.9)
     tr = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
     assert not tr.completed and tr.steps == 0 and tr.failure is not None
     assert tr.failure.startswith("start (t = 0.000 s)") and "singular on the path" in tr.failure
@@ -219,7 +220,7 @@ def test_solve_start_rejects_a_non_finite_or_malformed_target_or_guess_with_inpu
 
 def test_solve_start_that_fails_never_warns_that_the_start_meets_the_task(monkeypatch) -> None:
     sc = load_scenario("paper")
-    monkeypatch.setattr(SIM, "START_MAX_NFEV", 2)  # the solve stops early: the old code warned here
+    monkeypatch.setattr(START, "START_MAX_NFEV", 2)  # the solve stops early: the old code warned here
     with warnings.catch_warnings():
         warnings.simplefilter("error", BracekitWarning)
         with pytest.raises(ConvergenceError, match="no start configuration"):

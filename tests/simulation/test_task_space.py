@@ -278,7 +278,7 @@ def test_correction_holds_the_selected_rows_only(arm, kind: str) -> None:
     target_p = start.translation + np.array([0.01, -0.02, 0.005])
     target_r = pin.exp3(np.array([0.05, -0.04, 0.03])) @ start.rotation  # the pose correction would reach it
     q = Q0 + np.array([0.01, -0.02, 0.015, 0.01, -0.01, 0.02, -0.03])
-    st = correct(braced, q, target_p, target_r, (b0.translation, b0.rotation), space=space)
+    st = correct(braced, q, target_p, target_r, [(b0.translation, b0.rotation)], space=space)
     tip = pin_frame_placement(model, "tip", st.q)
     assert np.linalg.norm(tip.translation - target_p) <= 1e-9
     surface = braced.brace.surface
@@ -287,6 +287,6 @@ def test_correction_holds_the_selected_rows_only(arm, kind: str) -> None:
         assert (tip.rotation[:, 2]) @ (target_r[:, 2]) >= 1.0 - 1e-12
     # a free row is left free: the orientation is not pulled onto the target
     assert np.linalg.norm(pin.log3(target_r @ tip.rotation.T)) > 1e-3
-    pose = correct(braced, q, target_p, target_r, (b0.translation, b0.rotation))
+    pose = correct(braced, q, target_p, target_r, [(b0.translation, b0.rotation)])
     assert np.linalg.norm(pin.log3(target_r @ pose.R_e.T)) < 1e-9
     assert np.linalg.norm(st.q - q) < np.linalg.norm(pose.q - q)  # fewer rows, a smaller correction

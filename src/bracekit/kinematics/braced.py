@@ -364,4 +364,5 @@ class BracedState:
         """
         if len(self.contacts) == 1:
             return SplitMotions(self.split)
-        return NullMotions(N=self.N, A=self.braced_jacobian)
+        con = self.constraint
+        return NullMotions(N=self.N, A=self.braced_jacobian, G=con.G[list(con.independent)], J_e=self.J_e)

@@ -9,6 +9,7 @@ braces"). The state chooses (``BracedState.motions``); a strategy only uses this
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -23,6 +24,31 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
+#: Printed names of the matrices whose conditioning a run records (measure ``sigma_ratio_<key>``): the
+#: paper's (one brace) and the stacked constraint's (several braces); J = J_e in both.
+MATRIX_LABELS = {
+    "J1": "J1",
+    "A": "A",
+    "J": "J",
+    "J_braced": "J̃",
+    "G": "G (independent rows)",
+    "SJN": "S J_e N",
+}
+
+
+def singular_ratio(m: Array) -> float:
+    """σ_min / σ_max of a matrix (over its min(rows, columns) singular values); 0 for a zero matrix."""
+    s = np.linalg.svd(np.asarray(m, dtype=float), compute_uv=False)
+    return float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
+
+
+def rank_ratio(m: Array) -> float:
+    """σ_min / σ_max of a matrix that must have full row rank: 0 with more rows than columns; 1 with no rows."""
+    if m.size == 0:
+        return 1.0 if m.shape[0] == 0 else 0.0
+    s = np.linalg.svd(m, compute_uv=False)
+    return float(s[-1] / s[0]) if m.shape[1] >= m.shape[0] and s[0] > 0 else 0.0
+
 
 class BracedMotions:
     """A chart of the braced motions at one configuration (abstract: :class:`SplitMotions`, :class:`NullMotions`).
@@ -35,9 +61,30 @@ class BracedMotions:
     A: Array
     label: str
 
+    @property
+    def task_jacobian(self) -> Array:
+        """The braced task Jacobian the measures k and Πσ take (eq:manip): J̃ for one brace, J_e N for several."""
+        raise NotImplementedError
+
     def to_joint(self, y: Array) -> Array:
         """q̇ = M y (n,) from braced coordinates y (r,)."""
         raise NotImplementedError
+
+    def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
+        """σ_min/σ_max of each matrix a run records (keys of MATRIX_LABELS), computed when called.
+
+        `rows`: the task-space selection S (m×6) at the state, None for the whole pose.
+        """
+        raise NotImplementedError
+
+    def inverted(self, braced: bool) -> tuple[str, ...]:
+        """Keys of the matrices a braced (or free-space) strategy inverts, which a run keeps from singularity."""
+        raise NotImplementedError
+
+    def conditioning(self, rows: Array | None, keys: tuple[str, ...] | None = None) -> dict[str, float]:
+        """σ_min/σ_max of the matrices named in `keys` (every recorded matrix if None)."""
+        found = self.matrices(rows)
+        return {key: found[key]() for key in (tuple(found) if keys is None else keys)}
 
     def gradient(self, dg_dq: Array) -> Array:
         """Mᵀ ∂g/∂q (r,): the gradient of g over the braced coordinates (eq:grad_g for one brace)."""
@@ -69,6 +116,11 @@ class SplitMotions(BracedMotions):
         """[S_t1 H, S_t2 J2] (6×(l + n2)), eq:braced_kin."""
         return self.split.A
 
+    @property
+    def task_jacobian(self) -> Array:
+        """J̃ = [S_t1 (I − P) J1, S_t2 J2] (eq:J_wave): the paper's measures' Jacobian."""
+        return self.split.J_braced
+
     def to_joint(self, y: Array) -> Array:
         """[ḃ; q̇2] → q̇ = [dq1/db̃ · ḃ; q̇2] (eq:q1)."""
         chain1 = self.split.chain1_map
@@ -80,14 +132,40 @@ class SplitMotions(BracedMotions):
         n1 = self.split.n1
         return np.concatenate([self.split.chain1_map.T @ dg_dq[:n1], dg_dq[n1:]])
 
+    def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
+        """J1, A (eq:braced_kin), J = J_e and J̃ (eq:J_wave), whole (not task rows)."""
+        sp = self.split
+        return {
+            "J1": lambda: singular_ratio(sp.J1),
+            "A": lambda: singular_ratio(sp.A),
+            "J": lambda: singular_ratio(sp.state.J_e),
+            "J_braced": lambda: singular_ratio(sp.J_braced),
+        }
+
+    def inverted(self, braced: bool) -> tuple[str, ...]:
+        """Free space: J (J⁺ ẋ), then J̃. Braced: A (eq:general_inv), J1 when n1 = 6 (eq:q1), then J̃."""
+        if not braced:
+            return ("J", "J_braced")
+        return ("A", "J1", "J_braced") if self.split.n1 == 6 else ("A", "J_braced")
+
 
 @dataclass(frozen=True, eq=False)
 class NullMotions(BracedMotions):
-    """Coordinates y over an orthonormal basis N of the braced motions (null space of G): q̇ = N y, A = J_e N."""
+    """Coordinates y over an orthonormal basis N of the braced motions (null space of G): q̇ = N y, A = J_e N.
+
+    G: the stacked constraint over its independent rows; J_e: the tip Jacobian (6×n).
+    """
 
     N: Array
     A: Array
+    G: Array
+    J_e: Array
     label: str = "S J_e N"
+
+    @property
+    def task_jacobian(self) -> Array:
+        """J_e N (6×(n − rank G))."""
+        return self.A
 
     def to_joint(self, y: Array) -> Array:
         """q̇ = N y."""
@@ -96,3 +174,15 @@ class NullMotions(BracedMotions):
     def gradient(self, dg_dq: Array) -> Array:
         """Nᵀ ∂g/∂q."""
         return np.asarray(self.N.T @ dg_dq, dtype=np.float64)
+
+    def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
+        """G over its independent rows, the task rows S J_e N of A and J = J_e."""
+        return {
+            "G": lambda: rank_ratio(self.G),
+            "SJN": lambda: rank_ratio(self.A if rows is None else rows @ self.A),
+            "J": lambda: singular_ratio(self.J_e),
+        }
+
+    def inverted(self, braced: bool) -> tuple[str, ...]:
+        """Free space: J. Braced: G and S J_e N."""
+        return ("G", "SJN") if braced else ("J",)

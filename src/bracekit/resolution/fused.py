@@ -88,6 +88,17 @@ def numba_available() -> bool:
     return True
 
 
+def fused_step(braced: BracedRobot, strategy: object) -> GradientProjectionStep | None:
+    """The fused step of a gradient-projection strategy, or None where the reference path runs instead.
+
+    The fused step is written over the paper's chain split (A, J1, J̃ of one brace): None for another
+    strategy, for several braces and beyond MAX_HESSIAN_JOINTS joints.
+    """
+    if type(strategy) is not BracedGradientProjection or len(braced.braces) != 1 or braced.n > MAX_HESSIAN_JOINTS:
+        return None
+    return GradientProjectionStep(braced, strategy)
+
+
 class GradientProjectionStep:
     """q̇ = [dq1/db̃ · ḃ; q̇2] with [ḃ; q̇2] = A⁺ẋ + (I − A⁺A) α ∇g (eq:grad_proj), fused.
 

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit._linalg import show
-from bracekit.compliance.first_order import COMPLIANCE_MODELS, check_model
+from bracekit.compliance.first_order import check_model
 from bracekit.compliance.measures import theta_z
 from bracekit.compliance.preloaded import check_run_model, simulated_model
 from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
@@ -25,8 +25,11 @@ from bracekit.simulation.holding import (
     holding_warnings,
     relief_summary,
 )
+from bracekit.simulation.loop import simulate
+from bracekit.simulation.samples import compliance_models
 from bracekit.simulation.scenario import Scenario, load_scenario
-from bracekit.simulation.simulate import Trajectory, simulate, solve_start, solve_start_braces
+from bracekit.simulation.start import solve_start
+from bracekit.simulation.trajectory import Trajectory
 from bracekit.statics import effort_limits
 
 Array = NDArray[np.float64]
@@ -89,19 +92,21 @@ def _summaries(result: RunResult) -> None:
 
 
 def _start_warnings(sc: Scenario, start: BracedState) -> list[str]:
-    """Warnings about the solved start: a pad axis that points away from the surface (θ_z > π/2)."""
-    if not sc.braced.split.brace.pad_axis:
-        return []
-    angle = theta_z(sc.braced.split.brace.surface.normal, start.split.z_b)
-    if angle <= 0.5 * np.pi:
-        return []
-    line = (
-        f"θ_z at the start is {angle:.3f} rad (> π/2): the pad axis of {{b}} points away from the surface; "
-        "z_b (a frame's z, or '[brace] pad_axis') must point from the pad into the robot, along the normal; "
-        "flip its sign"
-    )
-    warnings.warn(line, PadAxisWarning, stacklevel=3)
-    return [line]
+    """Warnings about the solved start: a pad axis that points away from its surface (θ_z > π/2)."""
+    lines = []
+    braces = sc.braced.braces
+    for i, (brace, contact) in enumerate(zip(braces, start.contacts, strict=True)):
+        angle = theta_z(brace.surface.normal, contact.z_b)
+        if not brace.pad_axis or angle <= 0.5 * np.pi:
+            continue
+        which = "{b}" if len(braces) == 1 else f"{{b_{i}}} (braces[{i}])"
+        lines.append(
+            f"θ_z at the start is {angle:.3f} rad (> π/2): the pad axis of {which} points away from the surface; "
+            "z_b (a frame's z, or '[brace] pad_axis') must point from the pad into the robot, along the normal; "
+            "flip its sign"
+        )
+        warnings.warn(lines[-1], PadAxisWarning, stacklevel=3)
+    return lines
 
 
 def _has_limits(sc: Scenario) -> bool:
@@ -160,18 +165,16 @@ def run_scenario(
         raise InputError(f"both_models must be True or False, got {show(both_models)}")
     if progress is not None and not callable(progress):
         raise InputError(f"progress must be a function of the number of steps done, got {show(progress)}")
-    several = len(sc.braced.braces) > 1
-    start: Any
-    if several:  # the stacked model: constrained compliance only (the paper's projection is for one brace)
-        start = solve_start_braces(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
-        start_warnings: list[str] = []
-        models: tuple[str, ...] = ("constrained",)
-    else:
-        start = solve_start(
-            sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
-        )
-        start_warnings = _start_warnings(sc, start)
-        models = COMPLIANCE_MODELS if both_models else (simulated_model(model),)
+    start = solve_start(
+        sc.braced,
+        sc.task.position(0.0),
+        sc.guess,
+        rotation=sc.task.rotation,
+        theta_weight=sc.start_theta_weight,
+        space=sc.task_space,
+    )
+    start_warnings = _start_warnings(sc, start)
+    models = compliance_models(sc.braced) if both_models else (simulated_model(model),)
     shared: dict[str, Trajectory] = {}
     trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}
     for m in models:

@@ -1,0 +1,142 @@
+"""The Gauss–Newton correction of a run: the tip back on the task pose and every {b_i} back on its contact.
+
+Residuals are in m and rad, world axes. The contact rows of brace i are X_iᵀ [b_i − b0_i; log3(R_b_i R_b0_iᵀ)]
+against its anchor (b0_i, ⁰R_b0_i), stacked in the order of ``braced.braces`` (for one brace: eq:constraint's
+rows of the paper's contact); the same code serves any number of braces.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+
+from bracekit.errors import ConvergenceError
+from bracekit.kinematics import BracedRobot, BracedState, skeleton
+from bracekit.model.robot import Robot
+from bracekit.resolution.task_space import POSE, TaskSpace
+from bracekit.tolerances import ACCEPT_TOL, CORRECTION_ROUNDOFF, CORRECTION_TOL
+
+Array = NDArray[np.float64]
+#: The contact anchors of a run: (b0_i (3,), ⁰R_b0_i (3×3)) of each brace, in brace order.
+Anchors = Sequence[tuple[Array, Array]]
+
+__all__ = [
+    "Anchors",
+    "contact_jacobian",
+    "contact_residual",
+    "correct",
+    "pose_error",
+    "reach",
+    "task_error",
+]
+
+
+def pose_error(state: BracedState, position: Array, rotation: Array) -> Array:
+    """[p_d − e; log3(R_d R_eᵀ)] (6,), m and rad, world axes."""
+    return np.concatenate([position - state.e, pin.log3(rotation @ state.R_e.T)])
+
+
+def task_error(state: BracedState, position: Array, rotation: Array, space: TaskSpace = POSE) -> Array:
+    """The error (6,) of the rows `space` prescribes: :func:`pose_error` for the pose, else [p_d − e; ω].
+
+    ω is 0 for ``"position"`` and, for ``"position+axis"``, the rotation θ k̂ taking the tool axis
+    a = ⁰R_e a_tip to a_d = R_d a_tip (:meth:`TaskSpace.error`), perpendicular to a.
+    """
+    if space.is_pose:
+        return pose_error(state, position, rotation)
+    return space.error(position - state.e, state.R_e, rotation)
+
+
+def contact_residual(state: BracedState, anchors: Anchors) -> Array:
+    """Violation of every contact (c,): X_iᵀ [b_i − b0_i; log3(R_b_i R_b0_iᵀ)] per brace, stacked in brace order.
+
+    For a frictionless point this is n̂ᵀ(b_i − b0_i), the distance of {b_i} from the plane through b0_i.
+    """
+    out = []
+    for x, c, (b0, r0) in zip(state.X_i, state.contacts, anchors, strict=True):
+        out.append(x.T @ np.concatenate([c.b - b0, pin.log3(c.R_b @ r0.T)]))
+    return np.concatenate(out)
+
+
+def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
+    """∂(contact_residual)/∂q (c×n): X_iᵀ [J_b_i,v; Jlog3(R) Rᵀ J_b_i,ω] per brace with R = R_b_i R_b0_iᵀ.
+
+    The moment rows use the exact derivative of log3: the allowed rotations of {b_i} away from the anchor
+    grow to O(1 rad) along a run, where the plain rows X_iᵀ J_b_i make the correction converge only linearly.
+    A contact without constraint moments (frictionless point, point with friction) gives X_iᵀ J_b_i.
+    """
+    out = []
+    for x, c, (_, r0) in zip(state.X_i, state.contacts, anchors, strict=True):
+        if not np.any(x[3:]):
+            out.append(x.T @ c.J_b)
+            continue
+        r = c.R_b @ r0.T
+        out.append(x[:3].T @ c.J_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ c.J_b[3:]))
+    return np.vstack(out)
+
+
+def reach(robot: Robot) -> float:
+    """Length (m) of the chain from the first joint to the tip at the neutral configuration (1 if zero).
+
+    The scale of the correction's position residuals: the tip cannot be farther than this from joint 1.
+    """
+    pts = skeleton(robot, robot.neutral())[1:]
+    length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    return length if length > 0 else 1.0
+
+
+def correct(
+    braced: BracedRobot,
+    q: Array,
+    position: Array,
+    rotation: Array,
+    anchors: Anchors | None,
+    *,
+    tol: float = CORRECTION_TOL,
+    max_iter: int = 20,
+    length: float | None = None,
+    space: TaskSpace = POSE,
+) -> BracedState:
+    """Minimum-norm Gauss–Newton: the state nearest q with the tip at the pose and every {b_i} on its contact.
+
+    With a task space other than the pose only its selected rows are corrected: S(⁰R_e) [p_d − e; ω]
+    (:func:`task_error`) with the rows S J_e; the free rows are left where they are. `anchors` None leaves
+    the contacts free (an unbraced run). The step is the minimum-norm one, so dependent contact rows (two
+    braces constraining the same motion) are harmless.
+
+    Residuals are relative to the problem's scale: positions divided by `length` (m; the robot's
+    :func:`reach` if not given), angles by 1 rad. Stops when the relative residual is below `tol`, below
+    its round-off (CORRECTION_ROUNDOFF · eps · √n · max(1, ‖q‖∞) · ‖scaled Jacobian‖_F), or when it stops
+    falling below ACCEPT_TOL; raises ConvergenceError otherwise.
+    """
+    scale_len = reach(braced.robot) if length is None else float(length)
+    scale = np.array([scale_len] * 3 + [1.0] * (space.rows - 3))
+    if anchors is not None:
+        for x in braced.X_i:  # unit force and moment columns: a length and an angle residual
+            scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
+    roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
+    previous = np.inf
+    for _ in range(max_iter):
+        st = braced.state(q)
+        if space.is_pose:
+            res = pose_error(st, position, rotation)
+            rows = st.J_e
+        else:
+            sel = space.selection(st.R_e)
+            res, rows = sel @ task_error(st, position, rotation, space), sel @ st.J_e
+        if anchors is not None:
+            res = np.concatenate([res, -contact_residual(st, anchors)])
+            rows = np.vstack([rows, contact_jacobian(st, anchors)])
+        size = float(np.max(np.abs(res) / scale))
+        floor = roundoff * max(1.0, float(np.max(np.abs(st.q)))) * float(np.linalg.norm(rows / scale[:, None]))
+        if size < max(tol, floor) or (size < ACCEPT_TOL and size > 0.5 * previous):
+            return st
+        previous = size
+        q = q + rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
+    raise ConvergenceError(
+        f"the pose/contact correction did not converge in {max_iter} iterations (residual {size:.2e} of the "
+        f"robot's reach {scale_len:.3g} m and of 1 rad); reduce the time step or move away from singularities"
+    )

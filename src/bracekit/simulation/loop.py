@@ -1,0 +1,263 @@
+"""Integrate a redundancy-resolution strategy along a task (Section VI's kinematic simulation), any brace count.
+
+Each step: tip twist ẋ = feed-forward + pose-error feedback, q̇ from the strategy (over the state's braced
+motions, :mod:`bracekit.kinematics.motions`), an Euler step, then the Gauss–Newton correction that puts the
+tip back on the task and, for braced strategies, every {b_i} back on its contact
+(:mod:`bracekit.simulation.correction`), so neither error accumulates. A gradient-projection step that would
+jump over a region barrier (explicit Euler can) is split in halves, at most MAX_SUBSTEP_DEPTH times, and
+counted in ``Trajectory.substeps``. The guards of :mod:`bracekit.simulation.guards` stop a run at a joint
+jump, a singular matrix or a joint limit. Gradient projection of one brace runs through the fused
+:class:`bracekit.resolution.GradientProjectionStep`, which gives the strategy's own q̇ to ~1e-13.
+
+No step leaves the URDF joint limits (by more than JOINT_LIMIT_TOL). A corrected step that would is, for
+gradient projection, taken again with its null-space motion scaled by 1/2, 1/4, … (LIMIT_SCALES, the gain α
+scaled, down to 0: the minimum-norm step); the first scale whose corrected step keeps every joint inside is
+kept, and the run notes how many steps were scaled. If none does, or for a strategy without a null-space part
+(the minimum-norm ones), the run stops with ``completed=False`` and a reason naming the joints, their values
+and limits and the time (:class:`~bracekit.errors.JointLimitError`). Scaling the null space rather than solving
+a QP with the limits as constraints keeps every accepted step a step of the strategy itself (eq:grad_proj with
+a smaller α), leaves runs that stay inside their limits bit-identical, needs no solver dependency, and leaves
+the task and the contact to the correction as before; a QP would change the resolution everywhere a bound
+is near, not only where one is crossed. The joint-limit terms of g are what keep a gradient-projection run
+away from its limits; this check is the guarantee behind it.
+
+The measures of every sample (:mod:`bracekit.simulation.samples`) are taken after the steps, from the
+states the correction returned.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from bracekit._linalg import as_number
+from bracekit.errors import (
+    BarrierError,
+    BracekitError,
+    InputError,
+    NumericalError,
+    RedundantContactWarning,
+    SingularityError,
+    UnloadedContactWarning,
+)
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.objective import RegionBarrier
+from bracekit.resolution.fused import GradientProjectionStep, fused_step
+from bracekit.resolution.multi import MultiBraceObjective
+from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
+from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
+from bracekit.simulation.correction import correct, reach, task_error
+from bracekit.simulation.guards import (
+    LIMIT_SCALES,
+    MAX_SUBSTEP_DEPTH,
+    braces_outside,
+    check_conditioning,
+    joint_step_bound,
+    jump_failure,
+    limit_failure,
+    outside_limits,
+    point_label,
+    sigma_ratios,
+)
+from bracekit.simulation.notes import run_notes
+from bracekit.simulation.samples import Sample, Samples, measure
+from bracekit.simulation.tasks import Task
+from bracekit.simulation.trajectory import Trajectory
+from bracekit.tolerances import MAX_STEPS
+
+Array = NDArray[np.float64]
+
+__all__ = ["simulate"]
+
+
+def scaled_alpha(strategy: Strategy, scale: float) -> Strategy:
+    """The gradient-projection strategy with α · scale (braced minimum norm in its task space at scale 0)."""
+    if scale == 0.0:
+        return BracedMinNorm(space=getattr(strategy, "space", POSE))
+    return replace(strategy, alpha=float(strategy.alpha) * scale)  # type: ignore[attr-defined, type-var]
+
+
+def region_guard(braced: BracedRobot, strategy: Strategy) -> bool:
+    """Whether a step that leaves a bracing region is split: the objective weighs a region barrier d."""
+    objective = getattr(strategy, "objective", None)
+    if objective is None or all(b.region_radius is None for b in braced.braces):
+        return False
+    if isinstance(objective, MultiBraceObjective):
+        return objective.region_weight > 0
+    return any(isinstance(t, RegionBarrier) and w > 0 for t, w in zip(objective.terms, objective.weights, strict=True))
+
+
+def _check_inputs(strategy: Strategy, task: Task, beta_x: Callable[[float], Array], dt: float) -> int:
+    """The number of steps for `task` at dt; InputError for a strategy, task or β_x that is not one."""
+    for name, value, needed in (
+        ("strategy", strategy, ("velocity", "braced", "name")),
+        ("task", task, ("position", "velocity", "duration")),
+    ):
+        if any(not hasattr(value, attr) for attr in needed):
+            raise InputError(f"{name} must be a bracekit {name.capitalize()}, got {type(value).__name__}")
+    if not callable(beta_x):
+        raise InputError(f"beta_x must be a function of time returning a unit twist (6,), got {type(beta_x).__name__}")
+    if task.duration / dt > MAX_STEPS:
+        raise InputError(
+            f"dt = {dt:g} s gives {task.duration / dt:.3g} steps for a {task.duration:g} s task (more than "
+            f"{MAX_STEPS}); give a larger dt"
+        )
+    space = getattr(strategy, "space", POSE)
+    if not isinstance(space, TaskSpace):
+        raise InputError(f"the strategy's space must be a TaskSpace, got {space!r}")
+    return max(1, round(task.duration / dt))
+
+
+def simulate(
+    braced: BracedRobot,
+    strategy: Strategy,
+    task: Task,
+    q0: ArrayLike,
+    dt: float,
+    beta_x: Callable[[float], Array],
+    *,
+    feedback_gain: float = 1.0,
+    progress: Callable[[int], None] | None = None,
+) -> Trajectory:
+    """Run `strategy` along `task` from q0 with time step dt (s); never raises on a failed step.
+
+    A step that meets a singularity (σ_min/σ_max below PATH_SINGULAR_RATIO at a sample, or a joint jump
+    beyond :func:`~bracekit.simulation.guards.joint_step_bound`), a barrier or a failed correction ends the
+    run with ``completed=False`` and the reason in ``failure``. `beta_x(t)` gives the unit twist (6,) along
+    which the compliance index is measured (and minimised by a gradient-projection strategy).
+
+    The strategy's ``space`` (a :class:`~bracekit.resolution.task_space.TaskSpace`, the pose by default)
+    says which rows of the task the run follows and corrects; the others are free. ``redundancy`` of the
+    trajectory is the null space those rows leave at the start: (braced coordinates) − rank(S A) for a braced
+    strategy, n − rank(S J) in free space. Gradient projection with none warns (NoRedundancyWarning).
+    """
+    dt = as_number(dt, "the time step dt", positive=True, unit="s")
+    feedback_gain = as_number(feedback_gain, "the feedback gain", nonnegative=True, unit="1/s")
+    steps = _check_inputs(strategy, task, beta_x, dt)
+    dt = task.duration / steps  # the last sample lands on the task's end
+    space: TaskSpace = getattr(strategy, "space", POSE)
+    st = braced.state(q0)
+    rotation = task.rotation if task.rotation is not None else st.R_e.copy()
+    free_dims = redundancy(space, st.R_e, st.motions.A if strategy.braced else st.J_e)
+    anchors = [(c.b.copy(), c.R_b.copy()) for c in st.contacts] if strategy.braced else None
+    checked = st.motions.inverted(strategy.braced)
+    fast = fused_step(braced, strategy)
+    scaled_steps: dict[float, GradientProjectionStep] = {}
+    guard = region_guard(braced, strategy)
+    scalable = isinstance(strategy, BracedGradientProjection)
+    length = reach(braced.robot)
+    bound = joint_step_bound(braced.robot, dt)
+    counts = {"substeps": 0, "limited": 0}
+
+    def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
+        """Q̇ of the strategy at st, with its null-space motion scaled by `scale` (gradient projection only)."""
+        if fast is not None and scale > 0.0:  # the fused step: the same q̇ as the strategy's, to ~1e-13
+            if scale == 1.0:
+                return fast(st.q, xdot, beta_x(t))
+            if scale not in scaled_steps:
+                scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale))  # type: ignore[arg-type]
+            return scaled_steps[scale](st.q, xdot, beta_x(t))
+        current = with_beta_x(strategy if scale == 1.0 else scaled_alpha(strategy, scale), beta_x(t))
+        if current.needs_hessians:
+            st = braced.state(st.q, hessians=True)
+        return current.velocity(st, xdot)
+
+    def advance(st: BracedState, t: float, h: float, depth: int = 0) -> BracedState:
+        """One Euler step of length h from t, corrected; halved (up to 1/16) if it jumps out of a region.
+
+        A step that leaves the joint limits is retried with the null-space motion scaled (LIMIT_SCALES) or
+        ends the run (JointLimitError).
+        """
+        err = task_error(st, task.position(t), rotation, space)
+        xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
+        goal = task.position(t + h)
+        new = correct(braced, st.q + rate(st, t, xdot) * h, goal, rotation, anchors, length=length, space=space)
+        if outside_limits(braced.robot, new.q).size:
+            for scale in LIMIT_SCALES if scalable else ():
+                qdot = rate(st, t, xdot, scale)
+                new = correct(braced, st.q + qdot * h, goal, rotation, anchors, length=length, space=space)
+                if not outside_limits(braced.robot, new.q).size:
+                    counts["limited"] += 1
+                    break
+            else:
+                raise limit_failure(braced.robot, new.q, t + h, scalable)
+        outside = braces_outside(braced, new) if guard else []
+        if outside:
+            if depth >= MAX_SUBSTEP_DEPTH:
+                i = outside[0]
+                brace = braced.braces[i]
+                r = float(np.linalg.norm(new.b_i[i] - brace.surface.point))
+                raise BarrierError(
+                    f"{point_label(braced, i)} leaves {'the' if len(braced.braces) == 1 else 'its'} region "
+                    f"(r = {r:.4g} m ≥ r_max) even with steps of {h:.3g} s; reduce dt or raise the region weight"
+                )
+            counts["substeps"] += 1
+            mid = advance(st, t, h / 2, depth + 1)
+            return advance(mid, t + h / 2, h / 2, depth + 1)
+        return new
+
+    def sample(st: BracedState, t: float, ratios: dict[str, float], joint_step: float = 0.0) -> Sample:
+        return measure(st, beta_x(t), float(np.linalg.norm(task.position(t) - st.e)), ratios, joint_step)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnloadedContactWarning)
+        warnings.simplefilter("always", RedundantContactWarning)
+        ratios = sigma_ratios(st, space)
+        try:
+            rows = [sample(st, 0.0, ratios)]
+        except NumericalError as exc:  # nothing can be recorded at a start the measures cannot take
+            raise type(exc)(f"the start of {strategy.name} (t = 0.000 s) cannot be measured: {exc}") from exc
+        start = ratios
+        states, ratio_rows, jumps = [st], [ratios], [0.0]
+        failure = None
+        try:
+            check_conditioning(ratios, checked)
+        except SingularityError as exc:
+            failure = f"start (t = 0.000 s): {exc}"
+        for i in range(steps if failure is None else 0):
+            t_next = (i + 1) * dt
+            try:
+                before = st.q
+                st = advance(st, i * dt, dt)
+                step = np.abs(st.q - before)
+                if np.any(step > bound):
+                    gain = getattr(strategy, "objective", None) is not None
+                    raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
+                ratios = sigma_ratios(st, space)
+                check_conditioning(ratios, checked)
+            except BracekitError as exc:
+                failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
+                break
+            states.append(st)
+            ratio_rows.append(ratios)
+            jumps.append(float(np.max(step)))
+            if progress is not None:
+                progress(1)
+        for i in range(1, len(states)):  # the measures, from the corrected states
+            try:
+                rows.append(sample(states[i], i * dt, ratio_rows[i], jumps[i]))
+            except BracekitError as exc:  # the run stops at the first sample it cannot measure
+                failure = f"step {i} (t = {i * dt:.3f} s): {exc}"
+                states = states[:i]
+                break
+    samples = Samples.stack(braced, rows)
+    notes, per_brace = run_notes(braced, strategy, samples, caught, counts, free_dims, space)
+    return Trajectory(
+        strategy=strategy.name,
+        braced=strategy.braced,
+        t=np.arange(len(states), dtype=np.float64) * dt,
+        q=np.array([s.q for s in states]),
+        measures=samples.as_dict(),
+        completed=failure is None,
+        failure=failure,
+        warnings=notes,
+        substeps=counts["substeps"],
+        task_space=space.describe(),
+        redundancy=free_dims,
+        braces=per_brace,
+        samples=samples,
+    )
