@@ -1,4 +1,4 @@
-"""Tests of redundancy resolution with several braces (bracekit.resolution.multi through the strategies).
+"""Tests of redundancy resolution with several braces (the strategies over the braced motions N, the objective).
 
 References: the constraint G = [X_iᵀ J_b_i] and J_e from Pinocchio models built independently from the same URDF
 text, and the KKT system of the equality-constrained least-squares problem each strategy solves: braced minimum
@@ -14,14 +14,13 @@ import pytest
 
 from bracekit.compliance.measures import region_barrier
 from bracekit.contact import Brace, Surface
-from bracekit.errors import InputError, SingularityError
+from bracekit.errors import SingularityError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
-from bracekit.objective import Objective, RegionBarrier
+from bracekit.objective import BraceAngle, JointLimitBarrier, Objective, RegionBarrier
 from bracekit.objective.compliance_index import ComplianceIndex
 from bracekit.resolution import BracedGradientProjection, BracedMinNorm, TaskSpace
-from bracekit.resolution.multi import MultiBraceObjective
 from helpers import pin_frame_jacobian, pin_frame_placement, random_chain_urdf, random_unit
 
 PAPER_Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
@@ -95,6 +94,25 @@ def test_braced_min_norm_with_two_braces_keeps_every_contact_and_equals_the_kkt_
         np.testing.assert_allclose(qdot, ref, atol=1e-10 * np.linalg.norm(ref))
 
 
+def several_objective(
+    braced: BracedRobot, beta: np.ndarray, w_ci: float, w_d: float = 0.0, w_q: float = 0.0, w_theta: float = 0.0
+) -> Objective:
+    """w_Ci C_i + w_d Σ_i d_i (+ w_q h(q)) (+ w_θ Σ θ_z,i): the objective's terms with several braces, by hand."""
+    terms: list = [ComplianceIndex(beta)]
+    weights = [w_ci]
+    for i, b in enumerate(braced.braces):
+        if w_d and b.region_radius is not None:
+            terms.append(RegionBarrier(b.region_radius, b.surface.point, name=f"d_{i}", brace=i))
+            weights.append(w_d)
+        if w_theta and b.pad_axis:
+            terms.append(BraceAngle(name=f"theta_z_{i}", brace=i))
+            weights.append(w_theta)
+    if w_q:
+        terms.append(JointLimitBarrier(braced.robot.lower, braced.robot.upper))
+        weights.append(w_q)
+    return Objective(terms, weights)
+
+
 def reference_objective(braced: BracedRobot, model: pin.Model, beta: np.ndarray, w_ci: float, w_d: float):
     """g(q) = w_Ci ‖βᵀ C_e‖ + w_d Σ d_i with C_e from the bordered system [[K, −Gᵀ], [G, 0]]."""
     k = braced.robot.stiffness
@@ -120,15 +138,17 @@ def test_gradient_projection_with_two_braces_equals_the_kkt_solve_with_the_objec
     space = TaskSpace("position")
     for _ in range(2):
         braced, model, q = case(rng)
-        st = braced.state(q)
-        objective = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01)
+        st = braced.state(q, hessians=True)
+        objective = several_objective(braced, beta, 100.0, 0.01)
         strategy = BracedGradientProjection(objective, alpha=-0.5, space=space)
         g_ref = reference_objective(braced, model, beta, 100.0, 0.01)
         assert objective.value(st) == pytest.approx(g_ref(q), rel=1e-9)
         step = 1e-5
         grad_ref = np.array([(g_ref(q + step * e) - g_ref(q - step * e)) / (2 * step) for e in np.eye(q.size)])
-        grad = strategy.dg_dq(st)
+        grad = strategy.dg_dq(st)  # analytic: the kinematic Hessians of J_e and of every J_b_i
         np.testing.assert_allclose(grad, grad_ref, atol=1e-7 * np.linalg.norm(grad_ref))
+        fd = BracedGradientProjection(objective, alpha=-0.5, space=space, gradient="finite-difference").dg_dq(st)
+        np.testing.assert_allclose(fd, grad_ref, atol=1e-7 * np.linalg.norm(grad_ref))
         xdot = rng.normal(size=6)
         qdot = strategy.velocity(st, xdot)
         gg, j_e = reference(braced, model, q)
@@ -150,7 +170,8 @@ def test_a_task_the_braces_leave_no_motion_for_raises_a_singularity_error() -> N
     with pytest.raises(SingularityError, match=r"1 braced motion\(s\) for 6 task rows"):
         BracedMinNorm().velocity(st, np.ones(6))
     with pytest.raises(SingularityError, match=r"1 braced motion\(s\) for 3 task rows"):
-        BracedGradientProjection(MultiBraceObjective(np.ones(6)), space=TaskSpace("position")).velocity(st, np.ones(6))
+        ci = Objective([ComplianceIndex(np.ones(6))], [1.0])
+        BracedGradientProjection(ci, space=TaskSpace("position")).velocity(st, np.ones(6))
     # the paper robot with {b} of link9 stuck (3 rows): only rotations about it and joints 10, 11 move the tip, 5
     # motions for the 6-D pose although N has 7 columns
     braced, _, q = paper_case(rng, ("frictionless_point", "point_with_friction"))
@@ -161,19 +182,24 @@ def test_a_task_the_braces_leave_no_motion_for_raises_a_singularity_error() -> N
     BracedMinNorm(space=TaskSpace("position")).velocity(st, np.ones(6))  # the position alone is reachable
 
 
-def test_the_several_brace_objective_takes_the_ci_and_d_weights_and_names_the_terms_it_leaves_out() -> None:
-    beta = np.array([0.0, 0.0, 2.0, 0.0, 0.0, 0.0])
-    ci = ComplianceIndex(beta)
-    region = RegionBarrier(0.15, np.zeros(3))
+def test_every_term_of_an_objective_enters_it_with_several_braces_none_is_left_out() -> None:
     from bracekit.objective.condition_number import ConditionNumber
 
-    objective = Objective([ConditionNumber(), ci, region], [0.5, 100.0, 0.01])
-    multi = MultiBraceObjective.from_objective(objective)
-    assert (multi.ci_weight, multi.region_weight) == (100.0, 0.01)
-    np.testing.assert_array_equal(multi.beta_x, [0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
-    assert MultiBraceObjective.left_out(objective) == (ConditionNumber().name,)
-    with pytest.raises(InputError, match="compliance-index term"):
-        MultiBraceObjective.from_objective(Objective([region], [1.0]))
+    rng = np.random.default_rng(7)
+    beta = np.array([0.0, 0.0, 2.0, 0.0, 0.0, 0.0])
+    braced, model, q = paper_case(rng)
+    objective = several_objective(braced, beta, 100.0, 0.01)
+    objective = Objective([ConditionNumber(), *objective.terms], [0.5, *objective.weights])
+    # independent: k of Pinocchio's J_e, C_i of the KKT equilibrium and each brace's region barrier
+    j = pin_frame_jacobian(model, braced.robot.tip, q)
+    k = np.sqrt(np.trace(j @ j.T) * np.trace(np.linalg.inv(j @ j.T))) / 6.0
+    expected = 0.5 * k + reference_objective(braced, model, beta / 2.0, 100.0, 0.01)(q)
+    st = braced.state(q, hessians=True)
+    assert objective.value(st) == pytest.approx(expected, rel=1e-9)
+    step = 1e-6
+    g = lambda x: objective.value(braced.state(x))  # noqa: E731
+    fd = np.array([(g(q + step * e) - g(q - step * e)) / (2 * step) for e in np.eye(q.size)])
+    np.testing.assert_allclose(objective.gradient(st), fd, atol=1e-6 * np.linalg.norm(fd))
 
 
 def chan_dubey(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
@@ -208,9 +234,9 @@ def test_the_joint_limit_barrier_of_the_several_brace_objective_matches_central_
     braced = BracedRobot(braced.robot, braces_through(model, q, frames, contacts, rng))  # planes through q's pads
     lower, upper = braced.robot.lower, braced.robot.upper
     w_q = 0.05
-    objective = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01, joint_limit_weight=w_q)
+    objective = several_objective(braced, beta, 100.0, 0.01, w_q=w_q)
     g_ref = reference_objective(braced, model, beta, 100.0, 0.01)
-    st = braced.state(q)
+    st = braced.state(q, hessians=True)
     h = chan_dubey(q, lower, upper)
     assert h > 0.0
     assert objective.values(st)["joint_limit_barrier"] == pytest.approx(h, rel=1e-12)
@@ -218,10 +244,10 @@ def test_the_joint_limit_barrier_of_the_several_brace_objective_matches_central_
     step = 1e-6
     total = lambda x: g_ref(x) + w_q * chan_dubey(x, lower, upper)  # noqa: E731
     grad_ref = np.array([(total(q + step * e) - total(q - step * e)) / (2 * step) for e in np.eye(q.size)])
-    grad = objective.gradient(braced, q)
+    grad = objective.gradient(st)
     np.testing.assert_allclose(grad, grad_ref, atol=1e-6 * np.linalg.norm(grad_ref))
     # the barrier's share is a large part of the gradient near the limits: the check above sees it
-    no_limits = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01).gradient(braced, q)
+    no_limits = several_objective(braced, beta, 100.0, 0.01).gradient(st)
     assert np.linalg.norm(grad - no_limits) > 0.1 * np.linalg.norm(grad)
 
 
@@ -230,13 +256,13 @@ def test_a_zero_joint_limit_weight_leaves_the_several_brace_objective_bit_identi
     rng = np.random.default_rng(12)
     beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     braced, _, q = case(rng)
-    st = braced.state(q)
-    plain = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01)
-    zero = MultiBraceObjective(beta, ci_weight=100.0, region_weight=0.01, joint_limit_weight=0.0)
-    assert zero.values(st) == plain.values(st)
-    assert "joint_limit_barrier" not in zero.values(st)
+    st = braced.state(q, hessians=True)
+    plain = several_objective(braced, beta, 100.0, 0.01)
+    zero = Objective(
+        [*plain.terms, JointLimitBarrier(braced.robot.lower, braced.robot.upper)], [*plain.weights, 0.0]
+    )
     assert zero.value(st) == plain.value(st)
-    np.testing.assert_array_equal(zero.gradient(braced, q), plain.gradient(braced, q))
+    np.testing.assert_array_equal(zero.gradient(st), plain.gradient(st))
     # the value before the barrier existed: C_i and d alone, summed as w_Ci C_i + w_d Σ d_i
     vals = plain.values(st)
     assert plain.value(st) == 100.0 * vals["Ci"] + 0.01 * sum(v for k, v in vals.items() if k.startswith("d_"))
@@ -247,12 +273,12 @@ def test_the_two_brace_scenario_passes_its_joint_limit_weight_to_the_stacked_obj
 
     scenario = load_scenario("two-braces")
     objective = scenario.objective()
-    assert isinstance(objective, MultiBraceObjective)
-    assert (objective.ci_weight, objective.region_weight, objective.joint_limit_weight) == (100.0, 0.2, 0.01)
+    assert objective.names == ("Ci", "d_0", "d_1", "joint_limit_barrier")
+    assert tuple(objective.weights) == (100.0, 0.2, 0.2, 0.01)
     q = scenario.guess
     lower, upper = scenario.robot.lower, scenario.robot.upper
     st = scenario.braced.state(q)
-    plain = MultiBraceObjective(objective.beta_x, ci_weight=100.0, region_weight=0.2)
+    plain = several_objective(scenario.braced, scenario.beta_x(0.0), 100.0, 0.2)
     assert objective.value(st) == pytest.approx(plain.value(st) + 0.01 * chan_dubey(q, lower, upper), rel=1e-12)
 
 
@@ -265,8 +291,8 @@ def test_theta_z_of_each_brace_with_a_pad_axis_enters_the_several_brace_objectiv
     braced = BracedRobot(braced.robot, pads)
     st = braced.state(q)
     beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    base = MultiBraceObjective(beta, ci_weight=100.0)
-    with_theta = MultiBraceObjective(beta, ci_weight=100.0, theta_weight=0.3)
+    base = several_objective(braced, beta, 100.0)
+    with_theta = several_objective(braced, beta, 100.0, w_theta=0.3)
     # independent: the angle between each pad-axis brace's normal and the z axis of its frame (Pinocchio)
     angles = []
     for brace in braced.braces:

@@ -91,9 +91,7 @@ def test_a_bad_first_brace_names_index_one() -> None:
     ("edit", "fragment"),
     [
         (lambda d: d["compliance"].update(model="projection"), "'compliance.model'"),
-        (lambda d: d["gradient_projection"]["weights"].update(clearance=0.1), "weights.clearance"),
-        (lambda d: d["gradient_projection"]["weights"].update(k=0.5), "weights.k"),
-        (lambda d: d["start"].update(theta_weight=0.3), "'start.theta_weight'"),
+        (lambda d: d["gradient_projection"]["weights"].update(brace_margin=0.1), "weights.brace_margin"),
     ],
 )
 def test_several_braces_refuse_what_only_one_brace_supports(edit: Any, fragment: str) -> None:
@@ -101,6 +99,18 @@ def test_several_braces_refuse_what_only_one_brace_supports(edit: Any, fragment:
     edit(data)
     message = _error(data)
     assert fragment in message and "one brace" in message
+
+
+def test_several_braces_take_every_term_with_a_meaning_for_them_one_per_brace_where_it_is_per_brace() -> None:
+    data = _two_braces()
+    data["gradient_projection"]["weights"].update(k=0.5, clearance=0.1, joint_limit_barrier=0.01, d=0.01)
+    data["start"].update(theta_weight=0.0)
+    objective = parse_scenario(data).objective()
+    count = len(data["brace"])
+    names = objective.names
+    assert "k" in names and "joint_limit_barrier" in names
+    assert [n for n in names if n.startswith("clearance_")] == [f"clearance_{i}" for i in range(count)]
+    assert sum(n.startswith("d_") for n in names) == sum("region_radius" in b for b in data["brace"])
 
 
 def test_several_braces_take_a_preload_and_friction_each_and_shared_gravity_and_loads() -> None:

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit._linalg import as_array, finite_math, show
 from bracekit.errors import ContactError, InputError, NumericalError, UnloadedContactWarning
 from bracekit.kinematics import BracedState, ChainSplit
+from bracekit.kinematics.constraint import GKG
 from bracekit.spatial import unit
 from bracekit.tolerances import UNLOADED_TOL
 
@@ -122,7 +123,7 @@ def loaded_gain(m: Array, trace_c1: ArrayLike, k_env: float | None = None) -> tu
     at or below UNLOADED_TOL · tr(C1) (`trace_c1`: a number, or one per matrix) are dropped and counted.
     The count has m's stack shape (an integer for one m). Raises NumericalError if m or tr(C1) is not finite.
     """
-    check_finite(m, "Xᵀ C1 X")
+    check_finite(m, GKG)
     check_finite(trace_c1, "tr(C1)")
     if k_env is not None:
         inv = np.asarray(np.linalg.inv(m + np.eye(m.shape[-1]) / k_env), dtype=np.float64)

@@ -29,6 +29,8 @@ if TYPE_CHECKING:
     from bracekit.kinematics.braced import BracedRobot, BracedState
 
 Array = NDArray[np.float64]
+#: The name of G K⁻¹ Gᵀ in messages (Xᵀ C1 X of the paper's chain 1 for one brace).
+GKG = "G K⁻¹ Gᵀ (Xᵀ C1 X for one brace)"
 
 
 def contact_null_space(g: Array) -> Array:
@@ -96,7 +98,9 @@ def stacked_constraint(state: BracedState) -> StackedConstraint:
         w = g / np.sqrt(k)
         traces = [float(np.sum(j_b * j_b / k)) for j_b, brace in zip(state.J_b_i, braced.braces, strict=True)]
     if not (np.isfinite(g).all() and np.isfinite(w).all() and np.isfinite(traces).all()):
-        raise NumericalError("the stacked contact constraint G K^(-1/2) is not finite (float64 overflow)")
+        raise NumericalError(
+            f"{GKG} is not finite: the compliance overflows (joint stiffnesses too small for 1/K or lengths too large)"
+        )
     compliance = np.array(comp, dtype=np.float64)
     rigid = [r for r in range(len(rows)) if compliance[r] == 0.0]
     _, unloaded, dependent = _independent_rows(w, rigid, max((traces[rows[r][0]] for r in rigid), default=0.0))

@@ -72,6 +72,11 @@ class Term:
         """The term as a scenario configures it."""
         raise NotImplementedError
 
+    @classmethod
+    def terms_from_scenario(cls, context: TermContext) -> tuple[Term, ...]:
+        """The terms a scenario's weight of this key stands for: one, or one per brace for a per-brace term."""
+        return (cls.from_scenario(context),)
+
 
 @dataclass(frozen=True)
 class TermContext:
@@ -99,11 +104,11 @@ def register_term(cls: type[Term]) -> type[Term]:
     return cls
 
 
-def hessians(state: BracedState) -> tuple[Array, Array]:
-    """(∂J_e/∂q, ∂J_b/∂q) of the state; InputError if it was computed without Hessians."""
-    if state.dJ_e is None or state.split.dJ_b is None:
+def hessians(state: BracedState) -> tuple[Array, tuple[Array, ...]]:
+    """(∂J_e/∂q, (∂J_b_i/∂q of each brace)) of the state; InputError if it was computed without Hessians."""
+    if state.dJ_e is None or not state.has_hessians:
         raise InputError("analytic gradients need the kinematic Hessians: compute the state with hessians=True")
-    return state.dJ_e, state.split.dJ_b
+    return state.dJ_e, tuple(c.dJ_b for c in state.contacts)  # type: ignore[misc]
 
 
 def contract(d_j: Array, u: Array) -> Array:

@@ -24,28 +24,34 @@ class BraceAngle(Term):
     """
 
     name: str = "theta_z"
+    brace: int = 0
     key = "theta_z"
 
     def value(self, state: BracedState) -> float:
         """The term's value at the state (the class docstring gives its units)."""
-        _check_pad_axis(state.braced)
-        return theta_z(state.braced.split.brace.surface.normal, state.split.z_b)
+        _check_pad_axis(state.braced, self.brace)
+        return theta_z(state.braced.braces[self.brace].surface.normal, state.contacts[self.brace].z_b)
 
     def gradient(self, state: BracedState) -> Array:
         """∂value/∂q (n,), exact through the state's kinematic Hessians."""
-        _check_pad_axis(state.braced)
-        u = cross3(state.braced.split.brace.surface.normal, state.split.z_b)
+        _check_pad_axis(state.braced, self.brace)
+        c = state.contacts[self.brace]
+        u = cross3(state.braced.braces[self.brace].surface.normal, c.z_b)
         s = float(np.linalg.norm(u))
         if s < 1e-12:
             return np.zeros(state.q.size)
-        return state.split.J_b[3:].T @ (u / s)
+        return c.J_b[3:].T @ (u / s)
 
-    def fused_value(self, kin: FusedKinematics) -> float:
+    def fused_value(self, kin: FusedKinematics) -> float | None:
         """The value from the fused step's kinematics (the same as :meth:`value`)."""
+        if self.brace != 0:  # the fused step holds one brace
+            return None
         return angle_between(np.asarray(kin.normal), kin.mb[:3, 2])
 
     def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
         """Add weight · ∂value/∂q to the fused step's accumulator; True when done here."""
+        if self.brace != 0:  # the fused step holds one brace
+            return False
         u = cross3_list(kin.normal, kin.mb[:3, 2].tolist())
         s = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
         if s >= 1e-12:
@@ -53,23 +59,36 @@ class BraceAngle(Term):
                 out.y[3 + i] += weight * u[i] / s
         return True
 
-    def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]]:
-        """(kind, parameters) of the numba kernel's compiled copy of this term."""
-        _check_pad_axis(braced)
-        return "theta_z", [weight]
+    def numba_params(self, braced: BracedRobot, weight: float) -> tuple[str, list[float]] | None:
+        """(kind, parameters) of the numba kernel's compiled copy of this term (the fused step's one brace)."""
+        _check_pad_axis(braced, self.brace)
+        return ("theta_z", [weight]) if self.brace == 0 else None
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> BraceAngle:
-        """The term as a scenario configures it (its weight key is ``key``)."""
-        _check_pad_axis(context.braced)
-        return cls()
+        """The term of the first brace with a pad axis (its weight key is ``key``)."""
+        return cls.terms_from_scenario(context)[0]
+
+    @classmethod
+    def terms_from_scenario(cls, context: TermContext) -> tuple[BraceAngle, ...]:
+        """One term per brace with a pad axis (``theta_z``; with several braces ``theta_z_<i>``)."""
+        braces = context.braced.braces
+        if len(braces) == 1:
+            _check_pad_axis(context.braced, 0)
+            return (cls(),)
+        out = tuple(cls(name=f"theta_z_{i}", brace=i) for i, b in enumerate(braces) if b.pad_axis)
+        if not out:
+            _check_pad_axis(context.braced, 0)
+        return out
 
 
-def _check_pad_axis(braced: BracedRobot) -> None:
-    """InputError if the brace has no pad axis (θ_z is then undefined)."""
-    if not braced.split.brace.pad_axis:
+def _check_pad_axis(braced: BracedRobot, i: int) -> None:
+    """InputError if brace i has no pad axis (θ_z is then undefined)."""
+    if not 0 <= i < len(braced.braces):
+        raise InputError(f"θ_z is asked of braces[{i}]; the robot has {len(braced.braces)} brace(s)")
+    brace = braced.braces[i]
+    if not brace.pad_axis:
         raise InputError(
-            f"θ_z needs a pad axis, and the brace at {braced.split.brace.frame!r} (a link point) has none; give the "
-            "brace "
-            "a pad axis (a frame, or a link point with a pad direction) or drop the θ_z term"
+            f"θ_z needs a pad axis, and the brace at {brace.frame!r} (a link point) has none; give the brace a pad "
+            "axis (a frame, or a link point with a pad direction) or drop the θ_z term"
         )

@@ -236,7 +236,7 @@ class BraceMargin(Term):
 
     def gradient(self, state: BracedState) -> Array:
         """∂value/∂q (n,), exact through the state's kinematic Hessians."""
-        d_je, d_jb = hessians(state)
+        d_je, (d_jb,) = hessians(state)
         u_e, u_b = self._coefficients(state.J_e, state.split.J_b)
         return np.asarray(contract(d_je, u_e) + contract(d_jb, u_b), dtype=float)
 

@@ -33,16 +33,22 @@ DEFAULT_MARGIN = 0.10
 class ClearanceBarrier(Term):
     """Σ_links φ(c_link), φ(c) = (δ − c)² / (δ c) below the margin δ (m), 0 above; dimensionless.
 
+    The obstacle is the surface of brace `brace` (a solid below its plane, of its obstacle radius); the links
+    are measured against it, the link that carries that brace excepted. With several braces a scenario's
+    weight stands for one term per brace (``clearance_<i>``).
+
     Attributes:
-        braced: the braced robot (its capsules, plane, obstacle radius and brace link).
+        braced: the braced robot (its capsules, and the brace's plane, obstacle radius and link).
         margin: δ, m.
         link_radius: radius of the default link capsules, m.
+        brace: index of the brace whose surface is the obstacle.
     """
 
     braced: BracedRobot
     margin: float = DEFAULT_MARGIN
     link_radius: float = DEFAULT_LINK_RADIUS
     name: str = "clearance"
+    brace: int = 0
     key = "clearance"
     _clearance: Clearance = field(init=False, repr=False)
 
@@ -54,8 +60,12 @@ class ClearanceBarrier(Term):
         if not margin < 1e150:
             raise InputError(f"the clearance margin must be a length below 1e150 m, got {margin:g}")
         radius = as_number(self.link_radius, "the link radius", nonnegative=True, unit="m")
+        count = len(self.braced.braces)
+        if isinstance(self.brace, bool) or not isinstance(self.brace, int) or not 0 <= self.brace < count:
+            raise InputError(f"brace must index one of the robot's {count} braces, got {self.brace!r}")
         object.__setattr__(self, "margin", margin)
-        object.__setattr__(self, "_clearance", Clearance(self.braced, radius))
+        one = BracedRobot(self.braced.robot, self.braced.braces[self.brace])  # that surface as the obstacle
+        object.__setattr__(self, "_clearance", Clearance(one, radius))
 
     def _links(self, q: Array, gradient: bool) -> list[LinkDistance]:
         """The links within the margin; BarrierError if one touches or passes into the obstacle."""
@@ -102,3 +112,11 @@ class ClearanceBarrier(Term):
     def from_scenario(cls, context: TermContext) -> ClearanceBarrier:
         """The term as a scenario configures it (its weight key is ``key``): default margin and link radius."""
         return cls(context.braced)
+
+    @classmethod
+    def terms_from_scenario(cls, context: TermContext) -> tuple[ClearanceBarrier, ...]:
+        """One term per brace's surface (``clearance``; with several braces ``clearance_<i>``)."""
+        count = len(context.braced.braces)
+        if count == 1:
+            return (cls(context.braced),)
+        return tuple(cls(context.braced, name=f"clearance_{i}", brace=i) for i in range(count))

@@ -16,7 +16,11 @@ from bracekit.objective.fused import FusedGradient, FusedKinematics
 @register_term
 @dataclass(frozen=True)
 class ConditionNumber(Term):
-    """k = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 of the free-space J (eq:manip); 1 when isotropic."""
+    """k = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 of the free-space J = J_e (eq:manip); 1 when isotropic.
+
+    The same for any number of braces (J_e does not depend on them); the measure k of a run is that of the braced
+    task Jacobian instead (docs/model.md).
+    """
 
     name: str = "k"
     key = "k"

@@ -2,12 +2,11 @@
 
 ``strategies``: the reference :class:`FreeSpaceMinNorm`, :class:`BracedMinNorm` and
 :class:`BracedGradientProjection`. ``fused``: :class:`GradientProjectionStep`, the same gradient-projection step
-fused into one call (NumPy, or the numba kernel of ``_numba_step``), tested equal to the reference. ``multi``: the
-braced strategies with several braces, over the braced motions N, and their :class:`MultiBraceObjective`.
+fused into one call (NumPy, or the numba kernel of ``_numba_step``), tested equal to the reference. Every braced
+strategy resolves over the state's braced motions (:mod:`bracekit.kinematics.motions`), for any number of braces.
 """
 
 from bracekit.resolution.fused import GradientProjectionStep, numba_available
-from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.strategies import (
     GRADIENT_MODES,
     BracedGradientProjection,
@@ -27,7 +26,6 @@ __all__ = [
     "FreeSpaceMinNorm",
     "GradientMode",
     "GradientProjectionStep",
-    "MultiBraceObjective",
     "Strategy",
     "TaskSpace",
     "numba_available",

@@ -150,7 +150,7 @@ class GradientProjectionStep:
         self._fk: FusedKinematics | None = None
         obj = strategy.objective
         if not isinstance(obj, Objective):
-            raise InputError("a MultiBraceObjective is for several braces: give a one-brace robot an Objective")
+            raise InputError("the fused step needs an Objective")
         kept = [(t, float(w)) for t, w in zip(obj.terms, obj.weights, strict=True) if w]
         self._objective = Objective([t for t, _ in kept], [w for _, w in kept])  # the terms of non-zero weight
         self._fd = strategy.gradient == "finite-difference"

@@ -7,10 +7,10 @@
 Each takes a :class:`~bracekit.resolution.task_space.TaskSpace` (``space``, the full pose by default) and
 resolves its selected rows S(⁰R_e) only: J and A above become S J and S A, ẋ becomes S ẋ.
 
-With several braces (a stacked state, ``braced.state(q)``) the braced strategies resolve over the
-braced motions N instead (:mod:`bracekit.resolution.multi`): q̇ = N (S J_e N)⁺ S ẋ, and gradient projection
-adds N α (I − B⁺B) Nᵀ ∇g with the objective's C_i and d weights (:class:`MultiBraceObjective`), ∇g by central
-differences. :class:`FreeSpaceMinNorm` takes either state.
+The braced strategies act over coordinates y of the braced motions (``state.motions``,
+:mod:`bracekit.kinematics.motions`), q̇ = M y and A = J_e M: with one brace the paper's (b̃, q2) and A; with
+several the null space N of the stacked constraint G, A = J_e N, and ∇g = Nᵀ ∂g/∂q. The objective's terms give
+∂g/∂q for any number of braces (analytic, or central differences in the finite-difference mode).
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ from bracekit._linalg import as_array, as_number, show
 from bracekit.errors import InputError, NumericalError, SingularityError
 from bracekit.kinematics import BracedState
 from bracekit.objective import Objective, finite_difference_gradient
-from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.task_space import POSE, TaskSpace, select
 from bracekit.tolerances import STEP_SINGULAR_RATIO
 
@@ -145,7 +144,7 @@ def finite_rates(qdot: Array) -> Array:
 class BracedMinNorm:
     """[ḃ; q̇2] = A⁺ ẋ, then q̇1 = J1⁻¹ H ḃ: keeps the contact, minimum norm in (b̃, q2).
 
-    With several braces (a stacked state): q̇ = N (S J_e N)⁺ S ẋ, the least-norm q̇ keeping every contact.
+    With several braces: q̇ = N (S J_e N)⁺ S ẋ, the least-norm q̇ keeping every contact.
     """
 
     name: str = "braced_min_norm"
@@ -164,12 +163,11 @@ class BracedMinNorm:
 class BracedGradientProjection:
     """eq:grad_proj: A⁺ ẋ + (I − A⁺A) α ∇g, ∇g of eq:grad_g; analytic or finite-difference gradient.
 
-    With several braces (a stacked state): q̇ = N [B⁺ S ẋ + α (I − B⁺B) Nᵀ ∂g/∂q], B = S J_e N, g the
-    :class:`MultiBraceObjective` of the objective (itself, or the C_i and d weights of an Objective), ∂g/∂q by
-    central differences with step `fd_step` in either gradient mode (the stacked state has no Hessians).
+    With several braces: q̇ = N [B⁺ S ẋ + α (I − B⁺B) Nᵀ ∂g/∂q], B = S J_e N, with ∂g/∂q of the same objective
+    (analytic through the kinematic Hessians of J_e and every J_b_i, or central differences with `fd_step`).
     """
 
-    objective: Objective | MultiBraceObjective
+    objective: Objective
     alpha: float = -1.0
     gradient: GradientMode = "analytic"
     fd_step: float = 1e-5
@@ -178,7 +176,7 @@ class BracedGradientProjection:
     space: TaskSpace = POSE
 
     def __post_init__(self) -> None:
-        if not isinstance(self.objective, Objective | MultiBraceObjective):
+        if not isinstance(self.objective, Objective):
             raise InputError(f"the objective must be a bracekit Objective, got {type(self.objective).__name__}")
         alpha = as_number(self.alpha, "the gradient-projection gain alpha")
         as_number(self.fd_step, "the finite-difference step fd_step", positive=True, unit="rad")
@@ -195,11 +193,7 @@ class BracedGradientProjection:
         return self.gradient == "analytic"
 
     def dg_dq(self, state: BracedState) -> Array:
-        """∂g/∂q (n,) in the chosen gradient mode (central differences for a stacked state)."""
-        if len(state.contacts) > 1:
-            return MultiBraceObjective.from_objective(self.objective).gradient(state.braced, state.q, self.fd_step)
-        if isinstance(self.objective, MultiBraceObjective):
-            raise InputError("a MultiBraceObjective is for several braces: give a one-brace robot an Objective")
+        """∂g/∂q (n,) in the chosen gradient mode, for any number of braces."""
         if self.gradient == "analytic":
             return self.objective.gradient(state)
         return finite_difference_gradient(state.braced, self.objective.value, state.q, self.fd_step)

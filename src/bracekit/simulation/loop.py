@@ -47,7 +47,6 @@ from bracekit.errors import (
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective import RegionBarrier
 from bracekit.resolution.fused import GradientProjectionStep, fused_step
-from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
 from bracekit.simulation.correction import correct, reach, task_error
@@ -86,8 +85,6 @@ def region_guard(braced: BracedRobot, strategy: Strategy) -> bool:
     objective = getattr(strategy, "objective", None)
     if objective is None or all(b.region_radius is None for b in braced.braces):
         return False
-    if isinstance(objective, MultiBraceObjective):
-        return objective.region_weight > 0
     return any(isinstance(t, RegionBarrier) and w > 0 for t, w in zip(objective.terms, objective.weights, strict=True))
 
 

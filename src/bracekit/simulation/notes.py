@@ -16,7 +16,6 @@ from bracekit.errors import (
     UnloadedContactWarning,
 )
 from bracekit.kinematics import BracedRobot
-from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.strategies import BracedGradientProjection, Strategy
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.guards import point_label
@@ -58,13 +57,6 @@ def run_notes(
     for w in caught:  # pass on anything else unchanged
         if not issubclass(w.category, GATHERED):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    objective = getattr(strategy, "objective", None)
-    left_out = MultiBraceObjective.left_out(objective) if objective is not None and not one else ()
-    if left_out:
-        note(
-            f"the objective terms {', '.join(left_out)} have no several-brace form yet and are left out (the "
-            "objective is C_i of the stacked C_e and each brace's region barrier d_i)"
-        )
     m = samples.series
     limit = float(m["joint_limit_violation"][0])
     if limit > 0:

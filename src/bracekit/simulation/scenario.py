@@ -27,7 +27,6 @@ from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import MODELS, load_model
 from bracekit.objective import TERMS, Objective, TermContext
-from bracekit.resolution.multi import MultiBraceObjective
 from bracekit.resolution.strategies import (
     GRADIENT_MODES,
     BracedGradientProjection,
@@ -179,26 +178,15 @@ class Scenario:
         """The robot."""
         return self.braced.robot
 
-    def objective(
-        self, model: ComplianceModel | None = None, beta_x: Array | None = None
-    ) -> Objective | MultiBraceObjective:
-        """G of eq:objective with this scenario's weights (β_x at t = 0 unless given).
+    def objective(self, model: ComplianceModel | None = None, beta_x: Array | None = None) -> Objective:
+        """G of eq:objective with this scenario's weights (β_x at t = 0 unless given), for any number of braces.
 
-        With several braces, the stacked objective: C_i of the stacked constrained C_e, each brace's d and the
-        joint-limit barrier.
+        A per-brace term (d, θ_z, clearance) stands for one term per brace it applies to, each with the weight.
         """
         beta = self.beta_x(0.0) if beta_x is None else beta_x
-        if len(self.braced.braces) > 1:
-            return MultiBraceObjective(
-                beta,
-                ci_weight=self.weights["Ci"],
-                region_weight=self.weights["d"],
-                joint_limit_weight=self.weights["joint_limit_barrier"],
-                theta_weight=self.weights["theta_z"],
-            )
         context = TermContext(self.braced, beta, model or simulated_model(self.compliance_model), self.holding)
         keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
-        kept = [(TERMS[k].from_scenario(context), self.weights[k]) for k in keys]
+        kept = [(t, self.weights[k]) for k in keys for t in TERMS[k].terms_from_scenario(context)]
         return Objective([t for t, _ in kept], [w for _, w in kept])
 
     def strategy(
@@ -375,13 +363,13 @@ def parse_scenario(
         if v < 0:
             raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")
     if several:
-        _refuse_one_brace_weights(weights, start)
+        _refuse_one_brace_weights(weights)
     if weights["theta_z"] > 0 and not pad_axis:
         raise ScenarioError(
             "'gradient_projection.weights.theta_z' needs a pad axis, and a link-point brace has none: give "
             "'brace.pad_axis' = [x, y, z] (link axes) or set theta_z = 0"
         )
-    theta_weight = _start_theta_weight(start, pad_axis and not several, weights["theta_z"] if not several else 0.0)
+    theta_weight = _start_theta_weight(start, pad_axis, weights["theta_z"])
     if weights["d"] > 0 and region is None:
         raise ScenarioError("'gradient_projection.weights.d' needs 'brace.region_radius' (r_max, m)")
     gradient = gp.string("gradient", GRADIENT_MODES, "analytic")
@@ -592,22 +580,18 @@ def _holding_braces(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> H
     )
 
 
-#: The weight keys of the several-brace objective (:class:`bracekit.resolution.multi.MultiBraceObjective`).
-MULTI_BRACE_WEIGHTS = ("Ci", "theta_z", "d", "joint_limit_barrier")
+#: The weight keys whose terms have no form for several braces (one brace's statics; docs/model.md).
+ONE_BRACE_WEIGHTS = ("brace_margin",)
 
 
-def _refuse_one_brace_weights(weights: dict[str, float], start: _Table) -> None:
-    """ScenarioError for weights the several-brace objective does not have (it has C_i and each brace's d)."""
-    for key, value in weights.items():
-        if key not in MULTI_BRACE_WEIGHTS and value > 0:
+def _refuse_one_brace_weights(weights: dict[str, float]) -> None:
+    """ScenarioError for a weight whose term is defined for one brace only, with several [[brace]] tables."""
+    for key in ONE_BRACE_WEIGHTS:
+        if weights.get(key, 0.0) > 0:
             raise ScenarioError(
-                f"'gradient_projection.weights.{key}' is defined for one brace: with several [[brace]] tables the "
-                f"objective has {' and '.join(MULTI_BRACE_WEIGHTS)}; set {key} = 0"
+                f"'gradient_projection.weights.{key}' is defined for one brace: with several [[brace]] tables set "
+                f"{key} = 0"
             )
-    if start.has("theta_weight") and start.number("theta_weight") != 0:
-        raise ScenarioError(
-            "'start.theta_weight' is defined for one brace; with several [[brace]] tables set it to 0 or remove it"
-        )
 
 
 def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
