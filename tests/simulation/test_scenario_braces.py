@@ -91,7 +91,6 @@ def test_a_bad_first_brace_names_index_one() -> None:
     ("edit", "fragment"),
     [
         (lambda d: d["compliance"].update(model="projection"), "'compliance.model'"),
-        (lambda d: d["gradient_projection"]["weights"].update(brace_margin=0.1), "weights.brace_margin"),
     ],
 )
 def test_several_braces_refuse_what_only_one_brace_supports(edit: Any, fragment: str) -> None:

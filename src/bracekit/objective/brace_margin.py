@@ -58,27 +58,32 @@ SLIP_SMOOTHING = 1e-3
 
 @dataclass(frozen=True)
 class _Response:
-    """The first-order contact response at one configuration for the m listed wrenches."""
+    """The first-order contact response at one configuration for the m listed wrenches (every brace stacked)."""
 
     ka: Array  # K⁻¹ A (n×c)
     s_inv: Array  # S⁻¹ (c×c)
     lam: Array  # δλ_j (c×m)
     dq: Array  # δq_j (n×m)
-    force: Array  # F_j = f_c,j[:3] at scale 1 (3×m), N
+    force: tuple[Array, ...]  # F_i,j = f_c,i,j[:3] of each brace at scale 1 (3×m), N
 
 
 @register_term
 @dataclass(frozen=True, eq=False)
 class BraceMargin(Term):
-    """Σ φ(r) over the lift-off and slip residuals r (N) of each listed tool wrench at scale 1; dimensionless.
+    """Σ φ(r) over the lift-off and slip residuals r (N) of each brace under each listed tool wrench; dimensionless.
+
+    With several braces the contact response stacks every brace's load wrenches (A = [J_b_iᵀ X_L,i]) and each
+    brace i has its residuals r_n,i = n̂_iᵀ F_i and (μ_i > 0) r_t,i = μ_i f_n,i − √(‖f_t,i‖² + ε²), F_i its force.
 
     Attributes:
-        braced: the braced robot (its brace, surface normal n̂ and joint stiffnesses K).
+        braced: the braced robot (its braces, surface normals n̂_i and joint stiffnesses K).
         wrenches: tool wrenches w_j (m×6, or one (6,)), [f; m] at e, world axes, N and N·m.
-        preload: P ≥ 0, the unloaded normal force of the surface on b, N.
-        friction: μ ≥ 0; μ > 0 adds the slip residuals (and a frictionless point brace sticks). None or 0:
-            lift-off only.
-        margin: δ > 0, N; None: DEFAULT_MARGIN_FRACTION · P (with P = 0, of the largest listed force).
+        preload: P_i ≥ 0, the unloaded normal force of each surface on b_i, N: one for every brace or one per
+            brace.
+        friction: μ_i ≥ 0; μ_i > 0 adds brace i's slip residuals (and a frictionless point brace sticks). None
+            or 0: lift-off only. One for every brace or one per brace.
+        margin: δ > 0, N; None: DEFAULT_MARGIN_FRACTION · max P_i (with every P_i = 0, of the largest listed
+            force).
         strict: the pure barrier, BarrierError at r ≤ 0; False (default): below r_s = RELAX_FRACTION · δ the
             barrier continues as its quadratic expansion, finite for every r, so that a configuration that
             already slips or lifts off (e.g. a task's start) is pushed back toward holding.
@@ -86,23 +91,31 @@ class BraceMargin(Term):
 
     braced: BracedRobot
     wrenches: Array
-    preload: float
-    friction: float | None = None
+    preload: float | tuple[float, ...]
+    friction: float | tuple[float | None, ...] | None = None
     margin: float | None = None
     strict: bool = False
     name: str = "brace_margin"
     key = "brace_margin"
-    _x: Array = field(init=False, repr=False)
+    _x: tuple[Array, ...] = field(init=False, repr=False)
+    _p: tuple[float, ...] = field(init=False, repr=False)
+    _mu: tuple[float | None, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if not isinstance(self.braced, BracedRobot):
             raise InputError(f"the brace-margin term needs a BracedRobot, got {type(self.braced).__name__}")
+        count = len(self.braced.braces)
         ws = wrench_list(self.wrenches)
-        p = as_number(self.preload, "the preload P (the surface pushes on b)", nonnegative=True, unit="N")
-        mu = check_friction(self.friction)
+        what = "the preload P (the surface pushes on b)"
+        ps = self.preload if isinstance(self.preload, tuple | list) else (self.preload,) * count
+        mus = self.friction if isinstance(self.friction, tuple | list) else (self.friction,) * count
+        if len(ps) != count or len(mus) != count:
+            raise InputError(f"give one preload and one friction for every brace or one per brace ({count})")
+        p = tuple(as_number(v, what, nonnegative=True, unit="N") for v in ps)
+        mu = tuple(check_friction(v) for v in mus)
         if self.margin is None:
-            scale = p if p > 0.0 else float(np.max(np.linalg.norm(ws[:, :3], axis=1)))
+            scale = max(p) if max(p) > 0.0 else float(np.max(np.linalg.norm(ws[:, :3], axis=1)))
             delta = DEFAULT_MARGIN_FRACTION * scale
             if not delta > 0.0:
                 raise InputError(
@@ -113,30 +126,37 @@ class BraceMargin(Term):
         if not isinstance(self.strict, bool):
             raise InputError(f"strict must be True or False, got {show(self.strict)}")
         object.__setattr__(self, "wrenches", ws)
-        object.__setattr__(self, "preload", p)
-        object.__setattr__(self, "friction", mu)
+        object.__setattr__(self, "preload", p[0] if count == 1 else p)
+        object.__setattr__(self, "friction", mu[0] if count == 1 else mu)
         object.__setattr__(self, "margin", delta)
-        object.__setattr__(self, "_x", load_contact_wrenches(self.braced.split.brace, mu))
+        object.__setattr__(self, "_p", p)
+        object.__setattr__(self, "_mu", mu)
+        xs = tuple(load_contact_wrenches(b, m) for b, m in zip(self.braced.braces, mu, strict=True))
+        object.__setattr__(self, "_x", xs)
 
     @property
     def slip(self) -> bool:
-        """Whether the slip residuals are part of the term (μ > 0)."""
-        return self.friction is not None and self.friction > 0.0
+        """Whether slip residuals are part of the term (some μ_i > 0)."""
+        return any(m is not None and m > 0.0 for m in self._mu)
 
     # --- the physics -------------------------------------------------------------------------------
-    def _response(self, je: Array, jb: Array) -> _Response:
-        """δλ, δq and F at scale 1 for every listed wrench from J_e, J_b (6×n, world axes)."""
+    def _response(self, je: Array, jbs: tuple[Array, ...]) -> _Response:
+        """δλ, δq and each F_i at scale 1 for every listed wrench from J_e and each J_b_i (6×n, world axes)."""
         kinv = 1.0 / self.braced.robot.stiffness
-        x = self._x
+        braces = self.braced.braces
         with finite_math("the brace margin's contact response"):
-            a = jb.T @ x
+            a = np.hstack([jb.T @ x for jb, x in zip(jbs, self._x, strict=True)])
             ka = kinv[:, None] * a
             s = a.T @ ka
-            k_env = self.braced.split.brace.environment_stiffness
-            if k_env is not None:
-                s = s + np.eye(s.shape[0]) / k_env
-            else:
-                trace_c1 = float(np.sum(kinv * np.sum(jb * jb, axis=0)))
+            soft = np.concatenate(
+                [
+                    np.full(x.shape[1], 0.0 if b.environment_stiffness is None else 1.0 / b.environment_stiffness)
+                    for b, x in zip(braces, self._x, strict=True)
+                ]
+            )
+            s = s + np.diag(soft)
+            if not np.all(soft > 0.0):  # a rigid contact direction must be loaded by the joints
+                trace_c1 = float(sum(np.sum(kinv * np.sum(jb * jb, axis=0)) for jb in jbs))
                 low = float(np.linalg.eigvalsh(s)[0])
                 if not low > UNLOADED_TOL * trace_c1:
                     raise NumericalError(
@@ -148,33 +168,49 @@ class BraceMargin(Term):
             u = je.T @ self.wrenches.T  # J_eᵀ w_j (n×m)
             lam = -s_inv @ (ka.T @ u)
             dq = kinv[:, None] * (u + a @ lam)
-            nhat = self.braced.split.brace.surface.normal
-            force = self.preload * nhat[:, None] + x[:3] @ lam
+            force = tuple(
+                p * b.surface.normal[:, None] + x[:3] @ lam[sl]
+                for p, b, x, sl in zip(self._p, braces, self._x, self._slices(), strict=True)
+            )
         return _Response(ka, s_inv, lam, dq, force)
 
-    def _residuals(self, force: Array) -> tuple[Array, Array | None, Array, Array | None]:
-        """(r_n, r_t, ∂r_n/∂F, ∂r_t/∂F): residuals (m,), N, and their gradients in F (3×m); r_t None if μ = 0."""
-        nhat = self.braced.split.brace.surface.normal
+    def _slices(self) -> list[slice]:
+        """The rows of each brace in the stacked multipliers δλ."""
+        out, start = [], 0
+        for x in self._x:
+            out.append(slice(start, start + x.shape[1]))
+            start += x.shape[1]
+        return out
+
+    def _residuals(self, i: int, force: Array) -> tuple[Array, Array | None, Array, Array | None]:
+        """(r_n, r_t, ∂r_n/∂F, ∂r_t/∂F) of brace i: residuals (m,), N, gradients in F (3×m); r_t None if μ_i = 0."""
+        nhat = self.braced.braces[i].surface.normal
         r_n = nhat @ force
         g_n = np.repeat(nhat[:, None], force.shape[1], axis=1)
-        if not self.slip:
+        mu = self._mu[i]
+        if mu is None or mu <= 0.0:
             return r_n, None, g_n, None
-        mu = float(self.friction)  # type: ignore[arg-type]
         f_t = force - np.outer(nhat, r_n)
         norm = np.sqrt(np.sum(f_t * f_t, axis=0) + SLIP_SMOOTHING**2)
         return r_n, mu * r_n - norm, g_n, mu * g_n - f_t / norm
 
     def forces(self, state: BracedState) -> tuple[Array, Array]:
-        """(f_n, ‖f_t‖) under each listed wrench at scale 1 (m,), N: the contact force of the K-only response."""
-        force = self._response(state.J_e, state.split.J_b).force
-        nhat = self.braced.split.brace.surface.normal
-        f_n = nhat @ force
-        return f_n, np.linalg.norm(force - np.outer(nhat, f_n), axis=0)
+        """(f_n, ‖f_t‖) under each listed wrench at scale 1, N: (m,) for one brace, brace after brace for several."""
+        found = self._response(state.J_e, state.J_b_i).force
+        f_n, f_t = [], []
+        for brace, force in zip(self.braced.braces, found, strict=True):
+            nhat = brace.surface.normal
+            f_n.append(nhat @ force)
+            f_t.append(np.linalg.norm(force - np.outer(nhat, f_n[-1]), axis=0))
+        return np.concatenate(f_n), np.concatenate(f_t)
 
     def residuals(self, state: BracedState) -> Array:
-        """[r_n,1 … r_n,m, r_t,1 … r_t,m] (2m,; m without slip), N: > 0 while the brace holds each load."""
-        r_n, r_t, _, _ = self._residuals(self._response(state.J_e, state.split.J_b).force)
-        return r_n if r_t is None else np.concatenate([r_n, r_t])
+        """[r_n,1 … r_n,m, r_t,1 … r_t,m] (2m,; m without slip) of each brace in turn, N: > 0 while it holds."""
+        out = []
+        for i, force in enumerate(self._response(state.J_e, state.J_b_i).force):
+            r_n, r_t, _, _ = self._residuals(i, force)
+            out.append(r_n if r_t is None else np.concatenate([r_n, r_t]))
+        return np.concatenate(out)
 
     # --- the barrier -------------------------------------------------------------------------------
     def _barrier(self, r: Array, what: str) -> tuple[float, Array]:
@@ -207,46 +243,58 @@ class BraceMargin(Term):
             dphi = np.where(below, dphi + ddphi * d, dphi)
         return float(np.sum(phi)), dphi
 
-    def _value(self, je: Array, jb: Array) -> float:
-        r_n, r_t, _, _ = self._residuals(self._response(je, jb).force)
-        total = self._barrier(r_n, "lifts off")[0]
-        if r_t is not None:
-            total += self._barrier(r_t, "slips")[0]
+    def _what(self, i: int, verb: str) -> str:
+        """'lifts off' (one brace) or 'braces[i] lifts off' for the barrier's error."""
+        return verb if len(self.braced.braces) == 1 else f"braces[{i}] {verb}"
+
+    def _value(self, je: Array, jbs: tuple[Array, ...]) -> float:
+        total = 0.0
+        for i, force in enumerate(self._response(je, jbs).force):
+            r_n, r_t, _, _ = self._residuals(i, force)
+            total += self._barrier(r_n, self._what(i, "lifts off"))[0]
+            if r_t is not None:
+                total += self._barrier(r_t, self._what(i, "slips"))[0]
         return total
 
-    def _coefficients(self, je: Array, jb: Array) -> tuple[Array, Array]:
-        """(U_e, U_b) (6×n each): ∂value/∂q = Σ U_e ∂J_e + Σ U_b ∂J_b (module docstring)."""
-        resp = self._response(je, jb)
-        r_n, r_t, g_n, g_t = self._residuals(resp.force)
-        g = self._barrier(r_n, "lifts off")[1] * g_n  # Σ φ'(r) ∂r/∂F per wrench (3×m)
-        if r_t is not None and g_t is not None:
-            g = g + self._barrier(r_t, "slips")[1] * g_t
-        x = self._x
+    def _coefficients(self, je: Array, jbs: tuple[Array, ...]) -> tuple[Array, list[Array]]:
+        """(U_e, [U_b_i]) (6×n each): ∂value/∂q = Σ U_e ∂J_e + Σ_i Σ U_b_i ∂J_b_i (module docstring)."""
+        resp = self._response(je, jbs)
+        slices = self._slices()
+        h = np.zeros_like(resp.lam)  # X_F,iᵀ Σ φ'(r) ∂r/∂F_i, stacked over the braces (c×m)
+        for i, (force, x, sl) in enumerate(zip(resp.force, self._x, slices, strict=True)):
+            r_n, r_t, g_n, g_t = self._residuals(i, force)
+            g = self._barrier(r_n, self._what(i, "lifts off"))[1] * g_n  # per wrench (3×m)
+            if r_t is not None and g_t is not None:
+                g = g + self._barrier(r_t, self._what(i, "slips"))[1] * g_t
+            h[sl] = x[:3].T @ g
         with finite_math("the brace margin's gradient"):
-            z = resp.s_inv @ (x[:3].T @ g)  # (c×m)
+            z = resp.s_inv @ h  # (c×m)
             v = resp.ka @ z  # (n×m)
-            u_b = -((x @ z) @ resp.dq.T + (x @ resp.lam) @ v.T)
+            u_b = [-((x @ z[sl]) @ resp.dq.T + (x @ resp.lam[sl]) @ v.T) for x, sl in zip(self._x, slices, strict=True)]
             u_e = -(self.wrenches.T @ v.T)
         return u_e, u_b
 
     # --- Term --------------------------------------------------------------------------------------
     def value(self, state: BracedState) -> float:
         """The term's value at the state (the class docstring gives it)."""
-        return self._value(state.J_e, state.split.J_b)
+        return self._value(state.J_e, state.J_b_i)
 
     def gradient(self, state: BracedState) -> Array:
-        """∂value/∂q (n,), exact through the state's kinematic Hessians."""
-        d_je, (d_jb,) = hessians(state)
-        u_e, u_b = self._coefficients(state.J_e, state.split.J_b)
-        return np.asarray(contract(d_je, u_e) + contract(d_jb, u_b), dtype=float)
+        """∂value/∂q (n,), exact through the state's kinematic Hessians (of J_e and every J_b_i)."""
+        d_je, d_jb = hessians(state)
+        u_e, u_b = self._coefficients(state.J_e, state.J_b_i)
+        out = contract(d_je, u_e)
+        for dj, u in zip(d_jb, u_b, strict=True):
+            out = out + contract(dj, u)
+        return np.asarray(out, dtype=float)
 
     def fused_value(self, kin: FusedKinematics) -> float:
-        """The value from the fused step's J_e, J_b (the same as :meth:`value`)."""
-        return self._value(kin.je, kin.jb)
+        """The value from the fused step's J_e, J_b (the same as :meth:`value`; the fused step has one brace)."""
+        return self._value(kin.je, (kin.jb,))
 
     def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
         """Add weight · ∂value/∂q to the fused step's accumulator as Hessian coefficients; True when done here."""
-        u_e, u_b = self._coefficients(kin.je, kin.jb)
+        u_e, (u_b,) = self._coefficients(kin.je, (kin.jb,))
         out.add_ue(weight * u_e)
         out.add_ub(weight * u_b[:, : kin.n1])  # J_b's chain-2 columns are zero
         return True
@@ -260,10 +308,13 @@ class BraceMargin(Term):
                 "the 'brace_margin' weight needs tool wrenches to hold: add [loads] wrenches = "
                 "[[fx, fy, fz, mx, my, mz], ...] (N, N·m, world axes) or set the weight to 0"
             )
-        mu = h.friction
-        if not (h.preload > 0.0 or (mu is not None and mu > 0.0)):
+        count = len(context.braced.braces)
+        preloads, frictions = h.brace_preloads(count), h.brace_frictions(count)
+        if not any(p > 0.0 or (mu is not None and mu > 0.0) for p, mu in zip(preloads, frictions, strict=True)):
             raise ScenarioError(
                 "the 'brace_margin' weight needs a brace that can hold a load: add [brace] preload = P (N, > 0) "
                 "and/or friction = μ (> 0), or set the weight to 0"
             )
-        return cls(context.braced, h.wrenches, h.preload, mu)
+        if count == 1:
+            return cls(context.braced, h.wrenches, h.preload, h.friction)
+        return cls(context.braced, h.wrenches, tuple(preloads), tuple(frictions))

@@ -135,25 +135,28 @@ def holding_measures(
     ‖f_c‖ unloaded or under a listed wrench at scale 1), ``liftoff_margin`` and ``slip_margin`` (inf without μ).
     Margins are inf where nothing limits the scale. With `beta` (N×6, the unit twists of C_i) and gravity or a
     preload, also ``Ci_preloaded``: C_i of the preloaded compliance (:func:`preloaded_compliance` for a braced
-    run with the brace's own contact, :func:`loaded_free_space_compliance` in free space; no tool load).
+    run with each brace's own contact and P_i, :func:`loaded_free_space_compliance` in free space; no tool load).
     ``unstable`` (1.0 where the loaded equilibrium is unstable: K plus the geometric stiffness of gravity and the
     preload is not positive on the allowed motions; there the margins are 0 and ``Ci_preloaded`` is inf).
     """
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
-    if is_braced and len(braced.braces) > 1:
-        return braces_holding_measures(braced, qs, holding)
-    try:
-        out = _statics(braced, qs, holding, is_braced)
-        out["unstable"] = np.zeros(qs.shape[0])
-    except UnstableEquilibriumError:  # sample by sample: mark the unstable ones
-        rows = [_statics_or_unstable(braced, q, holding, is_braced) for q in qs]
-        out = {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
-    if beta is not None and (holding.gravity or holding.preload > 0.0) and len(braced.braces) == 1:
+    count = len(braced.braces)
+    if is_braced and count > 1:
+        out = braces_holding_measures(braced, qs, holding)
+    else:
+        try:
+            out = _statics(braced, qs, holding, is_braced)
+            out["unstable"] = np.zeros(qs.shape[0])
+        except UnstableEquilibriumError:  # sample by sample: mark the unstable ones
+            rows = [_statics_or_unstable(braced, q, holding, is_braced) for q in qs]
+            out = {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
+    preloads = holding.brace_preloads(count)
+    if beta is not None and (holding.gravity or max(preloads) > 0.0):
         ci = []
         for k, (q, b) in enumerate(zip(qs, beta, strict=True)):
             try:
                 if is_braced:
-                    c = preloaded_compliance(braced, q, holding.preload, gravity=holding.gravity)
+                    c = preloaded_compliance(braced, q, list(preloads), gravity=holding.gravity)
                 else:
                     c = loaded_free_space_compliance(braced, q, gravity=holding.gravity)
             except UnstableEquilibriumError:
@@ -225,7 +228,7 @@ def braces_holding_measures(braced: BracedRobot, qs: Array, holding: Holding) ->
     ``slip_margin`` (least over braces and wrenches; slip inf for a brace without μ), per brace
     ``liftoff_margin_<i>`` and ``slip_margin_<i>`` (i from 0, the order of ``braced.braces``), and ``unstable``
     (1.0 where K plus the geometric stiffness of gravity and the preloads is not positive on the motions the
-    contacts allow: there every margin is 0). There is no ``Ci_preloaded`` with several braces.
+    contacts allow: there every margin is 0). :func:`holding_measures` adds ``Ci_preloaded``.
     """
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
     try:

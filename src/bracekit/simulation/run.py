@@ -152,11 +152,13 @@ def run_scenario(
     if not isinstance(grad, str) or grad not in GRADIENT_MODES:
         raise InputError(f"unknown gradient mode {show(grad)}; choose one of {', '.join(GRADIENT_MODES)}")
     model = check_run_model(sc.compliance_model if compliance_model is None else compliance_model)
-    if len(sc.braced.braces) > 1 and model != "constrained":
+    count = len(sc.braced.braces)
+    if model not in (*compliance_models(sc.braced), "preloaded"):
         raise InputError(
-            f"the compliance model {show(model)} is defined for one brace; with several braces use 'constrained'"
+            f"the compliance model {show(model)} is defined for one brace (it needs the chain split at {{b}}); with "
+            "several braces use 'constrained' or 'preloaded'"
         )
-    if model == "preloaded" and not (sc.holding.gravity or sc.holding.preload > 0.0):
+    if model == "preloaded" and not (sc.holding.gravity or max(sc.holding.brace_preloads(count)) > 0.0):
         raise InputError(
             "the preloaded compliance model needs gravity or a preload ('[robot] gravity = true' or "
             "'[brace] preload' > 0); without them it is the constrained model"

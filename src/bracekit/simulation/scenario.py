@@ -311,12 +311,12 @@ def parse_scenario(
     guess = start.vector("guess", robot.n)
     comp = top.table("compliance", ("model", "beta_x"), {})
     model = comp.string("model", RUN_MODELS, "constrained")
-    if several and model != "constrained":
+    if several and model == "projection":
         raise ScenarioError(
-            f"'compliance.model' = {show(model)} is defined for one brace; with several [[brace]] tables use "
-            '"constrained"'
+            f"'compliance.model' = {show(model)} is defined for one brace (it needs the chain split at {{b}}); with "
+            'several [[brace]] tables use "constrained" or "preloaded"'
         )
-    if model == "preloaded" and not (holding.gravity or holding.preload > 0.0):
+    if model == "preloaded" and not (holding.gravity or max(holding.brace_preloads(len(braced.braces))) > 0.0):
         raise ScenarioError(
             "'compliance.model' = \"preloaded\" needs '[robot] gravity = true' or '[brace] preload' > 0 "
             "(without them it is the constrained model)"
@@ -362,8 +362,6 @@ def parse_scenario(
     for k, v in weights.items():
         if v < 0:
             raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")
-    if several:
-        _refuse_one_brace_weights(weights)
     if weights["theta_z"] > 0 and not pad_axis:
         raise ScenarioError(
             "'gradient_projection.weights.theta_z' needs a pad axis, and a link-point brace has none: give "
@@ -578,20 +576,6 @@ def _holding_braces(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> H
         preloads=tuple(preloads) if any(p > 0.0 for p in preloads) else None,
         frictions=tuple(frictions) if any(f is not None for f in frictions) else None,
     )
-
-
-#: The weight keys whose terms have no form for several braces (one brace's statics; docs/model.md).
-ONE_BRACE_WEIGHTS = ("brace_margin",)
-
-
-def _refuse_one_brace_weights(weights: dict[str, float]) -> None:
-    """ScenarioError for a weight whose term is defined for one brace only, with several [[brace]] tables."""
-    for key in ONE_BRACE_WEIGHTS:
-        if weights.get(key, 0.0) > 0:
-            raise ScenarioError(
-                f"'gradient_projection.weights.{key}' is defined for one brace: with several [[brace]] tables set "
-                f"{key} = 0"
-            )
 
 
 def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
