@@ -37,8 +37,8 @@ from bracekit.resolution.strategies import (
 )
 from bracekit.resolution.task_space import POSE, TASK_SPACES, TaskSpace
 from bracekit.simulation.holding import Holding
-from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
-from bracekit.spatial import rotation_with_z, unit
+from bracekit.simulation.tasks import TASK_SHAPES, Task, radial_of
+from bracekit.spatial import rotation_with_z
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
 
@@ -46,6 +46,12 @@ Array = NDArray[np.float64]
 STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
 #: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
 START_THETA_WEIGHT = 0.3
+
+
+def task_keys() -> tuple[str, ...]:
+    """The keys of ``[task]``: its type, every registered shape's keys, the task space and its axis."""
+    shaped = dict.fromkeys(k for shape in TASK_SHAPES.values() for k in shape.keys)
+    return ("type", *shaped, "space", "axis")
 
 
 def weight_keys() -> tuple[str, ...]:
@@ -286,25 +292,7 @@ def parse_scenario(
         if several
         else braced.split.brace.region_radius
     )
-    task_t = top.table(
-        "task",
-        (
-            "type",
-            "centre",
-            "radius",
-            "normal",
-            "start_direction",
-            "period",
-            "turns",
-            "start",
-            "end",
-            "duration",
-            "points",
-            "times",
-            "space",
-            "axis",
-        ),
-    )
+    task_t = top.table("task", task_keys())
     task = _task(task_t)
     task_space = _task_space(task_t)
     start = top.table("start", ("guess", "theta_weight"))
@@ -326,14 +314,15 @@ def parse_scenario(
         want = '"radial" or 6 numbers [vx, vy, vz, wx, wy, wz]'
         raise ScenarioError(f"'compliance.beta_x' must be {want}, got {show(beta_raw)}")
     if beta_raw == "radial":
-        if not isinstance(task, Circle):
+        radial = radial_of(task)
+        if radial is None:
             raise ScenarioError(
-                "'compliance.beta_x' = \"radial\" needs a circle task; give 6 numbers [vx, vy, vz, wx, wy, wz]"
+                "'compliance.beta_x' = \"radial\" needs a task with a radial direction (a circle); give 6 numbers "
+                "[vx, vy, vz, wx, wy, wz]"
             )
-        circle = task
 
         def beta_x(t: float) -> Array:
-            return np.concatenate([circle.radial(t), np.zeros(3)])
+            return np.concatenate([radial(t), np.zeros(3)])
 
         spec = "radial"
     else:
@@ -599,33 +588,10 @@ def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
 
 
 def _task(t: _Table) -> Task:
-    kind = t.string("type", ("circle", "line", "waypoints"))
+    """The task of ``[task] type``: the registered shape of that kind reads its keys (``simulation.tasks``)."""
+    kind = t.string("type", tuple(TASK_SHAPES))
     try:
-        if kind == "circle":
-            normal = unit(t.vector("normal", 3), "'task.normal'", ScenarioError)
-            start = t.vector("start_direction", 3)
-            if in_plane(normal, start) is None:
-                raise ScenarioError(
-                    "'task.start_direction' is parallel to 'task.normal'; give a direction in the circle's plane"
-                )
-            return Circle(
-                centre=t.vector("centre", 3),
-                radius=t.number("radius", positive=True),
-                normal=t.vector("normal", 3),
-                period=t.number("period", positive=True),
-                start_direction=start,
-                turns=t.number("turns", 1.0, positive=True),
-            )
-        if kind == "line":
-            return Line(t.vector("start", 3), t.vector("end", 3), t.number("duration", positive=True))
-        points = t.points("points")
-        times = t.vector("times")
-        if times.size != len(points) or times[0] != 0.0 or np.any(np.diff(times) <= 0):
-            raise ScenarioError(
-                f"'task.times' must start at 0, increase strictly and give one time per point ({len(points)}), "
-                f"got {show(times.tolist())}"
-            )
-        return Waypoints(points, times)
+        return TASK_SHAPES[kind].from_table(t)
     except ScenarioError:
         raise
     except BracekitError as exc:

@@ -1,0 +1,113 @@
+"""A circle task: the paper's shape (Section VI), with a radial direction for β_x = "radial"."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bracekit._linalg import as_number
+from bracekit.errors import InputError, NumericalError, ScenarioError
+from bracekit.simulation.tasks.base import (
+    Array,
+    TaskShape,
+    TaskTable,
+    in_plane,
+    register_task,
+    rotation_matrix,
+    task_time,
+    vec3,
+)
+from bracekit.spatial import unit
+
+__all__ = ["Circle"]
+
+
+@dataclass(frozen=True, eq=False)
+class Circle:
+    """A circle of `radius` (m) about `centre` in the plane with unit normal `normal`, one turn per `period` s.
+
+    The start point is centre + radius·û where û is `start_direction` projected into the plane.
+    Runs for `turns` turns; counter-clockwise about `normal`.
+    """
+
+    centre: Array
+    radius: float
+    normal: Array
+    period: float
+    start_direction: Array
+    rotation: Array | None = None
+    turns: float = 1.0
+    _u: Array = field(init=False, repr=False)
+    _w: Array = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "centre", vec3(self.centre, "circle centre (m)"))
+        for name, unit_name in (("radius", "m"), ("period", "s"), ("turns", "")):
+            as_number(getattr(self, name), f"circle {name}", positive=True, unit=unit_name)
+        speed = 2.0 * math.pi * float(self.radius) / float(self.period)
+        if not (math.isfinite(speed) and math.isfinite(float(self.period) * float(self.turns))):
+            raise InputError(f"circle of radius {self.radius:g} m and period {self.period:g} s is beyond float64 range")
+        n = unit(vec3(self.normal, "circle normal"), "circle normal")
+        u = in_plane(n, vec3(self.start_direction, "circle start direction"))
+        if u is None:
+            raise InputError("circle start direction is parallel to its normal; give a direction in the plane")
+        object.__setattr__(self, "normal", n)
+        object.__setattr__(self, "start_direction", u)
+        object.__setattr__(self, "rotation", rotation_matrix(self.rotation))
+        object.__setattr__(self, "_u", u)
+        object.__setattr__(self, "_w", np.cross(n, u))
+
+    @property
+    def duration(self) -> float:
+        """Time of the whole task, s."""
+        return self.period * self.turns
+
+    def angle(self, t: float) -> float:
+        """Angle along the circle at t, rad."""
+        a = 2.0 * np.pi * task_time(t) / self.period
+        if not math.isfinite(a):
+            raise NumericalError(f"the circle's angle at t = {t:g} s overflows float64")
+        return a
+
+    def position(self, t: float) -> Array:
+        """Desired tip position p_d(t) (3,), m, world frame."""
+        a = self.angle(t)
+        return self.centre + self.radius * (np.cos(a) * self._u + np.sin(a) * self._w)
+
+    def velocity(self, t: float) -> Array:
+        """Desired tip velocity ṗ_d(t) (3,), m/s, world frame."""
+        a, om = self.angle(t), 2.0 * np.pi / self.period
+        return self.radius * om * (-np.sin(a) * self._u + np.cos(a) * self._w)
+
+    def radial(self, t: float) -> Array:
+        """Unit vector from the centre to the desired point at t (3,)."""
+        a = self.angle(t)
+        return np.cos(a) * self._u + np.sin(a) * self._w
+
+
+@register_task
+class CircleShape(TaskShape):
+    """``type = "circle"``: centre, radius, normal, start_direction, period, turns."""
+
+    kind = "circle"
+    keys = ("centre", "radius", "normal", "start_direction", "period", "turns")
+
+    @classmethod
+    def from_table(cls, table: TaskTable) -> Circle:
+        """The circle of a scenario's ``[task]``."""
+        normal = unit(table.vector("normal", 3), "'task.normal'", ScenarioError)
+        start = table.vector("start_direction", 3)
+        if in_plane(normal, start) is None:
+            raise ScenarioError(
+                "'task.start_direction' is parallel to 'task.normal'; give a direction in the circle's plane"
+            )
+        return Circle(
+            centre=table.vector("centre", 3),
+            radius=table.number("radius", positive=True),
+            normal=table.vector("normal", 3),
+            period=table.number("period", positive=True),
+            start_direction=start,
+            turns=table.number("turns", 1.0, positive=True),
+        )
