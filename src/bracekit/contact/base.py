@@ -43,6 +43,15 @@ class ContactType(ABC):
     def X(self, frame: Array) -> Array:
         """Constraint wrenches (6×(6−l)), world axes, reciprocal to H: Hᵀ X = 0."""
 
+    def load_wrenches(self, frame: Array, friction: float | None) -> Array:
+        """The wrenches the contact transmits under a load with Coulomb friction μ (6×c), world axes.
+
+        Its constraint wrenches X by default: what the contact holds in the first place. A contact that sticks
+        under friction (a frictionless point with μ > 0 holds a 3-D force) returns more. The statics check its
+        lift-off (the normal force n̂ᵀF > 0) and, with μ > 0, its slip (‖F_t‖ < μ n̂ᵀF) on the force rows.
+        """
+        return self.X(frame)
+
     def __eq__(self, other: object) -> bool:
         return type(self) is type(other)
 

@@ -24,5 +24,12 @@ class FrictionlessPoint(ContactType):
         """Constraint wrenches (6×(6−l)), world axes, reciprocal to H (Hᵀ X = 0)."""
         return columns((frame[:, 2], np.zeros(3)))
 
+    def load_wrenches(self, frame: Array, friction: float | None) -> Array:
+        """[n̂; 0] without friction; with μ > 0 the point sticks under load: the three forces [x̂_t, ŷ_t, n̂; 0]."""
+        if friction is not None and friction > 0.0:
+            zero = np.zeros(3)
+            return columns((frame[:, 0], zero), (frame[:, 1], zero), (frame[:, 2], zero))
+        return self.X(frame)
+
 
 FRICTIONLESS_POINT = FrictionlessPoint()

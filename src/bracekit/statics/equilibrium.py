@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, as_number, finite_math, show
 from bracekit.compliance.first_order import loaded_gain, warn_unloaded
-from bracekit.contact import POINT_WITH_FRICTION, Brace
+from bracekit.contact import Brace
 from bracekit.errors import (
     InputError,
     ModelError,
@@ -165,15 +165,12 @@ def check_friction(friction: object) -> float | None:
 
 
 def load_contact_wrenches(brace: Brace, friction: float | None = None) -> Array:
-    """X_L (6×c): the brace's constraint wrenches, or the three forces of a sticking point if μ > 0.
+    """X_L (6×c): what the brace's contact transmits under load with friction μ (``ContactType.load_wrenches``).
 
-    A ``frictionless_point`` brace with μ > 0 transmits a 3-D force under load (``point_with_friction``);
-    every other contact keeps its own X.
+    A ``frictionless_point`` brace with μ > 0 transmits a 3-D force under load (it sticks); every shipped
+    contact else keeps its own X.
     """
-    mu = check_friction(friction)
-    if mu is not None and mu > 0.0 and brace.kind.name == "frictionless_point":
-        return POINT_WITH_FRICTION.X(brace.surface.frame)
-    return brace.X()
+    return brace.kind.load_wrenches(brace.surface.frame, check_friction(friction))
 
 
 def gravity_torque(robot: Robot, q: ArrayLike) -> Array:
