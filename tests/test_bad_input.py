@@ -25,6 +25,8 @@ from hypothesis.extra.numpy import array_shapes, arrays
 import bracekit as bk
 from bracekit.errors import BracekitError, BracekitWarning
 from bracekit.model.shipped import model_path
+from bracekit.objective import BraceAngle
+from bracekit.resolution import GradientProjectionStep
 from bracekit.simulation.scenario import shipped_scenarios
 from helpers import scenario_text
 
@@ -183,7 +185,7 @@ ENTRIES: list[tuple[str, Callable[..., Any], dict[str, Any], tuple[str, ...]]] =
     ("Objective", bk.Objective, {"terms": [bk.ConditionNumber()], "weights": [1.0]}, ("terms", "weights")),
     ("ComplianceIndex", bk.ComplianceIndex, {"beta_x": E_X, "model": "constrained"}, ("beta_x", "model")),
     ("RegionBarrier", bk.RegionBarrier, {"r_max": 0.15, "centre": np.zeros(3)}, ("r_max", "centre")),
-    ("BraceAngle", bk.BraceAngle, {"name": "theta_z"}, ("name",)),
+    ("BraceAngle", BraceAngle, {"name": "theta_z"}, ("name",)),
     ("ConditionNumber", bk.ConditionNumber, {"name": "k"}, ("name",)),
     (
         "Circle",
@@ -274,7 +276,7 @@ ENTRIES += [
     ),
     (
         "GradientProjectionStep",
-        lambda **kw: bk.GradientProjectionStep(BRACED, _GP)(**kw),
+        lambda **kw: GradientProjectionStep(BRACED, _GP)(**kw),
         {"q": Q, "xdot": _XDOT, "beta_x": None},
         ("q", "xdot", "beta_x"),
     ),

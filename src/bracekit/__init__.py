@@ -3,7 +3,9 @@
 Johnston, Orekhov, Simaan, "Kinematic Modeling and Compliance Modulation of Redundant Manipulators
 Under Bracing Constraints", ICRA 2020, in Python on Pinocchio. The subpackages follow the paper:
 model → contact → kinematics → compliance → objective → resolution → simulation → studies / validate →
-report → cli. This module holds what a user calls; everything else is reachable from its subpackage.
+report → cli. This module holds what a user calls; everything else is reachable from its subpackage (the
+state and the terms from ``bracekit.kinematics`` and ``bracekit.objective``, the fused step from
+``bracekit.resolution``, ``Trajectory`` from ``bracekit.simulation``).
 """
 
 from bracekit._version import __version__
@@ -21,14 +23,13 @@ from bracekit.compliance import (
 from bracekit.compliance.batch import evaluate_batch
 from bracekit.contact import Brace, Surface, contact_type
 from bracekit.errors import BracekitError, BracekitWarning, InputError, NumericalError
-from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics import BracedRobot
 from bracekit.model import Robot, load_model
-from bracekit.objective import BraceAngle, ComplianceIndex, ConditionNumber, Objective, RegionBarrier, Term
+from bracekit.objective import ComplianceIndex, ConditionNumber, Objective, RegionBarrier
 from bracekit.resolution import (
     BracedGradientProjection,
     BracedMinNorm,
     FreeSpaceMinNorm,
-    GradientProjectionStep,
     TaskSpace,
 )
 from bracekit.simulation import (
@@ -37,7 +38,6 @@ from bracekit.simulation import (
     Line,
     RunResult,
     Scenario,
-    Trajectory,
     Waypoints,
     load_scenario,
     run_scenario,
@@ -49,18 +49,15 @@ from bracekit.studies import brace_location_study, evaluate
 
 __all__ = [
     "Brace",
-    "BraceAngle",
     "BracedGradientProjection",
     "BracedMinNorm",
     "BracedRobot",
-    "BracedState",
     "BracekitError",
     "BracekitWarning",
     "Circle",
     "ComplianceIndex",
     "ConditionNumber",
     "FreeSpaceMinNorm",
-    "GradientProjectionStep",
     "Holding",
     "InputError",
     "Line",
@@ -72,8 +69,6 @@ __all__ = [
     "Scenario",
     "Surface",
     "TaskSpace",
-    "Term",
-    "Trajectory",
     "Waypoints",
     "__version__",
     "actuator_relief",

@@ -41,7 +41,8 @@ def _check(braced: object, gravity: object, wrench: ArrayLike | None) -> tuple[B
 
 def _preloads(braced: BracedRobot, preload: float | ArrayLike) -> Array:
     """P_i ≥ 0 (N) of each brace from one P (every brace) or one per brace."""
-    values = np.asarray(preload, dtype=float).reshape(-1) if isinstance(preload, list | tuple | np.ndarray) else None
+    many = isinstance(preload, list | tuple | np.ndarray)
+    values = as_array(preload, "the preloads P_i of the braces (N)").reshape(-1) if many else None
     if values is None:
         p = as_number(preload, "the preload (the contact pushes)", nonnegative=True, unit="N")
         return np.full(len(braced.braces), p)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -60,7 +61,11 @@ class StackedConstraint:
     compliance: Array
     independent: tuple[int, ...]
     dependent: tuple[int, ...]
-    N: Array
+
+    @cached_property
+    def N(self) -> Array:
+        """Orthonormal basis of the braced motions, the null space of G (n×(n − rank G)); computed when asked."""
+        return contact_null_space(self.G)
 
     @property
     def rank(self) -> int:
@@ -135,7 +140,6 @@ def stacked_constraint(state: BracedState) -> StackedConstraint:
         compliance=compliance,
         independent=independent,
         dependent=tuple(sorted(dropped)),
-        N=contact_null_space(g),
     )
 
 
@@ -149,7 +153,10 @@ def _independent_rows(
     if not rigid:
         return [], [], []
     wr = w[rigid]
-    s = np.linalg.svd(wr, compute_uv=False)
+    if len(rigid) == 1:  # one row (a frictionless point): its σ² is its squared norm
+        s = np.sqrt(np.array([float(wr[0] @ wr[0])]))
+    else:
+        s = np.linalg.svd(wr, compute_uv=False)
     limit = UNLOADED_TOL * max(float(s[0]) ** 2, trace)
     if s.size == len(rigid) and s[-1] ** 2 > limit:
         return list(rigid), [], []
