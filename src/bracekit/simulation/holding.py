@@ -9,7 +9,7 @@ In free space τ = g(q) − J_eᵀ w. Sign conventions: the contact wrench acts 
 positive when pressing; a margin is a scale factor on the listed load (> 1: it holds at that load).
 
 With several braces brace i presses with its own P_i and has its own μ_i: τ0 = g(q) − Σ_i J_b_iᵀ[P_i n̂_i; 0],
-and the response keeps every load contact closed (:func:`~bracekit.statics.equilibrium.multi_contact_responses`).
+and the response keeps every load contact closed (:func:`~bracekit.statics.stacked.multi_contact_responses`).
 A sample's margins are the least over the braces and the loads; each brace also gets its own series.
 """
 

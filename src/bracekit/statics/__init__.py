@@ -23,14 +23,13 @@ from bracekit.statics.capacity import (
 from bracekit.statics.equilibrium import (
     ContactResponse,
     ContactResponses,
-    MultiContactResponses,
     contact_response,
     contact_responses,
     gravity_torque,
     load_contact_wrenches,
-    multi_contact_responses,
 )
 from bracekit.statics.relief import Relief, actuator_relief, actuator_torques
+from bracekit.statics.stacked import MultiContactResponses, multi_contact_responses
 
 __all__ = [
     "Capacity",

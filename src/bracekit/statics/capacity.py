@@ -26,13 +26,8 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
-from bracekit.statics.equilibrium import (
-    ContactResponses,
-    MultiContactResponses,
-    contact_responses,
-    multi_contact_responses,
-    wrench_list,
-)
+from bracekit.statics.equilibrium import ContactResponses, contact_responses, wrench_list
+from bracekit.statics.stacked import MultiContactResponses, multi_contact_responses
 
 Array = NDArray[np.float64]
 
@@ -379,7 +374,7 @@ def multi_capacity_along(
     """Load capacity with every brace at each configuration of `qs` (N×n) for the tool wrenches (m×6).
 
     Args as :func:`capacity_along`, with one preload P_i and friction μ_i per brace (or one for all)
-    (:func:`~bracekit.statics.equilibrium.multi_contact_responses`).
+    (:func:`~bracekit.statics.stacked.multi_contact_responses`).
     """
     if not isinstance(braced, BracedRobot):
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
