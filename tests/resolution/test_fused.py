@@ -18,7 +18,6 @@ import pytest
 
 from bracekit import (
     Brace,
-    BraceAngle,
     BracedGradientProjection,
     BracedRobot,
     ComplianceIndex,
@@ -36,6 +35,7 @@ from bracekit._linalg import cross3, inverse
 from bracekit.compliance.measures import theta_z
 from bracekit.contact import contact_type
 from bracekit.errors import BarrierError, SingularityError, UnloadedContactWarning
+from bracekit.objective import BraceAngle
 from bracekit.resolution.fused import GradientProjectionStep, numba_available
 from helpers import random_chain_urdf
 

@@ -9,8 +9,6 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, cast
@@ -19,31 +17,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit._linalg import show
-from bracekit.compliance.first_order import ComplianceModel
-from bracekit.compliance.preloaded import RUN_MODELS, simulated_model
+from bracekit.compliance.preloaded import RUN_MODELS
 from bracekit.contact import REGISTRY, Brace, Surface, contact_type
 from bracekit.errors import BracekitError, FrameNotFoundError, InputError, ScenarioError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import MODELS, load_model
-from bracekit.objective import TERMS, Objective, TermContext
 from bracekit.resolution.strategies import (
     GRADIENT_MODES,
-    BracedGradientProjection,
-    BracedMinNorm,
-    FreeSpaceMinNorm,
     GradientMode,
-    Strategy,
 )
-from bracekit.resolution.task_space import POSE, TASK_SPACES, TaskSpace
+from bracekit.resolution.task_space import TASK_SPACES, TaskSpace
 from bracekit.simulation.holding import Holding
+from bracekit.simulation.scenario_model import STRATEGIES, Scenario, weight_keys
 from bracekit.simulation.tasks import TASK_SHAPES, Task, radial_of
+from bracekit.simulation.toml_table import Table as _Table
 from bracekit.spatial import rotation_with_z
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
 
 Array = NDArray[np.float64]
-STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
 #: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
 START_THETA_WEIGHT = 0.3
 
@@ -54,161 +47,10 @@ def task_keys() -> tuple[str, ...]:
     return ("type", *shaped, "space", "axis")
 
 
-def weight_keys() -> tuple[str, ...]:
-    """The weight keys of ``[gradient_projection.weights]``: one per registered objective term, now."""
-    return tuple(TERMS)
-
-
 def shipped_scenarios() -> dict[str, Path]:
     """Name → path of the scenarios shipped with bracekit."""
     root = resources.files("bracekit.simulation").joinpath("scenarios")
     return {p.name[:-5]: Path(str(p)) for p in root.iterdir() if p.name.endswith(".toml")}
-
-
-class _Table:
-    """A TOML table being read: tracks its path for messages and rejects unknown keys."""
-
-    def __init__(self, data: Any, path: str, allowed: tuple[str, ...]) -> None:
-        if not isinstance(data, dict):
-            if not path:
-                raise ScenarioError(f"a scenario must be a TOML table of keys, got {show(data)}")
-            raise ScenarioError(f"'{path}' must be a table ([{path}] and its keys), got {show(data)}")
-        unknown = sorted(set(data) - set(allowed))
-        if unknown:
-            where = f"[{path}]" if path else "the top level"
-            keys = ", ".join(allowed)
-            raise ScenarioError(f"unknown key '{_join(path, unknown[0])}'; allowed keys in {where}: {keys}")
-        self.data, self.path = data, path
-
-    def key(self, name: str) -> str:
-        return _join(self.path, name)
-
-    def has(self, name: str) -> bool:
-        return name in self.data
-
-    def raw(self, name: str, default: Any = ...) -> Any:
-        if name not in self.data:
-            if default is ...:
-                raise ScenarioError(f"missing key '{self.key(name)}'")
-            return default
-        return self.data[name]
-
-    def number(self, name: str, default: Any = ..., positive: bool = False) -> float:
-        v = self.raw(name, default)
-        x = _float(v)
-        if x is None:
-            raise ScenarioError(f"'{self.key(name)}' must be a number, got {show(v)}")
-        if positive and x <= 0:
-            raise ScenarioError(f"'{self.key(name)}' must be positive, got {show(v)}")
-        return x
-
-    def vector(self, name: str, size: int | None = None, default: Any = ...) -> Array:
-        v = self.raw(name, default)
-        values = [_float(x) for x in v] if isinstance(v, list) else [None]
-        if None in values or (size is not None and len(values) != size) or (size is None and not values):
-            want = f"{size} numbers" if size else "a list of numbers"
-            raise ScenarioError(f"'{self.key(name)}' must be {want}, got {show(v)}")
-        return np.asarray(values, dtype=float)
-
-    def points(self, name: str, width: int = 3) -> Array:
-        """A list of at least two [x, y, z] points (k×3); with width 6, of at least one [fx, fy, fz, mx, my, mz]."""
-        v = self.raw(name)
-        rows: list[list[float | None]] = [[None]]
-        if isinstance(v, list):
-            rows = [[_float(x) for x in p] if isinstance(p, list) and len(p) == width else [None] for p in v]
-        least = 2 if width == 3 else 1
-        if len(rows) < least or any(None in r for r in rows):
-            want = (
-                "a list of at least two [x, y, z] points (m)"
-                if width == 3
-                else "a list of wrenches [fx, fy, fz, mx, my, mz] (N, N·m, world axes)"
-            )
-            raise ScenarioError(f"'{self.key(name)}' must be {want}, got {show(v)}")
-        return np.asarray(rows, dtype=float)
-
-    def string(self, name: str, choices: tuple[str, ...] | None = None, default: Any = ...) -> str:
-        v = self.raw(name, default)
-        if not isinstance(v, str):
-            raise ScenarioError(f"'{self.key(name)}' must be a string, got {show(v)}")
-        if choices is not None and v not in choices:
-            raise ScenarioError(f"'{self.key(name)}' = {show(v)} is not one of: {', '.join(choices)}")
-        return v
-
-    def table(self, name: str, allowed: tuple[str, ...], default: Any = ...) -> _Table:
-        return _Table(self.raw(name, default), self.key(name), allowed)
-
-
-def _join(path: str, key: str) -> str:
-    return f"{path}.{key}" if path else key
-
-
-def _float(v: object) -> float | None:
-    """A TOML number as a finite float; None for anything else (booleans, strings, inf, nan, huge integers)."""
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        return None
-    try:
-        x = float(v)
-    except OverflowError:
-        return None
-    return x if math.isfinite(x) else None
-
-
-@dataclass(frozen=True, eq=False)
-class Scenario:
-    """A validated scenario. Lengths in m, times in s, stiffness in N·m/rad.
-
-    ``start_theta_weight`` is the start solve's θ_z weight ('[start] theta_weight'; 0 without a pad axis).
-    """
-
-    name: str
-    braced: BracedRobot
-    task: Task
-    guess: Array
-    compliance_model: str
-    beta_x: Callable[[float], Array]
-    beta_x_spec: str
-    alpha: float
-    weights: dict[str, float]
-    gradient: GradientMode
-    dt: float
-    strategies: tuple[str, ...]
-    feedback_gain: float = 1.0
-    description: str = ""
-    source: Path | None = None
-    task_space: TaskSpace = POSE
-    start_theta_weight: float = 0.0
-    holding: Holding = field(default_factory=Holding)
-
-    @property
-    def robot(self) -> Robot:
-        """The robot."""
-        return self.braced.robot
-
-    def objective(self, model: ComplianceModel | None = None, beta_x: Array | None = None) -> Objective:
-        """G of eq:objective with this scenario's weights (β_x at t = 0 unless given), for any number of braces.
-
-        A per-brace term (d, θ_z, clearance) stands for one term per brace it applies to, each with the weight.
-        """
-        beta = self.beta_x(0.0) if beta_x is None else beta_x
-        context = TermContext(self.braced, beta, model or simulated_model(self.compliance_model), self.holding)
-        keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
-        kept = [(t, self.weights[k]) for k in keys for t in TERMS[k].terms_from_scenario(context)]
-        return Objective([t for t, _ in kept], [w for _, w in kept])
-
-    def strategy(
-        self, name: str, *, gradient: GradientMode | None = None, model: ComplianceModel | None = None
-    ) -> Strategy:
-        """One of the three strategies with this scenario's gains and task space."""
-        if name not in STRATEGIES:
-            raise InputError(f"unknown strategy {show(name)}; choose one of {', '.join(STRATEGIES)}")
-        if name == "free_space_min_norm":
-            return cast(Strategy, FreeSpaceMinNorm(space=self.task_space))
-        if name == "braced_min_norm":
-            return cast(Strategy, BracedMinNorm(space=self.task_space))
-        strategy = BracedGradientProjection(
-            self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient, space=self.task_space
-        )
-        return cast(Strategy, strategy)
 
 
 def load_scenario(source: str | os.PathLike[str]) -> Scenario:
