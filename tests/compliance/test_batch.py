@@ -28,7 +28,8 @@ from bracekit import (
     load_model,
     load_scenario,
 )
-from bracekit.compliance.batch import BatchEvaluator, ChainKinematics, evaluate_batch
+from bracekit.compliance.batch import BatchEvaluator, evaluate_batch
+from bracekit.compliance.chain_kinematics import ChainKinematics
 from bracekit.contact import contact_type
 from bracekit.errors import SingularityError, UnloadedContactWarning
 from helpers import random_chain_urdf
