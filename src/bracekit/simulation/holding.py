@@ -28,7 +28,6 @@ from bracekit.errors import InputError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot
 from bracekit.statics import (
     actuator_relief,
-    capacity_along,
     effort_limits,
     gravity_torque,
     peak_ratio,
@@ -141,15 +140,12 @@ def holding_measures(
     """
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
     count = len(braced.braces)
-    if is_braced and count > 1:
-        out = braces_holding_measures(braced, qs, holding)
-    else:
-        try:
-            out = _statics(braced, qs, holding, is_braced)
-            out["unstable"] = np.zeros(qs.shape[0])
-        except UnstableEquilibriumError:  # sample by sample: mark the unstable ones
-            rows = [_statics_or_unstable(braced, q, holding, is_braced) for q in qs]
-            out = {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
+    try:
+        out = _statics(braced, qs, holding, is_braced)
+        out["unstable"] = np.zeros(qs.shape[0])
+    except UnstableEquilibriumError:  # sample by sample: mark the unstable ones
+        rows = [_statics_or_unstable(braced, q, holding, is_braced) for q in qs]
+        out = {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
     preloads = holding.brace_preloads(count)
     if beta is not None and (holding.gravity or max(preloads) > 0.0):
         ci = []
@@ -172,6 +168,15 @@ def holding_measures(
     return out
 
 
+def _tau0(braced: BracedRobot, q: Array, holding: Holding) -> Array:
+    """τ0 = g(q) − Σ_i J_b_i,vᵀ P_i n̂_i (n,), N·m: the rigid torques without tool load."""
+    st = braced.state(q)
+    tau0 = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
+    for p, brace, j_b in zip(holding.brace_preloads(len(braced.braces)), braced.braces, st.J_b_i, strict=True):
+        tau0 = tau0 - p * (j_b[:3].T @ brace.surface.normal)
+    return np.asarray(tau0, dtype=float)
+
+
 def _statics_or_unstable(braced: BracedRobot, q: Array, holding: Holding, is_braced: bool) -> dict[str, Array]:
     """:func:`_statics` at one configuration; at an unstable one the rigid torques, margins 0, ``unstable`` 1."""
     try:
@@ -179,20 +184,25 @@ def _statics_or_unstable(braced: BracedRobot, q: Array, holding: Holding, is_bra
         out["unstable"] = np.zeros(1)
         return out
     except UnstableEquilibriumError:
-        st = braced.state(q)
-        g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        tau0 = g - holding.preload * (st.split.J_b[:3].T @ braced.split.brace.surface.normal)
-        ratio = peak_ratio(tau0, effort_limits(braced.robot))
+        ratio = np.atleast_1d(peak_ratio(_tau0(braced, q, holding), effort_limits(braced.robot)))
         zero = np.zeros(1)
-        rows = {"torque_ratio": np.atleast_1d(ratio), "torque_ratio_loaded": np.atleast_1d(ratio)}
-        rows |= {"torque_margin": zero, "unstable": np.ones(1)}
+        rows = {"torque_ratio": ratio, "torque_ratio_loaded": ratio, "torque_margin": zero, "unstable": np.ones(1)}
         if is_braced:
-            rows |= {"contact_force_N": np.full(1, holding.preload), "liftoff_margin": zero, "slip_margin": zero}
+            count = len(braced.braces)
+            force = np.full(1, max(holding.brace_preloads(count)))
+            rows |= {"contact_force_N": force, "liftoff_margin": zero, "slip_margin": zero}
+            if count > 1:
+                for i in range(count):
+                    rows |= {f"liftoff_margin_{i}": zero, f"slip_margin_{i}": zero}
         return rows
 
 
 def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) -> dict[str, Array]:
-    """Torques, contact forces and margins of :func:`holding_measures`."""
+    """Torques, contact forces and margins of :func:`holding_measures` (every brace with its own P_i and μ_i).
+
+    With several braces also each brace's ``liftoff_margin_<i>`` and ``slip_margin_<i>`` (i from 0, the order of
+    ``braced.braces``); the plain names hold the least over the braces and wrenches.
+    """
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
     effort = effort_limits(braced.robot)
     loads = holding.loads
@@ -204,98 +214,40 @@ def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) 
         loaded = np.max(peak_ratio(tau0[:, None, :] + d_tau, effort), axis=1)
         margin = np.array([np.min(saturation_scale(tau0[k][None, :], d_tau[k], effort)) for k in range(qs.shape[0])])
         return {"torque_ratio": ratio0, "torque_ratio_loaded": loaded, "torque_margin": margin}
-    cap = capacity_along(
-        braced, qs, loads, preload=holding.preload, gravity=holding.gravity, friction=holding.friction, effort=effort
-    )
-    unloaded_force = np.full(qs.shape[0], holding.preload)
-    loaded_force = np.max(np.linalg.norm(cap.contact_wrench[..., :3], axis=-1), axis=1)
-    slip = cap.slip_margin if cap.slip_margin is not None else np.full(qs.shape[0], np.inf)
-    return {
-        "torque_ratio": np.asarray(cap.peak_unloaded, dtype=float),
-        "torque_ratio_loaded": np.max(cap.peak_loaded, axis=1),
-        "contact_force_N": np.maximum(unloaded_force, loaded_force),
-        "liftoff_margin": np.asarray(cap.liftoff_margin, dtype=float),
-        "slip_margin": np.asarray(slip, dtype=float),
-        "torque_margin": np.asarray(cap.torque_margin, dtype=float),
-    }
-
-
-def braces_holding_measures(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Array]:
-    """:func:`holding_measures` of a run with several braces (P_i, μ_i from ``holding.brace_preloads``/``_frictions``).
-
-    Returns (N,) arrays: ``torque_ratio``, ``torque_ratio_loaded``, ``torque_margin``, ``contact_force_N`` (the
-    largest ‖f_c,i‖ over braces, unloaded or under a listed wrench at scale 1), ``liftoff_margin`` and
-    ``slip_margin`` (least over braces and wrenches; slip inf for a brace without μ), per brace
-    ``liftoff_margin_<i>`` and ``slip_margin_<i>`` (i from 0, the order of ``braced.braces``), and ``unstable``
-    (1.0 where K plus the geometric stiffness of gravity and the preloads is not positive on the motions the
-    contacts allow: there every margin is 0). :func:`holding_measures` adds ``Ci_preloaded``.
-    """
-    qs = np.atleast_2d(np.asarray(qs, dtype=float))
-    try:
-        out = _braces_statics(braced, qs, holding)
-        out["unstable"] = np.zeros(qs.shape[0])
-        return out
-    except UnstableEquilibriumError:
-        rows = [_braces_statics_or_unstable(braced, q, holding) for q in qs]
-        return {key: np.array([r[key][0] for r in rows]) for key in rows[0]}
-
-
-def _braces_statics(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Array]:
     count = len(braced.braces)
     preloads = holding.brace_preloads(count)
     cap = multi_capacity_along(
         braced,
         qs,
-        holding.loads,
+        loads,
         preloads=preloads,
         gravity=holding.gravity,
         frictions=holding.brace_frictions(count),
-        effort=effort_limits(braced.robot),
+        effort=effort,
     )
     loaded_force = np.max(np.linalg.norm(cap.contact_wrench[..., :3], axis=-1), axis=(1, 2))
-    inf = np.full((qs.shape[0], count), np.inf)
-    brace_slip = cap.brace_slip_margin if cap.brace_slip_margin is not None else inf
+    inf = np.full(qs.shape[0], np.inf)
     out = {
         "torque_ratio": np.asarray(cap.peak_unloaded, dtype=float),
         "torque_ratio_loaded": np.max(cap.peak_loaded, axis=1),
         "contact_force_N": np.maximum(max(preloads), loaded_force),
         "liftoff_margin": np.asarray(cap.liftoff_margin, dtype=float),
-        "slip_margin": np.min(brace_slip, axis=1),
+        "slip_margin": np.asarray(inf if cap.slip_margin is None else cap.slip_margin, dtype=float),
         "torque_margin": np.asarray(cap.torque_margin, dtype=float),
     }
-    for i in range(count):
-        out[f"liftoff_margin_{i}"] = np.asarray(cap.brace_liftoff_margin[:, i], dtype=float)
-        out[f"slip_margin_{i}"] = np.asarray(brace_slip[:, i], dtype=float)
+    if count > 1:
+        brace_slip = np.full((qs.shape[0], count), np.inf) if cap.brace_slip_margin is None else cap.brace_slip_margin
+        for i in range(count):
+            out[f"liftoff_margin_{i}"] = np.asarray(cap.brace_liftoff_margin[:, i], dtype=float)
+            out[f"slip_margin_{i}"] = np.asarray(brace_slip[:, i], dtype=float)
     return out
 
 
-def _braces_statics_or_unstable(braced: BracedRobot, q: Array, holding: Holding) -> dict[str, Array]:
-    """:func:`_braces_statics` at one configuration; at an unstable one the rigid torques and margins 0."""
-    try:
-        out = _braces_statics(braced, q[None, :], holding)
-        out["unstable"] = np.zeros(1)
-        return out
-    except UnstableEquilibriumError:
-        st = braced.state(q)
-        count = len(braced.braces)
-        preloads = holding.brace_preloads(count)
-        tau0 = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        for p, brace, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True):
-            tau0 = tau0 - p * (j_b[:3].T @ brace.surface.normal)
-        ratio = np.atleast_1d(peak_ratio(tau0, effort_limits(braced.robot)))
-        zero = np.zeros(1)
-        rows = {"torque_ratio": ratio, "torque_ratio_loaded": ratio, "contact_force_N": np.full(1, max(preloads))}
-        rows |= {"liftoff_margin": zero, "slip_margin": zero, "torque_margin": zero}
-        for i in range(count):
-            rows |= {f"liftoff_margin_{i}": zero, f"slip_margin_{i}": zero}
-        rows["unstable"] = np.ones(1)
-        return rows
-
-
-def braces_holding_summary(measures: dict[str, Array], count: int) -> list[dict[str, float | None]]:
+def per_brace_summary(measures: dict[str, Array], count: int) -> list[dict[str, float | None]]:
     """Per-brace summary of a several-brace run: ``min_liftoff_margin`` and ``min_slip_margin`` of each brace.
 
-    From :func:`braces_holding_measures` (None where the margin is inf or the run has no statics).
+    From the per-brace measures of :func:`holding_measures` (None where the margin is inf or the run has no
+    statics).
     """
     out: list[dict[str, float | None]] = []
     for i in range(count):
@@ -401,53 +353,36 @@ def holding_summary(measures: dict[str, Array]) -> dict[str, Any]:
 def relief_summary(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Any]:
     """Actuator relief along a braced run's samples: peak |τ_i|/effort_i free against braced (best preload).
 
-    The free-space peak is at the same configurations without the brace; the braced peaks with the run's
-    preload and with the constant preload that minimises the peak over the samples and listed wrenches (LP).
-    With several braces the best preload is not computed (its keys are None) and the run's peak uses each P_i.
+    The free-space peak is at the same configurations without the braces; the braced peak with the run's P_i
+    (rigid statics). The best constant preload (LP of :func:`~bracekit.statics.actuator_relief`) is one brace's:
+    with several braces its keys are None (docs/model.md, "Several braces").
     """
-    if len(braced.braces) > 1:
-        return _relief_braces(braced, qs, holding)
-    rel = actuator_relief(braced, qs, holding.wrenches, gravity=holding.gravity)
-    effort = effort_limits(braced.robot)
-    at_preload = _peak_with_preload(braced, qs, holding, effort)
-    return {
-        "free_peak_torque_ratio": float(rel.free_peak),
-        "braced_peak_torque_ratio": at_preload,
-        "best_preload_N": float(rel.preload),
-        "best_braced_peak_torque_ratio": float(rel.braced_peak),
-        "best_relief": float(rel.ratio),
-    }
-
-
-def _peak_with_preload(braced: BracedRobot, qs: Array, holding: Holding, effort: Array) -> float:
-    """Peak |τ_i|/effort_i over samples and listed wrenches with the run's preload (rigid statics)."""
-    nhat = braced.split.brace.surface.normal
-    peak = 0.0
-    for q in qs:
-        st = braced.state(q)
-        g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        tau = g[None, :] - holding.loads @ st.J_e - holding.preload * (st.split.J_b[:3].T @ nhat)[None, :]
-        peak = max(peak, float(np.max(peak_ratio(tau, effort))))
-    return peak
-
-
-def _relief_braces(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Any]:
-    """:func:`relief_summary` with several braces: free-space peak and the peak with the run's P_i (rigid statics)."""
     effort = effort_limits(braced.robot)
     preloads = holding.brace_preloads(len(braced.braces))
     free = braced_peak = 0.0
     for q in qs:
         st = braced.state(q)
         g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        tau = g[None, :] - holding.loads @ st.J_e
-        free = max(free, float(np.max(peak_ratio(tau, effort))))
-        for p, brace, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True):
-            tau = tau - p * (j_b[:3].T @ brace.surface.normal)[None, :]
+        free = max(free, float(np.max(peak_ratio(g[None, :] - holding.loads @ st.J_e, effort))))
+        contact = sum(
+            (p * (j_b[:3].T @ b.surface.normal) for p, b, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True)),
+            np.zeros(q.size),
+        )
+        tau = g[None, :] - holding.loads @ st.J_e - contact[None, :]
         braced_peak = max(braced_peak, float(np.max(peak_ratio(tau, effort))))
-    return {
+    out: dict[str, Any] = {
         "free_peak_torque_ratio": free,
         "braced_peak_torque_ratio": braced_peak,
         "best_preload_N": None,
         "best_braced_peak_torque_ratio": None,
         "best_relief": None,
     }
+    if len(braced.braces) == 1:  # the LP of one brace's preload
+        rel = actuator_relief(braced, qs, holding.wrenches, gravity=holding.gravity)
+        out |= {
+            "free_peak_torque_ratio": float(rel.free_peak),
+            "best_preload_N": float(rel.preload),
+            "best_braced_peak_torque_ratio": float(rel.braced_peak),
+            "best_relief": float(rel.ratio),
+        }
+    return out

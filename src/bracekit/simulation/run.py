@@ -19,10 +19,10 @@ from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
 from bracekit.kinematics import BracedState
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
 from bracekit.simulation.holding import (
-    braces_holding_summary,
     holding_measures,
     holding_summary,
     holding_warnings,
+    per_brace_summary,
     relief_summary,
 )
 from bracekit.simulation.loop import simulate
@@ -69,7 +69,7 @@ def _summaries(result: RunResult) -> None:
         for name, tr in runs.items():
             strategies[name].update(holding_summary(tr.measures))
             if tr.braces is not None and "liftoff_margin_0" in tr.measures:  # each brace's own margins
-                extra = braces_holding_summary(tr.measures, len(tr.braces))
+                extra = per_brace_summary(tr.measures, len(tr.braces))
                 strategies[name]["braces"] = [b | e for b, e in zip(strategies[name]["braces"], extra, strict=True)]
             if sc.holding.active and tr.braced and tr.q.shape[0] and _has_limits(sc):
                 strategies[name]["actuator_relief"] = relief_summary(sc.braced, tr.q, sc.holding)
