@@ -363,7 +363,8 @@ def relief_summary(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str
     for q in qs:
         st = braced.state(q)
         g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        free = max(free, float(np.max(peak_ratio(g[None, :] - holding.loads @ st.J_e, effort))))
+        if len(preloads) > 1:  # one brace: the LP below gives the free-space peak
+            free = max(free, float(np.max(peak_ratio(g[None, :] - holding.loads @ st.J_e, effort))))
         contact = sum(
             (p * (j_b[:3].T @ b.surface.normal) for p, b, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True)),
             np.zeros(q.size),
