@@ -302,3 +302,20 @@ def test_theta_z_of_each_brace_with_a_pad_axis_enters_the_several_brace_objectiv
     assert angles  # the pad `brace` has one
     assert with_theta.value(st) - base.value(st) == pytest.approx(0.3 * sum(angles), rel=1e-9, abs=1e-12)
     assert sum(v for k, v in with_theta.values(st).items() if k.startswith("theta_z_")) == pytest.approx(sum(angles))
+
+
+def test_the_fused_step_with_several_braces_runs_the_reference_and_says_so() -> None:
+    from bracekit.resolution import GradientProjectionStep
+
+    rng = np.random.default_rng(21)
+    braced, _, q = paper_case(rng)
+    beta = np.array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    strategy = BracedGradientProjection(several_objective(braced, beta, 100.0, 0.01), space=TaskSpace("position"))
+    for backend in ("numpy", "auto"):
+        step = GradientProjectionStep(braced, strategy, backend=backend)  # type: ignore[arg-type]
+        assert not step.uses_kernel and step.fallback_reason is not None and "several braces" in step.fallback_reason
+        xdot = rng.normal(size=6)
+        expected = strategy.velocity(braced.state(q, hessians=True), xdot)
+        np.testing.assert_array_equal(step(q, xdot), expected)
+        np.testing.assert_array_equal(step.gradient(q), strategy.dg_dq(braced.state(q, hessians=True)))
+        assert step.value(q) == strategy.objective.value(braced.state(q))

@@ -91,10 +91,10 @@ def numba_available() -> bool:
 def fused_step(braced: BracedRobot, strategy: object) -> GradientProjectionStep | None:
     """The fused step of a gradient-projection strategy, or None where the reference path runs instead.
 
-    The fused step is written over the paper's chain split (A, J1, J̃ of one brace): None for another
-    strategy, for several braces and beyond MAX_HESSIAN_JOINTS joints.
+    None for another strategy and beyond MAX_HESSIAN_JOINTS joints. With several braces the step runs the
+    reference (its ``fallback_reason`` says so): the fused code is written over one brace's chain split.
     """
-    if type(strategy) is not BracedGradientProjection or len(braced.braces) != 1 or braced.n > MAX_HESSIAN_JOINTS:
+    if type(strategy) is not BracedGradientProjection or braced.n > MAX_HESSIAN_JOINTS:
         return None
     return GradientProjectionStep(braced, strategy)
 
@@ -129,6 +129,16 @@ class GradientProjectionStep:
             raise InputError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS)}")
         self.braced = braced
         self.strategy = strategy
+        self._several = len(braced.braces) > 1
+        if self._several:  # the fused code is written over one brace's chain split: the reference step runs
+            self._n = braced.n
+            self.backend: str = "numpy"
+            self.uses_kernel: bool = False
+            self._kernel: Any = None
+            self.fallback_reason: str | None = (
+                "several braces: the fused step holds one brace's chain split, the reference step runs (same q̇)"
+            )
+            return
         robot = braced.robot
         self._model = robot.model
         if braced.n > MAX_HESSIAN_JOINTS:
@@ -160,7 +170,7 @@ class GradientProjectionStep:
         self._space = strategy.space
         self._cert2 = CERTIFIED_COND**2
         kernels = None
-        self.fallback_reason: str | None = "numpy backend"
+        self.fallback_reason = "numpy backend"
         if backend == "numba":
             kernels = numba_kernels()
         elif backend == "auto":
@@ -169,9 +179,9 @@ class GradientProjectionStep:
             except InputError:
                 kernels = None
                 self.fallback_reason = "numba cannot be imported"
-        self.backend: str = "numpy" if kernels is None else "numba"
+        self.backend = "numpy" if kernels is None else "numba"
         self._kernel = None if kernels is None else self._numba_setup(kernels)
-        self.uses_kernel: bool = self._kernel is not None
+        self.uses_kernel = self._kernel is not None
 
     def _numba_setup(self, kernels: ModuleType) -> Any:
         """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs).
@@ -213,6 +223,9 @@ class GradientProjectionStep:
         xd = xdot
         if not (type(xd) is np.ndarray and xd.dtype == np.float64 and xd.shape == (6,) and math.isfinite(xd.sum())):
             xd = tip_twist(xdot)
+        if self._several:
+            strategy = self._reference(beta_x)
+            return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
         if self._kernel is not None:
             out = self._numba_step(qa, xd, beta_x)
             if out is not None:
@@ -228,6 +241,9 @@ class GradientProjectionStep:
     def gradient(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
         """∂g/∂q (n,) at q in the strategy's gradient mode, as ``BracedGradientProjection.dg_dq``."""
         qa = self._check_q(q)
+        if self._several:
+            strategy = self._reference(beta_x)
+            return strategy.dg_dq(self.braced.state(qa, hessians=strategy.needs_hessians))
         obj = self._with_beta(beta_x)
         try:
             if self._fd:
@@ -240,6 +256,8 @@ class GradientProjectionStep:
     def value(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> float:
         """G at q (eq:objective), as ``Objective.value``."""
         qa = self._check_q(q)
+        if self._several:
+            return float(self._reference(beta_x).objective.value(self.braced.state(qa)))
         obj = self._with_beta(beta_x)
         try:
             return self._value(qa, obj)
@@ -247,6 +265,12 @@ class GradientProjectionStep:
             return obj.value(self.braced.state(qa))
 
     # --- internals ---------------------------------------------------------------------------------
+    def _reference(self, beta_x: ArrayLike | None) -> BracedGradientProjection:
+        """The reference strategy with β_x replaced (the step of several braces)."""
+        if beta_x is None:
+            return self.strategy
+        return replace(self.strategy, objective=self.strategy.objective.with_beta_x(beta_x))
+
     def _check_q(self, q: ArrayLike) -> Array:
         if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._n,) and math.isfinite(q.sum()):
             return q
