@@ -19,7 +19,6 @@ from bracekit import (
     solve_start,
 )
 from bracekit.errors import ConvergenceError, NoRedundancyWarning, RegionWarning
-from bracekit.resolution.strategies import conditioning
 from bracekit.simulation.simulate import correct
 from bracekit.simulation.start import START_CONDITIONING_FLOOR
 from helpers import iiwa_like_urdf, iiwa_scenario_text
@@ -235,7 +234,7 @@ def test_the_paper_start_is_the_plain_solve_the_conditioning_barrier_inactive(se
     sc, start, _ = setup
     plain = solve_start(sc.braced, sc.task.position(0.0), sc.guess, conditioning_weight=0.0)
     np.testing.assert_array_equal(start.q, plain.q)
-    assert min(conditioning(start, ("A", "J_braced")).values()) >= START_CONDITIONING_FLOOR
+    assert min(start.motions.conditioning(None, ("A", "J_braced")).values()) >= START_CONDITIONING_FLOOR
 
 
 def test_a_theta_weight_needs_a_pad_axis(tmp_path) -> None:
@@ -267,7 +266,7 @@ def test_an_iiwa_braced_at_its_forearm_starts_conditioned_and_completes_the_brac
     assert sc.start_theta_weight == (0.3 if pad_axis else 0.0)
     position = sc.task.position(0.0)
     start = solve_start(sc.braced, position, sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight)
-    ratios = conditioning(start, ("A", "J_braced"))
+    ratios = start.motions.conditioning(None, ("A", "J_braced"))
     assert ratios["A"] > 0.01 and ratios["J_braced"] > 0.05
     assert np.linalg.norm(start.e - position) < 1e-10
     assert abs(sc.braced.brace.surface.signed_distance(start.split.b)) < 1e-10
@@ -281,7 +280,7 @@ def test_an_iiwa_braced_at_its_forearm_starts_conditioned_and_completes_the_brac
         theta_weight=0.3 if pad_axis else 0.0,
         conditioning_weight=0.0,
     )
-    assert conditioning(unconditioned, ("A",))["A"] < 0.01
+    assert unconditioned.motions.conditioning(None, ("A",))["A"] < 0.01
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RegionWarning)
         for name in ("braced_min_norm", "braced_gradient_projection"):

@@ -31,37 +31,6 @@ from bracekit.tolerances import STEP_SINGULAR_RATIO
 Array = NDArray[np.float64]
 GradientMode = Literal["analytic", "finite-difference"]
 GRADIENT_MODES: tuple[str, ...] = ("analytic", "finite-difference")
-#: Printed names of the matrices whose conditioning a run records (measure ``sigma_ratio_<key>``).
-MATRIX_LABELS = {"J1": "J1", "A": "A", "J": "J", "J_braced": "J̃"}
-
-
-def singular_ratio(m: ArrayLike) -> float:
-    """σ_min / σ_max of a matrix (over its min(rows, columns) singular values); 0 for a zero matrix."""
-    s = np.linalg.svd(np.asarray(m, dtype=float), compute_uv=False)
-    return float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
-
-
-def inverted_matrices(braced: bool, n1: int) -> tuple[str, ...]:
-    """Keys (of :data:`MATRIX_LABELS`) of the matrices a strategy inverts, then J̃ (the measures' Jacobian).
-
-    Free space: J (J⁺ ẋ). Braced: A (A⁺ ẋ, eq:general_inv) and, when n1 = 6, J1 (J1⁻¹ H, eq:q1).
-    """
-    if not braced:
-        return ("J", "J_braced")
-    return ("A", "J1", "J_braced") if n1 == 6 else ("A", "J_braced")
-
-
-def conditioning(state: BracedState, keys: tuple[str, ...]) -> dict[str, float]:
-    """σ_min / σ_max at `state` of each matrix named in `keys` (J1, A, J = J_e, J_braced = J̃)."""
-    mats = {
-        "J1": lambda: state.split.J1,
-        "A": lambda: state.split.A,
-        "J": lambda: state.J_e,
-        "J_braced": lambda: state.split.J_braced,
-    }
-    return {key: singular_ratio(mats[key]()) for key in keys}
-
-
 def pinv_checked(m: Array, what: str) -> Array:
     """Moore–Penrose pseudo-inverse of a full-row-rank matrix; SingularityError near rank loss."""
     u, s, vt = np.linalg.svd(m, full_matrices=False)
