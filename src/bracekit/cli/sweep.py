@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from bracekit.cli.common import needs, sigterm_as_interrupt
 from bracekit.errors import InputError
 
 SWEEP_FILES_HELP = (
@@ -55,13 +56,11 @@ def _foreign(out: Path) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Run `bracekit sweep`; the exit code (0 when the sweep finished, whatever its candidates' feasibility)."""
-    from bracekit.cli.main import _needs, _sigterm_as_interrupt
-
-    _needs("distributed", "sweep", "bracekit sweep")
-    _needs("pyarrow", "sweep", "bracekit sweep")
+    needs("distributed", "sweep", "bracekit sweep")
+    needs("pyarrow", "sweep", "bracekit sweep")
     figures = not args.no_figures
     if figures:
-        _needs("matplotlib", "sweep", "bracekit sweep with figures (or pass --no-figures)")
+        needs("matplotlib", "sweep", "bracekit sweep with figures (or pass --no-figures)")
     if args.limit is not None and args.limit < 1:
         raise InputError(f"--limit must be at least 1, got {args.limit}")
     if args.workers is not None and args.workers < 1:
@@ -85,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     # OUT is checked and locked first; it is made only once the cluster answers, so a scheduler that cannot be
     # reached leaves nothing behind
     with (
-        _sigterm_as_interrupt(),
+        sigterm_as_interrupt(),
         prepare_output(out, overwrite=True, files=FILES, command=f"bracekit sweep {args.spec}") as plan,
         dask_client(workers, args.scheduler) as client,
     ):
