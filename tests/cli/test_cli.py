@@ -349,13 +349,34 @@ def test_a_no_figures_run_keeps_a_users_animation_gif(capsys, short_scenario_fil
 def test_a_rerun_replaces_the_previous_output_whole(capsys, short_scenario_file: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     assert _run_out(out, short_scenario_file, capsys)[0] == 0
-    (out / "fig2_film_strip.png").write_bytes(b"from an older run")  # as listed by an earlier manifest
-    manifest = json.loads((out / ".bracekit-output.json").read_text())
-    manifest["files"].append("fig2_film_strip.png")
-    (out / ".bracekit-output.json").write_text(json.dumps(manifest))
+    before = {p.name: p.stat().st_ino for p in out.iterdir()}
     code, _, err = _run_out(out, short_scenario_file, capsys)
     assert code == 0, err
-    assert not (out / "fig2_film_strip.png").exists() and (out / "trajectories.npz").is_file()
+    after = {p.name: p.stat().st_ino for p in out.iterdir()}
+    assert after.keys() == before.keys() and all(after[n] != before[n] for n in after)  # every file new
+    assert _leftovers(out) == []
+
+
+def test_a_manifest_edited_to_list_a_users_file_never_deletes_it(
+    capsys, short_scenario_file: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    assert _run_out(out, short_scenario_file, capsys)[0] == 0
+    (out / "fig2_film_strip.png").write_bytes(b"mine")  # listed below, but bracekit recorded no hash of it
+    manifest = json.loads((out / ".bracekit-output.json").read_text())
+    manifest["files"].append("fig2_film_strip.png")
+    manifest["sha256"]["table.md"] = "0" * 64  # and table.md edited: no longer bracekit's either
+    (out / ".bracekit-output.json").write_text(json.dumps(manifest))
+    code, _, err = _run_out(out, short_scenario_file, capsys)
+    assert code == 2
+    _one_error_line(err, "fig2_film_strip.png", "did not write")
+    code, _, err = _run_out(out, short_scenario_file, capsys, "--overwrite")
+    assert code == 2  # table.md is not bracekit's now, and bracekit never replaces it
+    _one_error_line(err, "table.md", "never replaces")
+    (out / "table.md").unlink()
+    code, _, err = _run_out(out, short_scenario_file, capsys, "--overwrite")
+    assert code == 0, err
+    assert (out / "fig2_film_strip.png").read_bytes() == b"mine" and (out / "trajectories.npz").is_file()
     assert _leftovers(out) == []
 
 

@@ -451,9 +451,7 @@ def test_generic_contact_emits_no_unloaded_warning() -> None:
 
 
 # ---------------------------------------------------------------------------------------------- bad input
-@pytest.mark.parametrize(
-    "c_e", [np.eye(3), np.full((6, 6), np.inf), "C", None, [[1.0] * 6] * 5, np.ones((6, 6, 1))]
-)
+@pytest.mark.parametrize("c_e", [np.eye(3), np.full((6, 6), np.inf), "C", None, [[1.0] * 6] * 5, np.ones((6, 6, 1))])
 def test_compliance_measures_refuse_anything_but_a_finite_6x6_matrix(c_e: object) -> None:
     e_x = np.r_[1.0, 0, 0, 0, 0, 0]
     for call in (

@@ -315,9 +315,7 @@ def test_a_misread_hessian_layout_raises_and_the_layout_is_checked_once_per_fram
     monkeypatch.setattr(pin, "getFrameKinematicHessian", real)
     calls: list[int] = []
     check = kinematics.check_hessian_layout
-    monkeypatch.setattr(
-        kinematics, "check_hessian_layout", lambda m, f, **kw: (calls.append(f), check(m, f, **kw))
-    )
+    monkeypatch.setattr(kinematics, "check_hessian_layout", lambda m, f, **kw: (calls.append(f), check(m, f, **kw)))
     braced, _ = braced_chain(7, seed=61, brace_link=4)
     for _ in range(3):
         braced.state(q, hessians=True)

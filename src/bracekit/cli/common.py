@@ -15,6 +15,8 @@ import numpy as np
 
 from bracekit.errors import InputError, MissingDependencyError
 
+#: Signals that stop a command like Ctrl-C (its output folder and lock cleaned up).
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
 LIST_OPTIONS = ("--q", "--stiffness", "--normal", "--beta-x", "--brace-offset", "--first-normal", "--second-normal")
 OUT_HELP = (
     "checked before any computation and written whole: a previous bracekit output there is replaced, "
@@ -85,7 +87,7 @@ def needs(module: str, extra: str, what: str) -> None:
 
 @contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
-    """SIGTERM raises KeyboardInterrupt while a command runs, so it cleans up like Ctrl-C (exit 130)."""
+    """SIGTERM and SIGHUP raise KeyboardInterrupt while a command runs: it cleans up like Ctrl-C (exit 130)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -93,11 +95,12 @@ def sigterm_as_interrupt() -> Iterator[None]:
     def interrupt(signum: int, frame: FrameType | None) -> None:
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, interrupt)
+    previous = {s: signal.signal(s, interrupt) for s in STOP_SIGNALS}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+        for s, handler in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
 
 
 def as_cli(message: str) -> str:

@@ -23,6 +23,7 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
 from bracekit.model.chain import DATA_JOINT_LIMIT, ChainFK, joint_axis
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules
+from bracekit.model.urdf_numbers import MAX_LENGTH, check_model_numbers, check_urdf_numbers
 
 Array = NDArray[np.float64]
 
@@ -51,6 +52,7 @@ def _rewrite_urdf(text: str) -> tuple[str, _UrdfJoints]:
         root = ET.fromstring(text)
     except (ET.ParseError, ValueError):
         return text, _UrdfJoints()
+    check_urdf_numbers(root)
     continuous: set[str] = set()
     mimic: list[tuple[str, str]] = []
     for joint in root.iter("joint"):
@@ -216,7 +218,7 @@ def _check_joints(model: pin.Model) -> None:
         (lower > upper, "has lower limit {lo:g} > upper limit {hi:g}; give it lower < upper in its <limit>"),
         (
             lower == upper,
-            "is locked (lower = upper = {lo:g}) and cannot move; make it type=\"fixed\" or give it a range of motion",
+            'is locked (lower = upper = {lo:g}) and cannot move; make it type="fixed" or give it a range of motion',
         ),
     ):
         if bad.any():
@@ -257,6 +259,13 @@ class Robot:
         if self.model.nv == 0:
             raise ModelError("the model has no joint; give a chain of revolute or prismatic joints")
         _check_joints(self.model)
+        check_model_numbers(self.model)
+        for c in self.collisions:
+            if not 0.0 <= c.radius <= MAX_LENGTH:
+                raise ModelError(
+                    f"the collision capsule of link {show(c.link)} has radius {c.radius:g} m, outside "
+                    f"[0, {MAX_LENGTH:g}]; fix its collision <geometry> in the URDF"
+                )
         object.__setattr__(self, "_tip_id", self.frame_id(self.tip))
         object.__setattr__(self, "stiffness", _as_stiffness(self.stiffness, self.joint_names))
         object.__setattr__(self, "off_chain", frozenset(self.off_chain))
@@ -294,7 +303,7 @@ class Robot:
             if full.existJointName(name) and full.getJointId(name) in keep:
                 raise ModelError(
                     f"joint {show(name)} mimics joint {show(leader)} and moves the tip {show(tip)}; bracekit needs "
-                    "independent joints on the chain to the tip: remove its <mimic> or make it type=\"fixed\""
+                    'independent joints on the chain to the tip: remove its <mimic> or make it type="fixed"'
                 )
         lock = [j for j in range(1, full.njoints) if j not in keep]
         model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full

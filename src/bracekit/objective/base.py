@@ -191,5 +191,3 @@ def braced_gradient(state: BracedState, dg_dq: ArrayLike) -> Array:
     g = np.asarray(dg_dq, dtype=float)
     n1 = state.n1
     return np.concatenate([state.chain1_map.T @ g[:n1], g[n1:]])
-
-

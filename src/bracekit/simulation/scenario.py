@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
@@ -18,6 +17,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit.compliance.first_order import ComplianceModel
 from bracekit.compliance.preloaded import RUN_MODELS, simulated_model
@@ -42,6 +42,9 @@ from bracekit.simulation.tasks import Circle, Line, Task, Waypoints, in_plane
 from bracekit.spatial import rotation_with_z, unit
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
+
+#: Most tool wrenches ``[loads] wrenches`` may list (each costs a capacity search at every sample).
+MAX_WRENCHES = 32
 
 Array = NDArray[np.float64]
 STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
@@ -242,11 +245,9 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
             f"scenario not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path} is not valid TOML: {show(str(exc), 200)}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"cannot read scenario {path}: {show(str(exc), 200)}") from exc
+        data = read_toml(path, "scenario")
+    except InputError as exc:
+        raise ScenarioError(str(exc)) from None
     try:
         return parse_scenario(data, base=path.parent, name=path.stem, source=path)
     except ScenarioError:
@@ -624,6 +625,8 @@ def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
     if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
         raise ScenarioError(f"'brace.friction' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")
     wrenches = loads_t.points("wrenches", 6) if loads_t.has("wrenches") else None
+    if wrenches is not None and len(wrenches) > MAX_WRENCHES:
+        raise ScenarioError(f"'loads.wrenches' lists {len(wrenches)} wrenches; give at most {MAX_WRENCHES}")
     try:
         return Holding(gravity=gravity, preload=preload, friction=friction, wrenches=wrenches)
     except BracekitError as exc:

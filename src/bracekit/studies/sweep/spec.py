@@ -10,12 +10,12 @@ import hashlib
 import json
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit._version import __version__
 from bracekit.contact import REGISTRY
@@ -217,11 +217,9 @@ def load_spec(source: str | os.PathLike[str]) -> SweepSpec:
             f"sweep spec not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{path} is not valid TOML: {show(str(exc), 200)}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"cannot read sweep spec {path}: {show(str(exc), 200)}") from exc
+        data = read_toml(path, "sweep spec")
+    except InputError as exc:
+        raise SpecError(str(exc)) from None
     return parse_spec(data, base=path.parent, name=path.stem, source=path)
 
 
@@ -273,9 +271,9 @@ def _base(value: Any, base: Path) -> tuple[Path, dict[str, Any], Path]:
             f"'base' = {show(value)}: no such scenario; give a .toml path or one of: {', '.join(sorted(shipped))}"
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"'base' = {show(value)} cannot be read: {show(str(exc), 200)}") from exc
+        data = read_toml(path, "base scenario")
+    except InputError as exc:
+        raise SpecError(f"'base' = {show(value)} cannot be read: {exc}") from None
     return path, data, path.parent
 
 
