@@ -139,9 +139,11 @@ def test_evaluate_with_a_urdf_of_continuous_joints(capsys, tmp_path: Path) -> No
     text, revolute = continuous_chain_urdf(7, seed=3, continuous=(1, 2, 4, 7))
     path = tmp_path / "continuous.urdf"
     path.write_text(text)
-    q = [0.2, 4.0, -0.5, 0.3, -7.0, 0.4, 9.0]  # angles, some beyond ±π
+    q = [0.2, 4.0, -0.5, 0.3, -7.0, 0.4, 9.0]  # angles, some beyond ±π (joint 5, revolute, beyond its limits)
     args = ["evaluate", "--urdf", str(path), "--tip", "tip", "--brace-link", "l4", "--brace-offset", "0,0,0.05"]
-    code, out, _ = _run([*args, "--q", ",".join(map(str, q)), "--json"], capsys)
+    code, _, err = _run([*args, "--q", ",".join(map(str, q)), "--json"], capsys)
+    assert code == 2 and "joint 5 (j5) = -7 is outside its limits [-3.14, 3.14]" in err
+    code, out, _ = _run([*args, "--q", ",".join(map(str, q)), "--json", "--allow-outside-limits"], capsys)
     assert code == 0
     data = json.loads(out)
     assert len(data["q"]) == 7 and np.array(data["J"]).shape == (6, 7)

@@ -126,3 +126,21 @@ def load_robot(args: argparse.Namespace) -> tuple[Any, str | None]:
     if args.tip is None:
         raise InputError("--tip is needed with --urdf: name the end-effector frame")
     return Robot.from_urdf(args.urdf, tip=args.tip, stiffness=k), None
+
+
+def add_limits_flag(parser: argparse.ArgumentParser) -> None:
+    """Add ``--allow-outside-limits`` (joint values beyond the URDF limits are refused without it)."""
+    parser.add_argument(
+        "--allow-outside-limits",
+        action="store_true",
+        help="accept joint values outside the URDF joint limits (refused by default)",
+    )
+
+
+def joint_values(args: argparse.Namespace, robot: Any) -> np.ndarray:
+    """The joint values of --q for `robot`: n finite numbers within its URDF limits (unless allowed)."""
+    q = robot.check_q(floats(args.q, "--q"))
+    why = None if args.allow_outside_limits else robot.outside_limits(q)
+    if why is not None:
+        raise InputError(f"--q: {why}; give values within the limits or pass --allow-outside-limits")
+    return np.asarray(q, dtype=float)

@@ -8,8 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from bracekit.cli.common import floats, load_robot, one, pct
+from bracekit.cli.common import add_limits_flag, floats, joint_values, load_robot, one, pct
 from bracekit.errors import InputError
+from bracekit.simulation.scenario import MAX_WRENCHES
 
 
 def add_parser(sub: Any) -> None:
@@ -35,6 +36,7 @@ def add_parser(sub: Any) -> None:
     )
     ev.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
     ev.add_argument("--q", required=True, help="joint values in chain order, base to tip: Q1,...,Qn (rad)")
+    add_limits_flag(ev)
     ev.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
     ev.add_argument(
         "--normal",
@@ -76,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if len(frames) == 1 and len(normals) > 1:
         raise InputError(f"give one --normal for the one brace, got {len(normals)}")
-    q = floats(args.q, "--q")
+    q = joint_values(args, robot)
     beta = None if args.beta_x is None else floats(args.beta_x, "--beta-x")
     holding = _holding(args)
     if len(frames) > 1 and holding is not None:
@@ -143,6 +145,8 @@ def _holding(args: argparse.Namespace) -> Any:
 
     preload = one(args.preload, "--preload")
     friction = None if args.friction is None else one(args.friction, "--friction")
+    if args.wrench and len(args.wrench) > MAX_WRENCHES:
+        raise InputError(f"{len(args.wrench)} --wrench given; give at most {MAX_WRENCHES}")
     wrenches = None if not args.wrench else np.array([floats(w, "--wrench") for w in args.wrench], dtype=object)
     if wrenches is not None:
         if any(np.size(w) != 6 for w in wrenches):

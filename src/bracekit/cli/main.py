@@ -8,6 +8,8 @@ dispatches, and maps bracekit's typed errors to one line on stderr and the exit 
 from __future__ import annotations
 
 import argparse
+import errno
+import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
@@ -27,6 +29,20 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "sweep": sweep.run,
     "view": view.run,
 }
+
+
+#: Errors of writing the standard output (a full device, a quota, an I/O error) reported in one line.
+OUTPUT_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
+
+
+def _silence_stdout() -> None:
+    """Point the standard output at /dev/null so that the unwritten buffer is not flushed again at exit."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # no real file descriptor (e.g. captured by a test)
+        pass
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,7 +70,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     saved = warnings.showwarning
     warnings.showwarning = show
     try:
-        return COMMANDS[args.command](args)
+        code = COMMANDS[args.command](args)
+        sys.stdout.flush()  # a full device or a closed pipe is found here, not at exit
+        return code
+    except OSError as exc:
+        if isinstance(exc, BrokenPipeError) or exc.filename is not None or exc.errno not in OUTPUT_ERRNOS:
+            raise
+        _silence_stdout()
+        print(f"bracekit: error: cannot write the output: {exc.strerror or exc}", file=sys.stderr)
+        return 2
     except InputError as exc:
         print(f"bracekit: error: {as_cli(str(exc))}", file=sys.stderr)
         return 2
@@ -65,6 +89,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("bracekit: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # e.g. piped into head
+        _silence_stdout()
         sys.stderr.close()
         return 0
     finally:

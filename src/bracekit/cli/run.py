@@ -71,9 +71,12 @@ def run(args: argparse.Namespace) -> int:
             progress=None if args.quiet else (lambda name: print(f"writing {name}", file=sys.stderr)),
         )
     print(table_markdown(result.summaries, scenario.name))
-    for name, s in result.summary["strategies"].items():
-        if not s["completed"]:
-            print(f"bracekit: warning: {name} did not complete: {s['failure']}", file=sys.stderr)
+    for model, runs in result.trajectories.items():  # every model's runs: the exit code counts them all
+        for name, tr in runs.items():
+            if not tr.completed:
+                print(
+                    f"bracekit: warning: {name} ({model} model) did not complete: {tr.failure}", file=sys.stderr
+                )
     print(f"wrote {len(written)} files to {args.out}/: " + ", ".join(p.name for p in written))
     if args.view:
         view_cli.serve_until_stopped(args.out, port=args.view_port)

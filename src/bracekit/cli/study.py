@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from bracekit.cli.common import floats, load_robot, pct
+from bracekit.cli.common import add_limits_flag, floats, joint_values, load_robot, pct
 from bracekit.errors import InputError
 
 
@@ -20,6 +20,7 @@ def add_parser(sub: Any) -> None:
     src2.add_argument("--model", help="a shipped robot: paper-robot, puma560 or panda")
     st.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
     st.add_argument("--q", required=True, help="joint values in chain order: Q1,...,Qn (rad)")
+    add_limits_flag(st)
     st.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
     st.add_argument("--normal", help="surface normal NX,NY,NZ; the surface passes through each point (default 0,0,1)")
     st.add_argument("--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the normal)")
@@ -50,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     beta = None if args.beta_x is None else floats(args.beta_x, "--beta-x")
     cands = brace_location_study(
         robot,
-        floats(args.q, "--q"),
+        joint_values(args, robot),
         normal=floats("0,0,1" if args.normal is None else args.normal, "--normal"),
         beta_x=beta,
         points_per_link=args.points_per_link,
@@ -87,7 +88,7 @@ def _study_pairs(args: argparse.Namespace) -> int:
     beta = None if args.beta_x is None else floats(args.beta_x, "--beta-x")
     cands = brace_pair_study(
         robot,
-        floats(args.q, "--q"),
+        joint_values(args, robot),
         args.first_brace,
         first_normal=first,
         second_normal=second,

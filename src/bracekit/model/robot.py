@@ -366,6 +366,16 @@ class Robot:
             raise InputError(f"joint values must be finite numbers, got {show(a)}")
         return a
 
+    def outside_limits(self, q: ArrayLike, tolerance: float = 1e-9) -> str | None:
+        """Why `q` (n,) lies outside the URDF joint limits (the first joint, its value and limits), or None."""
+        a = self.check_q(q)
+        lo, hi = self.lower, self.upper
+        bad = (a < lo - tolerance) | (a > hi + tolerance)
+        if not bad.any():
+            return None
+        i = int(np.argmax(bad))
+        return f"joint {i + 1} ({self.joint_names[i]}) = {a[i]:g} is outside its limits [{lo[i]:g}, {hi[i]:g}]"
+
     def neutral(self) -> Array:
         """The neutral configuration (zeros for revolute and prismatic joints)."""
         return np.asarray(pin.neutral(self.model), dtype=float)
@@ -409,6 +419,11 @@ class Robot:
             off = as_array(offset, f"the offset of frame {show(name)} (m)").reshape(-1)
             if off.size != 3:
                 raise InputError(f"the offset of frame {show(name)} must be 3 numbers (m), got {off.size}")
+            if float(np.max(np.abs(off))) > MAX_LENGTH:
+                raise InputError(
+                    f"the offset of frame {show(name)} is {show(off.tolist())} m, beyond ±{MAX_LENGTH:g} m; give a "
+                    "point of the link (m, link axes)"
+                )
             rot = np.eye(3) if rotation is None else as_array(rotation, f"the rotation of frame {show(name)}", (3, 3))
             if not (
                 float(np.max(np.abs(rot))) <= 1.0 + 1e-9

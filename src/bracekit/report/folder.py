@@ -192,7 +192,9 @@ def atomic_directory(
             _commit(plan, tmp, names)
             plan.committed = True
         except OSError as exc:
-            raise OutputError(f"cannot write the output for {plan.shown}: {reason(exc)}") from exc
+            raise OutputError(
+                f"cannot write the output for {plan.shown}: {reason(exc)}; {plan.shown} is unchanged"
+            ) from exc
         finally:
             if os.path.lexists(tmp):
                 shutil.rmtree(tmp, ignore_errors=True)  # only what bracekit wrote: nothing is carried into tmp

@@ -475,6 +475,8 @@ def simulate(
             raise InputError(f"{name} must be a bracekit {name.capitalize()}, got {type(value).__name__}")
     if not callable(beta_x):
         raise InputError(f"beta_x must be a function of time returning a unit twist (6,), got {type(beta_x).__name__}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress must be None or a function called with a step count, got {progress!r}")
     if task.duration / dt > MAX_STEPS:
         raise InputError(
             f"dt = {dt:g} s gives {task.duration / dt:.3g} steps for a {task.duration:g} s task (more than "
@@ -672,6 +674,10 @@ def _conditioning_residual(state: BracedState, floor: float) -> Array:
     return np.array([np.log(floor / max(ratios[k], 1e-300)) if ratios[k] < floor else 0.0 for k in START_CONDITIONED])
 
 
+#: Largest weight of a soft term of the start solve (a larger one overflows the least-squares solve).
+MAX_START_WEIGHT = 1e6
+
+
 def solve_start(
     braced: BracedRobot,
     position: ArrayLike,
@@ -731,8 +737,8 @@ def solve_start(
         ("posture_weight", posture_weight),
         ("conditioning_weight", conditioning_weight),
     ):
-        if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value < np.inf):
-            raise InputError(f"{what} must be a finite number ≥ 0, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value <= MAX_START_WEIGHT):
+            raise InputError(f"{what} must be a number from 0 to {MAX_START_WEIGHT:g}, got {value!r}")
     if theta_weight > 0 and not pad:
         raise InputError(
             f"theta_weight = {theta_weight:g} needs a brace with a pad axis, and {braced.brace.frame!r} (a link "
@@ -1226,6 +1232,9 @@ def solve_start_braces(
     """
     from scipy.optimize import least_squares
 
+    for what, value in (("region_weight", region_weight), ("posture_weight", posture_weight)):
+        if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value <= MAX_START_WEIGHT):
+            raise InputError(f"{what} must be a number from 0 to {MAX_START_WEIGHT:g}, got {value!r}")
     target = _finite(position, (3,), "the start position (m)")
     rot = None if rotation is None else _finite(rotation, (3, 3), "the start rotation")
     q_guess = braced.robot.check_q(guess)

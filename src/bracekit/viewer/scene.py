@@ -209,6 +209,15 @@ def _read_json(path: Path, what: str) -> Any:
 
 
 def _scene_json(folder: Path) -> dict[str, Any]:
+    try:
+        os.stat(folder)
+    except FileNotFoundError:
+        pass
+    except (OSError, ValueError) as exc:  # a name too long, a NUL byte, no permission
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise InputError(
+            f"cannot read the output folder {str(folder)[:80]}…: {why}; give the output folder of `bracekit run`"
+        ) from None
     if not folder.is_dir():
         raise InputError(f"{folder} is not a folder; give the output folder of `bracekit run`")
     if not (folder / "trajectories.npz").is_file():
