@@ -74,9 +74,7 @@ def run(args: argparse.Namespace) -> int:
     for model, runs in result.trajectories.items():  # every model's runs: the exit code counts them all
         for name, tr in runs.items():
             if not tr.completed:
-                print(
-                    f"bracekit: warning: {name} ({model} model) did not complete: {tr.failure}", file=sys.stderr
-                )
+                print(f"bracekit: warning: {name} ({model} model) did not complete: {tr.failure}", file=sys.stderr)
     print(f"wrote {len(written)} files to {args.out}/: " + ", ".join(p.name for p in written))
     if args.view:
         view_cli.serve_until_stopped(args.out, port=args.view_port)
