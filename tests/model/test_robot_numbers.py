@@ -31,7 +31,13 @@ def _chain(**changes: str) -> str:
         tail = tail.replace('<mass value="0.5"/>', f'<mass value="{changes["mass"]}"/>', 1)
         text = head + '<link name="l3">' + tail
     if "origin" in changes:
-        text = re.sub(r'(<joint name="j2"[^>]*>.*?<origin xyz=")[^"]*', rf"\g<1>{changes['origin']} 0 0", text, 1, re.S)
+        text = re.sub(
+            r'(<joint name="j2"[^>]*>.*?<origin xyz=")[^"]*',
+            rf"\g<1>{changes['origin']} 0 0",
+            text,
+            count=1,
+            flags=re.S,
+        )
     if "radius" in changes:
         text = text.replace('radius="0.05"', f'radius="{changes["radius"]}"')
     return text

@@ -299,7 +299,8 @@ def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
     for c in capsules:  # a capsule's joint is 1 … n (0 is the universe), its radius finite and ≥ 0
         if not 1 <= c.joint <= robot.n or not (math.isfinite(c.radius) and 0.0 <= c.radius <= MAX_LENGTH):
             raise InputError(
-                f"scene.json has a link capsule ({c.link[:40]!r}) with joint {float(c.joint):.6g} or radius {c.radius:.6g} out of range "
+                f"scene.json has a link capsule ({c.link[:40]!r}) with joint {float(c.joint):.6g} or radius "
+                f"{c.radius:.6g} out of range "
                 f"(joint 1…{robot.n}, radius 0…{MAX_LENGTH:g} m); {RERUN}"
             )
     return robot, capsules
