@@ -72,11 +72,14 @@ def _bounded(parse: Any, text: str, shown: str, what: str, max_depth: int, kind:
         deep = True
     except (ValueError, TypeError) as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors
         reason = " ".join(str(exc).split())[:200]
-        raise InputError(f"{what} {shown} is not valid {kind}: {reason}") from None
+        raise InputError(f"{' '.join(filter(None, (what, shown)))} is not valid {kind}: {reason}") from None
     else:
         deep = not _depth_ok(data, max_depth)
     if deep:
-        raise InputError(f"{what} {shown} nests lists or tables deeper than {max_depth} levels; give a flatter file")
+        raise InputError(
+            f"{' '.join(filter(None, (what, shown)))} nests lists or tables deeper than {max_depth} levels; "
+            "give a flatter file"
+        )
     return data
 
 

@@ -37,7 +37,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit._linalg import angle_between, as_number
+from bracekit._linalg import angle_between, as_number, show
 from bracekit.compliance.first_order import (
     COMPLIANCE_MODELS,
     compliance_index,
@@ -476,7 +476,7 @@ def simulate(
     if not callable(beta_x):
         raise InputError(f"beta_x must be a function of time returning a unit twist (6,), got {type(beta_x).__name__}")
     if progress is not None and not callable(progress):
-        raise InputError(f"progress must be None or a function called with a step count, got {progress!r}")
+        raise InputError(f"progress must be None or a function called with a step count, got {show(progress)}")
     if task.duration / dt > MAX_STEPS:
         raise InputError(
             f"dt = {dt:g} s gives {task.duration / dt:.3g} steps for a {task.duration:g} s task (more than "
@@ -738,7 +738,7 @@ def solve_start(
         ("conditioning_weight", conditioning_weight),
     ):
         if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value <= MAX_START_WEIGHT):
-            raise InputError(f"{what} must be a number from 0 to {MAX_START_WEIGHT:g}, got {value!r}")
+            raise InputError(f"{what} must be a number from 0 to {MAX_START_WEIGHT:g}, got {show(value)}")
     if theta_weight > 0 and not pad:
         raise InputError(
             f"theta_weight = {theta_weight:g} needs a brace with a pad axis, and {braced.brace.frame!r} (a link "
@@ -1234,7 +1234,7 @@ def solve_start_braces(
 
     for what, value in (("region_weight", region_weight), ("posture_weight", posture_weight)):
         if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value <= MAX_START_WEIGHT):
-            raise InputError(f"{what} must be a number from 0 to {MAX_START_WEIGHT:g}, got {value!r}")
+            raise InputError(f"{what} must be a number from 0 to {MAX_START_WEIGHT:g}, got {show(value)}")
     target = _finite(position, (3,), "the start position (m)")
     rot = None if rotation is None else _finite(rotation, (3, 3), "the start rotation")
     q_guess = braced.robot.check_q(guess)

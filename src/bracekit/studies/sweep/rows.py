@@ -32,7 +32,9 @@ NUMBERS = (
 NON_NEGATIVE = ("Ci_mean_free_space", "Ci_mean_min_norm", "Ci_mean_gp", "max_region_radius_m", "wall_s")
 #: Condition numbers k ≥ 1 (or null).
 CONDITION = ("k_mean_min_norm", "k_mean_gp")
-FLAGS = ("completed_min_norm", "completed", "feasible")
+FLAGS = ("completed", "feasible")
+#: True, false or null (a candidate that failed before its runs).
+MAYBE_FLAGS = ("completed_min_norm", "holds")
 TEXTS = ("failure_min_norm", "failure")
 COUNTS = ("unstable_samples", "warnings")
 
@@ -70,8 +72,9 @@ def row_problem(spec: SweepSpec, candidate: Candidate, row: Any) -> str | None:
     for key in FLAGS:
         if not isinstance(row[key], bool):
             return f"{key} = {row[key]!r} is not true or false"
-    if row["holds"] is not None and not isinstance(row["holds"], bool):
-        return f"holds = {row['holds']!r} is not true, false or null"
+    for key in MAYBE_FLAGS:
+        if row[key] is not None and not isinstance(row[key], bool):
+            return f"{key} = {row[key]!r} is not true, false or null"
     for key in TEXTS:
         if row[key] is not None and not isinstance(row[key], str):
             return f"{key} = {row[key]!r} is not text"

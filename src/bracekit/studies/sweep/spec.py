@@ -6,6 +6,7 @@ Every mistake raises :class:`~bracekit.errors.InputError` in one line naming the
 
 from __future__ import annotations
 
+import datetime
 import hashlib
 import json
 import math
@@ -281,7 +282,7 @@ def _axis(name: str, raw: Any, links: tuple[str, ...]) -> Axis:
     key = f"axes.{name}"
     kind = AXES[name]
     if kind == "link":
-        if raw == "all":
+        if isinstance(raw, str) and raw == "all":
             return Axis(name, kind, values=links)
         if not isinstance(raw, list) or not raw or not all(isinstance(x, str) for x in raw):
             raise SpecError(f"'{key}' must be \"all\" or a list of link names, got {show(raw)}")
@@ -333,10 +334,24 @@ def _check_axis_values(axis: Axis, key: str) -> None:
             raise SpecError(f"'{key}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {v:g}")
 
 
+def _toml_values(data: Any) -> None:
+    """SpecError for a value no TOML file can hold (an array, bytes, an object), at any depth (iteratively)."""
+    stack: list[tuple[str, Any]] = [("", data)]
+    while stack:
+        where, value = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((_join(where, str(k)), v) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((f"{where}[{i}]", v) for i, v in enumerate(value))
+        elif not isinstance(value, str | int | float | bool | datetime.date | datetime.time):
+            raise SpecError(f"'{where or 'spec'}' is a {type(value).__name__}, which no TOML file holds")
+
+
 def parse_spec(
     data: dict[str, Any], base: Path = Path("."), name: str = "sweep", source: Path | None = None
 ) -> SweepSpec:
     """Validate the TOML data of a sweep spec (see ``specs/paper-links.toml`` and docs/sweep.md)."""
+    _toml_values(data)
     top = _table(
         data,
         "",
