@@ -94,3 +94,12 @@ def test_joint_values_outside_the_limits_are_named() -> None:
     outside = inside.copy()
     outside[3] = 10.0
     assert robot.outside_limits(outside) == "joint 4 (j4) = 10 is outside its limits [-3.14, 3.14]"
+
+
+def test_a_deeply_nested_urdf_is_refused_before_the_urdf_parser(tmp_path) -> None:
+    text = random_chain_urdf(3, seed=1).replace("</robot>", "<a>" * 100_000 + "</a>" * 100_000 + "</robot>")
+    for source in (text, tmp_path / "deep.urdf"):
+        if not isinstance(source, str):
+            source.write_text(text)
+        with pytest.raises(ModelError, match="deeper than 64 levels"):
+            Robot.from_urdf(source, tip="tip")

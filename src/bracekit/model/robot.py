@@ -23,7 +23,7 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
 from bracekit.model.chain import DATA_JOINT_LIMIT, ChainFK, joint_axis
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules
-from bracekit.model.urdf_numbers import MAX_LENGTH, check_model_numbers, check_urdf_numbers
+from bracekit.model.urdf_numbers import MAX_LENGTH, MAX_URDF_BYTES, check_model_numbers, check_urdf_numbers
 
 Array = NDArray[np.float64]
 
@@ -109,6 +109,8 @@ def _quiet_stderr() -> Iterator[None]:
 def _load_urdf(source: str | os.PathLike[str]) -> tuple[pin.Model, _UrdfJoints]:
     """The Pinocchio model of a URDF (continuous joints as revolute ones with limits ±inf) and its mimic joints."""
     if isinstance(source, str) and source.lstrip().startswith("<"):
+        if len(source) > MAX_URDF_BYTES:
+            raise ModelError(f"the URDF string is longer than {MAX_URDF_BYTES // 1024} KiB; give the URDF of a robot")
         text, joints = _rewrite_urdf(source)
         try:
             with _quiet_stderr():
@@ -127,6 +129,8 @@ def _load_urdf(source: str | os.PathLike[str]) -> tuple[pin.Model, _UrdfJoints]:
     if not found:
         raise ModelError(f"URDF file not found: {shown}; give the path of an existing .urdf file")
     try:
+        if path.stat().st_size > MAX_URDF_BYTES:
+            raise ModelError(f"{shown} is larger than {MAX_URDF_BYTES // 1024} KiB; give a URDF file of a robot")
         head = path.read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
         raise ModelError(f"cannot read the URDF file {shown}: {exc.strerror}") from exc

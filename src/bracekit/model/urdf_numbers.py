@@ -14,6 +14,10 @@ import pinocchio as pin
 from bracekit._linalg import show
 from bracekit.errors import ModelError
 
+#: Largest URDF accepted, bytes (the shipped ones are < 100 kB).
+MAX_URDF_BYTES = 32 * 1024 * 1024
+#: Deepest nesting of XML elements accepted in a URDF (a URDF nests 5 levels; the URDF parser recurses).
+MAX_URDF_DEPTH = 64
 #: Largest length accepted in a URDF (an origin's coordinate, a collision radius or length), m.
 MAX_LENGTH = 1e3
 #: Largest link mass accepted in a URDF, kg.
@@ -52,6 +56,12 @@ def check_urdf_numbers(root: ET.Element) -> None:
     m), each joint's <axis> and <limit> (finite; effort and velocity 0 … MAX_LIMIT). Pinocchio reads a "nan"
     mass as 0 kg and accepts an origin of 1e300 m; both would give wrong answers or failures far from the cause.
     """
+    stack = [(root, 1)]
+    while stack:
+        element, depth = stack.pop()
+        if depth > MAX_URDF_DEPTH:
+            raise ModelError(f"the URDF nests XML elements deeper than {MAX_URDF_DEPTH} levels; give a valid URDF")
+        stack.extend((child, depth + 1) for child in element)
     for kind in ("link", "joint"):
         for element in root.iter(kind):
             name = f"{kind} {show(element.get('name', '?'))}"
