@@ -29,8 +29,10 @@ from bracekit.studies.sweep.rows import row_problem
 from bracekit.studies.sweep.spec import parse_spec
 from bracekit.viewer.scene import SCENE_FILE, load_scene
 from helpers import random_chain_urdf, scenario_text
-from test_bad_input import _LINE, BAD, BRACED, E_X, FLOATS, ROBOT, SETTINGS, Q, check
+from test_bad_input import BAD, BRACED, FLOATS, ROBOT, SETTINGS, Q, check
+from test_bad_input import ENTRIES as BASE_ENTRIES
 
+SIMULATE = next(valid for name, _, valid, _ in BASE_ENTRIES if name == "simulate")
 TWO = ROBOT.with_point_frame("second", "link4", [0.0, 0.0, 0.05])
 SECOND = bk.Brace("second", bk.Surface(np.array([0.3, 0.0, 0.2]), np.array([1.0, 0.0, 0.0])))
 FIRST = bk.Brace("brace", bk.Surface(np.array([0.70, -0.15, -0.30]), np.array([0.0, 0.0, 1.0])))
@@ -50,20 +52,7 @@ ENTRIES: list[tuple[str, Any, dict[str, Any], tuple[str, ...]]] = [
         {"frames": [("p1", "link4", [0.0, 0.0, 0.05], None), ("p2", "link6", [0.0, 0.1, 0.0], None)]},
         ("frames",),
     ),
-    (
-        "simulate-options",
-        bk.simulate,
-        {
-            "braced": BRACED,
-            "strategy": bk.BracedMinNorm(),
-            "task": _LINE,
-            "q0": Q,
-            "dt": 0.05,
-            "beta_x": lambda t: E_X,
-            "progress": None,
-        },
-        ("progress",),
-    ),
+    ("simulate-options", bk.simulate, {**SIMULATE, "progress": None}, ("progress",)),
     (
         "solve_start-weights",
         bk.solve_start,

@@ -317,17 +317,6 @@ def _one_error_line(err: str, *fragments: str) -> None:
     assert "Traceback" not in err and all(f in lines[0] for f in fragments), lines[0]
 
 
-@pytest.fixture
-def no_simulation(monkeypatch):
-    """Make any simulation or validation fail loudly: --out must be refused before either starts."""
-
-    def called(*_a, **_k):
-        raise AssertionError("the computation started before --out was checked")
-
-    monkeypatch.setattr("bracekit.simulation.run.run_scenario", called)
-    monkeypatch.setattr("bracekit.validate.run_validation", called)
-
-
 def _run_out(out: Path, scenario: Path, capsys, *extra: str) -> tuple[int, str, str]:
     return _run(["run", str(scenario), "--out", str(out), "--no-figures", "--quiet", *extra], capsys)
 

@@ -30,19 +30,7 @@ def _one_error_line(err: str, *fragments: str) -> None:
     assert all(f in lines[0] for f in fragments), lines[0]
 
 
-@pytest.fixture
-def no_computation(monkeypatch):
-    """Any simulation, validation or cluster start fails the test: the input must be refused before."""
-
-    def called(*_a, **_k):
-        raise AssertionError("the computation started before the input was checked")
-
-    monkeypatch.setattr("bracekit.simulation.run.run_scenario", called)
-    monkeypatch.setattr("bracekit.validate.run_validation", called)
-    monkeypatch.setattr("bracekit.studies.sweep.engine.dask_client", called)
-
-
-def test_a_deeply_nested_scenario_is_one_line(tmp_path: Path, capsys, no_computation) -> None:
+def test_a_deeply_nested_scenario_is_one_line(tmp_path: Path, capsys, no_simulation) -> None:
     path = tmp_path / "deep.toml"
     path.write_text("x = " + "[" * 100_000 + "]" * 100_000 + "\n")
     for command in (["run", str(path), "--out", str(tmp_path / "out")], ["validate", str(path)]):
@@ -53,7 +41,7 @@ def test_a_deeply_nested_scenario_is_one_line(tmp_path: Path, capsys, no_computa
 
 @pytest.mark.parametrize("command", ["run", "validate", "sweep", "view"])
 def test_an_out_name_too_long_is_refused_before_any_work(
-    command: str, tmp_path: Path, capsys, short_scenario_file: Path, no_computation
+    command: str, tmp_path: Path, capsys, short_scenario_file: Path, no_simulation
 ) -> None:
     pytest.importorskip("mujoco") if command == "validate" else None
     out = str(tmp_path / LONG)
@@ -90,7 +78,7 @@ def test_json_into_a_full_device_is_one_line(argv: list[str]) -> None:
     _one_error_line(proc.stderr, "cannot write the output", "No space left")
 
 
-def test_a_far_brace_offset_is_one_line(tmp_path: Path, capsys, no_computation) -> None:
+def test_a_far_brace_offset_is_one_line(tmp_path: Path, capsys, no_simulation) -> None:
     text = scenario_text(turns=0.05, dt=0.1).replace(
         'frame = "brace"', 'frame = "pad"\nlink = "link6"\noffset = [1e300, 0.0, 0.0]'
     )
@@ -128,7 +116,7 @@ def test_joint_values_outside_the_limits_are_refused_unless_allowed(capsys, comm
         assert code == 0 and out.strip().startswith("{"), err
 
 
-def test_too_many_wrenches_are_refused_at_once(tmp_path: Path, capsys, no_computation) -> None:
+def test_too_many_wrenches_are_refused_at_once(tmp_path: Path, capsys, no_simulation) -> None:
     rows = ", ".join(["[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]"] * 400)
     text = scenario_text(turns=0.05, dt=0.1) + f"\n[loads]\nwrenches = [{rows}]\n"
     path = tmp_path / "loads.toml"
@@ -168,7 +156,7 @@ def test_a_failed_run_of_any_model_is_named_on_stderr(
 
 
 def test_a_read_only_out_is_found_before_the_simulation(
-    tmp_path: Path, capsys, short_scenario_file: Path, monkeypatch, no_computation
+    tmp_path: Path, capsys, short_scenario_file: Path, monkeypatch, no_simulation
 ) -> None:
     out = tmp_path / "out"
     out.mkdir()

@@ -181,6 +181,19 @@ def _statics_text(r: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _ellipsoid_lines(r: dict[str, Any], models: tuple[tuple[str, str], ...]) -> list[str]:
+    """One line per model: the translational ellipsoid's semi-axes (mm/N) along their world unit axes."""
+    lines = []
+    for label, key in models:
+        ell = r[key]["translational"]
+        axes = ", ".join(
+            f"{1e3 * s:.3f} along {np.round(a, 3).tolist()}"
+            for s, a in zip(ell["semi_axes"], np.array(ell["axes"]).T, strict=True)
+        )
+        lines.append(f"  {label:<20} {axes}")
+    return lines
+
+
 def _evaluate_braces_text(r: dict[str, Any]) -> str:
     """The text output of evaluate for several braces (the constrained model)."""
     lines = [f"robot: {r['n']} joints, tip '{r['tip_frame']}', {len(r['braces'])} braces:"]
@@ -199,13 +212,7 @@ def _evaluate_braces_text(r: dict[str, Any]) -> str:
         "",
         "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
     ]
-    for label, key in (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained")):
-        ell = r[key]["translational"]
-        axes = ", ".join(
-            f"{1e3 * s:.3f} along {np.round(a, 3).tolist()}"
-            for s, a in zip(ell["semi_axes"], np.array(ell["axes"]).T, strict=True)
-        )
-        lines.append(f"  {label:<20} {axes}")
+    lines += _ellipsoid_lines(r, (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained")))
     lines += [
         "",
         f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
@@ -235,17 +242,14 @@ def _evaluate_text(r: dict[str, Any]) -> str:
         "",
         "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
     ]
-    for label, key in (
-        ("free space", "ellipsoid_free"),
-        ("braced, constrained", "ellipsoid_constrained"),
-        ("braced, projection", "ellipsoid_projection"),
-    ):
-        ell = r[key]["translational"]
-        axes = ", ".join(
-            f"{1e3 * s:.3f} along {np.round(a, 3).tolist()}"
-            for s, a in zip(ell["semi_axes"], np.array(ell["axes"]).T, strict=True)
-        )
-        lines.append(f"  {label:<20} {axes}")
+    lines += _ellipsoid_lines(
+        r,
+        (
+            ("free space", "ellipsoid_free"),
+            ("braced, constrained", "ellipsoid_constrained"),
+            ("braced, projection", "ellipsoid_projection"),
+        ),
+    )
     lines += [
         "",
         f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
