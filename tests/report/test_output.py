@@ -239,3 +239,17 @@ def test_write_run_refuses_a_shared_folder_unless_overwrite(tmp_path: Path, shor
     written = write_run(result, out, figures=False, overwrite=True)
     assert [p.name for p in written] == list(out_mod.run_files(figures=False))
     assert (out / "animation.gif").read_bytes() == b"GIF89a mine" and (out / "summary.json").is_file()
+
+
+@pytest.mark.parametrize("target", ["missing", "empty", "digits"])
+def test_a_lock_file_that_is_a_link_is_refused_and_its_target_untouched(tmp_path: Path, target: str) -> None:
+    elsewhere = tmp_path / "elsewhere" / "victim"
+    elsewhere.parent.mkdir()
+    if target != "missing":
+        elsewhere.write_text("" if target == "empty" else "123\n")
+    before = elsewhere.read_bytes() if elsewhere.exists() else None
+    (tmp_path / ".out.lock").symlink_to(elsewhere)
+    with pytest.raises(OutputError, match="symbolic link"):
+        prepare_output(tmp_path / "out")
+    assert (elsewhere.read_bytes() if elsewhere.exists() else None) == before
+    assert not (tmp_path / "out").exists()

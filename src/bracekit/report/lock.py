@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import sys
 from pathlib import Path
 
@@ -43,11 +45,17 @@ def lock_output(path: Path, shown: str) -> int:
     import fcntl
 
     while True:
-        try:
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+        try:  # never through a symbolic link: the lock is written, and nothing is written outside OUT's folder
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
         except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise OutputError(
+                    f"{lock} is a symbolic link, not bracekit's lock file; remove it or choose another output folder"
+                ) from None
             raise OutputError(f"cannot write beside {shown}: {reason(exc)}; choose another output folder") from exc
         try:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                raise OutputError(f"{lock} is not a file; remove it or choose another output folder")
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
