@@ -203,3 +203,10 @@ def test_the_bounded_json_reader_never_recurses(depth: int, kind: str) -> None:
         assert depth > 32 and "deeper than" in str(exc)
     else:
         assert depth <= 32
+
+
+def test_the_two_library_reproductions_are_one_line_input_errors() -> None:
+    with pytest.raises(InputError, match="progress must be None or a function"):
+        bk.simulate(**{**SIMULATE, "progress": 3})
+    with pytest.raises(InputError, match=r"region_weight must be a number from 0 to 1e\+06, got 1e\+308"):
+        bk.solve_start(BRACED, np.array([1.34, -0.32, -0.17]), Q, region_weight=1e308)

@@ -144,3 +144,33 @@ def test_a_deeply_nested_spec_is_one_line(tmp_path: Path, capsys: pytest.Capture
     code = main(["sweep", str(spec), "--out", str(tmp_path / "out"), "--quiet"])
     assert code == 2
     _one_line(capsys.readouterr().err, "deep.toml", "deeper than")
+
+
+def test_the_final_write_replaces_out_whole_and_carries_the_work_folder(
+    tiny_spec: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    argv = [
+        "sweep",
+        str(tiny_spec),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+        "--quiet",
+        "--no-figures",
+        "--no-refine",
+        "--no-screen",
+    ]
+    assert main([*argv, "--limit", "1"]) == 0
+    manifest = json.loads((out / ".bracekit-output.json").read_text())
+    assert set(manifest["files"]) == set(manifest["sha256"]) and "results.csv" in manifest["files"]
+    assert manifest["kept"] == [".sweep"]  # carried into the new folder, as bracekit's work folder
+    (first,) = (out / ".sweep" / "rows").iterdir()
+    inode = first.stat().st_ino
+    folder = out.stat().st_ino
+    assert main([*argv, "--limit", "2"]) == 0
+    capsys.readouterr()
+    assert out.stat().st_ino != folder  # a new folder swapped in whole
+    assert len(list((out / ".sweep" / "rows").iterdir())) == 2 and first.stat().st_ino == inode  # linked, not copied
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # nothing left beside OUT
