@@ -75,7 +75,7 @@ def test_an_npz_of_python_objects_is_refused(short_run, tmp_path: Path, capsys) 
 @pytest.mark.parametrize(
     ("edit", "fragment"),
     [
-        (lambda d: d["robot"].__setitem__("capsules", d["robot"]["capsules"] * 20_000), "at most 1000 capsules"),
+        (lambda d: d["robot"].__setitem__("capsules", d["robot"]["capsules"] * 20_000), "larger than 8192 KiB"),
         (lambda d: d["robot"].__setitem__("capsules", d["robot"]["capsules"] * 100), "capsules"),
         (lambda d: d.__setitem__("braces", d["braces"] * 40), "braces"),
         (lambda d: d["task"].__setitem__("path", d["task"]["path"] * 1000), "task.path"),

@@ -51,7 +51,9 @@ MAX_CAPSULES = 1000
 MAX_LINKS = 200
 MAX_BRACES = 16
 MAX_PATH_SAMPLES = 100_000
-MAX_MODEL_TEXT = 4 * 1024 * 1024
+MAX_MODEL_TEXT = 2 * 1024 * 1024
+#: Largest scene.json or summary read, bytes (the paper's scene.json is ~60 kB).
+MAX_SCENE_BYTES = 8 * 1024 * 1024
 
 
 @dataclass(frozen=True)
@@ -205,7 +207,7 @@ def _tip(robot: Robot, q: Array) -> Array:
 
 # --- reading -------------------------------------------------------------------------------------
 def _read_json(path: Path, what: str) -> Any:
-    return read_json(path, what)  # size and nesting capped (one line, never a RecursionError)
+    return read_json(path, what, MAX_SCENE_BYTES)  # size and nesting capped (one line, never a RecursionError)
 
 
 def _scene_json(folder: Path) -> dict[str, Any]:
