@@ -78,7 +78,7 @@ def test_an_npz_of_python_objects_is_refused(short_run, tmp_path: Path, capsys) 
         (lambda d: d["robot"].__setitem__("capsules", d["robot"]["capsules"] * 20_000), "larger than 8192 KiB"),
         (lambda d: d["robot"].__setitem__("capsules", d["robot"]["capsules"] * 100), "capsules"),
         (lambda d: d.__setitem__("braces", d["braces"] * 40), "braces"),
-        (lambda d: d["task"].__setitem__("path", d["task"]["path"] * 1000), "task.path"),
+        (lambda d: d["task"].__setitem__("path", [[0.0, 0.0, 0.0]] * 100_001), "task.path"),
         (lambda d: d["robot"]["capsules"][0].__setitem__("radius", 1e308), "radius"),
         (lambda d: d["robot"]["capsules"][0].__setitem__("joint", 1e300), "out of range"),
     ],
