@@ -139,9 +139,11 @@ def test_evaluate_with_a_urdf_of_continuous_joints(capsys, tmp_path: Path) -> No
     text, revolute = continuous_chain_urdf(7, seed=3, continuous=(1, 2, 4, 7))
     path = tmp_path / "continuous.urdf"
     path.write_text(text)
-    q = [0.2, 4.0, -0.5, 0.3, -7.0, 0.4, 9.0]  # angles, some beyond ±π
+    q = [0.2, 4.0, -0.5, 0.3, -7.0, 0.4, 9.0]  # angles, some beyond ±π (joint 5, revolute, beyond its limits)
     args = ["evaluate", "--urdf", str(path), "--tip", "tip", "--brace-link", "l4", "--brace-offset", "0,0,0.05"]
-    code, out, _ = _run([*args, "--q", ",".join(map(str, q)), "--json"], capsys)
+    code, _, err = _run([*args, "--q", ",".join(map(str, q)), "--json"], capsys)
+    assert code == 2 and "joint 5 (j5) = -7 is outside its limits [-3.14, 3.14]" in err
+    code, out, _ = _run([*args, "--q", ",".join(map(str, q)), "--json", "--allow-outside-limits"], capsys)
     assert code == 0
     data = json.loads(out)
     assert len(data["q"]) == 7 and np.array(data["J"]).shape == (6, 7)
@@ -315,17 +317,6 @@ def _one_error_line(err: str, *fragments: str) -> None:
     assert "Traceback" not in err and all(f in lines[0] for f in fragments), lines[0]
 
 
-@pytest.fixture
-def no_simulation(monkeypatch):
-    """Make any simulation or validation fail loudly: --out must be refused before either starts."""
-
-    def called(*_a, **_k):
-        raise AssertionError("the computation started before --out was checked")
-
-    monkeypatch.setattr("bracekit.simulation.run.run_scenario", called)
-    monkeypatch.setattr("bracekit.validate.run_validation", called)
-
-
 def _run_out(out: Path, scenario: Path, capsys, *extra: str) -> tuple[int, str, str]:
     return _run(["run", str(scenario), "--out", str(out), "--no-figures", "--quiet", *extra], capsys)
 
@@ -349,13 +340,34 @@ def test_a_no_figures_run_keeps_a_users_animation_gif(capsys, short_scenario_fil
 def test_a_rerun_replaces_the_previous_output_whole(capsys, short_scenario_file: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     assert _run_out(out, short_scenario_file, capsys)[0] == 0
-    (out / "fig2_film_strip.png").write_bytes(b"from an older run")  # as listed by an earlier manifest
-    manifest = json.loads((out / ".bracekit-output.json").read_text())
-    manifest["files"].append("fig2_film_strip.png")
-    (out / ".bracekit-output.json").write_text(json.dumps(manifest))
+    before = {p.name: p.stat().st_ino for p in out.iterdir()}
     code, _, err = _run_out(out, short_scenario_file, capsys)
     assert code == 0, err
-    assert not (out / "fig2_film_strip.png").exists() and (out / "trajectories.npz").is_file()
+    after = {p.name: p.stat().st_ino for p in out.iterdir()}
+    assert after.keys() == before.keys() and all(after[n] != before[n] for n in after)  # every file new
+    assert _leftovers(out) == []
+
+
+def test_a_manifest_edited_to_list_a_users_file_never_deletes_it(
+    capsys, short_scenario_file: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    assert _run_out(out, short_scenario_file, capsys)[0] == 0
+    (out / "fig2_film_strip.png").write_bytes(b"mine")  # listed below, but bracekit recorded no hash of it
+    manifest = json.loads((out / ".bracekit-output.json").read_text())
+    manifest["files"].append("fig2_film_strip.png")
+    manifest["sha256"]["table.md"] = "0" * 64  # and table.md edited: no longer bracekit's either
+    (out / ".bracekit-output.json").write_text(json.dumps(manifest))
+    code, _, err = _run_out(out, short_scenario_file, capsys)
+    assert code == 2
+    _one_error_line(err, "fig2_film_strip.png", "did not write")
+    code, _, err = _run_out(out, short_scenario_file, capsys, "--overwrite")
+    assert code == 2  # table.md is not bracekit's now, and bracekit never replaces it
+    _one_error_line(err, "table.md", "never replaces")
+    (out / "table.md").unlink()
+    code, _, err = _run_out(out, short_scenario_file, capsys, "--overwrite")
+    assert code == 0, err
+    assert (out / "fig2_film_strip.png").read_bytes() == b"mine" and (out / "trajectories.npz").is_file()
     assert _leftovers(out) == []
 
 

@@ -483,10 +483,17 @@ def test_compliance_functions_need_a_braced_state() -> None:
 
 def test_a_robot_whose_compliance_overflows_float64_gives_a_numerical_error_not_a_warning() -> None:
     # links of 1e200 m: J K⁻¹ Jᵀ overflows in the matrix product ("overflow encountered in matmul")
-    text = random_chain_urdf(7, seed=2, brace_link=4).replace(
-        '<origin xyz="0.1 0.02 0.03"', '<origin xyz="1e200 0.02 0.03"'
-    )
-    braced = BracedRobot(Robot.from_urdf(text, tip="tip"), Brace("brace", Surface(np.zeros(3), [0.0, 0.0, 1.0])))
+    # (a URDF with such an origin is refused at load, so the tip frame of the loaded model is moved instead)
+    robot = Robot.from_urdf(random_chain_urdf(7, seed=2, brace_link=4), tip="tip")
+    m = pin.Model(robot.model)
+    fid = m.getFrameId("tip")
+    frame = m.frames[fid]
+    placement = frame.placement.copy()
+    placement.translation = np.array([1e200, 0.02, 0.03])
+    frame.placement = placement
+    m.frames[fid] = frame
+    far = Robot(model=m, tip="tip", stiffness=robot.stiffness)
+    braced = BracedRobot(far, Brace("brace", Surface(np.zeros(3), [0.0, 0.0, 1.0])))
     state = braced.state(np.full(7, 0.3))
     for call in (
         lambda: free_space_compliance(state),

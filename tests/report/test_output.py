@@ -69,12 +69,12 @@ def test_a_previous_output_is_replaced_whole(tmp_path: Path) -> None:
     assert _siblings(out) == []
 
 
-def test_an_empty_folder_is_used_in_place(tmp_path: Path) -> None:
+def test_an_empty_folder_is_replaced_whole_and_keeps_its_permissions(tmp_path: Path) -> None:
+    # swapped in whole like any output (never filled file by file), with the user's permissions on OUT
     out = tmp_path / "out"
     out.mkdir(mode=0o700)
-    inode = out.stat().st_ino
     _write(out, {"a.txt": "1"})
-    assert out.stat().st_ino == inode and (out.stat().st_mode & 0o777) == 0o700
+    assert (out.stat().st_mode & 0o777) == 0o700
     assert (out / "a.txt").read_text() == "1" and _siblings(out) == []
 
 
@@ -119,17 +119,26 @@ def test_a_user_file_named_like_an_output_is_never_replaced(tmp_path: Path, kind
         assert _snapshot(out) == before and _siblings(out) == []
 
 
-def test_a_failed_swap_leaves_the_previous_output_intact(tmp_path: Path, monkeypatch) -> None:
+@pytest.mark.parametrize("how", ["exchange", "two renames"])
+def test_a_failed_swap_leaves_the_previous_output_intact(tmp_path: Path, monkeypatch, how: str) -> None:
+    from bracekit.report import folder
+
     out = tmp_path / "out"
     _write(out, {"a.txt": "old", "b.txt": "old"})
     before = _snapshot(out)
     rename = os.rename
 
     def failing(src, dst, *a, **k):
-        if ".out.tmp-" in str(src) and Path(dst) == out:
+        if ".out.new-" in str(src) and Path(dst) == out:
             raise PermissionError(13, "Permission denied", str(dst))
         return rename(src, dst, *a, **k)
 
+    def no_exchange(a, b):
+        if how == "exchange":
+            raise PermissionError(13, "Permission denied", str(b))
+        return False  # a file system without an atomic exchange: OUT moved aside, the new one moved in
+
+    monkeypatch.setattr(folder, "exchange", no_exchange)
     monkeypatch.setattr(os, "rename", failing)
     with pytest.raises(OutputError, match="previous output is unchanged"):
         _write(out, {"a.txt": "new"})
@@ -141,14 +150,14 @@ def test_a_failed_move_into_a_shared_folder_puts_everything_back(tmp_path: Path,
     _write(out, {"a.txt": "old", "b.txt": "old", "c.txt": "old"})
     (out / "notes.txt").write_text("mine")
     before = _snapshot(out)
-    rename = os.rename
+    link = os.link
 
-    def failing(src, dst, *a, **k):
-        if Path(dst) == out / "b.txt" and ".out.tmp-" in str(src):
-            raise OSError(28, "No space left on device", str(dst))
-        return rename(src, dst, *a, **k)
+    def failing(src, dst, *a, **k):  # the user's file cannot be carried into the new output
+        if Path(src) == out / "notes.txt":
+            raise OSError(31, "Too many links", str(dst))
+        return link(src, dst, *a, **k)
 
-    monkeypatch.setattr(os, "rename", failing)
+    monkeypatch.setattr(os, "link", failing)
     with pytest.raises(OutputError, match="nothing was changed"):
         _write(out, {"a.txt": "new", "b.txt": "new"}, overwrite=True)
     assert _snapshot(out) == before and _siblings(out) == []
@@ -230,3 +239,17 @@ def test_write_run_refuses_a_shared_folder_unless_overwrite(tmp_path: Path, shor
     written = write_run(result, out, figures=False, overwrite=True)
     assert [p.name for p in written] == list(out_mod.run_files(figures=False))
     assert (out / "animation.gif").read_bytes() == b"GIF89a mine" and (out / "summary.json").is_file()
+
+
+@pytest.mark.parametrize("target", ["missing", "empty", "digits"])
+def test_a_lock_file_that_is_a_link_is_refused_and_its_target_untouched(tmp_path: Path, target: str) -> None:
+    elsewhere = tmp_path / "elsewhere" / "victim"
+    elsewhere.parent.mkdir()
+    if target != "missing":
+        elsewhere.write_text("" if target == "empty" else "123\n")
+    before = elsewhere.read_bytes() if elsewhere.exists() else None
+    (tmp_path / ".out.lock").symlink_to(elsewhere)
+    with pytest.raises(OutputError, match="symbolic link"):
+        prepare_output(tmp_path / "out")
+    assert (elsewhere.read_bytes() if elsewhere.exists() else None) == before
+    assert not (tmp_path / "out").exists()

@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
+from bracekit._linalg import show
+from bracekit.cli.common import needs, sigterm_as_interrupt
 from bracekit.errors import InputError
+
+#: Most local Dask worker processes of --workers.
+MAX_WORKERS = 256
 
 SWEEP_FILES_HELP = (
     "output folder: the finished candidates are kept in OUT/.sweep as they finish (a re-run skips them) and the "
@@ -36,80 +40,69 @@ def add_parser(subparsers: Any) -> None:
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def _foreign(out: Path) -> list[str]:
-    """Entries of OUT that neither a bracekit output manifest lists nor are the sweep's work folder."""
-    from bracekit.report.output import MANIFEST
-    from bracekit.studies.sweep.store import WORK
-
-    if not out.is_dir():
-        return []
-    ours = {MANIFEST, WORK}
-    try:
-        data = json.loads((out / MANIFEST).read_text(encoding="utf-8"))
-        if isinstance(data, dict) and data.get("written_by") == "bracekit" and isinstance(data.get("files"), list):
-            ours |= {str(n) for n in data["files"]}
-    except (OSError, ValueError):
-        pass
-    return sorted(n.name for n in out.iterdir() if n.name not in ours)
-
-
 def run(args: argparse.Namespace) -> int:
     """Run `bracekit sweep`; the exit code (0 when the sweep finished, whatever its candidates' feasibility)."""
-    from bracekit.cli.main import _needs, _sigterm_as_interrupt
-
-    _needs("distributed", "sweep", "bracekit sweep")
-    _needs("pyarrow", "sweep", "bracekit sweep")
+    needs("distributed", "sweep", "bracekit sweep")
+    needs("pyarrow", "sweep", "bracekit sweep")
     figures = not args.no_figures
     if figures:
-        _needs("matplotlib", "sweep", "bracekit sweep with figures (or pass --no-figures)")
+        needs("matplotlib", "sweep", "bracekit sweep with figures (or pass --no-figures)")
     if args.limit is not None and args.limit < 1:
         raise InputError(f"--limit must be at least 1, got {args.limit}")
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
-    from bracekit.report.output import atomic_directory, prepare_output
-    from bracekit.studies.sweep.engine import dask_client, run_sweep
-    from bracekit.studies.sweep.report import FILES, summary, table_markdown, write_outputs
+    if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
+        raise InputError(f"--workers must be from 1 to {MAX_WORKERS} (local worker processes), got {args.workers}")
+    if args.scheduler is not None:
+        check_address(args.scheduler)
+    from bracekit.report.output import prepare_output
+    from bracekit.studies.sweep.engine import dask_client
+    from bracekit.studies.sweep.report import FILES
     from bracekit.studies.sweep.spec import load_spec
-    from bracekit.studies.sweep.store import check_state
+    from bracekit.studies.sweep.store import WORK, check_state
 
     spec = load_spec(args.spec)
-    out: Path = args.out
-    foreign = _foreign(out)
-    if foreign and not args.overwrite:
-        raise InputError(
-            f"{out} holds files bracekit did not write: {', '.join(foreign[:5])}; choose another --out or pass "
-            "--overwrite (they are kept)"
-        )
-    check_state(out, spec)  # refuses another spec's partial results before any cluster starts
     workers = None if args.scheduler is not None else (args.workers or 1)
-    # OUT is checked and locked first; it is made only once the cluster answers, so a scheduler that cannot be
-    # reached leaves nothing behind
+    # OUT is checked and locked first (its work folder .sweep too: no symbolic link, and another spec's partial
+    # results are refused) before any cluster starts; OUT is made only once the cluster answers, so a scheduler
+    # that cannot be reached leaves nothing behind
+    command = f"bracekit sweep {args.spec}"
     with (
-        _sigterm_as_interrupt(),
-        prepare_output(out, overwrite=True, files=FILES, command=f"bracekit sweep {args.spec}") as plan,
-        dask_client(workers, args.scheduler) as client,
+        sigterm_as_interrupt(),
+        prepare_output(args.out, overwrite=args.overwrite, files=FILES, command=command, keep=(WORK,)) as plan,
     ):
-        try:
-            plan.path.mkdir(exist_ok=True)
-        except OSError as exc:
-            raise InputError(f"cannot make {out}: {exc.strerror or exc}") from None
-        result = run_sweep(
-            spec,
-            plan.path,
-            client,
-            limit=args.limit,
-            screen=False if args.no_screen else None,
-            refine=not args.no_refine,
-            progress=not args.quiet,
-        )
-        with atomic_directory(plan) as tmp:
-            names = write_outputs(result, tmp, figures=figures)
+        check_state(plan.path, spec)
+        with dask_client(workers, args.scheduler) as client:
+            _sweep(args, spec, plan, client, figures)
+    return 0
+
+
+def _sweep(args: argparse.Namespace, spec: Any, plan: Any, client: Any, figures: bool) -> None:
+    """The sweep in the checked, locked OUT: rows saved in OUT/.sweep, the tables and figures written whole."""
+    from bracekit.report.output import atomic_directory
+    from bracekit.studies.sweep.engine import run_sweep
+    from bracekit.studies.sweep.report import summary, table_markdown, write_outputs
+
+    out: Path = args.out
+    try:
+        plan.path.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot make {out}: {exc.strerror or exc}") from None
+    result = run_sweep(
+        spec,
+        plan.path,
+        client,
+        limit=args.limit,
+        screen=False if args.no_screen else None,
+        refine=not args.no_refine,
+        progress=not args.quiet,
+    )
+    with atomic_directory(plan) as tmp:
+        names = write_outputs(result, tmp, figures=figures)
     print(table_markdown(result), end="")
     s = summary(result)
+    rerun = f"{s['rerun_invalid_rows']} saved rows invalid and run again, " if s["rerun_invalid_rows"] else ""
     print(
-        f"{s['simulated_now']} simulated now, {s['reused_from_earlier_runs']} reused, "
-        f"{s['screened_out']} screened out; "
-        f"wrote {', '.join(names)} to {out}/",
+        f"{s['simulated_now']} simulated now, {s['reused_from_earlier_runs']} reused, {rerun}"
+        f"{s['screened_out']} screened out; wrote {', '.join(names)} to {out}/",
         file=sys.stderr,
     )
     if not any(r["completed"] for r in result.rows):
@@ -118,4 +111,20 @@ def run(args: argparse.Namespace) -> int:
             "them with their reasons (try --no-screen or another --limit)",
             file=sys.stderr,
         )
-    return 0
+
+
+def check_address(address: str) -> None:
+    """InputError at once for a scheduler address whose port is not a number from 1 to 65535."""
+    from urllib.parse import urlsplit
+
+    text = address if "://" in address else f"tcp://{address}"
+    try:
+        port = urlsplit(text).port
+    except ValueError:
+        raise InputError(
+            f"--scheduler {show(address, 200)} has no valid port (a number from 1 to 65535); give e.g. tcp://HOST:8786"
+        ) from None
+    if port == 0:
+        raise InputError(
+            f"--scheduler {show(address, 200)}: port 0 is not a scheduler's port; give e.g. tcp://HOST:8786"
+        )

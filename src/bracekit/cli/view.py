@@ -14,6 +14,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from bracekit.cli.common import STOP_SIGNALS
 from bracekit.errors import InputError, MissingDependencyError
 
 DEFAULT_PORT = 8080
@@ -79,13 +80,13 @@ def serve_until_stopped(out_dir: Path, port: int = DEFAULT_PORT, host: str = DEF
     viewer = serve(out_dir, port=port, host=host)
     print(f"bracekit view: {out_dir} at {viewer.url} (Ctrl-C to stop)", flush=True)
     stop = threading.Event()
-    previous = None
+    previous: dict[int, Any] = {}
     if threading.current_thread() is threading.main_thread():
 
         def terminate(signum: int, frame: FrameType | None) -> None:
             stop.set()
 
-        previous = signal.signal(signal.SIGTERM, terminate)
+        previous = {s: signal.signal(s, terminate) for s in STOP_SIGNALS}
     try:
         while not stop.wait(0.5):
             pass
@@ -93,8 +94,8 @@ def serve_until_stopped(out_dir: Path, port: int = DEFAULT_PORT, host: str = DEF
         pass
     finally:
         viewer.stop()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
     print("bracekit view: stopped", file=sys.stderr)
     return 0
 

@@ -23,6 +23,7 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
 from bracekit.model.chain import DATA_JOINT_LIMIT, ChainFK, joint_axis
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules
+from bracekit.model.urdf_numbers import MAX_LENGTH, MAX_URDF_BYTES, check_model_numbers, check_urdf_numbers
 
 Array = NDArray[np.float64]
 
@@ -51,6 +52,7 @@ def _rewrite_urdf(text: str) -> tuple[str, _UrdfJoints]:
         root = ET.fromstring(text)
     except (ET.ParseError, ValueError):
         return text, _UrdfJoints()
+    check_urdf_numbers(root)
     continuous: set[str] = set()
     mimic: list[tuple[str, str]] = []
     for joint in root.iter("joint"):
@@ -107,6 +109,8 @@ def _quiet_stderr() -> Iterator[None]:
 def _load_urdf(source: str | os.PathLike[str]) -> tuple[pin.Model, _UrdfJoints]:
     """The Pinocchio model of a URDF (continuous joints as revolute ones with limits ±inf) and its mimic joints."""
     if isinstance(source, str) and source.lstrip().startswith("<"):
+        if len(source) > MAX_URDF_BYTES:
+            raise ModelError(f"the URDF string is longer than {MAX_URDF_BYTES // 1024} KiB; give the URDF of a robot")
         text, joints = _rewrite_urdf(source)
         try:
             with _quiet_stderr():
@@ -125,6 +129,8 @@ def _load_urdf(source: str | os.PathLike[str]) -> tuple[pin.Model, _UrdfJoints]:
     if not found:
         raise ModelError(f"URDF file not found: {shown}; give the path of an existing .urdf file")
     try:
+        if path.stat().st_size > MAX_URDF_BYTES:
+            raise ModelError(f"{shown} is larger than {MAX_URDF_BYTES // 1024} KiB; give a URDF file of a robot")
         head = path.read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
         raise ModelError(f"cannot read the URDF file {shown}: {exc.strerror}") from exc
@@ -216,7 +222,7 @@ def _check_joints(model: pin.Model) -> None:
         (lower > upper, "has lower limit {lo:g} > upper limit {hi:g}; give it lower < upper in its <limit>"),
         (
             lower == upper,
-            "is locked (lower = upper = {lo:g}) and cannot move; make it type=\"fixed\" or give it a range of motion",
+            'is locked (lower = upper = {lo:g}) and cannot move; make it type="fixed" or give it a range of motion',
         ),
     ):
         if bad.any():
@@ -257,6 +263,13 @@ class Robot:
         if self.model.nv == 0:
             raise ModelError("the model has no joint; give a chain of revolute or prismatic joints")
         _check_joints(self.model)
+        check_model_numbers(self.model)
+        for c in self.collisions:
+            if not 0.0 <= c.radius <= MAX_LENGTH:
+                raise ModelError(
+                    f"the collision capsule of link {show(c.link)} has radius {c.radius:g} m, outside "
+                    f"[0, {MAX_LENGTH:g}]; fix its collision <geometry> in the URDF"
+                )
         object.__setattr__(self, "_tip_id", self.frame_id(self.tip))
         object.__setattr__(self, "stiffness", _as_stiffness(self.stiffness, self.joint_names))
         object.__setattr__(self, "off_chain", frozenset(self.off_chain))
@@ -294,7 +307,7 @@ class Robot:
             if full.existJointName(name) and full.getJointId(name) in keep:
                 raise ModelError(
                     f"joint {show(name)} mimics joint {show(leader)} and moves the tip {show(tip)}; bracekit needs "
-                    "independent joints on the chain to the tip: remove its <mimic> or make it type=\"fixed\""
+                    'independent joints on the chain to the tip: remove its <mimic> or make it type="fixed"'
                 )
         lock = [j for j in range(1, full.njoints) if j not in keep]
         model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
@@ -357,6 +370,16 @@ class Robot:
             raise InputError(f"joint values must be finite numbers, got {show(a)}")
         return a
 
+    def outside_limits(self, q: ArrayLike, tolerance: float = 1e-9) -> str | None:
+        """Why `q` (n,) lies outside the URDF joint limits (the first joint, its value and limits), or None."""
+        a = self.check_q(q)
+        lo, hi = self.lower, self.upper
+        bad = (a < lo - tolerance) | (a > hi + tolerance)
+        if not bad.any():
+            return None
+        i = int(np.argmax(bad))
+        return f"joint {i + 1} ({self.joint_names[i]}) = {a[i]:g} is outside its limits [{lo[i]:g}, {hi[i]:g}]"
+
     def neutral(self) -> Array:
         """The neutral configuration (zeros for revolute and prismatic joints)."""
         return np.asarray(pin.neutral(self.model), dtype=float)
@@ -400,6 +423,11 @@ class Robot:
             off = as_array(offset, f"the offset of frame {show(name)} (m)").reshape(-1)
             if off.size != 3:
                 raise InputError(f"the offset of frame {show(name)} must be 3 numbers (m), got {off.size}")
+            if float(np.max(np.abs(off))) > MAX_LENGTH:
+                raise InputError(
+                    f"the offset of frame {show(name)} is {show(off.tolist())} m, beyond ±{MAX_LENGTH:g} m; give a "
+                    "point of the link (m, link axes)"
+                )
             rot = np.eye(3) if rotation is None else as_array(rotation, f"the rotation of frame {show(name)}", (3, 3))
             if not (
                 float(np.max(np.abs(rot))) <= 1.0 + 1e-9

@@ -34,7 +34,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit._linalg import as_number
+from bracekit._linalg import as_number, show
 from bracekit.errors import (
     BarrierError,
     BracekitError,
@@ -88,7 +88,9 @@ def region_guard(braced: BracedRobot, strategy: Strategy) -> bool:
     return any(isinstance(t, RegionBarrier) and w > 0 for t, w in zip(objective.terms, objective.weights, strict=True))
 
 
-def _check_inputs(strategy: Strategy, task: Task, beta_x: Callable[[float], Array], dt: float) -> int:
+def _check_inputs(
+    strategy: Strategy, task: Task, beta_x: Callable[[float], Array], dt: float, progress: object = None
+) -> int:
     """The number of steps for `task` at dt; InputError for a strategy, task or β_x that is not one."""
     for name, value, needed in (
         ("strategy", strategy, ("velocity", "braced", "name")),
@@ -98,6 +100,8 @@ def _check_inputs(strategy: Strategy, task: Task, beta_x: Callable[[float], Arra
             raise InputError(f"{name} must be a bracekit {name.capitalize()}, got {type(value).__name__}")
     if not callable(beta_x):
         raise InputError(f"beta_x must be a function of time returning a unit twist (6,), got {type(beta_x).__name__}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress must be None or a function called with a step count, got {show(progress)}")
     if task.duration / dt > MAX_STEPS:
         raise InputError(
             f"dt = {dt:g} s gives {task.duration / dt:.3g} steps for a {task.duration:g} s task (more than "
@@ -134,7 +138,7 @@ def simulate(
     """
     dt = as_number(dt, "the time step dt", positive=True, unit="s")
     feedback_gain = as_number(feedback_gain, "the feedback gain", nonnegative=True, unit="1/s")
-    steps = _check_inputs(strategy, task, beta_x, dt)
+    steps = _check_inputs(strategy, task, beta_x, dt, progress)
     dt = task.duration / steps  # the last sample lands on the task's end
     space: TaskSpace = getattr(strategy, "space", POSE)
     st = braced.state(q0)

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Any, cast
@@ -16,6 +15,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit.compliance.preloaded import RUN_MODELS
 from bracekit.contact import REGISTRY, Brace, Surface, contact_type
@@ -35,6 +35,9 @@ from bracekit.simulation.toml_table import Table as _Table
 from bracekit.spatial import rotation_with_z
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
+
+#: Most tool wrenches ``[loads] wrenches`` may list (each costs a capacity search at every sample).
+MAX_WRENCHES = 32
 
 Array = NDArray[np.float64]
 #: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
@@ -78,11 +81,9 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
             f"scenario not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path} is not valid TOML: {show(str(exc), 200)}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"cannot read scenario {path}: {show(str(exc), 200)}") from exc
+        data = read_toml(path, "scenario")
+    except InputError as exc:
+        raise ScenarioError(str(exc)) from None
     try:
         return parse_scenario(data, base=path.parent, name=path.stem, source=path)
     except ScenarioError:
@@ -423,6 +424,8 @@ def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
     if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
         raise ScenarioError(f"'brace.friction' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")
     wrenches = loads_t.points("wrenches", 6) if loads_t.has("wrenches") else None
+    if wrenches is not None and len(wrenches) > MAX_WRENCHES:
+        raise ScenarioError(f"'loads.wrenches' lists {len(wrenches)} wrenches; give at most {MAX_WRENCHES}")
     try:
         return Holding(gravity=gravity, preload=preload, friction=friction, wrenches=wrenches)
     except BracekitError as exc:

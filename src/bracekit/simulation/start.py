@@ -15,11 +15,15 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from bracekit._linalg import show
 from bracekit.errors import BracekitWarning, ConvergenceError, InputError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.resolution.task_space import POSE, TaskSpace
 from bracekit.simulation.correction import correct
 from bracekit.simulation.guards import braces_outside, point_label, sigma_ratios
+
+#: Largest weight of a soft term of the start solve (a larger one overflows the least-squares solve).
+MAX_START_WEIGHT = 1e6
 
 Array = NDArray[np.float64]
 
@@ -117,8 +121,8 @@ def solve_start(
         ("posture_weight", posture_weight),
         ("conditioning_weight", conditioning_weight),
     ):
-        if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value < np.inf):
-            raise InputError(f"{what} must be a finite number ≥ 0, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 <= value <= MAX_START_WEIGHT):
+            raise InputError(f"{what} must be a number from 0 to {MAX_START_WEIGHT:g}, got {show(value)}")
     if theta_weight > 0 and not pads:
         frames = ", ".join(repr(b.frame) for b in braced.braces)
         raise InputError(

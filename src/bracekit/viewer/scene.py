@@ -11,7 +11,6 @@ the run had it.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import zipfile
@@ -24,11 +23,13 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
+from bracekit._io import npz_shapes, read_json
 from bracekit.contact import Brace, Surface, contact_type
 from bracekit.errors import BracekitError, InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.geometry import Capsule
 from bracekit.model.robot import Robot
+from bracekit.model.urdf_numbers import MAX_LENGTH
 
 if TYPE_CHECKING:
     from bracekit.simulation.run import RunResult
@@ -45,6 +46,14 @@ PATH_SAMPLES = 200
 #: Largest distance (m) between a run's stored tip position and the rebuilt robot's before the scene is refused.
 TIP_TOLERANCE = 1e-9
 RERUN = "re-run `bracekit run` to write it"
+#: Caps on what a scene.json may hold (a damaged or hostile file is refused before any work).
+MAX_CAPSULES = 1000
+MAX_LINKS = 200
+MAX_BRACES = 16
+MAX_PATH_SAMPLES = 100_000
+MAX_MODEL_TEXT = 2 * 1024 * 1024
+#: Largest scene.json or summary read, bytes (the paper's scene.json is ~60 kB).
+MAX_SCENE_BYTES = 8 * 1024 * 1024
 
 
 @dataclass(frozen=True)
@@ -198,13 +207,19 @@ def _tip(robot: Robot, q: Array) -> Array:
 
 # --- reading -------------------------------------------------------------------------------------
 def _read_json(path: Path, what: str) -> Any:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(f"cannot read {what} {path}: {exc}") from exc
+    return read_json(path, what, MAX_SCENE_BYTES)  # size and nesting capped (one line, never a RecursionError)
 
 
 def _scene_json(folder: Path) -> dict[str, Any]:
+    try:
+        os.stat(folder)
+    except FileNotFoundError:
+        pass
+    except (OSError, ValueError) as exc:  # a name too long, a NUL byte, no permission
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise InputError(
+            f"cannot read the output folder {str(folder)[:80]}…: {why}; give the output folder of `bracekit run`"
+        ) from None
     if not folder.is_dir():
         raise InputError(f"{folder} is not a folder; give the output folder of `bracekit run`")
     if not (folder / "trajectories.npz").is_file():
@@ -257,6 +272,14 @@ def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
     text = data.get("pinocchio_model")
     if not isinstance(text, str):
         raise InputError(f"the robot of scene.json has no Pinocchio model text; {RERUN}")
+    found = data.get("capsules")
+    if not isinstance(found, list) or len(found) > MAX_CAPSULES:
+        size = len(found) if isinstance(found, list) else type(found).__name__
+        raise InputError(
+            f"scene.json: robot.capsules must be a list of at most {MAX_CAPSULES} capsules, got {size}; {RERUN}"
+        )
+    if len(text) > MAX_MODEL_TEXT:
+        raise InputError(f"scene.json: the robot's model text is longer than {MAX_MODEL_TEXT} characters; {RERUN}")
     try:
         model.loadFromString(text)
         capsules = tuple(
@@ -269,15 +292,18 @@ def _robot(data: dict[str, Any]) -> tuple[Robot, tuple[Capsule, ...]]:
             )
             for c in data["capsules"]
         )
+        if model.njoints - 1 > MAX_LINKS:
+            raise InputError(f"{model.njoints - 1} joints (more than {MAX_LINKS})")
         robot = Robot(model=model, tip=data["tip"], stiffness=np.array(data["stiffness"], dtype=float))
-    except (RuntimeError, KeyError, TypeError, ValueError, BracekitError) as exc:
+    except (RuntimeError, KeyError, TypeError, ValueError, OverflowError, BracekitError) as exc:
         reason = " ".join(str(exc).split())[:200]
         raise InputError(f"the robot of scene.json cannot be rebuilt ({reason}); {RERUN}") from exc
     for c in capsules:  # a capsule's joint is 1 … n (0 is the universe), its radius finite and ≥ 0
-        if not 1 <= c.joint <= robot.n or not (math.isfinite(c.radius) and c.radius >= 0.0):
+        if not 1 <= c.joint <= robot.n or not (math.isfinite(c.radius) and 0.0 <= c.radius <= MAX_LENGTH):
             raise InputError(
-                f"scene.json has a link capsule ({c.link!r}) with joint {c.joint} or radius {c.radius} out of range "
-                f"(joint 1…{robot.n}, radius ≥ 0); {RERUN}"
+                f"scene.json has a link capsule ({c.link[:40]!r}) with joint {float(c.joint):.6g} or radius "
+                f"{c.radius:.6g} out of range "
+                f"(joint 1…{robot.n}, radius 0…{MAX_LENGTH:g} m); {RERUN}"
             )
     return robot, capsules
 
@@ -306,7 +332,15 @@ def _braced(robot: Robot, braces: list[Any]) -> BracedRobot:
 
 
 def _arrays(path: Path) -> dict[str, NDArray[Any]]:
-    """Every array of trajectories.npz but joint_names; InputError when the file is damaged."""
+    """Every array of trajectories.npz but joint_names; InputError when the file is damaged or too large.
+
+    The arrays' shapes and types are read from their headers first (nothing decompressed): at most
+    MAX_NPZ_ELEMENTS numbers in all, no object arrays.
+    """
+    try:
+        npz_shapes(path)
+    except InputError as exc:
+        raise InputError(f"{exc}; {RERUN}") from None
     try:
         with np.load(path, allow_pickle=False) as npz:
             return {k: np.asarray(npz[k]) for k in npz.files if k != "joint_names"}
@@ -402,10 +436,14 @@ def load_scene(out_dir: str | os.PathLike[str]) -> Scene:
     braces = data.get("braces")
     if not isinstance(braces, list) or not braces:
         raise InputError(f"{where} names no brace; {RERUN}")
+    if len(braces) > MAX_BRACES:
+        raise InputError(f"{where} names {len(braces)} braces (at most {MAX_BRACES}); {RERUN}")
     braced = _braced(robot, braces)
     task = _object(data.get("task"), f"{where}: task")
     if "path" not in task:
         raise InputError(f"{where}: task has no path; {RERUN}")
+    if not isinstance(task["path"], list) or len(task["path"]) > MAX_PATH_SAMPLES:
+        raise InputError(f"{where}: task.path must be a list of at most {MAX_PATH_SAMPLES} points; {RERUN}")
     path = _numbers(task["path"], f"{where}: task.path", (None, 3))
     if path.shape[0] == 0:
         raise InputError(f"{where}: task.path is empty; {RERUN}")

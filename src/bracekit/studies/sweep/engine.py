@@ -23,12 +23,15 @@ from bracekit.errors import InputError
 from bracekit.studies.sweep.candidates import Candidate, expand
 from bracekit.studies.sweep.context import TaskContext, task_context
 from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns, judge
+from bracekit.studies.sweep.rows import row_problem
 from bracekit.studies.sweep.screen import Screened, screen_context, select
 from bracekit.studies.sweep.spec import SweepSpec
-from bracekit.studies.sweep.store import RowStore
+from bracekit.studies.sweep.store import UNREADABLE, RowStore
 
 #: Environment of local worker processes: one thread for numba and BLAS (one candidate per worker at a time).
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: The only address a local cluster listens on (scheduler, workers, nannies and the scheduler's HTTP routes).
+LOOPBACK = "127.0.0.1"
 #: Seconds to wait for a scheduler to answer.
 CONNECT_TIMEOUT = 10.0
 #: Seconds allowed beyond CONNECT_TIMEOUT for the whole check of the address before giving up.
@@ -45,6 +48,7 @@ class SweepRun:
     evaluated: int = 0
     reused: int = 0
     screened_out: int = 0
+    rerun: int = 0
     timings: dict[str, float] = field(default_factory=dict)
     workers: int = 0
 
@@ -142,9 +146,10 @@ def dask_client(
         n_workers=workers,
         threads_per_worker=1,
         processes=True,
-        host="127.0.0.1",
-        dashboard_address=None,  # no dashboard; the scheduler's HTTP routes on a free port, not 8787
-        scheduler_kwargs={"dashboard_address": ":0"},
+        host=LOOPBACK,
+        dashboard_address=None,  # no dashboard; the scheduler's HTTP routes on a free port of loopback only
+        scheduler_kwargs={"dashboard": False, "dashboard_address": f"{LOOPBACK}:0"},
+        worker_dashboard_address=None,
         silence_logs=logging.ERROR,
         env=WORKER_ENV,
     )
@@ -167,6 +172,23 @@ def _contexts(candidates: list[Candidate]) -> dict[str, dict[str, Any]]:
 
             out[c.context_key] = {k: v for k, v in c.inputs.items() if k not in BRACE_AXES}
     return out
+
+
+def _reusable(
+    spec: SweepSpec, candidates: list[Candidate], saved: dict[str, Any]
+) -> tuple[dict[str, dict[str, Any]], set[str]]:
+    """The saved rows that pass :func:`row_problem` (id → row), and the ids of those that do not (run again)."""
+    done: dict[str, dict[str, Any]] = {}
+    rerun: set[str] = set()
+    for c in candidates:
+        if c.id not in saved:
+            continue
+        row = saved[c.id]
+        if row is not UNREADABLE and row_problem(spec, c, row) is None:
+            done[c.id] = row
+        else:
+            rerun.add(c.id)
+    return done, rerun
 
 
 def run_sweep(
@@ -199,7 +221,7 @@ def run_sweep(
     everything = expand(spec)
     chosen = everything if limit is None else everything[:limit]
     screening = spec.screening.enabled if screen is None else screen
-    done = store.finished()
+    done, rerun = _reusable(spec, everything, store.finished())
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
@@ -282,6 +304,7 @@ def run_sweep(
         evaluated=len(todo),
         reused=len(chosen) - len(todo) - screened_out,
         screened_out=screened_out,
+        rerun=len([c for c in todo if c.id in rerun]),
         timings=timings,
         workers=workers,
     )

@@ -80,6 +80,7 @@ def summary(run: SweepRun) -> dict[str, Any]:
         "simulated": len(simulated),
         "simulated_now": run.evaluated,
         "reused_from_earlier_runs": run.reused,
+        "rerun_invalid_rows": run.rerun,
         "screened_out": run.screened_out,
         "feasible": sum(1 for r in rows if r["feasible"]),
         "not_feasible_by_reason": reasons,

@@ -6,16 +6,17 @@ Every mistake raises :class:`~bracekit.errors.InputError` in one line naming the
 
 from __future__ import annotations
 
+import datetime
 import hashlib
 import json
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit._version import __version__
 from bracekit.contact import REGISTRY
@@ -217,11 +218,9 @@ def load_spec(source: str | os.PathLike[str]) -> SweepSpec:
             f"sweep spec not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{path} is not valid TOML: {show(str(exc), 200)}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"cannot read sweep spec {path}: {show(str(exc), 200)}") from exc
+        data = read_toml(path, "sweep spec")
+    except InputError as exc:
+        raise SpecError(str(exc)) from None
     return parse_spec(data, base=path.parent, name=path.stem, source=path)
 
 
@@ -273,9 +272,9 @@ def _base(value: Any, base: Path) -> tuple[Path, dict[str, Any], Path]:
             f"'base' = {show(value)}: no such scenario; give a .toml path or one of: {', '.join(sorted(shipped))}"
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"'base' = {show(value)} cannot be read: {show(str(exc), 200)}") from exc
+        data = read_toml(path, "base scenario")
+    except InputError as exc:
+        raise SpecError(f"'base' = {show(value)} cannot be read: {exc}") from None
     return path, data, path.parent
 
 
@@ -283,7 +282,7 @@ def _axis(name: str, raw: Any, links: tuple[str, ...]) -> Axis:
     key = f"axes.{name}"
     kind = AXES[name]
     if kind == "link":
-        if raw == "all":
+        if isinstance(raw, str) and raw == "all":
             return Axis(name, kind, values=links)
         if not isinstance(raw, list) or not raw or not all(isinstance(x, str) for x in raw):
             raise SpecError(f"'{key}' must be \"all\" or a list of link names, got {show(raw)}")
@@ -335,10 +334,24 @@ def _check_axis_values(axis: Axis, key: str) -> None:
             raise SpecError(f"'{key}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {v:g}")
 
 
+def _toml_values(data: Any) -> None:
+    """SpecError for a value no TOML file can hold (an array, bytes, an object), at any depth (iteratively)."""
+    stack: list[tuple[str, Any]] = [("", data)]
+    while stack:
+        where, value = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((_join(where, str(k)), v) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((f"{where}[{i}]", v) for i, v in enumerate(value))
+        elif not isinstance(value, str | int | float | bool | datetime.date | datetime.time):
+            raise SpecError(f"'{where or 'spec'}' is a {type(value).__name__}, which no TOML file holds")
+
+
 def parse_spec(
     data: dict[str, Any], base: Path = Path("."), name: str = "sweep", source: Path | None = None
 ) -> SweepSpec:
     """Validate the TOML data of a sweep spec (see ``specs/paper-links.toml`` and docs/sweep.md)."""
+    _toml_values(data)
     top = _table(
         data,
         "",

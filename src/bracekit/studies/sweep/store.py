@@ -15,11 +15,16 @@ import secrets
 from pathlib import Path
 from typing import Any
 
+from bracekit._io import read_json
 from bracekit.errors import InputError, OutputError
 from bracekit.studies.sweep.spec import SweepSpec
 
 #: The work folder inside OUT.
 WORK = ".sweep"
+#: Largest saved row or refinement read back, bytes (a row is < 4 kB).
+MAX_ROW_BYTES = 1024 * 1024
+#: A saved row that cannot be read (it is run again).
+UNREADABLE = object()
 
 
 class SweepStateError(InputError):
@@ -40,6 +45,25 @@ def _write_whole(path: Path, text: str) -> None:
             tmp.unlink()
 
 
+def check_work(out: Path) -> None:
+    """OutputError unless ``OUT/.sweep`` and its folders, where they exist, are real folders inside OUT.
+
+    A symbolic link there (to a folder elsewhere) is refused: bracekit writes nothing outside OUT.
+    """
+    root = os.path.realpath(out)
+    work = Path(out) / WORK
+    for folder in (work, work / "rows", work / "refined", work / "spec.json"):
+        if folder.is_symlink():
+            raise OutputError(
+                f"{folder} is a symbolic link; bracekit writes only inside --out: remove the link or choose another "
+                "--out"
+            )
+        if os.path.lexists(folder) and not Path(os.path.realpath(folder)).is_relative_to(root):
+            raise OutputError(f"{folder} is not inside {out}; choose another --out")
+        if folder.name != "spec.json" and os.path.lexists(folder) and not folder.is_dir():
+            raise OutputError(f"{folder} is not a folder; move it away or choose another --out")
+
+
 def check_state(out: Path, spec: SweepSpec) -> str:
     """The spec's fingerprint, after checking that ``OUT/.sweep`` (if any) holds this spec's rows; reads only.
 
@@ -47,16 +71,17 @@ def check_state(out: Path, spec: SweepSpec) -> str:
         SweepStateError: the work folder was written for another spec, by another bracekit version, or from base
             scenario files that have changed since (one line saying which, and what to do).
     """
+    check_work(out)
     marker = Path(out) / WORK / "spec.json"
     fingerprint = spec.fingerprint()
     if not marker.is_file():
         return fingerprint
     work = marker.parent
     try:
-        held = json.loads(marker.read_text(encoding="utf-8"))
+        held = read_json(marker, "the sweep's work file", MAX_ROW_BYTES)
         if not isinstance(held, dict):
             raise ValueError("not a JSON object")
-    except (OSError, ValueError) as exc:
+    except ValueError as exc:
         raise SweepStateError(f"{marker} cannot be read ({exc}); give another --out or move {work} away") from exc
     if held.get("fingerprint") == fingerprint:
         return fingerprint
@@ -80,7 +105,7 @@ class RowStore:
         self.rows_dir = self.work / "rows"
         self.refined_dir = self.work / "refined"
         marker = self.work / "spec.json"
-        fingerprint = check_state(out, spec)
+        fingerprint = check_state(out, spec)  # also checks the work folders (no symbolic links, inside OUT)
         try:
             self.rows_dir.mkdir(parents=True, exist_ok=True)
             self.refined_dir.mkdir(exist_ok=True)
@@ -90,22 +115,28 @@ class RowStore:
         except OSError as exc:
             raise OutputError(f"cannot write the work folder {self.work}: {exc.strerror or exc}") from exc
 
-    def finished(self) -> dict[str, dict[str, Any]]:
-        """Candidate id → its saved row (unreadable files are ignored: that candidate runs again)."""
+    def finished(self) -> dict[str, Any]:
+        """Candidate id → its saved row as read (:data:`UNREADABLE` for a file that cannot be read).
+
+        Check each with :func:`bracekit.studies.sweep.rows.row_problem` before reusing it.
+        """
         return self._read(self.rows_dir)
 
     def refined(self) -> dict[str, dict[str, Any]]:
-        """Refined candidate key → its saved refinement."""
-        return self._read(self.refined_dir)
+        """Refined candidate key → its saved refinement (JSON objects only; others are computed again)."""
+        return {k: v for k, v in self._read(self.refined_dir).items() if isinstance(v, dict)}
 
     @staticmethod
-    def _read(folder: Path) -> dict[str, dict[str, Any]]:
-        out = {}
+    def _read(folder: Path) -> dict[str, Any]:
+        out: dict[str, Any] = {}
         for path in sorted(folder.glob("*.json")):
-            try:
-                out[path.stem] = json.loads(path.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
+            if path.is_symlink() or not path.is_file():
+                out[path.stem] = UNREADABLE
                 continue
+            try:
+                out[path.stem] = read_json(path, "a saved sweep row", MAX_ROW_BYTES)
+            except InputError:
+                out[path.stem] = UNREADABLE
         return out
 
     def save(self, row: dict[str, Any]) -> None:

@@ -1,0 +1,264 @@
+"""`bracekit evaluate`: the braced model at one configuration (text or JSON)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bracekit.cli.common import add_limits_flag, floats, joint_values, load_robot, one, pct
+from bracekit.errors import InputError
+from bracekit.simulation.scenario import MAX_WRENCHES
+
+
+def add_parser(sub: Any) -> None:
+    """Add the command to the subparsers of ``bracekit``."""
+    ev = sub.add_parser("evaluate", help="the braced model at one configuration")
+    src = ev.add_mutually_exclusive_group(required=True)
+    src.add_argument("--urdf", type=Path, help="URDF file of the robot")
+    src.add_argument("--model", help="a shipped robot: paper-robot, puma560 or panda")
+    ev.add_argument(
+        "--brace",
+        action="append",
+        help="bracing frame {b} (a frame of the model; default: the model's own); repeat for several braces",
+    )
+    ev.add_argument(
+        "--brace-link",
+        action="append",
+        help="place {b} on this link instead, at --brace-offset (named --brace or brace_point); repeat for several",
+    )
+    ev.add_argument(
+        "--brace-offset",
+        action="append",
+        help="offset of {b} in the link frame, m (with --brace-link; default 0,0,0; one per --brace-link)",
+    )
+    ev.add_argument("--tip", help="end-effector frame {e} (default: the model's own)")
+    ev.add_argument("--q", required=True, help="joint values in chain order, base to tip: Q1,...,Qn (rad)")
+    add_limits_flag(ev)
+    ev.add_argument("--stiffness", default="170", help="joint stiffness K or K1,...,Kn in N·m/rad (default 170)")
+    ev.add_argument(
+        "--normal",
+        action="append",
+        help="surface normal NX,NY,NZ (world), the surface passes through b (default 0,0,1); one per brace, in order",
+    )
+    ev.add_argument("--contact", default="frictionless_point", help=" | ".join(contact_registry()))
+    ev.add_argument(
+        "--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the (first brace's) normal)"
+    )
+    ev.add_argument("--gravity", action="store_true", help="statics with gravity (URDF masses)")
+    ev.add_argument("--preload", default="0", help="normal force the brace presses with, N (default 0)")
+    ev.add_argument("--friction", help="friction coefficient μ of the contact (default: frictionless)")
+    ev.add_argument(
+        "--wrench",
+        action="append",
+        help="a tool wrench FX,FY,FZ,MX,MY,MZ to check (N, N·m, world axes; repeat for several)",
+    )
+    ev.add_argument("--json", action="store_true", help="print one JSON object (SI units)")
+
+
+def contact_registry() -> tuple[str, ...]:
+    """The names of the registered contact types (the choices of --contact)."""
+    from bracekit.contact import REGISTRY
+
+    return tuple(REGISTRY)
+
+
+def run(args: argparse.Namespace) -> int:
+    """`bracekit evaluate`: print the braced model at --q (text or --json); the exit code."""
+    from bracekit.studies.evaluate import evaluate
+
+    robot, own_brace = load_robot(args)
+    robot, frames = _brace_frames(args, robot, own_brace)
+    normals = args.normal or ["0,0,1"]
+    if len(frames) > 1 and args.normal is not None and len(normals) != len(frames):
+        raise InputError(
+            f"give one --normal per brace, in the order of the braces: {len(frames)} braces, {len(normals)} --normal"
+        )
+    if len(frames) == 1 and len(normals) > 1:
+        raise InputError(f"give one --normal for the one brace, got {len(normals)}")
+    q = joint_values(args, robot)
+    beta = None if args.beta_x is None else floats(args.beta_x, "--beta-x")
+    holding = _holding(args)
+    if len(frames) > 1 and holding is not None:
+        raise InputError(
+            "--gravity, --preload, --friction and --wrench (statics) are supported for one brace only; give one --brace"
+        )
+    if len(frames) == 1:
+        normal = floats(normals[0], "--normal")
+        report = evaluate(robot, frames[0], q, normal=normal, contact=args.contact, beta_x=beta, holding=holding)
+    else:
+        vectors = [floats(n, "--normal") for n in normals]
+        if any(v.size != 3 for v in vectors):
+            raise InputError("--normal needs 3 numbers NX,NY,NZ (world)")
+        report = evaluate(
+            robot,
+            frames,
+            q,
+            normal=np.array(vectors) if len(vectors) > 1 else vectors[0],
+            contact=args.contact,
+            beta_x=beta,
+        )
+    if args.json:
+        from bracekit.report.output import to_json
+
+        print(to_json(report))
+    else:
+        print(_evaluate_text(report) if len(frames) == 1 else _evaluate_braces_text(report))
+    return 0
+
+
+def _brace_frames(args: argparse.Namespace, robot: Any, own_brace: str | None) -> tuple[Any, list[str]]:
+    """The robot (with the link-point frames of --brace-link added) and the bracing frames, in order.
+
+    Without --brace-link, each --brace is a frame of the model. With it, each --brace-link places a point at
+    its --brace-offset (0,0,0 when no --brace-offset is given), named by the --brace in the same position, or
+    brace_point, brace_point_2, ….
+    """
+    names = args.brace or []
+    if args.brace_link is None:
+        if not names and own_brace is None:
+            raise InputError("name the bracing frame with --brace FRAME (or --brace-link LINK --brace-offset X,Y,Z)")
+        return robot, names or [own_brace]
+    links = args.brace_link
+    offsets = args.brace_offset or ["0,0,0"] * len(links)
+    if len(offsets) != len(links):
+        raise InputError(
+            f"give one --brace-offset per --brace-link, in the same order: {len(links)} --brace-link, "
+            f"{len(offsets)} --brace-offset"
+        )
+    if names and len(names) != len(links):
+        raise InputError(
+            f"with --brace-link, each --brace names one link point: {len(links)} --brace-link, {len(names)} --brace"
+        )
+    names = names or ["brace_point" if i == 1 else f"brace_point_{i}" for i in range(1, len(links) + 1)]
+    if len(links) == 1:
+        return robot.with_point_frame(names[0], links[0], floats(offsets[0], "--brace-offset")), names
+    frames = [(n, link, floats(o, "--brace-offset"), None) for n, link, o in zip(names, links, offsets, strict=True)]
+    return robot.with_point_frames(frames), names
+
+
+def _holding(args: argparse.Namespace) -> Any:
+    """The statics of --gravity, --preload, --friction and --wrench (None when none is given)."""
+    from bracekit.simulation.holding import Holding
+
+    preload = one(args.preload, "--preload")
+    friction = None if args.friction is None else one(args.friction, "--friction")
+    if args.wrench and len(args.wrench) > MAX_WRENCHES:
+        raise InputError(f"{len(args.wrench)} --wrench given; give at most {MAX_WRENCHES}")
+    wrenches = None if not args.wrench else np.array([floats(w, "--wrench") for w in args.wrench], dtype=object)
+    if wrenches is not None:
+        if any(np.size(w) != 6 for w in wrenches):
+            raise InputError("--wrench needs 6 numbers FX,FY,FZ,MX,MY,MZ (N, N·m, world axes)")
+        wrenches = np.array([np.asarray(w, dtype=float) for w in wrenches])
+    holding = Holding(gravity=bool(args.gravity), preload=preload, friction=friction, wrenches=wrenches)
+    return holding if holding.active else None
+
+
+def _scale(x: float | None) -> str:
+    return "∞" if x is None else f"{x:.3g}"
+
+
+def _statics_text(r: dict[str, Any]) -> str:
+    """The statics lines of evaluate's text output."""
+    mu = "frictionless" if r["friction"] is None else f"μ = {r['friction']:g}"
+    lines = [
+        f"statics: gravity {'on' if r['gravity'] else 'off'}, preload {r['preload_N']:g} N, {mu}; "
+        f"peak |τ|/effort unloaded {r['torque_ratio']:.3f}",
+        "τ0 [N·m] = " + ", ".join(f"{t:.3g}" for t in r["tau0"]),
+    ]
+    if "Ci_preloaded" in r:
+        lines.append(
+            f"C_i preloaded = {1e3 * r['Ci_preloaded']:.4f} mm/N (constrained {1e3 * r['Ci_constrained']:.4f})"
+        )
+    if "wrenches" in r:
+        lines.append("largest scale of each tool wrench before the brace lifts off, slips or an actuator saturates:")
+        slip = r["slip"] or [None] * len(r["liftoff"])
+        for w, a, b, c in zip(r["wrenches"], r["liftoff"], slip, r["torque"], strict=True):
+            sl = _scale(b) if r["slip"] else "– (no friction given)"
+            lines.append(f"  {np.round(w, 3).tolist()}: lift-off {_scale(a)}, slip {sl}, torque {_scale(c)}")
+    return "\n".join(lines)
+
+
+def _ellipsoid_lines(r: dict[str, Any], models: tuple[tuple[str, str], ...]) -> list[str]:
+    """One line per model: the translational ellipsoid's semi-axes (mm/N) along their world unit axes."""
+    lines = []
+    for label, key in models:
+        ell = r[key]["translational"]
+        axes = ", ".join(
+            f"{1e3 * s:.3f} along {np.round(a, 3).tolist()}"
+            for s, a in zip(ell["semi_axes"], np.array(ell["axes"]).T, strict=True)
+        )
+        lines.append(f"  {label:<20} {axes}")
+    return lines
+
+
+def _evaluate_braces_text(r: dict[str, Any]) -> str:
+    """The text output of evaluate for several braces (the constrained model)."""
+    lines = [f"robot: {r['n']} joints, tip '{r['tip_frame']}', {len(r['braces'])} braces:"]
+    for i, b in enumerate(r["braces"], start=1):
+        lines.append(
+            f"  {i}. {{b}} '{b['frame']}' at {np.round(b['b'], 4).tolist()} m, normal "
+            f"{np.round(b['normal'], 3).tolist()}, {b['contact']}"
+        )
+    dependent = r["G_dependent_rows"]
+    lines += [
+        f"stacked constraint G: {len(r['G_rows'])} rows, rank {r['G_rank']}, {r['n'] - r['G_rank']} braced motions"
+        + (f"; dependent rows {dependent} dropped" if dependent else ""),
+        f"e = {np.round(r['e'], 4).tolist()} m",
+        f"k (free-space J) = {r['k']:.3f}, k (braced J_e N) = "
+        + ("singular" if r["k_braced"] is None else f"{r['k_braced']:.3f}"),
+        "",
+        "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
+    ]
+    lines += _ellipsoid_lines(r, (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained")))
+    lines += [
+        "",
+        f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
+        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
+        f"({pct(r['Ci_reduction_constrained'])} less); no projection model: {r['projection_reason']}",
+        f"  largest translational compliance: free {1e3 * r['max_translational_free']:.4f} mm/N → braced "
+        f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
+    ]
+    return "\n".join(lines)
+
+
+def _evaluate_text(r: dict[str, Any]) -> str:
+    lines = [
+        f"robot: {r['n']} joints, chain 1 = {r['n1']} (base → {{b}} '{r['brace_frame']}'), chain 2 = {r['n2']} "
+        f"(→ tip '{r['tip_frame']}'); contact {r['contact']}",
+        f"b = {np.round(r['b'], 4).tolist()} m, e = {np.round(r['e'], 4).tolist()} m, "
+        f"θ_z = {np.degrees(r['theta_z']):.2f}°",
+        f"k (free-space J) = {r['k']:.3f}, k (braced J̃) = {r['k_braced']:.3f}",
+        f"chain 1: {r['braced_motions']} braced motions of {{b}}"
+        + (
+            "; J1 is singular (cond = "
+            + ("inf" if r["J1_condition"] is None else f"{r['J1_condition']:.3g}")
+            + "): A assumes motions chain 1 cannot make"
+            if r["J1_singular"]
+            else ""
+        ),
+        "",
+        "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
+    ]
+    lines += _ellipsoid_lines(
+        r,
+        (
+            ("free space", "ellipsoid_free"),
+            ("braced, constrained", "ellipsoid_constrained"),
+            ("braced, projection", "ellipsoid_projection"),
+        ),
+    )
+    lines += [
+        "",
+        f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
+        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
+        f"({pct(r['Ci_reduction_constrained'])} less), braced projection {1e3 * r['Ci_projection']:.4f} mm/N "
+        f"({pct(r['Ci_reduction_projection'])} less)",
+        f"  largest translational compliance: free {1e3 * r['max_translational_free']:.4f} mm/N → braced "
+        f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
+    ]
+    if "tau0" in r:
+        lines += ["", _statics_text(r)]
+    return "\n".join(lines)
