@@ -6,6 +6,7 @@ model → contact → kinematics → compliance → objective → resolution →
 report → cli. This module holds what a user calls; everything else is reachable from its subpackage.
 """
 
+from bracekit import _numba_cache  # noqa: F401  (first: numba's cache directory, before numba is imported)
 from bracekit._version import __version__
 from bracekit.compliance import (
     compliance_ellipsoids,

@@ -178,9 +178,16 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument(
         "--only",
         action="append",
-        choices=("core", "sweep", "figures"),
-        help="run only this part (repeat for several; default all: core hot paths, sweep throughput on 1 and 2 "
-        "Dask workers, the figures' overhead)",
+        choices=("core", "runs", "sweep", "figures"),
+        help="run only this part (repeat for several; default all: core hot paths, whole runs in process, sweep "
+        "throughput on 1 and 2 Dask workers, the figures' overhead)",
+    )
+    be.add_argument(
+        "--compare",
+        type=Path,
+        metavar="OTHER.json",
+        help="print ratios new/old against a file of bracekit bench --json (another version or machine) and the "
+        "speed goals (default: the repository's benchmarks/baseline-*.json when runs or sweep are measured)",
     )
     sweep_cli.add_parser(sub)
     view_cli.add_parser(sub)
@@ -746,7 +753,8 @@ def _validate_braces(args: argparse.Namespace, scenario: Any) -> int:
 # --- bench ---------------------------------------------------------------------------------------
 def _bench(args: argparse.Namespace) -> int:
     module = _bench_module()
-    results = module.run_benchmarks(quick=args.quick, parts=tuple(args.only) if args.only else module.PARTS)
+    parts = tuple(args.only) if args.only else module.PARTS
+    results = module.run_benchmarks(quick=args.quick, parts=parts, compare=args.compare)
     print(json.dumps(results, indent=2) if args.json else results.get("table", ""))
     return 0
 

@@ -1,0 +1,279 @@
+"""Whole runs, a sweep and the step, through bracekit's stable entry points only, so two versions compare fairly.
+
+Every call here exists unchanged in every version since the speed baseline (``run_scenario``, ``load_scenario``,
+``GradientProjectionStep``, the ``bracekit`` command line and Dask's own ``LocalCluster``): ``bracekit bench`` and
+tools/bench_baseline.py (which runs this module against an older checkout) make the same calls, so the ratios
+of :mod:`bench_compare` are new/old of the same work. Timings depend on the machine and its load: every result
+carries :func:`machine`.
+
+* ``run_paper_s``, ``run_two_braces_s``, ``run_panda_s``: median wall time of ``run_scenario(NAME)`` in this
+  process (the default call: every strategy, and for one brace gradient projection under both compliance
+  models; no figures), after one warm-up call (imports, numba's kernels loaded or compiled), and the process's
+  CPU seconds of the same calls (``run_paper_cpu_s`` …: what other load on the machine changes least);
+* ``sweep_candidates_per_s_1`` and ``_2``: ``bracekit sweep paper-links --limit N --no-screen --no-refine
+  --no-figures`` in this process against a local Dask cluster of 1, then 2 worker processes (one thread each),
+  started and warmed (every worker runs the ``paper`` scenario once) before the clock starts;
+* ``step_gp_us``: one braced gradient-projection step (``GradientProjectionStep`` of the ``paper`` scenario's
+  strategy, numba backend when installed), joint values in and joint velocities out;
+* ``pinocchio_floor_us``: Pinocchio's FK + Jacobian + kinematic Hessian of the tip frame (and
+  ``pinocchio_floor_two_frames_us``: tip and brace frames), the floor of any step.
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+#: The scenarios of the whole-run measurements (shipped names) and their result keys.
+SCENARIOS = {"paper": "run_paper_s", "two-braces": "run_two_braces_s", "panda": "run_panda_s"}
+#: What a local sweep worker runs with (as ``bracekit sweep --workers N`` does): one thread for numba and BLAS.
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: Warms a worker: imports bracekit and loads (or compiles) its numba kernels with one short run.
+_WARM_WORKER = "from bracekit import run_scenario\nrun_scenario('paper', both_models=False)"
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _commit(path: Path) -> str | None:
+    """The git commit checked out at `path` (a work tree), with "+dirty" when it has uncommitted changes."""
+    try:
+        head = subprocess.run(
+            ["git", "-C", str(path), "rev-parse", "HEAD"], capture_output=True, text=True, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(path), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return head + ("+dirty" if dirty else "")
+
+
+def machine() -> dict[str, Any]:
+    """Where and when: cores, load averages (1, 5, 15 min), CPU model, UTC date, versions, bracekit's commit."""
+    import numpy as np
+    import pinocchio as pin
+
+    import bracekit
+
+    try:
+        import numba
+
+        numba_version: str | None = numba.__version__
+    except ImportError:
+        numba_version = None
+    source = Path(bracekit.__file__).resolve().parent
+    return {
+        "cores": os.cpu_count(),
+        "load_average": [round(x, 2) for x in os.getloadavg()] if hasattr(os, "getloadavg") else None,
+        "cpu_model": _cpu_model(),
+        "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "pinocchio": pin.__version__,
+        "numba": numba_version,
+        "bracekit_version": getattr(bracekit, "__version__", None),
+        "bracekit_path": str(source),
+        "commit": _commit(source),
+    }
+
+
+def _median_of(fn: Callable[[], object], rounds: int) -> tuple[float, list[float]]:
+    times = []
+    for _ in range(rounds):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times), times
+
+
+def scenario_runs(rounds: int = 3, names: tuple[str, ...] = tuple(SCENARIOS)) -> dict[str, Any]:
+    """Median seconds of ``run_scenario(name)`` for each shipped scenario, interleaved rounds after a warm-up."""
+    from bracekit import run_scenario
+
+    samples: dict[str, list[float]] = {name: [] for name in names}
+    cpu: dict[str, list[float]] = {name: [] for name in names}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name in names:  # warm-up: imports, numba kernels, caches of the process
+            run_scenario(name)
+        for _ in range(rounds):
+            for name in names:
+                c, t = time.process_time(), time.perf_counter()
+                run_scenario(name)
+                samples[name].append(time.perf_counter() - t)
+                cpu[name].append(time.process_time() - c)
+    out: dict[str, Any] = {SCENARIOS[name]: statistics.median(samples[name]) for name in names}
+    # CPU seconds of the process: what other load on the machine changes least
+    out.update({SCENARIOS[name].removesuffix("_s") + "_cpu_s": statistics.median(cpu[name]) for name in names})
+    out["run_samples_s"] = samples
+    return out
+
+
+def _sweep_once(workers: int, candidates: int) -> tuple[float, float]:
+    """(candidates per second, cluster start-up and warm-up s) of one ``bracekit sweep`` on a new local cluster."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    from bracekit.cli import main
+
+    began = time.perf_counter()
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": ":0"},
+        silence_logs=logging.ERROR,
+        env=WORKER_ENV,
+    )
+    try:
+        with Client(cluster) as client, tempfile.TemporaryDirectory(prefix="bracekit-bench-sweep-") as tmp:
+            client.run(exec, _WARM_WORKER)
+            address = cluster.scheduler_address
+            ready = time.perf_counter()
+            argv = ["sweep", "paper-links", "--out", str(Path(tmp) / "sweep"), "--scheduler", address]
+            argv += ["--limit", str(candidates), "--no-screen", "--no-refine", "--no-figures", "--quiet"]
+            with open(os.devnull, "w") as sink:
+                saved = sys.stdout
+                sys.stdout = sink
+                try:
+                    code = main(argv)
+                finally:
+                    sys.stdout = saved
+            elapsed = time.perf_counter() - ready
+    finally:
+        cluster.close()
+    if code != 0:
+        raise RuntimeError(f"bracekit {' '.join(argv)} exited with {code}")
+    return candidates / elapsed, ready - began
+
+
+def sweep_runs(candidates: int = 16, rounds: int = 1) -> dict[str, Any]:
+    """Candidates per second of ``bracekit sweep`` on 1 then 2 local workers (medians of `rounds`), and scaling."""
+    import importlib.util
+
+    missing = [m for m in ("distributed", "pyarrow") if importlib.util.find_spec(m) is None]
+    if missing:
+        return {"sweep_skipped": f"{', '.join(missing)} not installed: pip install 'bracekit[sweep]'"}
+    out: dict[str, Any] = {"sweep_candidates": candidates}
+    for workers in (1, 2):
+        rates, starts = [], []
+        for _ in range(rounds):
+            rate, start = _sweep_once(workers, candidates)
+            rates.append(rate)
+            starts.append(start)
+        out[f"sweep_candidates_per_s_{workers}"] = statistics.median(rates)
+        out[f"sweep_cluster_start_s_{workers}"] = statistics.median(starts)
+    out["sweep_scaling_1_to_2"] = out["sweep_candidates_per_s_2"] / out["sweep_candidates_per_s_1"]
+    return out
+
+
+def floor_call(braced: Any, q: Any, frames: tuple[int, ...]) -> Callable[[], None]:
+    """Pinocchio's FK + Jacobians + kinematic Hessians of `frames` (Pinocchio frame ids) at `q`: a step's floor."""
+    import pinocchio as pin
+
+    model = braced.robot.model
+    data = model.createData()
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+    def call() -> None:
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        for f in frames:
+            pin.getFrameJacobian(model, data, f, lwa)
+        pin.computeJointKinematicHessians(model, data)
+        for f in frames:
+            pin.getFrameKinematicHessian(model, data, f, lwa)
+
+    return call
+
+
+def _per_call(fn: Callable[[], object], calls: int, rounds: int) -> float:
+    """Median over `rounds` of the mean seconds per call of `calls` calls."""
+    fn()
+    means = []
+    for _ in range(rounds):
+        t = time.perf_counter()
+        for _ in range(calls):
+            fn()
+        means.append((time.perf_counter() - t) / calls)
+    return statistics.median(means)
+
+
+def step_runs(calls: int = 2000, rounds: int = 7) -> dict[str, Any]:
+    """The gradient-projection step of ``paper`` and Pinocchio's floors at the scenarios' start guesses, µs.
+
+    ``pinocchio_floor_us``: the tip frame of the paper robot; ``pinocchio_floor_two_frames_us``: its tip and
+    brace frames; ``pinocchio_floor_two_braces_us``: the tip and both brace frames of ``two-braces``.
+    """
+    import numpy as np
+
+    from bracekit import GradientProjectionStep, load_scenario
+
+    sc = load_scenario("paper")
+    q = np.asarray(sc.guess, dtype=float)
+    xdot = np.concatenate([sc.task.velocity(0.0), np.zeros(3)])
+    strategy = sc.strategy("braced_gradient_projection")
+    out: dict[str, Any] = {}
+    try:
+        step = GradientProjectionStep(sc.braced, strategy, backend="numba")
+        out["step_gp_backend"] = "numba"
+    except Exception:  # numba missing: the NumPy backend
+        step = GradientProjectionStep(sc.braced, strategy, backend="numpy")
+        out["step_gp_backend"] = "numpy"
+    two = load_scenario("two-braces")
+    tip = sc.braced.robot.tip_id
+    floors = {
+        "pinocchio_floor_us": floor_call(sc.braced, q, (tip,)),
+        "pinocchio_floor_two_frames_us": floor_call(sc.braced, q, (tip, *sc.braced.brace_ids)),
+        "pinocchio_floor_two_braces_us": floor_call(
+            two.braced, np.asarray(two.guess, dtype=float), (two.braced.robot.tip_id, *two.braced.brace_ids)
+        ),
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out["step_gp_us"] = 1e6 * _per_call(lambda: step(q, xdot), max(1, calls // 4), rounds)
+    for key, call in floors.items():
+        out[key] = 1e6 * _per_call(call, calls, rounds)
+    out["step_gp_in_floors"] = out["step_gp_us"] / out["pinocchio_floor_us"]
+    return out
+
+
+def whole_runs(
+    quick: bool = False, sweep: bool = True, scenarios: tuple[str, ...] = tuple(SCENARIOS)
+) -> dict[str, Any]:
+    """Every measurement of this module, the machine before and after (its load may change meanwhile)."""
+    before = machine()
+    res: dict[str, Any] = {}
+    res.update(step_runs(calls=400 if quick else 2000, rounds=3 if quick else 7))
+    res.update(scenario_runs(rounds=1 if quick else 5, names=scenarios))
+    if sweep:
+        res.update(sweep_runs(candidates=4 if quick else 16))
+    after = machine()
+    before["load_average_after"] = after["load_average"]
+    res["machine"] = before
+    return res
