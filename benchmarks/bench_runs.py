@@ -212,54 +212,109 @@ def floor_call(braced: Any, q: Any, frames: tuple[int, ...]) -> Callable[[], Non
     return call
 
 
-def _per_call(fn: Callable[[], object], calls: int, rounds: int) -> float:
-    """Median over `rounds` of the mean seconds per call of `calls` calls."""
-    fn()
-    means = []
+def _interleaved(cases: dict[str, Callable[[], object]], calls: dict[str, int], rounds: int) -> dict[str, float]:
+    """Seconds per call of each case: the median over `rounds` interleaved rounds (every case in each round, so
+    all see the same load) of the mean of `calls[case]` calls, after one warm-up call each."""
+    for fn in cases.values():
+        fn()
+    means: dict[str, list[float]] = {key: [] for key in cases}
     for _ in range(rounds):
-        t = time.perf_counter()
-        for _ in range(calls):
-            fn()
-        means.append((time.perf_counter() - t) / calls)
-    return statistics.median(means)
+        for key, fn in cases.items():
+            t = time.perf_counter()
+            for _ in range(calls[key]):
+                fn()
+            means[key].append((time.perf_counter() - t) / calls[key])
+    return {key: statistics.median(m) for key, m in means.items()}
+
+
+def _gp_step(sc: Any) -> tuple[Callable[[Any, Any], Any], str]:
+    """The paper scenario's gradient-projection step, numba backend when installed; and the backend's name."""
+    from bracekit import GradientProjectionStep
+
+    strategy = sc.strategy("braced_gradient_projection")
+    try:
+        return GradientProjectionStep(sc.braced, strategy, backend="numba"), "numba"
+    except Exception:  # numba missing: the NumPy backend
+        return GradientProjectionStep(sc.braced, strategy, backend="numpy"), "numpy"
+
+
+def _control_step(sc: Any) -> Callable[[Any, Any], Any] | None:
+    """The control-rate step of a version that has one (q and the task twist in, q̇ with the brace kept out).
+
+    ``ControlStep(braced, strategy)`` exported by bracekit, called as ``step(q, xdot)`` like
+    ``GradientProjectionStep``; None when this version has none. The one place to adapt when that entry changes.
+    """
+    import bracekit
+
+    factory = getattr(bracekit, "ControlStep", None)
+    if factory is None:
+        return None
+    return factory(sc.braced, sc.strategy("braced_gradient_projection"))  # type: ignore[no-any-return]
+
+
+def _frames(braced: Any) -> tuple[int, tuple[int, ...]]:
+    """Pinocchio frame ids of the tip and of every brace's {b}."""
+    ids = getattr(braced, "brace_ids", None)
+    if ids is None:
+        ids = (braced.brace_id,)
+    return braced.robot.tip_id, tuple(ids)
+
+
+def _start(sc: Any) -> tuple[Any, Any]:
+    """The start guess and the task twist at t = 0 of a scenario."""
+    import numpy as np
+
+    q = np.asarray(sc.guess, dtype=float)
+    v = np.asarray(sc.task.velocity(0.0), dtype=float)
+    return q, (np.concatenate([v, np.zeros(3)]) if v.size == 3 else v)
 
 
 def step_runs(calls: int = 2000, rounds: int = 7) -> dict[str, Any]:
-    """The gradient-projection step of ``paper`` and Pinocchio's floors at the scenarios' start guesses, µs.
+    """The steps of ``paper`` (and ``two-braces``) and Pinocchio's floors at the scenarios' start guesses, µs.
 
     ``pinocchio_floor_us``: the tip frame of the paper robot; ``pinocchio_floor_two_frames_us``: its tip and
     brace frames; ``pinocchio_floor_two_braces_us``: the tip and both brace frames of ``two-braces``.
+    ``step_gp_us``: ``GradientProjectionStep``; ``control_step_us`` and ``control_step_two_braces_us``: the
+    control-rate step, when the version has one. A step that fails says why (``*_failed``), the others run.
     """
-    import numpy as np
+    from bracekit import load_scenario
 
-    from bracekit import GradientProjectionStep, load_scenario
-
-    sc = load_scenario("paper")
-    q = np.asarray(sc.guess, dtype=float)
-    xdot = np.concatenate([sc.task.velocity(0.0), np.zeros(3)])
-    strategy = sc.strategy("braced_gradient_projection")
+    one, two = load_scenario("paper"), load_scenario("two-braces")
     out: dict[str, Any] = {}
+    cases: dict[str, Callable[[], object]] = {}
+    q, xdot = _start(one)
+    q2, xdot2 = _start(two)
+    tip, braces = _frames(one.braced)
+    tip2, braces2 = _frames(two.braced)
+    cases["pinocchio_floor_us"] = floor_call(one.braced, q, (tip,))
+    cases["pinocchio_floor_two_frames_us"] = floor_call(one.braced, q, (tip, *braces))
+    cases["pinocchio_floor_two_braces_us"] = floor_call(two.braced, q2, (tip2, *braces2))
     try:
-        step = GradientProjectionStep(sc.braced, strategy, backend="numba")
-        out["step_gp_backend"] = "numba"
-    except Exception:  # numba missing: the NumPy backend
-        step = GradientProjectionStep(sc.braced, strategy, backend="numpy")
-        out["step_gp_backend"] = "numpy"
-    two = load_scenario("two-braces")
-    tip = sc.braced.robot.tip_id
-    floors = {
-        "pinocchio_floor_us": floor_call(sc.braced, q, (tip,)),
-        "pinocchio_floor_two_frames_us": floor_call(sc.braced, q, (tip, *sc.braced.brace_ids)),
-        "pinocchio_floor_two_braces_us": floor_call(
-            two.braced, np.asarray(two.guess, dtype=float), (two.braced.robot.tip_id, *two.braced.brace_ids)
-        ),
-    }
+        gp, out["step_gp_backend"] = _gp_step(one)
+        cases["step_gp_us"] = lambda: gp(q, xdot)
+    except Exception as exc:  # an API this version changed: said, not hidden
+        out["step_gp_failed"] = f"{type(exc).__name__}: {exc}"
+    for key, sc, qq, xd in (("control_step_us", one, q, xdot), ("control_step_two_braces_us", two, q2, xdot2)):
+        try:
+            step = _control_step(sc)
+        except Exception as exc:
+            out[key.replace("_us", "_failed")] = f"{type(exc).__name__}: {exc}"
+            continue
+        if step is None:
+            out["control_step_skipped"] = "this version exports no ControlStep"
+            break
+        cases[key] = lambda step=step, qq=qq, xd=xd: step(qq, xd)
+    counts = {key: calls if key.startswith("pinocchio") else max(1, calls // 4) for key in cases}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        out["step_gp_us"] = 1e6 * _per_call(lambda: step(q, xdot), max(1, calls // 4), rounds)
-    for key, call in floors.items():
-        out[key] = 1e6 * _per_call(call, calls, rounds)
-    out["step_gp_in_floors"] = out["step_gp_us"] / out["pinocchio_floor_us"]
+        out.update({key: 1e6 * t for key, t in _interleaved(cases, counts, rounds).items()})
+    for key in ("step_gp_us", "control_step_us"):
+        if key in out:
+            out[key.replace("_us", "_in_floors")] = out[key] / out["pinocchio_floor_us"]
+    if "control_step_two_braces_us" in out:
+        out["control_step_two_braces_in_floors"] = (
+            out["control_step_two_braces_us"] / out["pinocchio_floor_two_braces_us"]
+        )
     return out
 
 

@@ -8,7 +8,8 @@ never lists its own groups:
   through Playwright; ``docs``: the documentation's commands and site (mkdocs, the tutorial as printed);
   ``numba``: numba-compiled kernels (compiled once per machine into the user cache, then loaded);
 * ``slow``: every test of the groups mujoco, dask, browser and docs, and the tests listed in :data:`SLOW` (measured
-  with ``--durations=0``: each over about two seconds on 2 cores).
+  with ``--durations=0``: each over about two seconds on 2 cores under load). numba alone is not slow: the
+  kernels compile once per machine (about a minute, into the user cache), every later process loads them.
 
 ``python -m pytest -m "not slow"`` is the command a developer runs often; CI runs the whole suite.
 """
@@ -52,8 +53,24 @@ SOURCE_GROUPS = {
     "docs": re.compile(r"\bmkdocs\b|exec\(compile\(|_tutorial_commands\(|\bEXAMPLES\b"),
     "numba": re.compile(r"backend=\"numba\"|importorskip\(\"(numba|bracekit\.\w+\._numba\w*)\"\)|\bnumba_step\b"),
 }
-#: Tests slow on their own (file::name prefix), measured with --durations=0: whole runs, subprocesses, statics.
-SLOW: tuple[str, ...] = ()
+#: Tests slow on their own (a prefix of file::name), measured with --durations=0 (2 cores, load 5–9, warm numba
+#: cache; seconds in the comments): whole runs with every figure and the animation, the benchmark's smoke test.
+SLOW: tuple[str, ...] = (
+    "tests/report/test_figures.py::test_the_animation_drawn_in_a_child_process_is_the_one_drawn_in_process",  # 18.6
+    "tests/report/test_figures.py::test_every_shipped_scenario_is_drawn",  # 4.7–11.4 each of 4
+    "tests/report/test_figures.py::test_a_failure_in_the_child_is_raised_and_nothing_is_written",  # 6.5, 8.0
+    "tests/report/test_figures.py::test_ellipsoid_figure_has_metric_axes_and_no_overlapping_text",  # 3.4
+    "tests/report/test_figures.py::test_a_run_that_stopped_early_and_a_single_strategy_are_drawn",  # 2.2
+    "tests/report/test_report.py::test_write_run_writes_every_file_and_summary_matches_the_result",  # 7.4
+    "tests/report/test_report.py::test_a_rerun_without_figures_removes_the_previous_runs_figures",  # 7.4
+    "tests/report/test_report.py::test_capacity_figure_is_drawn_for_a_run_with_statics",  # 2.6
+    "tests/test_bench.py::test_run_benchmarks_returns_positive_finite_numbers_and_a_table",  # 30 with its fixture
+    "tests/test_bench.py::test_robotics_toolbox_is_optional",  # the same fixture: bracekit bench --quick
+    "tests/test_bench.py::test_both_backends_side_by_side",
+    "tests/test_bench.py::test_table_without_numba",
+    "tests/test_bench_runs.py::test_the_baseline_script_measures_a_checkout_in_a_new_process",  # whole runs
+    "tests/test_bench_runs.py::test_bench_with_runs_prints_the_ratios_and_goals_against_a_file",  # whole runs
+)
 
 
 @cache

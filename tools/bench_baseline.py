@@ -1,12 +1,15 @@
-"""Measure a checkout of bracekit with the whole-run benchmarks, for ``bracekit bench --compare``.
+"""Measure checkouts of bracekit with the whole-run benchmarks, for ``bracekit bench --compare``.
 
     python tools/bench_baseline.py CHECKOUT --out benchmarks/baseline-COMMIT.json [--quick] [--no-sweep]
+    python tools/bench_baseline.py OLD NEW --out old.json --out new.json --rounds 2   # side by side
 
 CHECKOUT is a source tree of any bracekit version (e.g. ``git worktree add /tmp/base e6bc01a``): a fresh Python
 process imports bracekit from CHECKOUT/src (PYTHONPATH) and runs benchmarks/bench_runs.py of *this* clone on
-it, so the calls are the ones ``bracekit bench`` makes on the current version. The JSON holds the medians and
-the machine (cores, load before and after, CPU model, UTC date, the checkout's commit). Run it on the machine
-and in the session of the comparison: ratios between machines or loads mean little.
+it, so the calls are the ones ``bracekit bench`` makes on the current version. With several checkouts and
+``--rounds N``, the checkouts take turns N times (OLD, NEW, OLD, NEW …) so that they see the same load, and each
+key is the median over its rounds. Each JSON holds the medians and the machine (cores, load before and after,
+CPU model, UTC date, the checkout's commit). Ratios between machines or loads mean little: measure on the
+machine and in the session of the comparison.
 """
 
 from __future__ import annotations
@@ -50,17 +53,40 @@ def measure(checkout: Path, quick: bool = False, sweep: bool = True) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+def merge(rounds: list[dict]) -> dict:
+    """One result from several rounds of one checkout: the median of every number, the first machine."""
+    import statistics
+
+    out = dict(rounds[0])
+    for key, value in rounds[0].items():
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            out[key] = statistics.median(r[key] for r in rounds if isinstance(r.get(key), int | float))
+    out["machine"] = dict(rounds[0]["machine"], load_average_after=rounds[-1]["machine"]["load_average_after"])
+    out["rounds"] = len(rounds)
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("checkout", type=Path, help="a bracekit source tree, e.g. a git worktree of the baseline commit")
-    ap.add_argument("--out", type=Path, required=True, help="the JSON file to write")
+    ap.add_argument("checkout", type=Path, nargs="+", help="bracekit source trees, e.g. git worktrees of two commits")
+    ap.add_argument("--out", type=Path, action="append", required=True, help="the JSON file of each checkout")
+    ap.add_argument("--rounds", type=int, default=1, help="turns of every checkout (medians over them; default 1)")
     ap.add_argument("--quick", action="store_true", help="fewer rounds, 4 sweep candidates")
     ap.add_argument("--no-sweep", action="store_true", help="leave out the Dask sweep")
     args = ap.parse_args()
-    res = measure(args.checkout, quick=args.quick, sweep=not args.no_sweep)
-    res["measured_by"] = "tools/bench_baseline.py"
-    args.out.write_text(json.dumps(res, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    print(json.dumps({k: v for k, v in res.items() if not isinstance(v, dict | list)}, indent=2))
+    if len(args.out) != len(args.checkout):
+        ap.error(f"give one --out per checkout ({len(args.checkout)} checkouts, {len(args.out)} --out)")
+    if args.rounds < 1:
+        ap.error("--rounds must be at least 1")
+    results: list[list[dict]] = [[] for _ in args.checkout]
+    for _ in range(args.rounds):
+        for i, checkout in enumerate(args.checkout):
+            results[i].append(measure(checkout, quick=args.quick, sweep=not args.no_sweep))
+    for out, rounds in zip(args.out, results, strict=True):
+        res = merge(rounds)
+        res["measured_by"] = "tools/bench_baseline.py"
+        out.write_text(json.dumps(res, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+        print(out, json.dumps({k: v for k, v in res.items() if not isinstance(v, dict | list)}, indent=2))
     return 0
 
 
