@@ -111,7 +111,8 @@ def _source(obj: object) -> str:
 def _item_source(item: pytest.Function) -> str:
     """The test function's source and that of every fixture it uses that lives in the tests folder."""
     parts = [_source(getattr(item, "function", None))]
-    for defs in item._fixtureinfo.name2fixturedefs.values():
+    info = getattr(item, "_fixtureinfo", None)  # pytest's record of the fixtures a test uses
+    for defs in info.name2fixturedefs.values() if info is not None else ():
         for fixturedef in defs:
             func = fixturedef.func
             if TESTS in Path(inspect.getsourcefile(func) or "/").resolve().parents:
