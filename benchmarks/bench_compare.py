@@ -15,7 +15,9 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 #: Keys that are not measurements (their numbers are settings or bookkeeping).
-NOT_MEASURED = frozenset({"quick", "sweep_candidates", "scenario_exit_code", "gp_step_split_n1", "benchmark_wall_s"})
+NOT_MEASURED = frozenset(
+    {"quick", "rounds", "sweep_candidates", "scenario_exit_code", "gp_step_split_n1", "benchmark_wall_s"}
+)
 
 
 class Goal(NamedTuple):
