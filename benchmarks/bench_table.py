@@ -25,21 +25,29 @@ def extra_table(r: dict[str, Any]) -> str:
             rows.append(
                 (f"run_scenario('{name}'), in process", f"{r[key]:.2f} s", f"median; CPU {cpu:.2f} s" if cpu else "")
             )
+    floors = "pinocchio_floor_two_braces_us" in r  # the part "runs" measured its floors
     if "step_gp_us" in r:
-        rows.append(
-            (
-                f"GradientProjectionStep, paper ({r['step_gp_backend']})",
-                f"{r['step_gp_us']:.1f} µs",
-                f"{r['step_gp_in_floors']:.1f}× the Pinocchio floor",
-            )
-        )
+        ratio = f"{r['step_gp_in_floors']:.1f}× the Pinocchio floor" if "step_gp_in_floors" in r else ""
+        rows.append((f"GradientProjectionStep, paper ({r['step_gp_backend']})", f"{r['step_gp_us']:.1f} µs", ratio))
+    for key, label, floor in (
+        ("control_step_us", "Control step, paper (one brace)", "control_step_in_floors"),
+        ("control_step_two_braces_us", "Control step, two-braces", "control_step_two_braces_in_floors"),
+    ):
+        if key in r:
+            note = f"{r[floor]:.1f}× its floor (goal ≤ 10)" if floor in r else ""
+            rows.append((label, f"{r[key]:.1f} µs", note))
+    for key in ("control_step_skipped", "control_step_failed", "control_step_two_braces_failed", "step_gp_failed"):
+        if key in r:
+            rows.append((key.replace("_", " "), "-", r[key]))
     for key, label in (
         ("pinocchio_floor_us", "Pinocchio FK + J + H, tip (floor)"),
         ("pinocchio_floor_two_frames_us", "Pinocchio FK + J + H, tip and brace"),
         ("pinocchio_floor_two_braces_us", "Pinocchio FK + J + H, two-braces: tip and 2 braces"),
     ):
-        if key in r and "step_gp_us" in r:
+        if floors and key in r:
             rows.append((label, f"{r[key]:.1f} µs", "same process, same start guess"))
+    if "pinocchio_floor_failed" in r:
+        rows.append(("Pinocchio floor", "-", r["pinocchio_floor_failed"]))
     if "sweep_candidates_per_s_1" in r:
         one, two = r["sweep_candidates_per_s_1"], r["sweep_candidates_per_s_2"]
         rows += [

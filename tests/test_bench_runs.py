@@ -101,3 +101,25 @@ def test_the_sweep_is_timed_on_one_and_two_workers() -> None:
     assert r["sweep_candidates"] == 2
     assert r["sweep_candidates_per_s_1"] > 0 and r["sweep_candidates_per_s_2"] > 0
     assert r["sweep_scaling_1_to_2"] == pytest.approx(r["sweep_candidates_per_s_2"] / r["sweep_candidates_per_s_1"])
+
+
+def test_the_table_shows_the_control_step_against_its_floor_and_says_why_a_step_is_missing() -> None:
+    from bench_table import extra_table
+
+    r = {
+        "step_gp_us": 20.0,
+        "step_gp_backend": "numba",
+        "step_gp_in_floors": 5.0,
+        "pinocchio_floor_us": 4.0,
+        "pinocchio_floor_two_braces_us": 6.0,
+        "control_step_us": 30.0,
+        "control_step_in_floors": 7.5,
+        "control_step_two_braces_failed": "TypeError: no two braces",
+        "machine": {"cores": 2, "load_average": [1.25, 1, 1], "load_average_after": [2.5, 1, 1], "commit": "abc"},
+    }
+    lines = extra_table(r).splitlines()
+    assert "2 cores" in lines[0] and "load 1.25 → 2.50" in lines[0] and "commit abc" in lines[0]
+    (step,) = [line for line in lines if line.startswith("Control step, paper")]
+    assert "30.0 µs" in step and "7.5× its floor (goal ≤ 10)" in step
+    (failed,) = [line for line in lines if line.startswith("control step two braces failed")]
+    assert "TypeError: no two braces" in failed
