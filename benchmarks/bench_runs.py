@@ -213,18 +213,24 @@ def floor_call(braced: Any, q: Any, frames: tuple[int, ...]) -> Callable[[], Non
 
 
 def _interleaved(cases: dict[str, Callable[[], object]], calls: dict[str, int], rounds: int) -> dict[str, float]:
-    """Seconds per call of each case: the median over `rounds` interleaved rounds (every case in each round, so
-    all see the same load) of the mean of `calls[case]` calls, after one warm-up call each."""
+    """Median seconds of one call of each case, over `rounds` interleaved rounds of `calls[case]` calls each.
+
+    Every call is timed on its own and the median taken (as the part "core" does): a call the operating system
+    pre-empted is an outlier, not an average's share, so a loaded machine changes the result little. Every case
+    runs in each round, so all see the same load; one warm-up call each first.
+    """
     for fn in cases.values():
         fn()
-    means: dict[str, list[float]] = {key: [] for key in cases}
+    clock = time.perf_counter
+    samples: dict[str, list[float]] = {key: [] for key in cases}
     for _ in range(rounds):
         for key, fn in cases.items():
-            t = time.perf_counter()
+            out = samples[key]
             for _ in range(calls[key]):
+                t = clock()
                 fn()
-            means[key].append((time.perf_counter() - t) / calls[key])
-    return {key: statistics.median(m) for key, m in means.items()}
+                out.append(clock() - t)
+    return {key: statistics.median(s) for key, s in samples.items()}
 
 
 def _gp_step(sc: Any) -> tuple[Callable[[Any, Any], Any], str]:
