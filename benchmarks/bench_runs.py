@@ -1,10 +1,11 @@
 """Whole runs, a sweep and the step, through bracekit's stable entry points only, so two versions compare fairly.
 
-Every call here exists unchanged in every version since the speed baseline (``run_scenario``, ``load_scenario``,
-``GradientProjectionStep``, the ``bracekit`` command line and Dask's own ``LocalCluster``): ``bracekit bench`` and
-tools/bench_baseline.py (which runs this module against an older checkout) make the same calls, so the ratios
-of :mod:`bench_compare` are new/old of the same work. Timings depend on the machine and its load: every result
-carries :func:`machine`.
+Every call here exists unchanged in every version since the speed baseline (``run_scenario``,
+``load_scenario``, ``bracekit.resolution.GradientProjectionStep``, the ``bracekit`` command line and Dask's own
+``LocalCluster``): ``bracekit bench`` and tools/bench_baseline.py (which runs this module against an older
+checkout) make the same calls, so the ratios of :mod:`bench_compare` are new/old of the same work. A call a
+version no longer has is reported by name (``*_failed``) and the rest still run. Timings depend on the machine and
+its load: every result carries :func:`machine`.
 
 * ``run_paper_s``, ``run_two_braces_s``, ``run_panda_s``: median wall time of ``run_scenario(NAME)`` in this
   process (the default call: every strategy, and for one brace gradient projection under both compliance
@@ -235,7 +236,7 @@ def _interleaved(cases: dict[str, Callable[[], object]], calls: dict[str, int], 
 
 def _gp_step(sc: Any) -> tuple[Callable[[Any, Any], Any], str]:
     """The paper scenario's gradient-projection step, numba backend when installed; and the backend's name."""
-    from bracekit import GradientProjectionStep
+    from bracekit.resolution import GradientProjectionStep
 
     strategy = sc.strategy("braced_gradient_projection")
     try:
@@ -247,12 +248,13 @@ def _gp_step(sc: Any) -> tuple[Callable[[Any, Any], Any], str]:
 def _control_step(sc: Any) -> Callable[[Any, Any], Any] | None:
     """The control-rate step of a version that has one (q and the task twist in, q̇ with the brace kept out).
 
-    ``ControlStep(braced, strategy)`` exported by bracekit, called as ``step(q, xdot)`` like
-    ``GradientProjectionStep``; None when this version has none. The one place to adapt when that entry changes.
+    ``ControlStep(braced, strategy)`` exported by bracekit or its resolution package, called as ``step(q, xdot)``
+    like ``GradientProjectionStep``; None when this version has none. The one place to adapt when that changes.
     """
     import bracekit
+    import bracekit.resolution
 
-    factory = getattr(bracekit, "ControlStep", None)
+    factory = getattr(bracekit, "ControlStep", None) or getattr(bracekit.resolution, "ControlStep", None)
     if factory is None:
         return None
     return factory(sc.braced, sc.strategy("braced_gradient_projection"))  # type: ignore[no-any-return]
