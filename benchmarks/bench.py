@@ -64,6 +64,8 @@ def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS, compare:
     for part in parts:
         if part not in PARTS:
             raise InputError(f"unknown benchmark part '{part}'; choose from {', '.join(PARTS)}")
+    cmp = _sibling("bench_compare")
+    other = cmp.load(Path(compare)) if compare is not None else None  # a bad file is refused before measuring
     runs = _sibling("bench_runs")
     res: dict[str, Any] = {}
     before = runs.machine()
@@ -89,11 +91,10 @@ def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS, compare:
     if "core_failed" in res:
         text.append(f"core hot paths: not measured ({res['core_failed']})")
     text.append(table.extra_table(res))
-    if compare is None and ("runs" in parts or "sweep" in parts) and BASELINE.is_file():
-        compare = BASELINE
-    if compare is not None:
-        cmp = _sibling("bench_compare")
-        result = cmp.compare(res, cmp.load(Path(compare)))
+    if other is None and ("runs" in parts or "sweep" in parts) and BASELINE.is_file():
+        compare, other = BASELINE, cmp.load(BASELINE)
+    if compare is not None and other is not None:
+        result = cmp.compare(res, other)
         res["comparison"] = {"against": str(compare), **cmp.as_dict(result)}
         text += ["", f"Against {Path(compare).name} (new = this run):", cmp.table(result)]
     res["table"] = "\n".join(t for t in text if t is not None)

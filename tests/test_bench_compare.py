@@ -91,3 +91,13 @@ def test_a_bad_file_is_refused_in_one_line(tmp_path: Path) -> None:
     bad.write_text("[1, 2]", encoding="utf-8")
     with pytest.raises(InputError, match="holds no benchmark object"):
         bench_compare.load(bad)
+
+
+def test_bench_refuses_a_bad_compare_file_in_one_line_before_measuring(tmp_path: Path, capsys) -> None:
+    from bracekit.cli import main
+
+    bad = tmp_path / "old.json"
+    bad.write_text("{", encoding="utf-8")
+    assert main(["bench", "--only", "runs", "--compare", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is not JSON" in err[0] and "Traceback" not in err[0]
