@@ -1,10 +1,11 @@
 """Benchmarks of bracekit (not part of the test run): ``python benchmarks/run.py [--quick] [--json FILE]``.
 
-Prints the table of :func:`bench.run_benchmarks` (benchmarks/bench.py) (the same as ``bracekit bench``): the braced
-gradient-projection step (analytic vs finite differences, fused vs reference path, NumPy and numba backends
-side by side, numba's compilation and cache-load times), Pinocchio's floor, Robotics Toolbox for Python when
-it is installed, batch throughput and the ``paper`` scenario's wall time. The numba rows need
-``pip install bracekit[fast]``; without numba they say "skipped".
+Prints the table of :func:`bench.run_benchmarks` (benchmarks/bench.py) (the same as ``bracekit bench``): the hot
+paths (the braced gradient-projection step on both backends, numba's compilation and cache-load times,
+Pinocchio's floor, Robotics Toolbox for Python when it is installed, batch throughput), whole runs in process,
+the sweep on 1 and 2 Dask workers and the figures' overhead, then the ratios against ``--compare`` (default the
+committed baseline) and the speed goals. The numba rows need ``pip install bracekit[fast]``; without numba they
+say "skipped".
 ``--profile`` prints where a step and the scenario spend their time (cProfile) instead.
 """
 
@@ -53,15 +54,18 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer rounds and a smaller batch")
     ap.add_argument("--json", type=Path, help="also write the results as JSON to this file")
+    ap.add_argument("--only", action="append", help="run only this part (repeat): figures, sweep, runs, core")
+    ap.add_argument("--compare", type=Path, help="print ratios against this JSON (default: the committed baseline)")
     ap.add_argument("--profile", action="store_true", help="print cProfile tables instead of benchmarking")
     ap.add_argument("--top", type=int, default=25, help="rows per profile table (default 25)")
     args = ap.parse_args()
     if args.profile:
         _profile(args.top)
         return 0
-    from bench import run_benchmarks
+    from bench import PARTS, run_benchmarks
 
-    results = run_benchmarks(quick=args.quick)
+    parts = tuple(args.only) if args.only else PARTS
+    results = run_benchmarks(quick=args.quick, parts=parts, compare=args.compare)
     print(results["table"])
     if args.json is not None:
         args.json.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")

@@ -8,7 +8,8 @@ import json
 import math
 
 import pytest
-from bench import _table, run_benchmarks
+from bench import run_benchmarks
+from bench_table import core_table, extra_table
 
 KEYS = (
     "gp_step_analytic_us",
@@ -80,16 +81,14 @@ def test_table_without_numba(results: dict) -> None:
         r[key] = None
     for key in ("numba_compile_s", "numba_import_s", "numba_cache_load_s", "numba_import_and_cache_load_s"):
         r[key] = None
-    table = _table(r)
+    table = core_table(r)
     numba_rows = [line for line in table.splitlines() if line.startswith("|") and "numba backend" in line]
     assert len(numba_rows) == 1 and "skipped" in numba_rows[0] and "bracekit[fast]" in numba_rows[0]
     assert "NumPy backend" in table and "cache load" not in table
 
 
 def test_sweep_and_figures_rows_read_their_keys() -> None:
-    from bench import _extra_table
-
-    table = _extra_table(
+    table = extra_table(
         {
             "sweep_candidates_per_s_1": 0.8,
             "sweep_candidates_per_s_2": 1.5,

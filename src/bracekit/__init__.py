@@ -8,6 +8,7 @@ state and the terms from ``bracekit.kinematics`` and ``bracekit.objective``, the
 ``bracekit.resolution``, ``Trajectory`` from ``bracekit.simulation``).
 """
 
+from bracekit import _numba_cache  # noqa: F401  (first: numba's cache directory, before numba is imported)
 from bracekit._version import __version__
 from bracekit.compliance import (
     compliance_ellipsoids,

@@ -20,16 +20,24 @@ def add_parser(sub: Any) -> None:
     be.add_argument(
         "--only",
         action="append",
-        choices=("core", "sweep", "figures"),
-        help="run only this part (repeat for several; default all: core hot paths, sweep throughput on 1 and 2 "
-        "Dask workers, the figures' overhead)",
+        choices=("core", "runs", "sweep", "figures"),
+        help="run only this part (repeat for several; default all: core hot paths, whole runs in process, sweep "
+        "throughput on 1 and 2 Dask workers, the figures' overhead)",
+    )
+    be.add_argument(
+        "--compare",
+        type=Path,
+        metavar="OTHER.json",
+        help="print ratios new/old against a file of bracekit bench --json (another version or machine) and the "
+        "speed goals (default: the repository's benchmarks/baseline-*.json when runs or sweep are measured)",
     )
 
 
 def run(args: argparse.Namespace) -> int:
     """`bracekit bench`; the exit code."""
     module = _bench_module()
-    results = module.run_benchmarks(quick=args.quick, parts=tuple(args.only) if args.only else module.PARTS)
+    parts = tuple(args.only) if args.only else module.PARTS
+    results = module.run_benchmarks(quick=args.quick, parts=parts, compare=args.compare)
     print(json.dumps(results, indent=2) if args.json else results.get("table", ""))
     return 0
 
