@@ -695,6 +695,11 @@ def _validate(args: argparse.Namespace) -> int:
             capacity = run_capacity_validation(scenario, configs=configs)
             data["capacity"] = capacity.to_json()
             extra.append(capacity)
+        from bracekit.validate.environment_check import run_environment_validation
+
+        environment = run_environment_validation(scenario, configs=configs)
+        data["environment_stiffness"] = environment.to_json()
+        extra.append(environment)
         if plan is not None:
             with atomic_directory(plan) as tmp:
                 (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
@@ -703,17 +708,13 @@ def _validate(args: argparse.Namespace) -> int:
     if not args.json:
         for part in extra:
             print(part.table_text())
-    counts = report.counts()
-    failed = counts.get("failed", 0) + pre.counts()["failed"]
-    if holding is not None:
-        s = holding.summary()
-        failed += s["counts"]["failed"] + len(s["margin_disagreements"])
-    if capacity is not None:
-        failed += capacity.counts()["failed"] + capacity.counts()["disagrees"]
-    if tracking is not None:
-        failed += len(tracking.disagreements())
-    if failed > 0 or report.model_stats("constrained")["n_cases"] == 0:
-        print(f"bracekit: error: {failed} validation case(s) failed", file=sys.stderr)
+    from bracekit.validate.verdict import validation_verdict
+
+    verdict = validation_verdict(
+        report, pre, holding=holding, capacity=capacity, tracking=tracking, environment=environment
+    )
+    if not verdict.passed:
+        print(f"bracekit: error: {verdict.message()}", file=sys.stderr)
         return 1
     return 0
 
@@ -735,10 +736,11 @@ def _validate_braces(args: argparse.Namespace, scenario: Any) -> int:
             with atomic_directory(plan) as tmp:
                 (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
     print(to_json(data) if args.json else several_braces_text(data))
-    s = data["summary"]
-    median = s["constrained_vs_mujoco"]["median"]
-    if s["n_failed"] or s["n_ok"] == 0 or median is None or median > 0.01:
-        print(f"bracekit: error: {s['n_failed']} case(s) failed or the median error exceeds 1 %", file=sys.stderr)
+    from bracekit.validate.verdict import several_braces_verdict
+
+    verdict = several_braces_verdict(data["summary"])
+    if not verdict.passed:
+        print(f"bracekit: error: {'; '.join(verdict.reasons)}", file=sys.stderr)
         return 1
     return 0
 

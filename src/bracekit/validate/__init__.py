@@ -4,6 +4,7 @@ The first-order Lagrange (KKT) compliance, the nonlinear static equilibrium (Pin
 braced chain, and the runner that compares the first-order models with both.
 """
 
+from bracekit.validate.environment_check import EnvironmentValidationReport, run_environment_validation
 from bracekit.validate.holding_check import (
     CapacityRamp,
     HoldingCase,
@@ -39,10 +40,12 @@ from bracekit.validate.statics import (
     solve_static_equilibrium,
 )
 from bracekit.validate.tracking import TrackingPoint, TrackingReport, TrackingStrategy, run_tracking_validation
+from bracekit.validate.verdict import Verdict, validation_verdict
 
 __all__ = [
     "CapacityRamp",
     "CapacityValidationReport",
+    "EnvironmentValidationReport",
     "HoldingCase",
     "HoldingCheck",
     "HoldingValidationReport",
@@ -55,6 +58,7 @@ __all__ = [
     "TrackingReport",
     "TrackingStrategy",
     "ValidationReport",
+    "Verdict",
     "build_mujoco_model",
     "frame_jacobian_derivative",
     "lagrange_compliance",
@@ -64,6 +68,7 @@ __all__ = [
     "preload_rest_configuration",
     "preload_study",
     "run_capacity_validation",
+    "run_environment_validation",
     "run_holding_validation",
     "run_preloaded_validation",
     "run_tracking_validation",
@@ -71,4 +76,5 @@ __all__ = [
     "solve_static_equilibrium",
     "static_capacity_scale",
     "validation_configurations",
+    "validation_verdict",
 ]

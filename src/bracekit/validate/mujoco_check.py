@@ -28,7 +28,7 @@ Settings that matter for ~1e-7 agreement with the Pinocchio statics (measured, s
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 from xml.sax.saxutils import quoteattr
 
@@ -65,6 +65,9 @@ _LINK_MASS = 1.0  # kg, mass of each moving body when gravity is off
 _LINK_INERTIA = 1e-2  # kg·m², principal inertias of each moving body when gravity is off
 _SOLREF = "0.002 1"  # stiff, critically damped contact
 _SOLIMP = "0.9999 0.9999 0.001"  # maximal impedance from zero penetration on (MuJoCo caps it at 0.9999)
+#: Constant impedance d of a soft (finite k_env) contact: solimp "d d 0.001"; any d in (0, 1) gives the same
+#: static stiffness (the solref below compensates), 0.9 keeps the regulariser R well above MuJoCo's floor.
+SOFT_IMPEDANCE = 0.9
 _CHUNK = 10  # steps between updates of the tip-wrench application point and settling checks
 
 
@@ -137,30 +140,28 @@ class _ContactGeoms:
     sphere: str
     surface: str
     bit: int
+    k_env: float | None = None
+    solref: str = _SOLREF
+    solimp: str = _SOLIMP
 
 
-def _mjcf(
-    model: pin.Model,
-    q0: np.ndarray,
-    K: np.ndarray,
-    rest: np.ndarray,
-    brace_frame_id: int,
-    tip_frame_id: int,
-    s: np.ndarray,
-    nhat: np.ndarray,
-    sphere_radius: float,
-    gravity: bool,
-    damping_time: float,
-    timestep: float,
-    friction: float | None = None,
-    cone: str = "pyramidal",
-    impratio: float = 1.0,
-) -> str:
-    contact = _ContactGeoms(brace_frame_id, s, nhat, BRACE_GEOM, SURFACE_GEOM, 1)
-    return _mjcf_contacts(
-        model, q0, K, rest, [contact], tip_frame_id, sphere_radius, gravity, damping_time, timestep, friction, cone,
-        impratio,
-    )  # fmt: skip
+def soft_contact_solref(k_env: float, inverse_weight: float, impedance: float = SOFT_IMPEDANCE) -> tuple[float, float]:
+    """MuJoCo's direct-form solref (−s, −b) that makes a frictionless contact a spring of stiffness k_env (N/m).
+
+    At rest (v = 0, zero constraint acceleration) MuJoCo's contact force is f = aref / R with
+    aref = −K·d·r, K = s / d_w², R = (1 − d) A / d (d the impedance, d_w = solimp[1], A the contact's
+    ``efc_diagApprox`` = the body's ``body_invweight0``; engine_core_constraint.c). With a constant impedance
+    d = d_w this is f = −s r / ((1 − d) A), a spring of stiffness s / ((1 − d) A) on the penetration −r, so
+    s = k_env (1 − d) A. The damping b = 2√s is the direct form of MuJoCo's critically damped reference
+    (timeconst 1/√s, dampratio 1). docs/validation.md derives it.
+
+    Args:
+        k_env: the environment stiffness, N/m (> 0).
+        inverse_weight: A, ``m.body_invweight0[body, 0]`` of the body carrying the sphere (1/kg).
+        impedance: the constant impedance d of solimp "d d 0.001", in (0, 1).
+    """
+    s = float(k_env) * (1.0 - impedance) * float(inverse_weight)
+    return s, 2.0 * float(np.sqrt(s))
 
 
 def _mjcf_contacts(
@@ -198,9 +199,13 @@ def _mjcf_contacts(
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
     if friction is None:
-        contact_attrs = f'condim="1" solref="{_SOLREF}" solimp="{_SOLIMP}"'
+        condim = 'condim="1"'
     else:  # sliding friction μ only; condim 3 has no torsional or rolling friction
-        contact_attrs = f'condim="3" friction="{_fmt(friction)} 0 0" solref="{_SOLREF}" solimp="{_SOLIMP}"'
+        condim = f'condim="3" friction="{_fmt(friction)} 0 0"'
+
+    def contact_attrs(geoms: _ContactGeoms) -> str:
+        return f'{condim} solref="{geoms.solref}" solimp="{geoms.solimp}"'
+
     lines: list[str] = []
 
     def body(jid: int, indent: str) -> None:
@@ -236,7 +241,7 @@ def _mjcf_contacts(
         for geoms, centre_local in spheres.get(jid, []):
             lines.append(
                 f'{indent}  <geom name={quoteattr(geoms.sphere)} type="sphere" size="{_fmt(sphere_radius)}" '
-                f'pos="{_vec(centre_local)}" contype="{geoms.bit}" conaffinity="0" {contact_attrs}/>'
+                f'pos="{_vec(centre_local)}" contype="{geoms.bit}" conaffinity="0" {contact_attrs(geoms)}/>'
             )
         if jid == tjid:
             lines.append(
@@ -262,7 +267,7 @@ def _mjcf_contacts(
     ]
     planes = [
         f'    <geom name={quoteattr(geoms.surface)} type="plane" size="0 0 1" pos="{_vec(geoms.point)}" '
-        f'quat="{_vec(_quat_z_to(geoms.normal))}" contype="0" conaffinity="{geoms.bit}" {contact_attrs}/>'
+        f'quat="{_vec(_quat_z_to(geoms.normal))}" contype="0" conaffinity="{geoms.bit}" {contact_attrs(geoms)}/>'
         for geoms in contacts
     ]
     return "\n".join([*head, *planes, *lines, "  </worldbody>", "</mujoco>"]) + "\n"
@@ -299,6 +304,7 @@ def build_mujoco_model(
     cone: Literal["elliptic", "pyramidal"] = "elliptic",
     impratio: float = 1.0,
     set_points: np.ndarray | None = None,
+    environment_stiffness: float | None = None,
 ) -> str:
     """MJCF string of the spring-jointed chain with a sphere contact at {b} on a plane (frictionless by default).
 
@@ -335,6 +341,9 @@ def build_mujoco_model(
             used with ``friction``.
         set_points: spring set points (springref) q_s (n,), rad, instead of those derived from ``preload``,
             e.g. ``bracekit.statics.contact_response(...).q_s`` for a preload with gravity.
+        environment_stiffness: k_env (N/m) of a soft surface, None (default) for the stiff contact: the contact
+            becomes a spring of stiffness k_env (:func:`soft_contact_solref`) and the plane is pressed in by
+            P / k_env at q0, so that the contact carries the preload there.
 
     Raises:
         InputError: unsupported joints, bad shapes, or a brace/tip frame fixed to the world.
@@ -373,14 +382,64 @@ def build_mujoco_model(
         rest = preload_rest_configuration(model, q0, K, brace_frame_id, nhat, preload)
     else:
         rest = q0
-    args = (model, q0, K, rest, brace_frame_id, tip_frame_id, s, nhat, sphere_radius, gravity)
+    k_env = _stiffness(environment_stiffness)
+    plane = s if k_env is None else s + nhat * (preload / k_env)  # the soft surface is pressed in by P / k_env at q0
+    contact = _ContactGeoms(brace_frame_id, plane, nhat, BRACE_GEOM, SURFACE_GEOM, 1, k_env)
+    return _assemble(
+        model, q0, K, rest, [contact], tip_frame_id, sphere_radius, gravity, damping_time, timestep, friction, cone,
+        impratio,
+    )  # fmt: skip
+
+
+def _stiffness(k_env: float | None) -> float | None:
+    if k_env is not None and not (isinstance(k_env, int | float) and np.isfinite(k_env) and k_env > 0.0):
+        raise InputError(f"environment_stiffness must be a finite stiffness > 0 N/m (or None if rigid), got {k_env!r}")
+    return None if k_env is None else float(k_env)
+
+
+def _assemble(
+    model: pin.Model,
+    q0: np.ndarray,
+    K: np.ndarray,
+    rest: np.ndarray,
+    contacts: list[_ContactGeoms],
+    tip_frame_id: int,
+    sphere_radius: float,
+    gravity: bool,
+    damping_time: float | None,
+    timestep: float | None,
+    friction: float | None = None,
+    cone: str = "pyramidal",
+    impratio: float = 1.0,
+) -> str:
+    """The MJCF in two passes: a rigid draft gives τ and each sphere body's inverse weight A, then the final text.
+
+    A soft contact (k_env set) gets :func:`soft_contact_solref` and solimp "d d 0.001"; the default timestep
+    resolves its time constant 1/√s (s = k_env (1 − d) A) with 10 steps.
+    """
+    rigid = [replace(c, solref=_SOLREF, solimp=_SOLIMP) for c in contacts]
+    draft = _mjcf_contacts(model, q0, K, rest, rigid, tip_frame_id, sphere_radius, gravity, 0.0, _MAX_TIMESTEP,
+                           friction, cone, impratio)  # fmt: skip
     if damping_time is None:
-        damping_time = _slowest_time_constant(_mjcf(*args, 0.0, _MAX_TIMESTEP, friction, cone, impratio), q0, K)
+        damping_time = _slowest_time_constant(draft, q0, K)
+    soft: list[_ContactGeoms] = []
+    fastest = np.inf
+    m = mujoco.MjModel.from_xml_string(draft) if any(c.k_env is not None for c in contacts) else None
+    for c in rigid:
+        if c.k_env is None or m is None:
+            soft.append(c)
+            continue
+        body = int(m.geom_bodyid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, c.sphere)])
+        sref, bref = soft_contact_solref(c.k_env, float(m.body_invweight0[body, 0]))
+        fastest = min(fastest, 1.0 / np.sqrt(sref))
+        d = _fmt(SOFT_IMPEDANCE)
+        soft.append(replace(c, solref=f"{_fmt(-sref)} {_fmt(-bref)}", solimp=f"{d} {d} 0.001"))
     if timestep is None:
-        timestep = min(_MAX_TIMESTEP, damping_time / 20.0)
+        timestep = min(_MAX_TIMESTEP, damping_time / 20.0, fastest / 10.0)
     if not (damping_time > 0.0 and timestep > 0.0):
         raise InputError("damping_time and timestep must be > 0 s")
-    return _mjcf(*args, damping_time, timestep, friction, cone, impratio)
+    return _mjcf_contacts(model, q0, K, rest, soft, tip_frame_id, sphere_radius, gravity, damping_time, timestep,
+                          friction, cone, impratio)  # fmt: skip
 
 
 # --------------------------------------------------------------------------------------------------
@@ -469,6 +528,7 @@ def mujoco_static_deflection(
     sphere_radius: float = 1e-4,
     gravity: bool = False,
     timestep: float | None = None,
+    environment_stiffness: float | None = None,
 ) -> MujocoResult:
     """Tip deflection of the braced chain under a dead tip wrench, settled in MuJoCo.
 
@@ -494,7 +554,8 @@ def mujoco_static_deflection(
         gravity: gravity along −z with the URDF's masses and inertias; the set points then hold q0 under
             gravity and the preload, q_s = q0 + K⁻¹ (g(q0) − J_b,vᵀ n̂ P), as in the static solve with
             ``gravity=True``.
-        timestep: MuJoCo timestep (s); default min(1 ms, τ/20).
+        timestep: MuJoCo timestep (s); default min(1 ms, τ/20) (and 1/10 of a soft contact's time constant).
+        environment_stiffness: k_env (N/m) of a soft surface (:func:`build_mujoco_model`); None: stiff.
 
     Returns:
         :class:`MujocoResult` (deflection relative to the settled preloaded state).
@@ -530,6 +591,7 @@ def mujoco_static_deflection(
         gravity=gravity,
         set_points=set_points,
         timestep=timestep,
+        environment_stiffness=environment_stiffness,
     )
     try:
         m = mujoco.MjModel.from_xml_string(xml)
@@ -693,6 +755,7 @@ def build_mujoco_model_multi(
     sphere_radius: float = 1e-4,
     damping_time: float | None = None,
     timestep: float | None = None,
+    environment_stiffness: float | Sequence[float | None] | None = None,
 ) -> str:
     """MJCF string of the spring-jointed chain with a frictionless sphere contact at every {b_i}.
 
@@ -714,6 +777,8 @@ def build_mujoco_model_multi(
         sphere_radius: radius of the contact spheres, m.
         damping_time: τ (s); default 2√λ_max(K⁻¹M(q0)) (heaviest mode critically damped).
         timestep: s; default min(1 ms, τ/20).
+        environment_stiffness: k_env (N/m) of each brace's soft surface (one for all or one per brace; None:
+            stiff), as in :func:`build_mujoco_model`.
 
     Raises:
         InputError: unsupported joints, bad shapes or counts, or a brace/tip frame fixed to the world.
@@ -742,18 +807,22 @@ def build_mujoco_model_multi(
     points = [np.asarray(pt, dtype=float).reshape(3) for pt, _ in surfaces]
     P = _per_brace(preload, len(ids))
     rest = multi_preload_set_points(model, q0, K, ids, normals, P)
+    ks = _per_brace_stiffness(environment_stiffness, len(ids))
     contacts = [
-        _ContactGeoms(fid, pt, nh, *brace_geom_names(i), 1 << i)
-        for i, (fid, pt, nh) in enumerate(zip(ids, points, normals, strict=True))
+        _ContactGeoms(fid, pt if k is None else pt + nh * (p / k), nh, *brace_geom_names(i), 1 << i, k)
+        for i, (fid, pt, nh, p, k) in enumerate(zip(ids, points, normals, P, ks, strict=True))
     ]
-    args = (model, q0, K, rest, contacts, tip_frame_id, sphere_radius, False)
-    if damping_time is None:
-        damping_time = _slowest_time_constant(_mjcf_contacts(*args, 0.0, _MAX_TIMESTEP), q0, K)
-    if timestep is None:
-        timestep = min(_MAX_TIMESTEP, damping_time / 20.0)
-    if not (damping_time > 0.0 and timestep > 0.0):
-        raise InputError("damping_time and timestep must be > 0 s")
-    return _mjcf_contacts(*args, damping_time, timestep)
+    return _assemble(model, q0, K, rest, contacts, tip_frame_id, sphere_radius, False, damping_time, timestep)
+
+
+def _per_brace_stiffness(value: float | Sequence[float | None] | None, count: int) -> list[float | None]:
+    """One k_env (N/m, None: rigid) per brace from one value or a sequence."""
+    if value is None or isinstance(value, int | float):
+        return [_stiffness(value)] * count
+    ks = [_stiffness(v) for v in value]
+    if len(ks) != count:
+        raise InputError(f"give one environment stiffness (or None) per brace ({count}), got {len(ks)}")
+    return ks
 
 
 def mujoco_static_deflection_multi(
@@ -770,6 +839,7 @@ def mujoco_static_deflection_multi(
     tol: float = 1e-11,
     sphere_radius: float = 1e-4,
     timestep: float | None = None,
+    environment_stiffness: float | Sequence[float | None] | None = None,
 ) -> MultiMujocoResult:
     """Tip deflection of the chain braced at several points under a dead tip wrench, settled in MuJoCo.
 
@@ -793,6 +863,8 @@ def mujoco_static_deflection_multi(
         timestep: MuJoCo timestep (s); default min(1 ms, τ/20). Several stiff contacts may keep bouncing in a
             limit cycle at one timestep and settle at another (seen at 1 ms and at 0.5 ms, never at both):
             :func:`bracekit.validate.multi_brace.validate_several_braces` retries at half the step.
+        environment_stiffness: k_env (N/m) of each brace's soft surface (one for all or one per brace; None:
+            stiff), as in :func:`build_mujoco_model`.
 
     Returns:
         :class:`MultiMujocoResult` (deflection relative to the settled preloaded state).
@@ -818,6 +890,7 @@ def mujoco_static_deflection_multi(
         preload=preload,
         sphere_radius=sphere_radius,
         timestep=timestep,
+        environment_stiffness=environment_stiffness,
     )
     P = _per_brace(preload, len(surfaces))
     try:

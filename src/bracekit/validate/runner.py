@@ -133,10 +133,6 @@ def _scenario(scenario: Scenario | str | os.PathLike[str]) -> Scenario:
             f"validation supports the frictionless point contact only (MuJoCo and the static solve model it); "
             f"scenario '{sc.name}' uses '{brace.kind.name}'"
         )
-    if brace.environment_stiffness is not None:
-        raise InputError(
-            f"validation assumes a rigid surface; scenario '{sc.name}' sets brace.environment_stiffness: remove it"
-        )
     return sc
 
 
@@ -286,20 +282,28 @@ def _config(braced: BracedRobot, q: ArrayLike, index: int) -> _Config:
 
 
 def _references(
-    braced: BracedRobot, cfg: _Config, w: Array, preload: float, max_steps: int
+    braced: BracedRobot, q: Array, w: Array, preload: float, max_steps: int, gravity: bool = False
 ) -> tuple[dict[str, Any], list[str]]:
-    """Static and MuJoCo deflections of one load case; failures go into the message list."""
-    robot, surface, q = braced.robot, braced.brace.surface, cfg.state.q
+    """Static and MuJoCo deflections of one load case (the brace's k_env in both); failures go into the messages."""
+    robot, surface = braced.robot, braced.brace.surface
+    k_env = braced.brace.environment_stiffness  # None: rigid; else both references use the soft contact
     common = (robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, surface.point, surface.normal, w)
     out: dict[str, Any] = {"static": None, "mujoco": None}
     messages = []
     try:
-        out["static"] = solve_static_equilibrium(*common, bilateral=False, preload=preload)
+        out["static"] = solve_static_equilibrium(
+            *common, bilateral=False, preload=preload, gravity=gravity, environment_stiffness=k_env
+        )
     except (StaticSolveError, ValueError, np.linalg.LinAlgError) as exc:
         messages.append(f"static solve failed: {exc}")
     try:
         out["mujoco"] = mujoco_static_deflection(
-            *common, preload=preload, max_steps=max_steps, sphere_radius=MUJOCO_SETTINGS["sphere_radius_m"]
+            *common,
+            preload=preload,
+            gravity=gravity,
+            max_steps=max_steps,
+            sphere_radius=MUJOCO_SETTINGS["sphere_radius_m"],
+            environment_stiffness=k_env,
         )
     except (MujocoValidationError, ValueError) as exc:
         messages.append(f"MuJoCo failed: {exc}")
@@ -307,7 +311,7 @@ def _references(
 
 
 def _case(braced: BracedRobot, cfg: _Config, index: int, label: str, w: Array, preload: float, max_steps: int) -> dict:
-    refs, messages = _references(braced, cfg, w, preload, max_steps)
+    refs, messages = _references(braced, cfg.state.q, w, preload, max_steps)
     st, mj = refs["static"], refs["mujoco"]
     ref = {
         "static": None if st is None else np.asarray(st.deflection, dtype=float),
@@ -941,24 +945,8 @@ def _preloaded_case(
     gravity: bool,
     max_steps: int,
 ) -> dict[str, Any]:
-    robot, surface = braced.robot, braced.brace.surface
-    common = (robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, surface.point, surface.normal, w)
-    messages = []
-    st = mj = None
-    try:
-        st = solve_static_equilibrium(*common, bilateral=False, preload=preload, gravity=gravity)
-    except (StaticSolveError, ValueError, np.linalg.LinAlgError) as exc:
-        messages.append(f"static solve failed: {exc}")
-    try:
-        mj = mujoco_static_deflection(
-            *common,
-            preload=preload,
-            gravity=gravity,
-            max_steps=max_steps,
-            sphere_radius=MUJOCO_SETTINGS["sphere_radius_m"],
-        )
-    except (MujocoValidationError, ValueError) as exc:
-        messages.append(f"MuJoCo failed: {exc}")
+    refs, messages = _references(braced, q, w, preload, max_steps, gravity)
+    st, mj = refs["static"], refs["mujoco"]
     ref = {
         "static": None if st is None else np.asarray(st.deflection, dtype=float),
         "mujoco": None if mj is None else np.asarray(mj.deflection, dtype=float),
