@@ -223,9 +223,35 @@ def test_capacity_checks_refuse_what_they_cannot_check(setup: dict) -> None:
     sc, q = setup["sc"], setup["q"]
     with pytest.raises(InputError, match="preload"):
         run_capacity_validation("paper", [q])
-    with pytest.raises(InputError, match="neither lifts off nor slips"):
-        mujoco_capacity_ramp(sc.braced, q, sc.holding, np.zeros(6))
+    # a wrench that can break nothing is no input error: it is ramped and holds (was refused before)
+    zero = mujoco_capacity_ramp(sc.braced, q, sc.holding, np.zeros(6), static=False)
+    assert zero.mode == "held" and zero.mujoco_outcome == "held"
     with pytest.raises(InputError, match="ramp_time"):
         mujoco_capacity_ramp(sc.braced, q, sc.holding, PULL_UP, ramp_time=0.0)
     with pytest.raises(InputError, match="friction"):
         static_capacity_scale(sc.braced, q, Holding(gravity=True, preload=20.0), PULL_UP, "slipped", 1.0)
+
+
+def _pressing_wrench(sc: bk.Scenario, q: np.ndarray) -> np.ndarray:
+    """A tool wrench whose first-order contact-force change is a pure push into the surface (10 N along n̂ on b)."""
+    resp = contact_response(sc.braced, q, preload=20.0, gravity=True, friction=0.5)
+    f0 = np.asarray(resp.contact_wrench(np.zeros(6))[:3])
+    R = np.column_stack([np.asarray(resp.contact_wrench(e)[:3]) - f0 for e in np.eye(6)])
+    w = np.linalg.lstsq(R, 10.0 * sc.braced.brace.surface.normal, rcond=None)[0]
+    return np.asarray(w, dtype=float)
+
+
+def test_a_wrench_that_cannot_break_the_brace_is_ramped_tenfold_and_holds(setup: dict) -> None:
+    sc, q = setup["sc"], setup["q"]
+    w = _pressing_wrench(sc, q)
+    r = mujoco_capacity_ramp(sc.braced, q, sc.holding, w)
+    assert not np.isfinite(r.predicted_scale) and r.mode == "held"
+    assert r.stop_scale == 10.0 and r.mujoco_outcome == "held" and r.mujoco_scale is None
+    assert r.static_message is not None and r.static_message.startswith("nonlinear statics hold at 10")
+    assert r.creep < 1e-5  # the sticking contact does not slide under the tenfold push
+    report = run_capacity_validation(setup["path"], [q], wrenches=[w])
+    data = json.loads(json.dumps(report.to_json(), allow_nan=False))
+    (case,) = data["cases"]
+    assert case["status"] == "no_limit" and case["ramp"]["mujoco_outcome"] == "held"
+    assert case["message"].startswith("holds at any scale; ramped to 10x in MuJoCo, held")
+    assert "held to 10" in report.table_text()

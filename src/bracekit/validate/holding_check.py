@@ -526,6 +526,11 @@ RAMP_SETTINGS: dict[str, Any] = {
     ),
     "ramp_time_tau": 40.0,
     "stop_at": "2 x the predicted scale",
+    "unbreakable_ramp_to": 10.0,
+    "unbreakable": (
+        "a wrench that neither lifts off nor slips at any scale (first order) is ramped to unbreakable_ramp_to x w "
+        "at the rate that reaches it after ramp_time tau; it must hold"
+    ),
     "liftoff_event": "no active sphere-plane contact, or normal force <= 0",
     "slip_event": "|f_t| >= (1 - cone_tol) mu f_n (the force reaches MuJoCo's elliptic Coulomb cone)",
     "cone_tol": 1e-3,
@@ -549,14 +554,15 @@ class CapacityRamp:
         q: the commanded configuration (n,), rad.
         wrench: w (6,), [f; m] at the tip, world axes (N, N·m).
         preload: P (N). friction: μ or None (frictionless: lift-off only). gravity: whether gravity was on.
-        mode: the predicted failure tested, ``lifted_off`` or ``slipped``.
+        mode: the predicted failure tested, ``lifted_off`` or ``slipped``; ``held`` for a wrench that neither
+            lifts off nor slips at any scale (ramped to ``stop_scale``).
         liftoff_margin, slip_margin: first-order scales of lift-off and slip (inf: never; slip None without μ).
-        predicted_scale: the first-order scale of ``mode`` (:func:`bracekit.statics.capacity_of`).
+        predicted_scale: the first-order scale of ``mode`` (:func:`bracekit.statics.capacity_of`; inf: holds).
         static_scale: the scale of ``mode`` in the nonlinear rigid statics (None if the solve failed).
         static_message: why the static scale is missing, else None.
         mujoco_scale: s at MuJoCo's first event along the ramp (None: no event before ``stop_scale``).
         mujoco_outcome: that event: ``lifted_off`` (contact open or normal force 0) or ``slipped`` (the
-            contact force reached the Coulomb cone); None without an event.
+            contact force reached the Coulomb cone); None without an event (``held`` for a ``held`` mode).
         slide_scale: with μ, s at which the tangential displacement of b exceeded ``slide_tol`` (None: never).
         creep: tangential displacement of b at the event, or at the end of the ramp without one (m).
         rel_err: |predicted_scale − mujoco_scale| / mujoco_scale (None without a MuJoCo scale).
@@ -599,7 +605,7 @@ class CapacityRamp:
             "mode": self.mode,
             "liftoff_margin": _finite(self.liftoff_margin),
             "slip_margin": None if self.slip_margin is None else _finite(self.slip_margin),
-            "predicted_scale": self.predicted_scale,
+            "predicted_scale": _finite(self.predicted_scale),
             "static_scale": self.static_scale,
             "static_message": self.static_message,
             "mujoco_scale": self.mujoco_scale,
@@ -687,6 +693,7 @@ def mujoco_capacity_ramp(
     cone_tol: float = RAMP_SETTINGS["cone_tol"],
     slide_tol: float = RAMP_SETTINGS["slide_tol_m"],
     static: bool = True,
+    hold_scale: float = RAMP_SETTINGS["unbreakable_ramp_to"],
 ) -> CapacityRamp:
     """Ramp the tool wrench s·w slowly in MuJoCo and find the scale at which the brace lifts off or slips.
 
@@ -700,11 +707,14 @@ def mujoco_capacity_ramp(
     The ramp goes on after a slip until b has slid ``slide_tol`` (``slide_scale``), lifts off, or s reaches
     2 s_pred.
 
-    The failure tested is the one the first-order statics predict first; it must have a finite scale s_pred.
-    With ``static`` the nonlinear statics' scale (:func:`static_capacity_scale`) is computed too.
+    The failure tested is the one the first-order statics predict first. A wrench that neither lifts off nor
+    slips at any scale (s_pred infinite) is a fact to show, not an error: it is ramped to ``hold_scale`` × w
+    (reached after ``ramp_time`` τ) and must hold (``mode`` and, without an event, ``mujoco_outcome`` are
+    ``held``); with ``static`` the nonlinear statics are solved at that scale too (``static_message``).
+    Otherwise, with ``static``, the nonlinear statics' scale (:func:`static_capacity_scale`) is computed.
 
     Raises:
-        InputError: bad inputs, a brace MuJoCo does not model, or a wrench with no predicted failure.
+        InputError: bad inputs or a brace MuJoCo does not model.
         MujocoValidationError: the simulation goes unstable, or the contact is open without load.
         NumericalError: bracekit's preloaded equilibrium is unstable.
     """
@@ -729,6 +739,7 @@ def mujoco_capacity_ramp(
         (timestep, "timestep (s)", 0.0),
         (cone_tol, "cone_tol", 0.0),
         (slide_tol, "slide_tol (m)", 0.0),
+        (hold_scale, "hold_scale", 0.0),
     ):
         ok = isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
         if not ok or value < low or (low == 0.0 and value <= 0.0):
@@ -741,16 +752,18 @@ def mujoco_capacity_ramp(
     liftoff = float(cap.liftoff[0, 0])
     slip = None if cap.slip is None else float(cap.slip[0, 0])
     predicted = min(liftoff, np.inf if slip is None else slip)
-    if not np.isfinite(predicted) or predicted <= 0.0:
-        raise InputError(
-            f"the wrench {show(w)} neither lifts off nor slips in bracekit's statics (predicted scale {predicted:g}); "
-            "give a wrench that pulls the brace off the surface or along it"
+    if not predicted > 0.0:
+        raise MujocoValidationError(
+            f"bracekit's statics say the brace fails without load under the wrench {show(w)} (scale {predicted:g})"
         )
-    mode: Outcome = "lifted_off" if liftoff <= predicted else "slipped"
+    unbreakable = not np.isfinite(predicted)
+    mode: Outcome = "held" if unbreakable else ("lifted_off" if liftoff <= predicted else "slipped")
 
     static_scale: float | None = None
     static_message: str | None = None
-    if static:
+    if static and unbreakable:
+        static_message = _static_holds(braced, qa, holding, w, float(hold_scale))
+    elif static:
         try:
             static_scale = static_capacity_scale(braced, qa, holding, w, mode, predicted)
         except StaticSolveError as exc:
@@ -771,10 +784,13 @@ def mujoco_capacity_ramp(
         _, ncon = sim.contact_force()
         if ncon == 0 and holding.preload > 0.0:
             raise MujocoValidationError("no sphere–surface contact under the preload: does b lie on the surface at q?")
-        ramp = _ramp(sim, w, predicted, float(ramp_time), mu, nhat, float(cone_tol), float(slide_tol))
+        target, stop = (float(hold_scale),) * 2 if unbreakable else (float(predicted), 2.0 * float(predicted))
+        ramp = _ramp(sim, w, target, stop, float(ramp_time), mu, nhat, float(cone_tol), float(slide_tol))
     finally:
         mujoco.set_mju_user_warning(previous)
     s_mj, outcome, slide, creep, rate, stop, steps = ramp
+    if unbreakable and outcome is None:
+        outcome = "held"  # ramped to hold_scale × w without an event
 
     def rel(x: float | None) -> float | None:
         return None if x is None or s_mj is None else abs(x - s_mj) / s_mj
@@ -809,21 +825,46 @@ def mujoco_capacity_ramp(
 _EDGE_TOL = 0.01
 
 
+def _static_holds(braced: BracedRobot, q: Array, holding: Holding, w: Array, scale: float) -> str:
+    """Whether the nonlinear rigid statics (sticking load contact) still hold at ``scale`` × w, in words."""
+    robot, brace = braced.robot, braced.brace
+    mu = holding.friction if holding.friction else None
+    nhat = brace.surface.normal
+    try:
+        res = solve_static_equilibrium(
+            robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, brace.surface.point, nhat, scale * w,
+            preload=holding.preload, gravity=holding.gravity, constraint_wrenches=load_contact_wrenches(brace, mu),
+        )  # fmt: skip
+    except StaticSolveError as exc:
+        return f"nonlinear statics at {scale:g} x w: {exc}"
+    f = res.contact_wrench[:3]
+    fn = float(f @ nhat)
+    ft = float(np.linalg.norm(f - fn * nhat))
+    if fn <= 0.0:
+        return f"nonlinear statics lift off below {scale:g} x w (normal force {fn:.3g} N there)"
+    if mu is not None and ft > mu * fn:
+        return f"nonlinear statics slip below {scale:g} x w (|f_t| / f_n = {ft / fn:.3g} > mu there)"
+    return f"nonlinear statics hold at {scale:g} x w (f_n = {fn:.4g} N, |f_t| = {ft:.3g} N)"
+
+
 def _ramp(
     sim: _Sim,
     w: Array,
-    predicted: float,
+    target: float,
+    stop: float,
     ramp_time: float,
     mu: float | None,
     nhat: Array,
     cone_tol: float,
     slide_tol: float,
 ) -> tuple[float | None, Outcome | None, float | None, float, float, float, int]:
-    """The load ramp of :func:`mujoco_capacity_ramp`: (scale, outcome, slide scale, creep, rate, stop, steps)."""
+    """The load ramp of :func:`mujoco_capacity_ramp`: (scale, outcome, slide scale, creep, rate, stop, steps).
+
+    s grows at the rate that reaches ``target`` after ``ramp_time`` τ and the ramp ends past ``stop``.
+    """
     m, d = sim.m, sim.d
     dt = float(m.opt.timestep)
-    rate = predicted / (ramp_time * sim.tau)
-    stop = 2.0 * predicted
+    rate = target / (ramp_time * sim.tau)
     b0 = sim.b_point()
     scale: float | None = None
     outcome: Outcome | None = None

@@ -1184,17 +1184,21 @@ class CapacityValidationReport:
             def num(x: float | None) -> str:
                 return "n/a" if x is None else f"{x:.4g}"
 
-            mj = num(r["mujoco_scale"]) + (
-                "" if r["mujoco_outcome"] in (None, r["mode"]) else f" ({r['mujoco_outcome']})"
-            )
+            if r["mode"] == "held":
+                mj = f"held to {r['stop_scale']:g}" if r["mujoco_outcome"] == "held" else num(r["mujoco_scale"])
+            else:
+                mj = num(r["mujoco_scale"])
+            mj += "" if r["mujoco_outcome"] in (None, r["mode"]) else f" ({r['mujoco_outcome']})"
             rows.append(
                 (
                     str(c["config"]),
                     str(c["wrench_index"]),
                     c["variant"],
                     r["mode"],
-                    num(r["predicted_scale"]),
-                    num(r["static_scale"]),
+                    "∞" if r["mode"] == "held" else num(r["predicted_scale"]),
+                    "∞"
+                    if r["mode"] == "held" and (r["static_message"] or "").startswith("nonlinear statics hold")
+                    else num(r["static_scale"]),
                     mj,
                     fmt_rel(r["rel_err"]),
                     fmt_rel(r["rel_err_static"]),
@@ -1214,7 +1218,7 @@ class CapacityValidationReport:
         notes = [
             f"  config {c['config']}, wrench {c['wrench_index']} ({c['variant']}): {c['message']}"
             for c in self.cases
-            if c["status"] in ("failed", "disagrees")
+            if c["status"] in ("failed", "disagrees", "no_limit")
         ]
         return "\n".join([*lines, fmt(cols), "-" * len(fmt(cols)), *map(fmt, rows), *tail, *notes])
 
@@ -1237,6 +1241,17 @@ def _capacity_entry(
         entry["status"], entry["message"] = "failed", str(exc)
         return entry
     entry["ramp"] = r.to_json()
+    if r.mode == "held":  # neither lift-off nor slip at any scale: shown by ramping to stop_scale × w
+        entry["status"] = "no_limit" if r.mujoco_outcome == "held" else "disagrees"
+        what = (
+            "held"
+            if r.mujoco_outcome == "held"
+            else f"{str(r.mujoco_outcome).replace('_', ' ')} at s = {r.mujoco_scale:.4g}"
+        )
+        entry["message"] = f"holds at any scale; ramped to {r.stop_scale:g}x in MuJoCo, {what}"
+        if r.static_message is not None:
+            entry["message"] += f"; {r.static_message}"
+        return entry
     if r.mujoco_outcome != r.mode:
         entry["status"] = "disagrees"
         what = "did not fail" if r.mujoco_outcome is None else f"{r.mujoco_outcome.replace('_', ' ')}"
@@ -1265,8 +1280,8 @@ def run_capacity_validation(
     MuJoCo's contact opens or reaches the Coulomb cone; it is compared with bracekit's first-order scale
     (:func:`bracekit.statics.capacity_of`) and with the nonlinear statics' scale. With ``frictionless_liftoff``,
     a wrench predicted to slip before it would lift off is also ramped on the frictionless brace (same preload
-    and gravity) to check its lift-off scale. A wrench with neither limit is reported as ``no_limit``. About
-    1 s per case.
+    and gravity) to check its lift-off scale. A wrench with neither limit holds at any scale: it is ramped to
+    10 × w in MuJoCo (status ``no_limit`` when it held, ``disagrees`` otherwise). About 1 s per case.
 
     Args:
         scenario: a Scenario, a shipped name or a TOML path; frictionless point contact, rigid surface, a
@@ -1326,20 +1341,7 @@ def run_capacity_validation(
         for j, w in enumerate(ws):
             liftoff = float(cap.liftoff[0, j])
             slip = np.inf if cap.slip is None else float(cap.slip[0, j])
-            if not np.isfinite(min(liftoff, slip)):
-                report.cases.append(
-                    {
-                        "config": i,
-                        "wrench_index": j,
-                        "wrench": w.tolist(),
-                        "variant": "scenario",
-                        "status": "no_limit",
-                        "message": "bracekit predicts neither lift-off nor slip under this wrench at any scale",
-                        "ramp": None,
-                    }
-                )
-            else:
-                report.cases.append(_capacity_entry(sc.braced, q, h, w, i, j, "scenario", ramp_time))
+            report.cases.append(_capacity_entry(sc.braced, q, h, w, i, j, "scenario", ramp_time))
             if frictionless_liftoff and mu is not None and np.isfinite(liftoff) and slip < liftoff:
                 report.cases.append(_capacity_entry(sc.braced, q, bare, w, i, j, "frictionless", ramp_time))
             if progress is not None:
