@@ -16,7 +16,8 @@ from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario import load_scenario
 from bracekit.validate.environment_check import run_environment_validation
-from bracekit.validate.mujoco_check import SOFT_IMPEDANCE, build_mujoco_model, soft_contact_solref
+from bracekit.validate.mjcf import SOFT_IMPEDANCE, build_mujoco_model, soft_contact_solref
+from bracekit.validate.plane_contact import PlaneContact
 from bracekit.validate.runner import run_validation, validation_configurations
 
 pytestmark = pytest.mark.slow
@@ -54,10 +55,8 @@ def test_mujoco_soft_contact_is_a_spring_of_stiffness_kenv() -> None:
     q = validation_configurations(sc, 1)[0]
     br, robot = sc.braced, sc.robot
     for k_env in (1e3, 1e5):
-        xml = build_mujoco_model(
-            robot.model, q, robot.stiffness, br.brace_id, robot.tip_id, br.brace.surface.point,
-            br.brace.surface.normal, preload=2.0, environment_stiffness=k_env,
-        )  # fmt: skip
+        contact = PlaneContact(br.brace_id, br.brace.surface.point, br.brace.surface.normal, 2.0, None, k_env)
+        xml = build_mujoco_model(robot.model, q, robot.stiffness, robot.tip_id, [contact])
         m = mujoco.MjModel.from_xml_string(xml)
         d = mujoco.MjData(m)
         d.qpos[:] = q

@@ -14,15 +14,10 @@ import bracekit as bk
 from bracekit.errors import InputError
 from bracekit.simulation.holding import Holding
 from bracekit.statics import contact_response, load_contact_wrenches
-from bracekit.validate.holding_check import (
-    FAIL_ABOVE,
-    HOLD_BELOW,
-    HoldingCheck,
-    mujoco_capacity_ramp,
-    mujoco_holding_check,
-    static_capacity_scale,
-)
-from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, build_mujoco_model
+from bracekit.validate.capacity_check import mujoco_capacity_ramp, static_capacity_scale
+from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.holding_check import FAIL_ABOVE, HOLD_BELOW, HoldingCheck, mujoco_holding_check
+from bracekit.validate.mjcf import brace_geom_names, build_mujoco_model
 from bracekit.validate.runner import run_capacity_validation, run_holding_validation, validation_configurations
 from bracekit.validate.statics import solve_static_equilibrium
 from helpers import scenario_text
@@ -55,15 +50,15 @@ def down(setup: dict) -> HoldingCheck:
 
 def test_mjcf_has_the_coulomb_cone_friction_gravity_and_the_statics_set_points(setup: dict) -> None:
     sc, q = setup["sc"], setup["q"]
-    robot, surface = sc.robot, sc.braced.brace.surface
+    robot = sc.robot
     resp = contact_response(sc.braced, q, preload=20.0, gravity=True, friction=0.5)
     xml = build_mujoco_model(
-        robot.model, q, robot.stiffness, sc.braced.brace_id, robot.tip_id, surface.point, surface.normal,
+        robot.model, q, robot.stiffness, robot.tip_id, plane_contacts(sc.braced),
         gravity=True, friction=0.5, impratio=10.0, set_points=resp.q_s,
     )  # fmt: skip
     m = mujoco.MjModel.from_xml_string(xml)
     assert m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC and m.opt.impratio == 10.0
-    pair = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in (BRACE_GEOM, SURFACE_GEOM)]
+    pair = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in brace_geom_names(0)]
     assert np.all(m.geom_condim[pair] == 3) and np.allclose(m.geom_friction[pair, 0], 0.5)
     np.testing.assert_allclose(m.qpos_spring, resp.q_s, atol=1e-15)
     np.testing.assert_allclose(m.opt.gravity, [0.0, 0.0, -9.81])

@@ -31,7 +31,7 @@ def figure_validation(report: ValidationReport, path: str | Path) -> Path:
     for ax, (sl, unit, name) in zip(axes, parts, strict=True):
         ref = np.array([np.asarray(c["deflection"]["mujoco"])[sl] for c in ok]).reshape(-1) * unit
         lim = [0.0, 0.0]
-        for m in MODELS:
+        for m in report.models:  # the models defined for the robot's braces
             pred = np.array([np.asarray(c["deflection"][m])[sl] for c in ok]).reshape(-1) * unit
             med = report.model_stats(m)["median_rel_err_mujoco"]
             ax.scatter(

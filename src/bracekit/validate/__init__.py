@@ -4,15 +4,9 @@ The first-order Lagrange (KKT) compliance, the nonlinear static equilibrium (Pin
 braced chain, and the runner that compares the first-order models with both.
 """
 
+from bracekit.validate.capacity_check import CapacityRamp, mujoco_capacity_ramp, static_capacity_scale
 from bracekit.validate.environment_check import EnvironmentValidationReport, run_environment_validation
-from bracekit.validate.holding_check import (
-    CapacityRamp,
-    HoldingCase,
-    HoldingCheck,
-    mujoco_capacity_ramp,
-    mujoco_holding_check,
-    static_capacity_scale,
-)
+from bracekit.validate.holding_check import HoldingCase, HoldingCheck, mujoco_holding_check
 from bracekit.validate.mujoco_check import (
     MujocoResult,
     MujocoValidationError,

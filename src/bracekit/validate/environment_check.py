@@ -34,8 +34,9 @@ from bracekit.validate.runner import (
     _rel_err,
     _scenario,
     _stats,
+    check_compliance,
+    first_order_state,
     fmt_rel,
-    run_validation,
 )
 
 __all__ = ["DEFAULT_STIFFNESSES", "EnvironmentRow", "EnvironmentValidationReport", "run_environment_validation"]
@@ -159,8 +160,8 @@ def _softening(soft: BracedRobot, rigid: BracedRobot, report: ValidationReport) 
         if i not in by_config:
             q = np.asarray(report.configurations[i], dtype=float)
             by_config[i] = (
-                end_effector_compliance(soft.state(q), "constrained"),
-                end_effector_compliance(rigid.state(q), "constrained"),
+                end_effector_compliance(first_order_state(soft, q), "constrained"),
+                end_effector_compliance(first_order_state(rigid, q), "constrained"),
                 float(c["length_scale_m"]),
             )
         c_soft, c_rigid, length = by_config[i]
@@ -168,6 +169,11 @@ def _softening(soft: BracedRobot, rigid: BracedRobot, report: ValidationReport) 
         err = _rel_err(c_soft @ w, c_rigid @ w, length)  # ‖Δ_soft − Δ_rigid‖ / ‖Δ_rigid‖
         values.append(err)
     return _stats(values)[0]
+
+
+def _with_stiffness(braced: BracedRobot, k_env: float | None) -> BracedRobot:
+    """The same robot with every brace's surface of stiffness k_env (None: rigid)."""
+    return BracedRobot(braced.robot, [replace(b, environment_stiffness=k_env) for b in braced.braces])
 
 
 def run_environment_validation(
@@ -183,8 +189,8 @@ def run_environment_validation(
     """The constrained compliance with each k_env against MuJoCo's soft contact and the penalty static solve.
 
     Args:
-        scenario: a Scenario, a shipped name or a TOML path with one frictionless point brace (its own k_env,
-            if any, is replaced by each of ``stiffnesses``).
+        scenario: a Scenario, a shipped name or a TOML path (one brace or several, of contact types MuJoCo
+            models; every brace's own k_env, if any, is replaced by each of ``stiffnesses``).
         configs: number of configurations (:func:`~bracekit.validate.runner.validation_configurations`) or
             the configurations themselves.
         stiffnesses: the k_env values, N/m (each > 0).
@@ -199,18 +205,18 @@ def run_environment_validation(
     sc = _scenario(scenario)
     ks = [_positive(k, "each environment stiffness", "N/m") for k in stiffnesses]
     qs = _configurations(sc, configs)
-    rigid = BracedRobot(sc.robot, replace(sc.braced.brace, environment_stiffness=None))
+    rigid = _with_stiffness(sc.braced, None)
     report = EnvironmentValidationReport(
         scenario=sc.name,
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={"stiffnesses_N_per_m": ks, "force_N": force, "preload_N": preload, "directions": "pure forces"},
     )
     for k in ks:
-        soft = BracedRobot(sc.robot, replace(sc.braced.brace, environment_stiffness=k))
-        soft_sc = replace(sc, braced=soft)
-        rep = run_validation(
-            soft_sc,
+        soft = _with_stiffness(sc.braced, k)
+        rep = check_compliance(
+            soft,
             qs,
+            name=sc.name,
             force=force,
             moment=force,  # unused: pure-force directions
             preload=preload,

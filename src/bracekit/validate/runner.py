@@ -33,7 +33,7 @@ import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -44,29 +44,33 @@ from bracekit.compliance.first_order import end_effector_compliance, free_space_
 from bracekit.compliance.preloaded import preloaded_compliance
 from bracekit.errors import (
     BracekitError,
+    ContactError,
     InputError,
     MujocoValidationError,
     NumericalError,
+    RedundantContactWarning,
     RegionWarning,
     StaticSolveError,
 )
 from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics.multi import MultiBracedState
 from bracekit.simulation.holding import Holding
+from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.simulation.simulate import simulate, solve_start
 from bracekit.statics import capacity_along, effort_limits
-from bracekit.statics.equilibrium import wrench_list
+from bracekit.statics.equilibrium import multi_contact_responses, wrench_list
+from bracekit.validate.capacity_check import RAMP_SETTINGS, mujoco_capacity_ramp
+from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.holding_check import (
     DEFAULT_FRACTIONS,
     FAIL_ABOVE,
     HOLD_BELOW,
     HOLDING_SETTINGS,
-    RAMP_SETTINGS,
-    mujoco_capacity_ramp,
     mujoco_holding_check,
 )
 from bracekit.validate.mujoco_check import mujoco_static_deflection
-from bracekit.validate.statics import solve_static_equilibrium
+from bracekit.validate.statics import solve_statics
 
 __all__ = [
     "DEFAULT_DIRECTIONS",
@@ -77,6 +81,8 @@ __all__ = [
     "HoldingValidationReport",
     "PreloadedValidationReport",
     "ValidationReport",
+    "check_compliance",
+    "first_order_state",
     "path_samples",
     "preload_study",
     "run_capacity_validation",
@@ -110,6 +116,10 @@ DEFAULT_DIRECTIONS: tuple[tuple[str, tuple[float, ...]], ...] = (
 #: The pure-force directions of :data:`DEFAULT_DIRECTIONS` (used by :func:`preload_study`).
 FORCE_DIRECTIONS = tuple(d for d in DEFAULT_DIRECTIONS if not any(d[1][3:]))
 
+#: MuJoCo timesteps (s) tried in turn until the chain settles (None: the default, min(1 ms, τ/20)): several
+#: stiff contacts can keep bouncing in a limit cycle at one timestep and settle at another.
+_TIMESTEPS: tuple[float | None, ...] = (None, 5e-4, 2.5e-4)
+
 #: MuJoCo settings used by the validation (recorded in the report).
 MUJOCO_SETTINGS: dict[str, Any] = {
     "contact": "frictionless sphere on a plane, condim 1, solref '0.002 1', solimp '0.9999 0.9999 0.001'",
@@ -127,12 +137,7 @@ def _scenario(scenario: Scenario | str | os.PathLike[str]) -> Scenario:
     if not isinstance(scenario, Scenario | str | os.PathLike):
         raise InputError(f"scenario must be a Scenario, a .toml path or a shipped name, got {type(scenario).__name__}")
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    brace = sc.braced.brace
-    if brace.kind.name != "frictionless_point":
-        raise InputError(
-            f"validation supports the frictionless point contact only (MuJoCo and the static solve model it); "
-            f"scenario '{sc.name}' uses '{brace.kind.name}'"
-        )
+    plane_contacts(sc.braced)  # every brace of a contact type MuJoCo and the static solve model
     return sc
 
 
@@ -199,9 +204,12 @@ def validation_configurations(scenario: Scenario | str | os.PathLike[str], n: in
             f"asked for {n} configurations, but the path of scenario '{sc.name}' has {most} samples "
             f"(task {sc.task.duration:g} s, dt {sc.dt:g} s); ask for at most {most}"
         )
-    start = solve_start(
-        sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
-    )
+    try:
+        start = solve_start(
+            sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
+        )
+    except ContactError:  # the one-brace start solve refuses several braces: take the scenario's own run
+        return _run_configurations(sc, n)
     if n == 1:
         return [start.q.copy()]
     with warnings.catch_warnings():  # leaving the bracing region does not matter for a static check
@@ -215,6 +223,20 @@ def validation_configurations(scenario: Scenario | str | os.PathLike[str], n: in
             sc.beta_x,
             feedback_gain=sc.feedback_gain,
         )
+    samples = tr.q.shape[0]
+    if samples < n:
+        raise NumericalError(
+            f"the braced minimum-norm run gave {samples} samples, fewer than the {n} configurations asked for"
+            + (f" ({tr.failure})" if tr.failure else "")
+        )
+    idx = (np.arange(n) * samples) // n
+    return [tr.q[i].copy() for i in idx]
+
+
+def _run_configurations(sc: Scenario, n: int) -> list[Array]:
+    """N samples ``k·N/n`` of the scenario's braced minimum-norm run (:func:`run_scenario`, any brace count)."""
+    result = run_scenario(replace(sc, strategies=("braced_min_norm",)), both_models=False)
+    tr = result.trajectories[result.compliance_model]["braced_min_norm"]
     samples = tr.q.shape[0]
     if samples < n:
         raise NumericalError(
@@ -259,65 +281,124 @@ def _rel_err(pred: Array, ref: Array | None, length: float) -> float | None:
 
 @dataclass(frozen=True)
 class _Config:
-    """What every case at one configuration shares."""
+    """What every case at one configuration shares: the compliances of the models defined here, and L."""
 
-    state: BracedState
+    q: Array
     compliances: dict[str, Array]
     length: float
 
 
+def first_order_state(braced: BracedRobot, q: ArrayLike) -> BracedState | MultiBracedState:
+    """The state the first-order models take at q: the one-brace state, or the stacked state of several braces.
+
+    The one-brace view (the paper's chain split at {b}) refuses several braces by name (ContactError); the
+    stacked state carries the ``constrained`` and ``free_space`` models for any number of braces.
+    """
+    try:
+        return braced.state(q)
+    except ContactError:
+        return braced.stacked_state(q)
+
+
 def _config(braced: BracedRobot, q: ArrayLike, index: int) -> _Config:
-    st = braced.state(q)
-    gap = braced.brace.surface.signed_distance(st.b)
-    if abs(gap) > 1e-8:
-        raise InputError(
-            f"configuration {index}: the brace point is {gap:.3e} m from the surface; give braced configurations"
-        )
-    comp = {
-        "constrained": end_effector_compliance(st, "constrained"),
-        "projection": end_effector_compliance(st, "projection"),
-        "free_space": free_space_compliance(st),
-    }
-    return _Config(state=st, compliances=comp, length=float(np.linalg.norm(st.e - st.b)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RedundantContactWarning)
+        try:
+            st = first_order_state(braced, q)
+            stacked = braced.stacked_state(q)
+            comp: dict[str, Array] = {}
+            for model in MODELS:
+                try:
+                    comp[model] = (
+                        free_space_compliance(st) if model == "free_space" else end_effector_compliance(st, model)
+                    )
+                except ContactError:  # the projection model is the paper's one-brace C̃1
+                    continue
+        except RedundantContactWarning as exc:
+            raise InputError(
+                f"configuration {index}: the braces constrain dependent motions ({exc}); give independent contacts"
+            ) from exc
+    for i, (brace, b) in enumerate(zip(braced.braces, stacked.b_i, strict=True)):
+        gap = brace.surface.signed_distance(b)
+        if abs(gap) > 1e-8:
+            which = "brace point" if len(braced.braces) == 1 else f"point of brace {i}"
+            raise InputError(
+                f"configuration {index}: the {which} is {gap:.3e} m from the surface; give braced configurations"
+            )
+    length = float(min(np.linalg.norm(stacked.e - b) for b in stacked.b_i))
+    return _Config(q=np.asarray(stacked.q, dtype=float), compliances=comp, length=length)
+
+
+def preloaded_tip_compliance(braced: BracedRobot, q: ArrayLike, preload: float, gravity: bool) -> Array:
+    """The preloaded compliance at the tip (6×6; wrench [f; m] at e → [Δp; Δθ], world axes).
+
+    The core's one-brace :func:`~bracekit.compliance.preloaded.preloaded_compliance`; where that refuses several
+    braces (ContactError), J_e δq/δw of the several-brace statics' first-order response
+    (:func:`bracekit.statics.equilibrium.multi_contact_responses` with the tangent stiffness of gravity and the
+    preloads P_i = ``preload``, every contact closed).
+    """
+    try:
+        return preloaded_compliance(braced, q, preload, gravity=gravity)
+    except ContactError:
+        resp = multi_contact_responses(braced, q, preloads=preload, gravity=gravity, geometric=True)
+        return np.asarray(braced.stacked_state(q).J_e @ resp.joint_gain[0], dtype=float)
 
 
 def _references(
-    braced: BracedRobot, q: Array, w: Array, preload: float, max_steps: int, gravity: bool = False
+    braced: BracedRobot,
+    q: Array,
+    w: Array,
+    preload: float | Sequence[float],
+    max_steps: int,
+    gravity: bool = False,
+    *,
+    mujoco: bool = True,
 ) -> tuple[dict[str, Any], list[str]]:
     """Static and MuJoCo deflections of one load case (the brace's k_env in both); failures go into the messages."""
-    robot, surface = braced.robot, braced.brace.surface
-    k_env = braced.brace.environment_stiffness  # None: rigid; else both references use the soft contact
-    common = (robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, surface.point, surface.normal, w)
+    robot = braced.robot
+    contacts = plane_contacts(braced, preload)  # each brace's k_env in both references
+    common = (robot.model, q, robot.stiffness, robot.tip_id, contacts, w)
     out: dict[str, Any] = {"static": None, "mujoco": None}
     messages = []
     try:
-        out["static"] = solve_static_equilibrium(
-            *common, bilateral=False, preload=preload, gravity=gravity, environment_stiffness=k_env
-        )
+        out["static"] = solve_statics(*common, bilateral=False, gravity=gravity)
     except (StaticSolveError, ValueError, np.linalg.LinAlgError) as exc:
         messages.append(f"static solve failed: {exc}")
-    try:
-        out["mujoco"] = mujoco_static_deflection(
-            *common,
-            preload=preload,
-            gravity=gravity,
-            max_steps=max_steps,
-            sphere_radius=MUJOCO_SETTINGS["sphere_radius_m"],
-            environment_stiffness=k_env,
-        )
-    except (MujocoValidationError, ValueError) as exc:
-        messages.append(f"MuJoCo failed: {exc}")
+    out["timestep"] = None
+    for step in _TIMESTEPS if mujoco else ():
+        try:
+            out["mujoco"] = mujoco_static_deflection(
+                *common, gravity=gravity, max_steps=max_steps, sphere_radius=MUJOCO_SETTINGS["sphere_radius_m"],
+                timestep=step,
+            )  # fmt: skip
+        except (MujocoValidationError, ValueError) as exc:
+            if "did not settle" in str(exc) and step != _TIMESTEPS[-1]:
+                continue
+            messages.append(f"MuJoCo failed: {exc}")
+            break
+        out["timestep"] = step  # None: the default timestep
+        break
     return out, messages
 
 
-def _case(braced: BracedRobot, cfg: _Config, index: int, label: str, w: Array, preload: float, max_steps: int) -> dict:
-    refs, messages = _references(braced, cfg.state.q, w, preload, max_steps)
+def _case(
+    braced: BracedRobot,
+    cfg: _Config,
+    index: int,
+    label: str,
+    w: Array,
+    preload: float | Sequence[float],
+    max_steps: int,
+    mujoco: bool = True,
+) -> dict[str, Any]:
+    refs, messages = _references(braced, cfg.q, w, preload, max_steps, mujoco=mujoco)
     st, mj = refs["static"], refs["mujoco"]
     ref = {
         "static": None if st is None else np.asarray(st.deflection, dtype=float),
         "mujoco": None if mj is None else np.asarray(mj.deflection, dtype=float),
     }
-    pred = {m: cfg.compliances[m] @ w for m in MODELS}
+    models = tuple(cfg.compliances)
+    pred = {m: cfg.compliances[m] @ w for m in models}
     opened = bool((st is not None and st.contact_opened) or (mj is not None and mj.contact_opened))
     if messages:
         status = "failed"
@@ -338,9 +419,9 @@ def _case(braced: BracedRobot, cfg: _Config, index: int, label: str, w: Array, p
         "length_scale_m": cfg.length,
         "deflection": {
             **{k: (None if v is None else v.tolist()) for k, v in ref.items()},
-            **{m: pred[m].tolist() for m in MODELS},
+            **{m: pred[m].tolist() for m in models},
         },
-        "rel_err": {m: {k: _rel_err(pred[m], ref[k], cfg.length) for k in ("mujoco", "static")} for m in MODELS},
+        "rel_err": {m: {k: _rel_err(pred[m], ref[k], cfg.length) for k in ("mujoco", "static")} for m in models},
         "rel_err_mujoco_vs_static": (
             _rel_err(ref["mujoco"], ref["static"], cfg.length) if ref["mujoco"] is not None else None
         ),
@@ -350,6 +431,9 @@ def _case(braced: BracedRobot, cfg: _Config, index: int, label: str, w: Array, p
         "opened_static": None if st is None else bool(st.contact_opened),
         "opened_mujoco": None if mj is None else bool(mj.contact_opened),
         "mujoco_steps": None if mj is None else int(mj.steps),
+        "contact_forces_static": None if st is None else st.contact_forces.tolist(),
+        "contact_forces_mujoco": None if mj is None else mj.contact_forces.tolist(),
+        "mujoco_timestep_s": refs["timestep"],
     }
 
 
@@ -371,6 +455,9 @@ def _failed_config(index: int, labelled: list[tuple[str, Array]], scale: Array, 
             "opened_static": None,
             "opened_mujoco": None,
             "mujoco_steps": None,
+            "contact_forces_static": None,
+            "contact_forces_mujoco": None,
+            "mujoco_timestep_s": None,
         }
         for label, d in labelled
     ]
@@ -388,6 +475,7 @@ def _stats(values: list[float | None]) -> tuple[float | None, float | None]:
 
 def _model_stats(ok: list[dict[str, Any]], model: str) -> dict[str, float | int | None]:
     """Median and max relative error of `model` vs MuJoCo and vs the static solve over the cases `ok`."""
+    ok = [c for c in ok if model in c["rel_err"]]
     med_m, max_m = _stats([c["rel_err"][model]["mujoco"] for c in ok])
     med_s, max_s = _stats([c["rel_err"][model]["static"] for c in ok])
     return {
@@ -431,6 +519,7 @@ class ValidationReport:
     configurations: list[list[float]]
     settings: dict[str, Any]
     cases: list[dict[str, Any]] = field(default_factory=list)
+    models: tuple[str, ...] = MODELS
 
     def _ok(self) -> list[dict[str, Any]]:
         return [c for c in self.cases if c["status"] == "ok"]
@@ -447,6 +536,22 @@ class ValidationReport:
         """Number of cases per status."""
         return _status_counts(self.cases)
 
+    def summary(self) -> dict[str, Any]:
+        """{median, max, n} of the constrained model vs the static solve and MuJoCo, and of the references; counts."""
+        st, ms = self.model_stats("constrained"), self.mujoco_vs_static()
+        return {
+            "constrained_vs_static": {
+                "median": st["median_rel_err_static"], "max": st["max_rel_err_static"], "n": st["n_cases"]
+            },
+            "constrained_vs_mujoco": {
+                "median": st["median_rel_err_mujoco"], "max": st["max_rel_err_mujoco"], "n": st["n_cases"]
+            },
+            "mujoco_vs_static": {"median": ms["median_rel_err"], "max": ms["max_rel_err"], "n": ms["n_cases"]},
+            "n_ok": self.counts()["ok"],
+            "n_opened": self.counts()["contact_opened"],
+            "n_failed": self.counts()["failed"],
+        }  # fmt: skip
+
     def to_json(self) -> dict[str, Any]:
         """One JSON-serialisable dict (no NaN: missing numbers are None)."""
         return {
@@ -456,8 +561,12 @@ class ValidationReport:
                 "L = |e - b| (m) at the configuration; statistics over the cases whose contact stays closed"
             ),
             "counts": self.counts(),
-            **{m: self.model_stats(m) for m in MODELS},
+            **{m: self.model_stats(m) for m in self.models},
             "mujoco_vs_static": self.mujoco_vs_static(),
+            "summary": self.summary(),
+            "n_ok": self.counts()["ok"],
+            "n_opened": self.counts()["contact_opened"],
+            "n_failed": self.counts()["failed"],
             "settings": self.settings,
             "configurations": self.configurations,
             "cases": self.cases,
@@ -477,7 +586,7 @@ class ValidationReport:
         ]
         cols = ("model", "median vs MuJoCo", "max vs MuJoCo", "median vs static", "max vs static")
         keys = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
-        rows = [(m, *(fmt_rel(self.model_stats(m)[k]) for k in keys)) for m in MODELS]
+        rows = [(m, *(fmt_rel(self.model_stats(m)[k]) for k in keys)) for m in self.models]
         widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
         line = "  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(cols))
         body = ["  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(r)) for r in rows]
@@ -502,51 +611,97 @@ def run_validation(
     max_steps: int = 100_000,
     progress: Callable[[int], None] | None = None,
 ) -> ValidationReport:
-    """Compare the three first-order compliance models with MuJoCo and the nonlinear static solve.
+    """Compare the first-order compliance models of a scenario with MuJoCo and the nonlinear static solve.
+
+    :func:`check_compliance` at the scenario's configurations (one brace or several).
 
     Args:
-        scenario: a Scenario, a shipped name ('paper') or a TOML path; frictionless point contact, rigid surface.
+        scenario: a Scenario, a shipped name ('paper') or a TOML path; contact types MuJoCo models.
         configs: number of configurations (:func:`validation_configurations`) or the configurations
-            themselves (each (n,), rad, brace point on the surface).
+            themselves (each (n,), rad, brace points on their surfaces).
         force: magnitude of the force part of each load, N (> 0).
         moment: magnitude of the moment part, N·m (> 0).
-        preload: contact force P before loading, N (≥ 0); both references set their springs so that the
-            configuration is the equilibrium under P. A load that pulls more than P off the surface opens it.
+        preload: contact force P of every brace before loading, N (≥ 0).
+        directions: load directions, (label, [f̂; m̂]) pairs or bare 6-vectors (world axes).
+        max_steps: MuJoCo step budget per case.
+        progress: called with 1 after each case (for a progress bar).
+
+    Raises:
+        InputError: bad scenario, configs, loads or directions.
+    """
+    sc = _scenario(scenario)
+    return check_compliance(
+        sc.braced, _configurations(sc, configs), name=sc.name, force=force, moment=moment, preload=preload,
+        directions=directions, max_steps=max_steps, progress=progress,
+    )  # fmt: skip
+
+
+def check_compliance(
+    braced: BracedRobot,
+    configs: Sequence[ArrayLike],
+    *,
+    name: str = "",
+    force: float = 0.5,
+    moment: float = 0.05,
+    preload: float | Sequence[float] = 1.0,
+    directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike] = DEFAULT_DIRECTIONS,
+    max_steps: int = 100_000,
+    mujoco: bool = True,
+    progress: Callable[[int], None] | None = None,
+) -> ValidationReport:
+    """Compare the first-order compliance models of ``braced`` with MuJoCo and the nonlinear static solve.
+
+    For N ≥ 1 braces: the ``constrained`` C_e (stacked over the braces), the paper's ``projection`` model where
+    it is defined (one brace) and ``free_space``, against the unilateral static solve and MuJoCo with every
+    brace preloaded by P_i (each brace's k_env in both references). L = min_i ‖e − b_i‖.
+
+    Args:
+        braced: the braced robot (each brace of a contact type MuJoCo models).
+        configs: the configurations (each (n,), rad, every b_i on its surface within 1e-8 m).
+        name: the scenario's name, for the report.
+        force: magnitude of the force part of each load, N (> 0).
+        moment: magnitude of the moment part, N·m (> 0).
+        preload: contact force P_i before loading, N (≥ 0): one for every brace or one per brace; both
+            references set their springs so that the configuration is the equilibrium under the preloads. A
+            load that pulls more than P_i off a surface opens that contact.
         directions: load directions, (label, [f̂; m̂]) pairs or bare 6-vectors (world axes); each non-zero part
             is scaled to ``force`` / ``moment``.
-        max_steps: MuJoCo step budget per case.
+        max_steps: MuJoCo step budget per case (retried at 0.5 ms and 0.25 ms if it does not settle).
+        mujoco: also run MuJoCo (False: the static solve only).
         progress: called with 1 after each case (for a progress bar).
 
     Returns:
         :class:`ValidationReport`; failed and opened cases are marked in it, never dropped.
 
     Raises:
-        InputError: bad scenario, configs, loads or directions.
+        InputError: bad configurations (a brace off its surface, dependent contacts), loads or directions.
     """
-    sc = _scenario(scenario)
     force = _positive(force, "force", "N")
     moment = _positive(moment, "moment", "N·m")
-    preload = _positive(preload, "preload", "N", zero_ok=True)
+    plane_contacts(braced, preload)  # checks the preloads and the contact types
+    if not isinstance(mujoco, bool):
+        raise InputError(f"mujoco must be True or False, got {mujoco!r}")
     max_steps = _count(max_steps, "max_steps")
     labelled = _directions(directions)
-    qs = _configurations(sc, configs)
+    qs = [braced.robot.check_q(q) for q in configs]
     scale = np.array([force] * 3 + [moment] * 3)
+    p_json = float(preload) if isinstance(preload, int | float) else [float(p) for p in preload]
     report = ValidationReport(
-        scenario=sc.name,
+        scenario=name,
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={
             "force_N": force,
             "moment_Nm": moment,
-            "preload_N": preload,
+            "preload_N": p_json,
             "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
             "length_scale": "L = |e - b| at each configuration (m)",
             "static_solve": "Newton on the KKT system, unilateral contact (opens if it would pull), tol 1e-12",
-            "mujoco": {**MUJOCO_SETTINGS, "max_steps": max_steps},
+            "mujoco": {**MUJOCO_SETTINGS, "max_steps": max_steps} if mujoco else None,
         },
     )
     for i, q in enumerate(qs):
         try:
-            cfg = _config(sc.braced, q, i)
+            cfg = _config(braced, q, i)
         except InputError:
             raise
         except (BracekitError, np.linalg.LinAlgError) as exc:
@@ -554,8 +709,9 @@ def run_validation(
             if progress is not None:
                 progress(len(labelled))
             continue
+        report.models = tuple(cfg.compliances)  # the projection model is the paper's, for one brace
         for label, d in labelled:
-            report.cases.append(_case(sc.braced, cfg, i, label, d * scale, preload, max_steps))
+            report.cases.append(_case(braced, cfg, i, label, d * scale, preload, max_steps, mujoco))
             if progress is not None:
                 progress(1)
     return report
@@ -603,25 +759,25 @@ def preload_study(
     q = validation_configurations(sc, 1)[0] if config is None else sc.robot.check_q(config)
     cfg = _config(sc.braced, q, 0)
     c_first = cfg.compliances["constrained"]
-    robot, surface = sc.robot, sc.braced.brace.surface
+    robot = sc.robot
     shape = (len(ps), len(fs))
     med, mx = np.full(shape, None, dtype=object), np.full(shape, None, dtype=object)
     med_c, mx_c = np.full(shape, None, dtype=object), np.full(shape, None, dtype=object)
     opened, failed = np.zeros(shape, dtype=int), np.zeros(shape, dtype=int)
     messages: list[str] = []
-    args = (robot.model, q, robot.stiffness, sc.braced.brace_id, robot.tip_id, surface.point, surface.normal)
     for i, p in enumerate(ps):
         c_corr = preloaded_compliance(sc.braced, q, p)
+        args = (robot.model, q, robot.stiffness, robot.tip_id, plane_contacts(sc.braced, p, environment=False))
         for j, f in enumerate(fs):
             errs, errs_c = [], []
             for label, d in labelled:
                 w = np.concatenate([d[:3] * f, d[3:] * f * cfg.length])  # a moment part: f·L N·m
                 try:
                     if reference == "static":
-                        rs = solve_static_equilibrium(*args, w, bilateral=True, preload=p)
+                        rs = solve_statics(*args, w, bilateral=True)
                         is_open, dx = rs.contact_force < 0.0, rs.deflection
                     else:
-                        rm = mujoco_static_deflection(*args, w, preload=p)
+                        rm = mujoco_static_deflection(*args, w)
                         is_open, dx = rm.contact_opened, rm.deflection
                 except (StaticSolveError, MujocoValidationError, ValueError, np.linalg.LinAlgError) as exc:
                     failed[i, j] += 1
@@ -1060,7 +1216,7 @@ def run_preloaded_validation(
         for p in ps:
             comp = {"constrained": cfg.compliances["constrained"]}
             try:
-                comp["preloaded"] = preloaded_compliance(sc.braced, q, p, gravity=gravity)
+                comp["preloaded"] = preloaded_tip_compliance(sc.braced, q, p, gravity)
             except NumericalError as exc:
                 report.cases.extend(
                     {
@@ -1074,9 +1230,7 @@ def run_preloaded_validation(
                 continue
             for label, d in labelled:
                 report.cases.append(
-                    _preloaded_case(
-                        sc.braced, cfg.state.q, cfg.length, comp, i, label, d * scale, p, gravity, max_steps
-                    )
+                    _preloaded_case(sc.braced, cfg.q, cfg.length, comp, i, label, d * scale, p, gravity, max_steps)
                 )
                 if progress is not None:
                     progress(1)

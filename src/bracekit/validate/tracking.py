@@ -58,7 +58,10 @@ from bracekit.simulation.run import RunResult, run_scenario
 from bracekit.simulation.scenario import Scenario
 from bracekit.simulation.simulate import Trajectory
 from bracekit.statics import contact_response, contact_responses, gravity_torque
-from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, TIP_SITE, build_mujoco_model
+from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.holding_check import check_one_brace
+from bracekit.validate.mjcf import build_mujoco_model
+from bracekit.validate.session import MujocoSession, captured_warnings
 
 __all__ = [
     "DEFAULT_FORCE",
@@ -87,7 +90,6 @@ _IMPRATIO = 10.0  # frictional-to-normal impedance ratio: less creep of a sticki
 _RAMP = 2.0  # ramp time of the tool force, in units of τ
 _MIN_HOLD, _MAX_HOLD = 2.0, 20.0  # settling time, in units of τ
 _SETTLE_TOL = 1e-8  # rad: remaining motion max|q̇|·τ
-_CHUNK = 10  # steps between set-point updates, re-applications of the dead load and settling checks
 _SLIP_TOL = 1e-5  # m: tangential motion of the material point b that counts as a slip
 # timestep of the measurements: at 1 ms the stiff contact on the light links chatters and a sticking pad walks
 _MEASURE_TIMESTEP = 2.5e-4
@@ -95,14 +97,6 @@ _MEASURE_TIMESTEP = 2.5e-4
 # steps while b slides (about 6 % of the steps on the paper run); these keep it closed
 _PATH_SOLREF = np.array([0.01, 1.0])
 _PATH_SOLIMP = np.array([0.99, 0.99, 0.001, 0.5, 2.0])
-_BAD_WARNINGS = (
-    mujoco.mjtWarning.mjWARN_BADQPOS,
-    mujoco.mjtWarning.mjWARN_BADQVEL,
-    mujoco.mjtWarning.mjWARN_BADQACC,
-    mujoco.mjtWarning.mjWARN_CONTACTFULL,
-    mujoco.mjtWarning.mjWARN_CNSTRFULL,
-    mujoco.mjtWarning.mjWARN_INERTIA,
-)
 
 
 @dataclass(frozen=True, eq=False)
@@ -408,26 +402,15 @@ class _PathContact:
         self.force_max = max(self.force_max, fn)
 
 
-class _Sim:
-    """The MuJoCo chain of one run, its data and handles; set points and dampers' reference velocity."""
+class _Sim(MujocoSession):
+    """The MuJoCo session of one run: set points, the dampers' reference velocity and the contact's two modes."""
 
     def __init__(self, xml: str, braced: BracedRobot, q0: Array, contact: bool, gravity: bool) -> None:
-        try:
-            self.m = mujoco.MjModel.from_xml_string(xml)
-        except ValueError as exc:
-            raise MujocoValidationError(f"MuJoCo rejected the generated model: {exc}") from exc
+        super().__init__(xml, braced.robot.stiffness, q0, [braced.state(q0).b], gravity=gravity)
         m = self.m
-        if not gravity:  # the model carries the URDF's inertias; gravity is switched off here
-            m.opt.gravity[:] = 0.0
-        self.d = mujoco.MjData(m)
-        k = braced.robot.stiffness
-        self.tau = float(m.dof_damping[0] / k[0])  # damping = τ k_i
         self.dt = float(m.opt.timestep)
         self.damping = np.asarray(m.dof_damping, dtype=float).copy()
-        self.site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, TIP_SITE)
-        self.tip_body = int(m.site_bodyid[self.site])
-        self.sphere = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, BRACE_GEOM)
-        self.plane = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, SURFACE_GEOM)
+        self.sphere, self.plane = self.pairs[0].sphere, self.pairs[0].plane
         self.geoms = [self.sphere, self.plane]
         self.condim = int(m.geom_condim[self.sphere])
         self.contact = contact
@@ -436,13 +419,7 @@ class _Sim:
         if not contact:
             m.geom_contype[self.sphere] = 0
             m.geom_conaffinity[self.sphere] = 0
-        self.body = int(m.geom_bodyid[self.sphere])
         self.nhat = braced.brace.surface.normal
-        self.d.qpos[:] = q0
-        mujoco.mj_forward(m, self.d)
-        b = braced.state(q0).b
-        self.b_local = self.d.xmat[self.body].reshape(3, 3).T @ (b - self.d.xpos[self.body])
-        self.messages: list[str] = []
 
     def contact_mode(self, condim: int, moving: bool = False) -> None:
         """Sphere–plane pair: condim (1 frictionless, 3 with μ), timestep and contact softness.
@@ -454,36 +431,6 @@ class _Sim:
         self.m.opt.timestep = self.dt if moving or not self.contact else min(self.dt, _MEASURE_TIMESTEP)
         self.m.geom_solref[self.geoms] = _PATH_SOLREF if moving else self.solref
         self.m.geom_solimp[self.geoms] = _PATH_SOLIMP if moving else self.solimp
-
-    def b_point(self) -> Array:
-        """World position of the material point b (m)."""
-        return np.asarray(self.d.xpos[self.body] + self.d.xmat[self.body].reshape(3, 3) @ self.b_local)
-
-    def tip(self) -> tuple[Array, Array]:
-        """Position (3,) and rotation (3×3) of the tip site, world."""
-        return self.d.site_xpos[self.site].copy(), self.d.site_xmat[self.site].reshape(3, 3).copy()
-
-    def normal_force(self) -> tuple[float, int]:
-        """Normal force of the plane on the sphere (N) and the number of active contacts."""
-        total, count, f6 = 0.0, 0, np.zeros(6)
-        for i in range(self.d.ncon):
-            c = self.d.contact[i]
-            if {int(c.geom1), int(c.geom2)} != {self.sphere, self.plane} or c.exclude != 0 or c.efc_address < 0:
-                continue
-            mujoco.mj_contactForce(self.m, self.d, i, f6)
-            total += float(f6[0])
-            count += 1
-        return total, count
-
-    def check(self, phase: str) -> None:
-        """MujocoValidationError if MuJoCo warned of an unstable state or the state is not finite."""
-        d = self.d
-        hits = [int(w) for w in _BAD_WARNINGS if d.warning[int(w)].number > 0]
-        if hits or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            said = f" MuJoCo said: {self.messages[0].strip()}" if self.messages else ""
-            raise MujocoValidationError(
-                f"MuJoCo went unstable during {phase}; reduce the tool force or the timestep.{said}"
-            )
 
     def follow(
         self, path: CubicSpline, rate: CubicSpline, t0: float, t1: float, scale: float, stats: _PathContact | None
@@ -512,39 +459,18 @@ class _Sim:
 
         Returns whether it settled; when ``strict``, not settling raises MujocoValidationError.
         """
-        m, d = self.m, self.d
-        m.qpos_spring[:] = q_s
-        dt = float(m.opt.timestep)
-        loaded = bool(np.any(w != 0.0))
-        ramp = int(np.ceil(_RAMP * self.tau / dt)) if loaded else 0
-        least = ramp + int(np.ceil(_MIN_HOLD * self.tau / dt))
-        most = ramp + int(np.ceil(_MAX_HOLD * self.tau / dt))
-        steps = 0
-        while steps < most:
-            self._apply(w, 1.0 if ramp == 0 else min(1.0, steps / ramp))
-            mujoco.mj_step(m, d, _CHUNK)
-            steps += _CHUNK
-            if steps >= least and float(np.max(np.abs(d.qvel))) * self.tau < _SETTLE_TOL:
-                break
-        self.check(phase)
-        rest = float(np.max(np.abs(d.qvel))) * self.tau
+        self.m.qpos_spring[:] = q_s
+        self.settle_ramped(
+            w, phase, ramp=_RAMP, min_hold=_MIN_HOLD, max_hold=_MAX_HOLD, tol=_SETTLE_TOL, check_each_chunk=False
+        )
+        rest = self.motion()
         settled = rest < 100.0 * _SETTLE_TOL
         if strict and not settled:
             raise MujocoValidationError(
                 f"MuJoCo did not settle during {phase} within {_MAX_HOLD:g}τ (max|q̇|·τ = {rest:.2g} rad); "
                 "the brace may be slipping or chattering"
             )
-        self._apply(w, 1.0)
-        mujoco.mj_forward(m, d)
         return settled
-
-    def _apply(self, w: Array, a: float) -> None:
-        d = self.d
-        d.qfrc_applied[:] = 0.0
-        if a > 0.0 and np.any(w != 0.0):
-            mujoco.mj_kinematics(self.m, d)
-            f, tq = a * w[:3], a * w[3:]
-            mujoco.mj_applyFT(self.m, d, f, tq, d.site_xpos[self.site].copy(), self.tip_body, d.qfrc_applied)
 
     def measure(
         self, q_s: Array, w: Array, beta: Array, what: str, strict: bool = True
@@ -612,10 +538,8 @@ def _track_run(
         robot.model,
         tr.q[0],
         robot.stiffness,
-        braced.brace_id,
         robot.tip_id,
-        brace.surface.point,
-        brace.surface.normal,
+        plane_contacts(braced, environment=False),
         sphere_radius=_SPHERE_RADIUS,
         gravity=True,  # the URDF's inertias; _Sim switches gravity off unless asked
         timestep=timestep,
@@ -631,10 +555,8 @@ def _track_run(
     if t.size > 1:
         path = CubicSpline(t, q_s, axis=0, bc_type="clamped")  # starts and ends at rest
         rate = path.derivative()
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(sim.messages.append)
     out: list[TrackingPoint] = []
-    try:
+    with captured_warnings(sim.messages):
         sim.contact_mode(path_condim)
         sim.settle(q_s[0], np.zeros(6), "settling at the start")
         checks = set(_check_indices(t.size, points))
@@ -653,8 +575,6 @@ def _track_run(
                     _check_point(sim, sc, tr, model, sticking, i, q_s[i], force, preload, friction, gravity, fn_path)
                 )
                 mujoco.mj_copyData(sim.d, sim.m, saved)
-    finally:
-        mujoco.set_mju_user_warning(previous)
     path_json = None
     if stats is not None and stats.steps:
         path_json = {
@@ -812,13 +732,7 @@ def run_tracking_validation(
     scale = as_number(time_scale, "the time scale", positive=True)
     if not isinstance(path_friction, bool):
         raise InputError(f"path_friction must be True or False, got {show(path_friction)}")
-    brace = sc.braced.brace
-    if brace.kind.name != "frictionless_point" or brace.environment_stiffness is not None:
-        raise InputError(
-            "the MuJoCo tracking check models a point brace (frictionless_point) on a rigid surface; "
-            f"this brace is '{brace.kind.name}'"
-            + (" with an environment stiffness" if brace.environment_stiffness is not None else "")
-        )
+    check_one_brace(sc.braced, "tracking check")
     runs = result.trajectories[result.compliance_model]
     names = list(runs) if strategies is None else list(strategies)
     unknown = [n for n in names if n not in runs]
