@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from bracekit.validate.runner import MODELS, ValidationReport, fmt_rel
+from bracekit.validate.compliance_check import ValidationReport
+from bracekit.validate.table import fmt_rel
 
 _COLORS = {"constrained": "tab:blue", "projection": "tab:orange", "free_space": "tab:red"}
 _MARKERS = {"constrained": "o", "projection": "s", "free_space": "^"}

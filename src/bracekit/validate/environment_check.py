@@ -26,18 +26,9 @@ from numpy.typing import ArrayLike
 from bracekit.compliance.first_order import end_effector_compliance
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario import Scenario
-from bracekit.validate.runner import (
-    FORCE_DIRECTIONS,
-    ValidationReport,
-    _configurations,
-    _positive,
-    _rel_err,
-    _scenario,
-    _stats,
-    check_compliance,
-    first_order_state,
-    fmt_rel,
-)
+from bracekit.validate.compliance_check import ValidationReport, check_compliance, first_order_state
+from bracekit.validate.inputs import FORCE_DIRECTIONS, _configurations, _positive, _scenario
+from bracekit.validate.table import _rel_err, _stats, fmt_rel
 
 __all__ = ["DEFAULT_STIFFNESSES", "EnvironmentRow", "EnvironmentValidationReport", "run_environment_validation"]
 

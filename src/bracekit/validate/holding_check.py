@@ -252,9 +252,9 @@ def _settle(sim: MujocoSession, w: Array, phase: str) -> tuple[int, bool]:
 def check_one_brace(braced: BracedRobot, what: str) -> None:
     """InputError unless the MuJoCo ``what`` models the brace: one brace of a type MuJoCo models, rigid surface.
 
-    The holding, capacity and tracking checks follow one brace (several-brace versions are not built: the
-    core's several-brace statics, ``multi_contact_responses`` and ``multi_capacity_along``, are checked by the
-    compliance and preloaded blocks only).
+    The holding and capacity checks follow one brace (several-brace versions are not built: the core's
+    several-brace statics, ``multi_contact_responses`` and ``multi_capacity_along``, are checked by the
+    compliance, preloaded and tracking blocks).
     """
     if len(braced.braces) != 1:
         raise InputError(f"the MuJoCo {what} follows one brace; this robot has {len(braced.braces)}")

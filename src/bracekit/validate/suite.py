@@ -11,8 +11,8 @@
 * ``environment_stiffness`` (:func:`~bracekit.validate.environment_check.run_environment_validation`).
 
 A block a scenario cannot have (no holding statics) is left out; a block whose MuJoCo check is not built for
-the scenario (the holding, capacity and tracking checks follow one brace) is listed in ``skipped`` with the
-reason. :func:`~bracekit.validate.verdict.validation_verdict` judges the result.
+the scenario (the holding and capacity checks follow one brace, the tracking check rigid surfaces) is listed
+in ``skipped`` with the reason. :func:`~bracekit.validate.verdict.validation_verdict` judges the result.
 """
 
 from __future__ import annotations
@@ -24,20 +24,13 @@ from typing import Any
 
 from bracekit.errors import InputError
 from bracekit.simulation.scenario import Scenario
+from bracekit.validate.capacity_report import CapacityValidationReport, run_capacity_validation
+from bracekit.validate.compliance_check import ValidationReport, run_validation
 from bracekit.validate.environment_check import EnvironmentValidationReport, run_environment_validation
 from bracekit.validate.holding_check import check_one_brace
-from bracekit.validate.runner import (
-    CapacityValidationReport,
-    HoldingValidationReport,
-    PreloadedValidationReport,
-    ValidationReport,
-    _scenario,
-    path_samples,
-    run_capacity_validation,
-    run_holding_validation,
-    run_preloaded_validation,
-    run_validation,
-)
+from bracekit.validate.holding_report import HoldingValidationReport, run_holding_validation
+from bracekit.validate.inputs import _scenario, path_samples
+from bracekit.validate.preloaded_check import PreloadedValidationReport, run_preloaded_validation
 from bracekit.validate.tracking import TrackingReport, run_tracking_validation
 from bracekit.validate.verdict import Verdict, validation_verdict
 
@@ -127,7 +120,7 @@ def run_checks(
     h = sc.holding
     one_brace: str | None = None
     try:
-        check_one_brace(sc.braced, "holding, capacity and tracking checks")
+        check_one_brace(sc.braced, "holding and capacity checks")
     except InputError as exc:
         one_brace = str(exc)
     if h.active:
@@ -141,9 +134,10 @@ def run_checks(
         else:
             suite.skipped["capacity"] = one_brace
     if tracking_points > 0:
-        if one_brace is None:
+        rigid = all(b.environment_stiffness is None for b in sc.braced.braces)
+        if rigid:
             suite.tracking = run_tracking_validation(sc, points=tracking_points)
         else:
-            suite.skipped["tracking"] = one_brace
+            suite.skipped["tracking"] = "the MuJoCo tracking check models rigid surfaces; a brace has a k_env"
     suite.environment = run_environment_validation(sc, configs=qs)
     return suite
