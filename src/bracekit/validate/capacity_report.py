@@ -26,7 +26,7 @@ from bracekit.validate.holding_check import (
     HOLDING_SETTINGS,
 )
 from bracekit.validate.inputs import Array, _configurations, _positive, _scenario
-from bracekit.validate.table import _stats, fmt_rel
+from bracekit.validate.table import _stats, aligned, fmt_rel
 
 __all__ = ["CapacityValidationReport", "run_capacity_validation"]
 
@@ -129,11 +129,6 @@ class CapacityValidationReport:
                     fmt_rel(r["rel_err_static"]),
                 )
             )
-        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
-
-        def fmt(r: tuple[str, ...]) -> str:
-            return "  ".join(c.ljust(widths[i]) if i in (2, 3) else c.rjust(widths[i]) for i, c in enumerate(r))
-
         tail = [
             "",
             f"first-order scale vs MuJoCo ({s['n_cases']} cases): median {fmt_rel(s['median_rel_err'])}, max "
@@ -145,7 +140,7 @@ class CapacityValidationReport:
             for c in self.cases
             if c["status"] in ("failed", "disagrees", "no_limit")
         ]
-        return "\n".join([*lines, fmt(cols), "-" * len(fmt(cols)), *map(fmt, rows), *tail, *notes])
+        return "\n".join([*lines, *aligned(cols, rows, left=(2, 3)), *tail, *notes])
 
 
 def _capacity_entry(

@@ -52,7 +52,7 @@ from bracekit.validate.inputs import (
 )
 from bracekit.validate.mujoco_check import mujoco_static_deflection
 from bracekit.validate.statics import solve_statics
-from bracekit.validate.table import _rel_err, _stats, fmt_rel
+from bracekit.validate.table import _rel_err, _stats, aligned, fmt_rel
 
 __all__ = ["ValidationReport", "check_compliance", "first_order_state", "run_validation"]
 
@@ -335,9 +335,6 @@ class ValidationReport:
         cols = ("model", "median vs MuJoCo", "max vs MuJoCo", "median vs static", "max vs static")
         keys = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
         rows = [(m, *(fmt_rel(self.model_stats(m)[k]) for k in keys)) for m in self.models]
-        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
-        line = "  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(cols))
-        body = ["  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(r)) for r in rows]
         fails = [f"  config {c['config']}, {c['label']}: {c['message']}" for c in self.cases if c["status"] == "failed"]
         ms = self.mujoco_vs_static()
         agree = (
@@ -345,7 +342,7 @@ class ValidationReport:
             f"max {fmt_rel(ms['max_rel_err'])}"
         )
         tail = ["", "failed cases:", *fails] if fails else []
-        return "\n".join([*head, line, "-" * len(line), *body, "", agree, *tail])
+        return "\n".join([*head, *aligned(cols, rows), "", agree, *tail])
 
 
 def run_validation(

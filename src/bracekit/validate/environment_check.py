@@ -28,7 +28,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario import Scenario
 from bracekit.validate.compliance_check import ValidationReport, check_compliance, first_order_state
 from bracekit.validate.inputs import FORCE_DIRECTIONS, _configurations, _positive, _scenario
-from bracekit.validate.table import _rel_err, _stats, fmt_rel
+from bracekit.validate.table import _rel_err, _stats, aligned, fmt_rel
 
 __all__ = ["DEFAULT_STIFFNESSES", "EnvironmentRow", "EnvironmentValidationReport", "run_environment_validation"]
 
@@ -118,11 +118,6 @@ class EnvironmentValidationReport:
                     fmt_rel(r.softening),
                 )
             )
-        widths = [max(len(x[i]) for x in (cols, *rows)) for i in range(len(cols))]
-
-        def fmt(x: tuple[str, ...]) -> str:
-            return "  ".join(c.rjust(widths[i]) for i, c in enumerate(x))
-
         cnt = self.counts()
         head = [
             f"Finite surface stiffness: constrained compliance with k_env, scenario '{self.scenario}'",
@@ -137,7 +132,7 @@ class EnvironmentValidationReport:
             for c in r.report.cases
             if c["status"] == "failed"
         ]
-        return "\n".join([*head, fmt(cols), "-" * len(fmt(cols)), *map(fmt, rows), *fails])
+        return "\n".join([*head, *aligned(cols, rows, left=()), *fails])
 
 
 def _softening(soft: BracedRobot, rigid: BracedRobot, report: ValidationReport) -> float | None:

@@ -43,7 +43,7 @@ from bracekit.validate.inputs import (
     _positive,
     _scenario,
 )
-from bracekit.validate.table import _rel_err, fmt_rel
+from bracekit.validate.table import _rel_err, aligned, fmt_rel
 
 __all__ = ["PRELOADED_MODELS", "PreloadedValidationReport", "preloaded_tip_compliance", "run_preloaded_validation"]
 
@@ -159,11 +159,6 @@ class PreloadedValidationReport:
             for m in PRELOADED_MODELS:
                 st = entry[m]
                 rows.append((f"{entry['preload_N']:g}", m, *(fmt_rel(st[k]) for k in keys), str(st["n_cases"])))
-        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
-
-        def fmt(r: tuple[str, ...]) -> str:
-            return "  ".join(c.ljust(widths[i]) if i == 1 else c.rjust(widths[i]) for i, c in enumerate(r))
-
         ms = self.mujoco_vs_static()
         agree = (
             f"MuJoCo vs static solve ({ms['n_cases']} cases): median {fmt_rel(ms['median_rel_err'])}, "
@@ -175,7 +170,7 @@ class PreloadedValidationReport:
             if c["status"] == "failed"
         ]
         tail = ["", "failed cases:", *fails] if fails else []
-        return "\n".join([*head, fmt(cols), "-" * len(fmt(cols)), *map(fmt, rows), "", agree, *tail])
+        return "\n".join([*head, *aligned(cols, rows, left=(1,)), "", agree, *tail])
 
 
 def _preloaded_case(

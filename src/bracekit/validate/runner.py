@@ -50,7 +50,7 @@ from bracekit.validate.preloaded_check import (
     preloaded_tip_compliance,
     run_preloaded_validation,
 )
-from bracekit.validate.table import aligned, fmt_rel
+from bracekit.validate.table import fmt_rel
 
 __all__ = [
     "DEFAULT_DIRECTIONS",
@@ -62,7 +62,6 @@ __all__ = [
     "HoldingValidationReport",
     "PreloadedValidationReport",
     "ValidationReport",
-    "aligned",
     "check_compliance",
     "first_order_state",
     "fmt_rel",

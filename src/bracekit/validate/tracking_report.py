@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit.validate.table import aligned
+
 __all__ = ["PAPER_RANKING", "TRACKING_TOL", "TrackingPoint", "TrackingReport", "TrackingStrategy"]
 
 Array = NDArray[np.float64]
@@ -275,12 +277,7 @@ class TrackingReport:
                     "n/a" if m["max_tracking_error_m"] is None else f"{1e3 * m['max_tracking_error_m']:.2g} mm",
                 )
             )
-        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
-
-        def fmt(r: tuple[str, ...]) -> str:
-            return "  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(r))
-
-        lines = [*head, fmt(cols), "-" * len(fmt(cols)), *(fmt(r) for r in rows), ""]
+        lines = [*head, *aligned(cols, rows), ""]
         for label, key in (
             ("predicted", "predicted_mean"),
             ("MuJoCo, frictionless pad", "measured_mean"),
