@@ -30,7 +30,7 @@ from bracekit.validate.holding_check import (
     _finite,
     _holding_session,
     _settle,
-    check_one_brace,
+    holding_inputs,
 )
 from bracekit.validate.session import CHUNK, MujocoSession, captured_warnings
 from bracekit.validate.statics import solve_static_equilibrium
@@ -238,17 +238,8 @@ def mujoco_capacity_ramp(
         MujocoValidationError: the simulation goes unstable, or the contact is open without load.
         NumericalError: bracekit's preloaded equilibrium is unstable.
     """
-    if not isinstance(braced, BracedRobot):
-        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    if not isinstance(holding, Holding):
-        raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
-    check_one_brace(braced, "capacity ramp")
-    brace = braced.brace
-    robot = braced.robot
-    qa = robot.check_q(q)
-    w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(-1)
-    if w.size != 6:
-        raise InputError(f"the tool wrench must be 6 numbers [fx, fy, fz, mx, my, mz], got {show(w)}")
+    qa, w = holding_inputs(braced, q, holding, wrench, "capacity ramp")
+    brace, robot = braced.brace, braced.robot
     for value, name, low in (
         (ramp_time, "ramp_time (in damping time constants)", 0.0),
         (impratio, "impratio", 1.0),

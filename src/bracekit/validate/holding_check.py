@@ -249,6 +249,22 @@ def _settle(sim: MujocoSession, w: Array, phase: str) -> tuple[int, bool]:
     return steps, sim.motion() < _SETTLE_TOL
 
 
+def holding_inputs(
+    braced: BracedRobot, q: ArrayLike, holding: Holding, wrench: ArrayLike, what: str
+) -> tuple[Array, Array]:
+    """The checked configuration (n,) and tool wrench (6,) of a MuJoCo ``what`` on one brace (InputError)."""
+    if not isinstance(braced, BracedRobot):
+        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
+    if not isinstance(holding, Holding):
+        raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
+    check_one_brace(braced, what)
+    qa = braced.robot.check_q(q)
+    w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(-1)
+    if w.size != 6:
+        raise InputError(f"the tool wrench must be 6 numbers [fx, fy, fz, mx, my, mz], got {show(w)}")
+    return qa, w
+
+
 def check_one_brace(braced: BracedRobot, what: str) -> None:
     """InputError unless the MuJoCo ``what`` models the brace: one brace of a type MuJoCo models, rigid surface.
 
@@ -298,17 +314,8 @@ def mujoco_holding_check(
         MujocoValidationError: the simulation goes unstable, or the contact is open without load.
         NumericalError: bracekit's preloaded equilibrium is unstable (from ``contact_responses``).
     """
-    if not isinstance(braced, BracedRobot):
-        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    if not isinstance(holding, Holding):
-        raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
-    check_one_brace(braced, "holding check")
-    brace = braced.brace
-    robot = braced.robot
-    qa = robot.check_q(q)
-    w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(-1)
-    if w.size != 6:
-        raise InputError(f"the tool wrench must be 6 numbers [fx, fy, fz, mx, my, mz], got {show(w)}")
+    qa, w = holding_inputs(braced, q, holding, wrench, "holding check")
+    brace, robot = braced.brace, braced.robot
     if not (isinstance(impratio, int | float) and np.isfinite(impratio) and impratio >= 1.0):
         raise InputError(f"impratio must be a finite number >= 1, got {show(impratio)}")
     for value, name in ((timestep, "timestep (s)"), (slip_tol, "slip_tol (m)")):

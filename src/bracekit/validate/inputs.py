@@ -27,7 +27,7 @@ from bracekit.errors import (
 )
 from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import Scenario, load_scenario
-from bracekit.simulation.simulate import simulate, solve_start
+from bracekit.simulation.simulate import Trajectory, simulate, solve_start
 from bracekit.validate.contacts import plane_contacts
 
 __all__ = [
@@ -170,6 +170,11 @@ def validation_configurations(scenario: Scenario | str | os.PathLike[str], n: in
             sc.beta_x,
             feedback_gain=sc.feedback_gain,
         )
+    return _samples(tr, n)
+
+
+def _samples(tr: Trajectory, n: int) -> list[Array]:
+    """The samples k·N/n (k = 0..n−1) of a run's N configurations; NumericalError if it has fewer than n."""
     samples = tr.q.shape[0]
     if samples < n:
         raise NumericalError(
@@ -184,14 +189,7 @@ def _run_configurations(sc: Scenario, n: int) -> list[Array]:
     """N samples ``k·N/n`` of the scenario's braced minimum-norm run (:func:`run_scenario`, any brace count)."""
     result = run_scenario(replace(sc, strategies=("braced_min_norm",)), both_models=False)
     tr = result.trajectories[result.compliance_model]["braced_min_norm"]
-    samples = tr.q.shape[0]
-    if samples < n:
-        raise NumericalError(
-            f"the braced minimum-norm run gave {samples} samples, fewer than the {n} configurations asked for"
-            + (f" ({tr.failure})" if tr.failure else "")
-        )
-    idx = (np.arange(n) * samples) // n
-    return [tr.q[i].copy() for i in idx]
+    return _samples(tr, n)
 
 
 def _configurations(sc: Scenario, configs: int | Sequence[ArrayLike]) -> list[Array]:

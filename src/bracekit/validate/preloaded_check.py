@@ -216,6 +216,8 @@ def _preloaded_case(
         "contact_force_mujoco": None if mj is None else float(mj.contact_force),
         "opened": opened,
         "mujoco_steps": None if mj is None else int(mj.steps),
+        "contact_forces_static": None if st is None else st.contact_forces.tolist(),
+        "contact_forces_mujoco": None if mj is None else mj.contact_forces.tolist(),
     }
 
 
@@ -337,4 +339,6 @@ def _preloaded_case_failed(index: int, preload: float, label: str, w: Array, len
         "contact_force_mujoco": None,
         "opened": False,
         "mujoco_steps": None,
+        "contact_forces_static": None,
+        "contact_forces_mujoco": None,
     }

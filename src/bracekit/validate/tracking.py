@@ -62,13 +62,20 @@ from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.mjcf import build_mujoco_model
 from bracekit.validate.preloaded_check import preloaded_tip_compliance
 from bracekit.validate.session import MujocoSession, captured_warnings
-from bracekit.validate.tracking_report import PAPER_RANKING, TrackingPoint, TrackingReport, TrackingStrategy
+from bracekit.validate.tracking_report import (
+    PAPER_RANKING,
+    TRACKING_TOL,
+    TrackingPoint,
+    TrackingReport,
+    TrackingStrategy,
+)
 
 __all__ = [
     "DEFAULT_FORCE",
     "DEFAULT_FRICTION",
     "DEFAULT_PRELOAD",
     "PAPER_RANKING",
+    "TRACKING_TOL",
     "TrackingPoint",
     "TrackingReport",
     "TrackingStrategy",
