@@ -22,6 +22,8 @@ from bracekit.validate.runner import run_capacity_validation, run_holding_valida
 from bracekit.validate.statics import solve_static_equilibrium
 from helpers import scenario_text
 
+pytestmark = pytest.mark.slow  # MuJoCo simulations
+
 LOADS = "\n[loads]\nwrenches = [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0], [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]]\n"
 
 

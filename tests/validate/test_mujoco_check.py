@@ -21,6 +21,8 @@ from bracekit.validate.mujoco_check import (
 from bracekit.validate.plane_contact import PlaneContact
 from bracekit.validate.statics import solve_static_equilibrium
 
+pytestmark = pytest.mark.slow  # MuJoCo simulations
+
 Q0 = np.array([0.2, -0.4, 0.9, 0.3, -0.5, 0.4, 0.6, -0.2])
 K = 170.0 * np.linspace(0.7, 1.3, 8)
 NORMAL = np.array([0.0, 0.3, 1.0]) / np.linalg.norm([0.0, 0.3, 1.0])

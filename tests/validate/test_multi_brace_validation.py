@@ -30,6 +30,8 @@ from bracekit.validate.statics import (
 )
 from helpers import random_chain_urdf, random_unit
 
+pytestmark = pytest.mark.slow  # MuJoCo simulations
+
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 

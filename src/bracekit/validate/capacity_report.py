@@ -194,7 +194,7 @@ def run_capacity_validation(
 ) -> CapacityValidationReport:
     """Check bracekit's lift-off and slip scales against MuJoCo under a slow load ramp.
 
-    For each configuration and tool wrench w, :func:`~bracekit.validate.holding_check.mujoco_capacity_ramp`
+    For each configuration and tool wrench w, :func:`~bracekit.validate.capacity_check.mujoco_capacity_ramp`
     ramps s·w slowly (s reaches the predicted scale after ``ramp_time`` damping time constants) from the
     settled preloaded state (the scenario's gravity, preload and friction) and records the scale at which
     MuJoCo's contact opens or reaches the Coulomb cone; it is compared with bracekit's first-order scale
