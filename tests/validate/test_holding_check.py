@@ -14,18 +14,15 @@ import bracekit as bk
 from bracekit.errors import InputError
 from bracekit.simulation.holding import Holding
 from bracekit.statics import contact_response, load_contact_wrenches
-from bracekit.validate.holding_check import (
-    FAIL_ABOVE,
-    HOLD_BELOW,
-    HoldingCheck,
-    mujoco_capacity_ramp,
-    mujoco_holding_check,
-    static_capacity_scale,
-)
-from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, build_mujoco_model
+from bracekit.validate.capacity_check import mujoco_capacity_ramp, static_capacity_scale
+from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.holding_check import FAIL_ABOVE, HOLD_BELOW, HoldingCheck, mujoco_holding_check
+from bracekit.validate.mjcf import brace_geom_names, build_mujoco_model
 from bracekit.validate.runner import run_capacity_validation, run_holding_validation, validation_configurations
 from bracekit.validate.statics import solve_static_equilibrium
 from helpers import scenario_text
+
+pytestmark = pytest.mark.slow  # MuJoCo simulations
 
 LOADS = "\n[loads]\nwrenches = [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0], [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]]\n"
 
@@ -55,15 +52,15 @@ def down(setup: dict) -> HoldingCheck:
 
 def test_mjcf_has_the_coulomb_cone_friction_gravity_and_the_statics_set_points(setup: dict) -> None:
     sc, q = setup["sc"], setup["q"]
-    robot, surface = sc.robot, sc.braced.brace.surface
+    robot = sc.robot
     resp = contact_response(sc.braced, q, preload=20.0, gravity=True, friction=0.5)
     xml = build_mujoco_model(
-        robot.model, q, robot.stiffness, sc.braced.brace_id, robot.tip_id, surface.point, surface.normal,
+        robot.model, q, robot.stiffness, robot.tip_id, plane_contacts(sc.braced),
         gravity=True, friction=0.5, impratio=10.0, set_points=resp.q_s,
     )  # fmt: skip
     m = mujoco.MjModel.from_xml_string(xml)
     assert m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC and m.opt.impratio == 10.0
-    pair = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in (BRACE_GEOM, SURFACE_GEOM)]
+    pair = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g) for g in brace_geom_names(0)]
     assert np.all(m.geom_condim[pair] == 3) and np.allclose(m.geom_friction[pair, 0], 0.5)
     np.testing.assert_allclose(m.qpos_spring, resp.q_s, atol=1e-15)
     np.testing.assert_allclose(m.opt.gravity, [0.0, 0.0, -9.81])
@@ -223,9 +220,35 @@ def test_capacity_checks_refuse_what_they_cannot_check(setup: dict) -> None:
     sc, q = setup["sc"], setup["q"]
     with pytest.raises(InputError, match="preload"):
         run_capacity_validation("paper", [q])
-    with pytest.raises(InputError, match="neither lifts off nor slips"):
-        mujoco_capacity_ramp(sc.braced, q, sc.holding, np.zeros(6))
+    # a wrench that can break nothing is no input error: it is ramped and holds (was refused before)
+    zero = mujoco_capacity_ramp(sc.braced, q, sc.holding, np.zeros(6), static=False)
+    assert zero.mode == "held" and zero.mujoco_outcome == "held"
     with pytest.raises(InputError, match="ramp_time"):
         mujoco_capacity_ramp(sc.braced, q, sc.holding, PULL_UP, ramp_time=0.0)
     with pytest.raises(InputError, match="friction"):
         static_capacity_scale(sc.braced, q, Holding(gravity=True, preload=20.0), PULL_UP, "slipped", 1.0)
+
+
+def _pressing_wrench(sc: bk.Scenario, q: np.ndarray) -> np.ndarray:
+    """A tool wrench whose first-order contact-force change is a pure push into the surface (10 N along n̂ on b)."""
+    resp = contact_response(sc.braced, q, preload=20.0, gravity=True, friction=0.5)
+    f0 = np.asarray(resp.contact_wrench(np.zeros(6))[:3])
+    R = np.column_stack([np.asarray(resp.contact_wrench(e)[:3]) - f0 for e in np.eye(6)])
+    w = np.linalg.lstsq(R, 10.0 * sc.braced.brace.surface.normal, rcond=None)[0]
+    return np.asarray(w, dtype=float)
+
+
+def test_a_wrench_that_cannot_break_the_brace_is_ramped_tenfold_and_holds(setup: dict) -> None:
+    sc, q = setup["sc"], setup["q"]
+    w = _pressing_wrench(sc, q)
+    r = mujoco_capacity_ramp(sc.braced, q, sc.holding, w)
+    assert not np.isfinite(r.predicted_scale) and r.mode == "held"
+    assert r.stop_scale == 10.0 and r.mujoco_outcome == "held" and r.mujoco_scale is None
+    assert r.static_message is not None and r.static_message.startswith("nonlinear statics hold at 10")
+    assert r.creep < 1e-5  # the sticking contact does not slide under the tenfold push
+    report = run_capacity_validation(setup["path"], [q], wrenches=[w])
+    data = json.loads(json.dumps(report.to_json(), allow_nan=False))
+    (case,) = data["cases"]
+    assert case["status"] == "no_limit" and case["ramp"]["mujoco_outcome"] == "held"
+    assert case["message"].startswith("holds at any scale; ramped to 10x in MuJoCo, held")
+    assert "held to 10" in report.table_text()

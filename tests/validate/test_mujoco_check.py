@@ -11,14 +11,17 @@ import pinocchio as pin
 import pytest
 
 from bracekit.validate.mujoco_check import (
-    BRACE_GEOM,
-    SURFACE_GEOM,
     TIP_SITE,
+    MujocoResult,
     MujocoValidationError,
+    brace_geom_names,
     build_mujoco_model,
     mujoco_static_deflection,
 )
+from bracekit.validate.plane_contact import PlaneContact
 from bracekit.validate.statics import solve_static_equilibrium
+
+pytestmark = pytest.mark.slow  # MuJoCo simulations
 
 Q0 = np.array([0.2, -0.4, 0.9, 0.3, -0.5, 0.4, 0.6, -0.2])
 K = 170.0 * np.linspace(0.7, 1.3, 8)
@@ -63,6 +66,18 @@ def args(arm: dict) -> tuple:
     return (arm["model"], Q0, K, arm["b"], arm["e"], arm["point"], NORMAL)
 
 
+def contact(arm: dict, preload: float = 0.0, point: np.ndarray | None = None) -> PlaneContact:
+    return PlaneContact(arm["b"], arm["point"] if point is None else point, NORMAL, preload)
+
+
+def build(arm: dict, preload: float = 0.0, **kw: object) -> str:
+    return build_mujoco_model(arm["model"], Q0, K, arm["e"], [contact(arm, preload)], **kw)  # type: ignore[arg-type]
+
+
+def deflect(arm: dict, w: np.ndarray, preload: float, **kw: object) -> MujocoResult:
+    return mujoco_static_deflection(arm["model"], Q0, K, arm["e"], [contact(arm, preload)], w, **kw)  # type: ignore[arg-type]
+
+
 def rel(x: np.ndarray, ref: np.ndarray) -> float:
     return float(np.linalg.norm(x - ref) / np.linalg.norm(ref))
 
@@ -70,7 +85,7 @@ def rel(x: np.ndarray, ref: np.ndarray) -> float:
 # ------------------------------------------------------------------------------------------ the model
 def test_mjcf_mirrors_pinocchio_kinematics(arm: dict) -> None:
     radius = 0.005
-    xml = build_mujoco_model(*args(arm), sphere_radius=radius)
+    xml = build(arm, sphere_radius=radius)
     assert '<compiler angle="radian"' in xml
     m = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(m)
@@ -78,7 +93,7 @@ def test_mjcf_mirrors_pinocchio_kinematics(arm: dict) -> None:
     np.testing.assert_allclose(m.jnt_stiffness, K)
     assert np.all(m.dof_damping > 0) and np.all(m.opt.gravity == 0)
     site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, TIP_SITE)
-    sphere = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, BRACE_GEOM)
+    sphere = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, brace_geom_names(0)[0])
     model, data = arm["model"], arm["model"].createData()
     rng = np.random.default_rng(1)
     for q in [Q0, *rng.uniform(-np.pi, np.pi, (4, 8))]:
@@ -92,7 +107,7 @@ def test_mjcf_mirrors_pinocchio_kinematics(arm: dict) -> None:
     mujoco.mj_kinematics(m, d)
     np.testing.assert_allclose(d.geom_xpos[sphere], arm["point"] + radius * NORMAL, atol=1e-12)
     # only the sphere and the plane can collide, frictionless
-    plane = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, SURFACE_GEOM)
+    plane = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, brace_geom_names(0)[1])
     for g1 in range(m.ngeom):
         for g2 in range(g1 + 1, m.ngeom):
             collide = (m.geom_contype[g1] & m.geom_conaffinity[g2]) or (m.geom_contype[g2] & m.geom_conaffinity[g1])
@@ -101,7 +116,7 @@ def test_mjcf_mirrors_pinocchio_kinematics(arm: dict) -> None:
 
 
 def test_preload_shifts_the_spring_rest(arm: dict) -> None:
-    m = mujoco.MjModel.from_xml_string(build_mujoco_model(*args(arm), preload=0.5))
+    m = mujoco.MjModel.from_xml_string(build(arm, preload=0.5))
     assert np.abs(m.qpos_spring - Q0).max() > 1e-4
 
 
@@ -119,7 +134,7 @@ def test_mujoco_reproduces_nonlinear_statics(arm: dict, wrench: np.ndarray) -> N
     ref = solve_static_equilibrium(*args(arm), wrench, preload=PRELOAD, bilateral=False)
     assert not ref.contact_opened
     t0 = time.perf_counter()
-    res = mujoco_static_deflection(*args(arm), wrench, preload=PRELOAD)
+    res = deflect(arm, wrench, preload=PRELOAD)
     elapsed = time.perf_counter() - t0
     assert res.converged and not res.contact_opened
     assert elapsed < 3.0, f"settling took {elapsed:.2f} s"
@@ -133,8 +148,8 @@ def test_agreement_improves_with_a_smaller_sphere(arm: dict) -> None:
     """A rolling sphere constrains its centre, not b: the mismatch is proportional to the radius."""
     w = LOADS[0]
     ref = solve_static_equilibrium(*args(arm), w, preload=PRELOAD)
-    big = rel(mujoco_static_deflection(*args(arm), w, preload=PRELOAD, sphere_radius=0.005).deflection, ref.deflection)
-    small = rel(mujoco_static_deflection(*args(arm), w, preload=PRELOAD).deflection, ref.deflection)
+    big = rel(deflect(arm, w, preload=PRELOAD, sphere_radius=0.005).deflection, ref.deflection)
+    small = rel(deflect(arm, w, preload=PRELOAD).deflection, ref.deflection)
     assert small < big / 10 and big < 1e-4
 
 
@@ -143,25 +158,25 @@ def test_pull_beyond_preload_opens_the_contact(arm: dict) -> None:
     w = np.array([0.0, 0.0, 0.5, 0.0, 0.0, 0.0])
     ref = solve_static_equilibrium(*args(arm), w, preload=PRELOAD, bilateral=False)
     assert ref.contact_opened
-    res = mujoco_static_deflection(*args(arm), w, preload=PRELOAD)
+    res = deflect(arm, w, preload=PRELOAD)
     assert res.contact_opened and res.contact_force == 0.0
     assert rel(res.deflection, ref.deflection) < 1e-5
 
 
 def test_instability_is_reported(arm: dict) -> None:
     with pytest.raises(MujocoValidationError, match="unstable"):
-        mujoco_static_deflection(*args(arm), np.array([1e7, 0, 0, 0, 0, 0]), preload=PRELOAD)
+        deflect(arm, np.array([1e7, 0, 0, 0, 0, 0]), preload=PRELOAD)
 
 
 def test_no_settling_within_budget_is_reported(arm: dict) -> None:
     with pytest.raises(MujocoValidationError, match="did not settle"):
-        mujoco_static_deflection(*args(arm), LOADS[0], preload=PRELOAD, max_steps=200)
+        deflect(arm, LOADS[0], preload=PRELOAD, max_steps=200)
 
 
 def test_brace_off_the_plane_is_reported(arm: dict) -> None:
     away = arm["point"] - 0.01 * NORMAL  # plane 1 cm below b: no contact under the preload
     with pytest.raises(MujocoValidationError, match="no sphere"):
-        mujoco_static_deflection(arm["model"], Q0, K, arm["b"], arm["e"], away, NORMAL, LOADS[0], preload=PRELOAD)
+        mujoco_static_deflection(arm["model"], Q0, K, arm["e"], [contact(arm, PRELOAD, away)], LOADS[0])
 
 
 # ------------------------------------------------------------------------------------ shipped robot
@@ -178,5 +193,5 @@ def test_paper_robot_mujoco_matches_statics() -> None:
     point, normal, k = data.oMf[b].translation.copy(), np.array([0.0, 0.0, 1.0]), np.full(model.nq, 170.0)
     w = np.array([0.3, -0.2, -0.4, 0.01, 0.0, 0.02])
     ref = solve_static_equilibrium(model, q, k, b, e, point, normal, w, preload=PRELOAD)
-    res = mujoco_static_deflection(model, q, k, b, e, point, normal, w, preload=PRELOAD)
+    res = mujoco_static_deflection(model, q, k, e, [PlaneContact(b, point, normal, PRELOAD)], w)
     assert rel(res.deflection, ref.deflection) < 1e-5

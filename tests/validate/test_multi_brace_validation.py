@@ -18,19 +18,19 @@ from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.simulation.scenario import load_scenario
-from bracekit.validate.mujoco_check import (
-    brace_geom_names,
-    build_mujoco_model_multi,
-    mujoco_static_deflection_multi,
-)
-from bracekit.validate.multi_brace import validate_several_braces
-from bracekit.validate.runner import DEFAULT_DIRECTIONS, validation_configurations
+from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.mujoco_check import brace_geom_names, build_mujoco_model, mujoco_static_deflection
+from bracekit.validate.runner import DEFAULT_DIRECTIONS, ValidationReport, check_compliance, validation_configurations
 from bracekit.validate.statics import (
-    multi_preload_set_points,
+    PlaneContact,
+    contact_set_points,
     solve_static_equilibrium,
     solve_static_equilibrium_multi,
+    solve_statics,
 )
 from helpers import random_chain_urdf, random_unit
+
+pytestmark = pytest.mark.slow  # MuJoCo simulations
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -69,6 +69,13 @@ def random_braced(seed: int, links: list[int]) -> tuple[BracedRobot, np.ndarray]
     return braced_on_planes(robot, q, names, [random_unit(rng) for _ in links]), q
 
 
+def several(report: ValidationReport) -> dict:
+    """The report as JSON, with the models it compared (``rel_err_models``)."""
+    data = report.to_json()
+    data["rel_err_models"] = report.models
+    return data
+
+
 def arguments(braced: BracedRobot) -> tuple:
     robot = braced.robot
     surfaces = [(b.surface.point, b.surface.normal) for b in braced.braces]
@@ -80,7 +87,7 @@ def test_mujoco_model_has_a_sphere_and_plane_per_brace_each_colliding_only_with_
     braced, q = random_braced(7, [4, 6, 8])
     model, K, ids, tip, surfaces = arguments(braced)
     radius = 1e-4
-    xml = build_mujoco_model_multi(model, q, K, ids, tip, surfaces, preload=[1.0, 2.0, 3.0], sphere_radius=radius)
+    xml = build_mujoco_model(model, q, K, tip, plane_contacts(braced, [1.0, 2.0, 3.0]), sphere_radius=radius)
     m = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(m)
     d.qpos[:] = q
@@ -106,17 +113,20 @@ def test_mujoco_model_has_a_sphere_and_plane_per_brace_each_colliding_only_with_
     )
     np.testing.assert_allclose(K * (q - m.qpos_spring), tau, atol=1e-12)
     np.testing.assert_allclose(
-        m.qpos_spring, multi_preload_set_points(model, q, K, ids, [s[1] for s in surfaces], [1, 2, 3])
+        m.qpos_spring,
+        contact_set_points(
+            model, q, K, [PlaneContact(f, pt, nh, p) for f, (pt, nh), p in zip(ids, surfaces, [1, 2, 3], strict=True)]
+        ),
     )
 
 
 def test_mujoco_settles_with_each_contact_carrying_its_preload() -> None:
     braced, q = random_braced(5, [3, 6])
-    model, K, ids, tip, surfaces = arguments(braced)
-    res = mujoco_static_deflection_multi(model, q, K, ids, tip, surfaces, np.zeros(6), preload=[1.5, 0.7])
+    model, K, _, tip, _ = arguments(braced)
+    res = mujoco_static_deflection(model, q, K, tip, plane_contacts(braced, [1.5, 0.7]), np.zeros(6))
     np.testing.assert_allclose(res.contact_forces, [1.5, 0.7], rtol=1e-5)
     np.testing.assert_allclose(res.q_preloaded, q, atol=1e-7)
-    assert res.contact_opened == (False, False)
+    assert res.contacts_opened == (False, False) and not res.contact_opened
     assert np.linalg.norm(res.deflection) < 1e-9
 
 
@@ -125,7 +135,7 @@ def test_several_brace_static_solve_satisfies_the_stacked_kkt_equations() -> Non
     braced, q = random_braced(7, [4, 6, 8])
     model, K, ids, tip, surfaces = arguments(braced)
     w = np.array([0.4, -0.3, 0.2, 0.03, -0.02, 0.04])
-    res = solve_static_equilibrium_multi(model, q, K, ids, tip, surfaces, w, preload=2.0)
+    res = solve_statics(model, q, K, tip, plane_contacts(braced, 2.0), w)
     data = model.createData()
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
@@ -155,10 +165,10 @@ def test_several_brace_static_solve_with_one_brace_equals_the_one_brace_solve() 
 
 def test_several_brace_static_solve_linearises_to_the_stacked_compliance() -> None:
     braced, q = random_braced(7, [4, 6, 8])
-    model, K, ids, tip, surfaces = arguments(braced)
+    model, K, _, tip, _ = arguments(braced)
     c_e = stacked_compliance(braced.stacked_state(q))
     for w in (np.array([1e-3, 0, 0, 0, 0, 0]), np.array([0, 0, 0, 0, 1e-4, 1e-4])):
-        res = solve_static_equilibrium_multi(model, q, K, ids, tip, surfaces, w, preload=1e-3)
+        res = solve_statics(model, q, K, tip, plane_contacts(braced, 1e-3), w)
         assert np.linalg.norm(res.deflection - c_e @ w) < 1e-4 * np.linalg.norm(c_e @ w)
 
 
@@ -166,20 +176,20 @@ def test_several_brace_inputs_are_checked() -> None:
     braced, q = random_braced(5, [3, 6])
     model, K, ids, tip, surfaces = arguments(braced)
     off = [(surfaces[0][0] + 1e-3 * surfaces[0][1], surfaces[0][1]), surfaces[1]]
-    with pytest.raises(InputError, match="not on its surface"):
+    with pytest.raises(InputError, match="brace point 0 is not on the surface"):
         solve_static_equilibrium_multi(model, q, K, ids, tip, off, np.zeros(6))
     with pytest.raises(InputError, match="one surface"):
         solve_static_equilibrium_multi(model, q, K, ids, tip, surfaces[:1], np.zeros(6))
     with pytest.raises(InputError, match="preload"):
-        build_mujoco_model_multi(model, q, K, ids, tip, surfaces, preload=[1.0, -1.0])
+        plane_contacts(braced, [1.0, -1.0])
     friction = BracedRobot(
         braced.robot, [braced.braces[0], Brace("p1", braced.braces[1].surface, "point_with_friction")]
     )
-    with pytest.raises(InputError, match="frictionless point"):
-        validate_several_braces(friction, q)
+    with pytest.raises(InputError, match="no MuJoCo model of the contact type 'point_with_friction'"):
+        check_compliance(friction, [q])
     moved = braced_on_planes(braced.robot, q + 0.1, ["p0", "p1"], [b.surface.normal for b in braced.braces])
-    with pytest.raises(InputError, match="from its surface"):
-        validate_several_braces(moved, q, mujoco=False)
+    with pytest.raises(InputError, match="from the surface"):
+        check_compliance(moved, [q], mujoco=False)
 
 
 # ------------------------------------------------------------------------------------------ validation
@@ -187,20 +197,23 @@ def test_paper_robot_on_a_table_and_a_wall_matches_mujoco_and_the_static_solve(
     paper: tuple[BracedRobot, np.ndarray],
 ) -> None:
     braced, q = paper
-    report = validate_several_braces(braced, q)
+    report = several(check_compliance(braced, [q]))
     s = report["summary"]
     assert len(report["cases"]) == len(DEFAULT_DIRECTIONS) and report["n_failed"] == 0
     assert report["n_ok"] >= 8  # +z lifts {b} off the table by more than the 1 N preload
     assert s["constrained_vs_mujoco"]["median"] < 0.01 and s["constrained_vs_static"]["median"] < 0.01
     assert s["constrained_vs_mujoco"]["max"] < 0.01
     assert s["mujoco_vs_static"]["max"] < 1e-4
-    for case in report["cases"]:  # the opened case is the one whose bilateral solve pulls on a contact
-        assert (case["status"] == "contact_opened") == (min(case["contact_forces_static"]) < 0.0)
+    assert "projection" not in report["rel_err_models"]  # the paper's projection model is for one brace
+    for case in report["cases"]:  # the opened case is the one where the unilateral static solve opens a contact
+        assert (case["status"] == "contact_opened") == case["opened_static"]
+        if case["status"] == "ok":
+            assert min(case["contact_forces_static"]) > 0.0 and min(case["contact_forces_mujoco"]) > 0.0
 
 
 def test_paper_robot_first_order_error_vanishes_with_the_load(paper: tuple[BracedRobot, np.ndarray]) -> None:
     braced, q = paper
-    small = validate_several_braces(braced, q, force=0.05, moment=0.005, preload=0.1, mujoco=False)
+    small = several(check_compliance(braced, [q], force=0.05, moment=0.005, preload=0.1, mujoco=False))
     assert small["n_ok"] >= len(DEFAULT_DIRECTIONS) - 1  # +z pulls the table contact (same load-to-preload ratio)
     assert small["summary"]["constrained_vs_static"]["max"] < 1e-3
 
@@ -209,10 +222,12 @@ def test_paper_robot_first_order_error_vanishes_with_the_load(paper: tuple[Brace
 def test_random_chain_with_several_braces_matches_mujoco_and_the_static_solve(seed: int, links: list[int]) -> None:
     braced, q = random_braced(seed, links)
     loads = [DEFAULT_DIRECTIONS[i] for i in (0, 5, 6, 9)]
-    report = validate_several_braces(braced, q, loads=loads, preload=2.0)
+    report = several(check_compliance(braced, [q], directions=loads, preload=2.0))
     s = report["summary"]
     assert report["n_ok"] == len(loads)
     assert s["constrained_vs_mujoco"]["median"] < 0.01 and s["constrained_vs_static"]["median"] < 0.01
     assert s["mujoco_vs_static"]["max"] < 1e-4
-    small = validate_several_braces(braced, q, loads=loads, force=0.05, moment=0.005, preload=0.2, mujoco=False)
+    small = several(
+        check_compliance(braced, [q], directions=loads, force=0.05, moment=0.005, preload=0.2, mujoco=False)
+    )
     assert small["summary"]["constrained_vs_static"]["max"] < 1e-3

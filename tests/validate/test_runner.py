@@ -19,6 +19,8 @@ from bracekit.validate import (
 )
 from bracekit.validate.runner import run_preloaded_validation
 
+pytestmark = pytest.mark.slow  # MuJoCo simulations
+
 MODELS = ("constrained", "projection", "free_space")
 STAT_KEYS = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
 # a few loads that keep the contact closed under a 1 N preload on the paper scenario

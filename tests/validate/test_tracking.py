@@ -22,6 +22,8 @@ from bracekit.validate.tracking import (
 )
 from helpers import scenario_text
 
+pytestmark = pytest.mark.slow  # MuJoCo simulations
+
 
 @pytest.fixture(scope="module")
 def short_run(tmp_path_factory: pytest.TempPathFactory) -> RunResult:

@@ -33,30 +33,21 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """`bracekit validate`: run the checks, print them, 1 when a case failed; the exit code."""
+    """`bracekit validate`: run the checks, print them, 1 when a case failed (the rule: ``Verdict``); the exit code."""
     from bracekit.report.output import atomic_directory, prepare_output, to_json
     from bracekit.simulation.scenario import load_scenario
 
     needs("mujoco", "validate", "bracekit validate")
     needs("matplotlib", "viz", "bracekit validate")
     from bracekit.report.validation_figures import figure_validation
-    from bracekit.validate import run_validation
     from bracekit.validate.runner import DEFAULT_DIRECTIONS
+    from bracekit.validate.suite import run_checks
 
     if args.configs < 1:
         raise InputError(f"--configs must be at least 1, got {args.configs}")
     if args.tracking_points < 0:
         raise InputError(f"--tracking-points must be 0 (skip) or more, got {args.tracking_points}")
     scenario = load_scenario(args.scenario)
-    if len(scenario.braced.braces) > 1:
-        return _validate_braces(args, scenario)
-    from bracekit.validate.runner import path_samples
-
-    if args.configs > path_samples(scenario):
-        raise InputError(
-            f"--configs {args.configs} is more than the {path_samples(scenario)} samples of the path of scenario "
-            f"'{scenario.name}'; give at most {path_samples(scenario)}"
-        )
     with ExitStack() as stack:
         stack.enter_context(sigterm_as_interrupt())
         plan = None
@@ -72,82 +63,21 @@ def run(args: argparse.Namespace) -> int:
             total = args.configs * len(DEFAULT_DIRECTIONS)
             bar = tqdm(total=total, desc=f"{scenario.name}: validating", unit="case", file=sys.stderr)
         try:
-            report = run_validation(scenario, configs=args.configs, progress=None if bar is None else bar.update)
+            suite = run_checks(
+                scenario, args.configs, tracking_points=args.tracking_points,
+                progress=None if bar is None else bar.update,
+            )  # fmt: skip
         finally:
             if bar is not None:
                 bar.close()
-        data = report.to_json()
-        from bracekit.validate.runner import (
-            run_capacity_validation,
-            run_holding_validation,
-            run_preloaded_validation,
-        )
-
-        extra: list[Any] = []  # the further checks: preloaded model, holding statics, capacity ramps
-        configs = report.configurations
-        pre = run_preloaded_validation(scenario, configs=configs)
-        data["preloaded"] = pre.to_json()
-        extra.append(pre)
-        holding = None
-        if scenario.holding.active:
-            holding = run_holding_validation(scenario, configs=configs)
-            data["holding"] = holding.to_json()
-            extra.append(holding)
-        tracking = None
-        if args.tracking_points > 0:
-            from bracekit.validate.tracking import run_tracking_validation
-
-            tracking = run_tracking_validation(scenario, points=args.tracking_points)
-            data["tracking"] = tracking.to_json()
-            extra.append(tracking)
-        capacity = None
-        if scenario.holding.preload > 0.0 and scenario.holding.wrenches is not None:
-            capacity = run_capacity_validation(scenario, configs=configs)
-            data["capacity"] = capacity.to_json()
-            extra.append(capacity)
+        data = suite.to_json()
         if plan is not None:
             with atomic_directory(plan) as tmp:
                 (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
-                figure_validation(report, tmp / "validation.png")
-    print(to_json(data) if args.json else report.table_text())
-    if not args.json:
-        for part in extra:
-            print(part.table_text())
-    counts = report.counts()
-    failed = counts.get("failed", 0) + pre.counts()["failed"]
-    if holding is not None:
-        s = holding.summary()
-        failed += s["counts"]["failed"] + len(s["margin_disagreements"])
-    if capacity is not None:
-        failed += capacity.counts()["failed"] + capacity.counts()["disagrees"]
-    if tracking is not None:
-        failed += len(tracking.disagreements())
-    if failed > 0 or report.model_stats("constrained")["n_cases"] == 0:
-        print(f"bracekit: error: {failed} validation case(s) failed", file=sys.stderr)
-        return 1
-    return 0
-
-
-def _validate_braces(args: argparse.Namespace, scenario: Any) -> int:
-    """``validate`` for a scenario with several braces: the stacked constrained model against MuJoCo and statics."""
-    from bracekit.report.output import atomic_directory, prepare_output, to_json
-    from bracekit.validate.multi_brace import run_several_braces_validation, several_braces_text
-
-    with ExitStack() as stack:
-        stack.enter_context(sigterm_as_interrupt())
-        plan = None
-        if args.out is not None:
-            command = f"bracekit validate {args.scenario}"
-            files = ("validation.json",)
-            plan = stack.enter_context(prepare_output(args.out, overwrite=args.overwrite, files=files, command=command))
-        data = run_several_braces_validation(scenario, configs=args.configs)
-        if plan is not None:
-            with atomic_directory(plan) as tmp:
-                (tmp / "validation.json").write_text(to_json(data) + "\n", encoding="utf-8")
-    print(to_json(data) if args.json else several_braces_text(data))
-    s = data["summary"]
-    median = s["constrained_vs_mujoco"]["median"]
-    if s["n_failed"] or s["n_ok"] == 0 or median is None or median > 0.01:
-        print(f"bracekit: error: {s['n_failed']} case(s) failed or the median error exceeds 1 %", file=sys.stderr)
+                figure_validation(suite.compliance, tmp / "validation.png")
+    print(to_json(data) if args.json else suite.table_text())
+    verdict = suite.verdict()
+    if not verdict.passed:
+        print(f"bracekit: error: {verdict.message()}", file=sys.stderr)
         return 1
     return 0

@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from bracekit.validate.runner import MODELS, ValidationReport, fmt_rel
+from bracekit.validate.compliance_check import ValidationReport
+from bracekit.validate.table import fmt_rel
 
 _COLORS = {"constrained": "tab:blue", "projection": "tab:orange", "free_space": "tab:red"}
 _MARKERS = {"constrained": "o", "projection": "s", "free_space": "^"}
@@ -31,7 +32,7 @@ def figure_validation(report: ValidationReport, path: str | Path) -> Path:
     for ax, (sl, unit, name) in zip(axes, parts, strict=True):
         ref = np.array([np.asarray(c["deflection"]["mujoco"])[sl] for c in ok]).reshape(-1) * unit
         lim = [0.0, 0.0]
-        for m in MODELS:
+        for m in report.models:  # the models defined for the robot's braces
             pred = np.array([np.asarray(c["deflection"][m])[sl] for c in ok]).reshape(-1) * unit
             med = report.model_stats(m)["median_rel_err_mujoco"]
             ax.scatter(

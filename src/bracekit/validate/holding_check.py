@@ -35,10 +35,9 @@ from typing import Any, Literal
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import brentq
 
 from bracekit._linalg import as_array, show
-from bracekit.errors import InputError, MujocoValidationError, StaticSolveError
+from bracekit.errors import InputError, MujocoValidationError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.holding import Holding
 from bracekit.statics import (
@@ -46,22 +45,12 @@ from bracekit.statics import (
     capacity_of,
     contact_responses,
     effort_limits,
-    load_contact_wrenches,
 )
-from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, TIP_SITE, _check_warnings, build_mujoco_model
-from bracekit.validate.statics import solve_static_equilibrium
+from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.mjcf import build_mujoco_model
+from bracekit.validate.session import MujocoSession, captured_warnings
 
-__all__ = [
-    "FAIL_ABOVE",
-    "HOLD_BELOW",
-    "RAMP_SETTINGS",
-    "CapacityRamp",
-    "HoldingCase",
-    "HoldingCheck",
-    "mujoco_capacity_ramp",
-    "mujoco_holding_check",
-    "static_capacity_scale",
-]
+__all__ = ["FAIL_ABOVE", "HOLD_BELOW", "HoldingCase", "HoldingCheck", "check_one_brace", "mujoco_holding_check"]
 
 Array = NDArray[np.float64]
 Outcome = Literal["held", "slipped", "lifted_off"]
@@ -92,7 +81,6 @@ _SPHERE_RADIUS = 1e-4  # m
 _RAMP = 2.0  # ramp time of the load, in units of τ
 _MIN_HOLD, _MAX_HOLD = 2.0, 16.0  # settling time after the ramp, in units of τ
 _SETTLE_TOL = 1e-7  # rad: remaining motion max|q̇|·τ
-_CHUNK = 10  # steps between re-applications of the dead load and settling checks
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,74 +229,54 @@ def _expected(fraction: float | None, mode: Outcome | None) -> Outcome | None:
     return None
 
 
-class _Sim:
-    """The MuJoCo model, its data and the handles of the holding check."""
+def _holding_session(
+    braced: BracedRobot, q: Array, holding: Holding, q_s: Array, timestep: float, impratio: float
+) -> MujocoSession:
+    """The MuJoCo session of the holding checks: bracekit's set points q_s, gravity, the Coulomb cone with μ."""
+    robot = braced.robot
+    mu = holding.friction if holding.friction else None
+    xml = build_mujoco_model(
+        robot.model, q, robot.stiffness, robot.tip_id, plane_contacts(braced, environment=False),
+        sphere_radius=_SPHERE_RADIUS, gravity=holding.gravity, timestep=float(timestep), friction=mu, cone="elliptic",
+        impratio=float(impratio), set_points=q_s,
+    )  # fmt: skip
+    return MujocoSession(xml, robot.stiffness, q, [braced.state(q).b])
 
-    def __init__(self, xml: str, q: Array, q_s: Array, k: Array, b: Array, messages: list[str]) -> None:
-        try:
-            self.m = mujoco.MjModel.from_xml_string(xml)
-        except ValueError as exc:
-            raise MujocoValidationError(f"MuJoCo rejected the generated model: {exc}") from exc
-        self.d = mujoco.MjData(self.m)
-        self.messages = messages
-        self.q_s, self.k = q_s, k
-        self.tau = float(self.m.dof_damping[0] / k[0])  # damping = τ k_i
-        self.site = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_SITE, TIP_SITE)
-        self.tip_body = int(self.m.site_bodyid[self.site])
-        self.sphere = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_GEOM, BRACE_GEOM)
-        self.plane = mujoco.mj_name2id(self.m, mujoco.mjtObj.mjOBJ_GEOM, SURFACE_GEOM)
-        self.body = int(self.m.geom_bodyid[self.sphere])
-        self.d.qpos[:] = q
-        self.d.qvel[:] = 0.0
-        mujoco.mj_forward(self.m, self.d)
-        self.b_local = self.d.xmat[self.body].reshape(3, 3).T @ (b - self.d.xpos[self.body])
 
-    def b_point(self) -> Array:
-        """World position of the material point b (m)."""
-        return np.asarray(self.d.xpos[self.body] + self.d.xmat[self.body].reshape(3, 3) @ self.b_local)
+def _settle(sim: MujocoSession, w: Array, phase: str) -> tuple[int, bool]:
+    """Ramp the dead tip wrench w in over _RAMP·τ, then step until settled; (steps, settled)."""
+    steps = sim.settle_ramped(w, phase, ramp=_RAMP, min_hold=_MIN_HOLD, max_hold=_MAX_HOLD, tol=_SETTLE_TOL)
+    return steps, sim.motion() < _SETTLE_TOL
 
-    def contact_force(self) -> tuple[Array, int]:
-        """Force of the plane on the sphere (3,), N, world axes, and the number of active contacts."""
-        total, count, f6 = np.zeros(3), 0, np.zeros(6)
-        for i in range(self.d.ncon):
-            c = self.d.contact[i]
-            if {int(c.geom1), int(c.geom2)} != {self.sphere, self.plane} or c.exclude != 0 or c.efc_address < 0:
-                continue
-            mujoco.mj_contactForce(self.m, self.d, i, f6)
-            f = c.frame.reshape(3, 3).T @ f6[:3]  # contact frame (rows: normal, tangents) → world; on geom2
-            total += f if int(c.geom2) == self.sphere else -f
-            count += 1
-        return total, count
 
-    def settle(self, w: Array, phase: str) -> tuple[int, bool]:
-        """Ramp the dead tip wrench w in over _RAMP·τ, then step until settled; (steps, settled)."""
-        m, d = self.m, self.d
-        dt = float(m.opt.timestep)
-        ramp = int(np.ceil(_RAMP * self.tau / dt)) if np.any(w != 0.0) else 0
-        least = ramp + int(np.ceil(_MIN_HOLD * self.tau / dt))
-        most = ramp + int(np.ceil(_MAX_HOLD * self.tau / dt))
-        steps = 0
-        while steps < most:
-            a = 1.0 if ramp == 0 else min(1.0, steps / ramp)
-            d.qfrc_applied[:] = 0.0
-            if a > 0.0 and np.any(w != 0.0):
-                mujoco.mj_kinematics(m, d)
-                f, tq = a * w[:3], a * w[3:]
-                mujoco.mj_applyFT(m, d, f, tq, d.site_xpos[self.site].copy(), self.tip_body, d.qfrc_applied)
-            mujoco.mj_step(m, d, _CHUNK)
-            steps += _CHUNK
-            _check_warnings(d, phase, self.messages)
-            if steps >= least and float(np.max(np.abs(d.qvel))) * self.tau < _SETTLE_TOL:
-                break
-        settled = float(np.max(np.abs(d.qvel))) * self.tau < _SETTLE_TOL
-        d.qfrc_applied[:] = 0.0
-        if np.any(w != 0.0):
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_applyFT(
-                m, d, w[:3].copy(), w[3:].copy(), d.site_xpos[self.site].copy(), self.tip_body, d.qfrc_applied
-            )
-        mujoco.mj_forward(m, d)
-        return steps, settled
+def holding_inputs(
+    braced: BracedRobot, q: ArrayLike, holding: Holding, wrench: ArrayLike, what: str
+) -> tuple[Array, Array]:
+    """The checked configuration (n,) and tool wrench (6,) of a MuJoCo ``what`` on one brace (InputError)."""
+    if not isinstance(braced, BracedRobot):
+        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
+    if not isinstance(holding, Holding):
+        raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
+    check_one_brace(braced, what)
+    qa = braced.robot.check_q(q)
+    w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(-1)
+    if w.size != 6:
+        raise InputError(f"the tool wrench must be 6 numbers [fx, fy, fz, mx, my, mz], got {show(w)}")
+    return qa, w
+
+
+def check_one_brace(braced: BracedRobot, what: str) -> None:
+    """InputError unless the MuJoCo ``what`` models the brace: one brace of a type MuJoCo models, rigid surface.
+
+    The holding and capacity checks follow one brace (several-brace versions are not built: the core's
+    several-brace statics, ``multi_contact_responses`` and ``multi_capacity_along``, are checked by the
+    compliance, preloaded and tracking blocks).
+    """
+    if len(braced.braces) != 1:
+        raise InputError(f"the MuJoCo {what} follows one brace; this robot has {len(braced.braces)}")
+    plane_contacts(braced)  # a contact type MuJoCo models
+    if braced.braces[0].environment_stiffness is not None:
+        raise InputError(f"the MuJoCo {what} models a rigid surface; this brace has an environment stiffness")
 
 
 def mujoco_holding_check(
@@ -346,22 +314,8 @@ def mujoco_holding_check(
         MujocoValidationError: the simulation goes unstable, or the contact is open without load.
         NumericalError: bracekit's preloaded equilibrium is unstable (from ``contact_responses``).
     """
-    if not isinstance(braced, BracedRobot):
-        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    if not isinstance(holding, Holding):
-        raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
-    brace = braced.brace
-    if brace.kind.name != "frictionless_point" or brace.environment_stiffness is not None:
-        raise InputError(
-            "the MuJoCo holding check models a point brace (frictionless_point, sticking with μ) on a rigid "
-            f"surface; this brace is '{brace.kind.name}'"
-            + (" with an environment stiffness" if brace.environment_stiffness is not None else "")
-        )
-    robot = braced.robot
-    qa = robot.check_q(q)
-    w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(-1)
-    if w.size != 6:
-        raise InputError(f"the tool wrench must be 6 numbers [fx, fy, fz, mx, my, mz], got {show(w)}")
+    qa, w = holding_inputs(braced, q, holding, wrench, "holding check")
+    brace, robot = braced.brace, braced.robot
     if not (isinstance(impratio, int | float) and np.isfinite(impratio) and impratio >= 1.0):
         raise InputError(f"impratio must be a finite number >= 1, got {show(impratio)}")
     for value, name in ((timestep, "timestep (s)"), (slip_tol, "slip_tol (m)")):
@@ -381,29 +335,9 @@ def mujoco_holding_check(
     s_all = _scales(scales, fractions, margin)
 
     nhat = brace.surface.normal
-    k = robot.stiffness
-    xml = build_mujoco_model(
-        robot.model,
-        qa,
-        k,
-        braced.brace_id,
-        robot.tip_id,
-        brace.surface.point,
-        nhat,
-        sphere_radius=_SPHERE_RADIUS,
-        gravity=holding.gravity,
-        timestep=float(timestep),
-        friction=mu,
-        cone="elliptic",
-        impratio=float(impratio),
-        set_points=resp.q_s,
-    )
-    messages: list[str] = []
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(messages.append)
-    try:
-        sim = _Sim(xml, qa, resp.q_s, k, braced.state(qa).b, messages)
-        sim.settle(np.zeros(6), "unloaded settling")
+    sim = _holding_session(braced, qa, holding, resp.q_s, timestep, impratio)
+    with captured_warnings(sim.messages):
+        _settle(sim, np.zeros(6), "unloaded settling")
         f0, ncon = sim.contact_force()
         if ncon == 0 and holding.preload > 0.0:
             raise MujocoValidationError("no sphere–surface contact under the preload: does b lie on the surface at q?")
@@ -413,10 +347,8 @@ def mujoco_holding_check(
         cases = []
         for s in s_all:
             mujoco.mj_copyData(sim.d, sim.m, start)
-            steps, settled = sim.settle(s * w, f"loaded settling (scale {s:.3g})")
+            steps, settled = _settle(sim, s * w, f"loaded settling (scale {s:.3g})")
             cases.append(_case(sim, resp, w, s, margin, mode, mu, nhat, b0, slip_tol, steps, settled))
-    finally:
-        mujoco.set_mju_user_warning(previous)
     fn0 = float(f0 @ nhat)
     return HoldingCheck(
         q=qa.copy(),
@@ -452,7 +384,7 @@ def _scales(scales: ArrayLike | None, fractions: ArrayLike, margin: float) -> Ar
 
 
 def _case(
-    sim: _Sim,
+    sim: MujocoSession,
     resp: ContactResponse,
     w: Array,
     s: float,
@@ -488,7 +420,7 @@ def _case(
         rel_err = float(np.linalg.norm(f_mj - f_pred)) / den if den > 0.0 else None
         den_c = float(np.linalg.norm(f_pred - resp.f_c0[:3]))
         change_err = float(np.linalg.norm(f_mj - f_pred)) / den_c if den_c > 0.0 else None
-        tau_mj = sim.k * (sim.q_s - sim.d.qpos)
+        tau_mj = sim.m.jnt_stiffness * (sim.m.qpos_spring - sim.d.qpos)  # K (q_s − q)
         tau_pred = np.asarray(resp.torque(s * w), dtype=float)
         den_t = float(np.linalg.norm(tau_pred))
         torque_err = float(np.linalg.norm(tau_mj - tau_pred)) / den_t if den_t > 0.0 else None
@@ -513,354 +445,3 @@ def _case(
         settled=settled,
         steps=steps,
     )
-
-
-# --------------------------------------------------------------------------------------------------
-# Capacity under a slow load ramp
-# --------------------------------------------------------------------------------------------------
-#: Settings of :func:`mujoco_capacity_ramp` (recorded in reports).
-RAMP_SETTINGS: dict[str, Any] = {
-    "ramp": (
-        "dead tip wrench s(t)*w, s(t) = rate*t from the settled unloaded state, rate = s_pred / (ramp_time*tau): "
-        "s reaches the predicted scale after ramp_time damping time constants tau"
-    ),
-    "ramp_time_tau": 40.0,
-    "stop_at": "2 x the predicted scale",
-    "liftoff_event": "no active sphere-plane contact, or normal force <= 0",
-    "slip_event": "|f_t| >= (1 - cone_tol) mu f_n (the force reaches MuJoCo's elliptic Coulomb cone)",
-    "cone_tol": 1e-3,
-    "slide_event": "tangential displacement of b from the unloaded state > slide_tol_m",
-    "slide_tol_m": 1e-5,
-    "static_scale": (
-        "root in s of f_n(s) (lift-off) or mu f_n(s) - |f_t(s)| (slip) of solve_static_equilibrium with the "
-        "same set points, gravity, the bilateral load contact X_L (sticking point with mu), brentq"
-    ),
-}
-
-
-@dataclass(frozen=True, eq=False)
-class CapacityRamp:
-    """MuJoCo's lift-off or slip scale of a tool wrench under a slow ramp, against bracekit's predicted scales.
-
-    Scales s are dimensionless multipliers of the tool wrench w. The failure tested is the one the first-order
-    statics predict first (``mode``); MuJoCo's scale is that of the first event along the ramp.
-
-    Attributes:
-        q: the commanded configuration (n,), rad.
-        wrench: w (6,), [f; m] at the tip, world axes (N, N·m).
-        preload: P (N). friction: μ or None (frictionless: lift-off only). gravity: whether gravity was on.
-        mode: the predicted failure tested, ``lifted_off`` or ``slipped``.
-        liftoff_margin, slip_margin: first-order scales of lift-off and slip (inf: never; slip None without μ).
-        predicted_scale: the first-order scale of ``mode`` (:func:`bracekit.statics.capacity_of`).
-        static_scale: the scale of ``mode`` in the nonlinear rigid statics (None if the solve failed).
-        static_message: why the static scale is missing, else None.
-        mujoco_scale: s at MuJoCo's first event along the ramp (None: no event before ``stop_scale``).
-        mujoco_outcome: that event: ``lifted_off`` (contact open or normal force 0) or ``slipped`` (the
-            contact force reached the Coulomb cone); None without an event.
-        slide_scale: with μ, s at which the tangential displacement of b exceeded ``slide_tol`` (None: never).
-        creep: tangential displacement of b at the event, or at the end of the ramp without one (m).
-        rel_err: |predicted_scale − mujoco_scale| / mujoco_scale (None without a MuJoCo scale).
-        rel_err_static: |static_scale − mujoco_scale| / mujoco_scale (None when either is missing).
-        rate: ramp rate ds/dt (1/s); stop_scale: the ramp's last scale; settle_time: τ (s); timestep: s.
-        steps: MuJoCo steps of the ramp.
-    """
-
-    q: Array
-    wrench: Array
-    preload: float
-    friction: float | None
-    gravity: bool
-    mode: Outcome
-    liftoff_margin: float
-    slip_margin: float | None
-    predicted_scale: float
-    static_scale: float | None
-    static_message: str | None
-    mujoco_scale: float | None
-    mujoco_outcome: Outcome | None
-    slide_scale: float | None
-    creep: float
-    rel_err: float | None
-    rel_err_static: float | None
-    rate: float
-    stop_scale: float
-    settle_time: float
-    timestep: float
-    steps: int
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-able dict (infinite margins as None)."""
-        return {
-            "q": self.q.tolist(),
-            "wrench": self.wrench.tolist(),
-            "preload_N": self.preload,
-            "friction": self.friction,
-            "gravity": self.gravity,
-            "mode": self.mode,
-            "liftoff_margin": _finite(self.liftoff_margin),
-            "slip_margin": None if self.slip_margin is None else _finite(self.slip_margin),
-            "predicted_scale": self.predicted_scale,
-            "static_scale": self.static_scale,
-            "static_message": self.static_message,
-            "mujoco_scale": self.mujoco_scale,
-            "mujoco_outcome": self.mujoco_outcome,
-            "agrees": self.mujoco_outcome == self.mode,
-            "slide_scale": self.slide_scale,
-            "creep_m": self.creep,
-            "rel_err": self.rel_err,
-            "rel_err_static": self.rel_err_static,
-            "rate_per_s": self.rate,
-            "stop_scale": self.stop_scale,
-            "settle_time_s": self.settle_time,
-            "timestep_s": self.timestep,
-            "steps": self.steps,
-        }
-
-
-def static_capacity_scale(
-    braced: BracedRobot, q: ArrayLike, holding: Holding, wrench: ArrayLike, mode: Outcome, guess: float
-) -> float:
-    """The scale s of ``wrench`` at which the nonlinear rigid statics lift off or slip (``mode``).
-
-    The chain has bracekit's set points (gravity and the preload P n̂ at q) and a bilateral load contact X_L
-    (:func:`bracekit.statics.load_contact_wrenches`: the sticking point with μ, else [n̂; 0]);
-    :func:`~bracekit.validate.statics.solve_static_equilibrium` gives its contact force f_c(s) under s·w. The
-    scale is the root of f_n(s) (``lifted_off``) or μ f_n(s) − ‖f_t(s)‖ (``slipped``), bracketed from
-    ``guess`` (e.g. the first-order scale) and found by Brent's method to 1e-7 relative.
-
-    Raises:
-        InputError: bad inputs, or ``slipped`` without friction.
-        StaticSolveError: a static solve fails, or no sign change up to 8 × ``guess``.
-    """
-    robot, brace = braced.robot, braced.brace
-    qa = robot.check_q(q)
-    w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(6)
-    mu = holding.friction if holding.friction else None
-    if mode == "slipped" and mu is None:
-        raise InputError("a slip scale needs a friction coefficient μ > 0 in the holding")
-    if not (np.isfinite(guess) and guess > 0.0):
-        raise InputError(f"guess must be a finite scale > 0, got {show(guess)}")
-    nhat = brace.surface.normal
-    x_l = load_contact_wrenches(brace, mu)
-
-    def margin(s: float) -> float:
-        res = solve_static_equilibrium(
-            robot.model, qa, robot.stiffness, braced.brace_id, robot.tip_id, brace.surface.point, nhat, s * w,
-            preload=holding.preload, gravity=holding.gravity, constraint_wrenches=x_l,
-        )  # fmt: skip
-        f = res.contact_wrench[:3]
-        fn = float(f @ nhat)
-        if mode == "lifted_off":
-            return fn
-        assert mu is not None
-        return mu * fn - float(np.linalg.norm(f - fn * nhat))
-
-    lo, hi = 0.0, float(guess)
-    g_hi = margin(hi)
-    while g_hi > 0.0:
-        lo, hi = hi, 1.25 * hi
-        if hi > 8.0 * guess:
-            raise StaticSolveError(
-                f"the nonlinear statics do not {mode.replace('_', ' ')} up to 8 x the scale {guess:.4g}"
-            )
-        g_hi = margin(hi)
-    if lo == 0.0:
-        lo = hi
-        while margin(lo) <= 0.0:
-            lo *= 0.8
-            if lo < 1e-3 * guess:
-                raise StaticSolveError(
-                    f"the nonlinear statics {mode.replace('_', ' ')} below 1e-3 x the scale {guess:.4g}"
-                )
-    return float(brentq(margin, lo, hi, xtol=1e-7 * guess, rtol=1e-10))
-
-
-def mujoco_capacity_ramp(
-    braced: BracedRobot,
-    q: ArrayLike,
-    holding: Holding,
-    wrench: ArrayLike,
-    *,
-    ramp_time: float = RAMP_SETTINGS["ramp_time_tau"],
-    impratio: float = HOLDING_SETTINGS["impratio"],
-    timestep: float = HOLDING_SETTINGS["timestep_s"],
-    cone_tol: float = RAMP_SETTINGS["cone_tol"],
-    slide_tol: float = RAMP_SETTINGS["slide_tol_m"],
-    static: bool = True,
-) -> CapacityRamp:
-    """Ramp the tool wrench s·w slowly in MuJoCo and find the scale at which the brace lifts off or slips.
-
-    The MuJoCo model is that of :func:`mujoco_holding_check` (bracekit's set points, gravity, elliptic Coulomb
-    cone with μ). From the settled unloaded state the dead tip wrench grows as s(t) = rate·t, rate =
-    s_pred / (``ramp_time``·τ), τ the damping time constant of the heaviest mode (quasi-static: the first-order
-    system lags the load by about τ, and the detected scale changes by < 0.3 % between 20τ and 80τ here).
-    Every 10 steps the contact is checked: it has **lifted off** when no sphere–plane contact is active or its
-    normal force is 0, and **slipped** when ‖f_t‖ ≥ (1 − ``cone_tol``) μ f_n (the force is on MuJoCo's
-    Coulomb cone: the sticking contact can take no more tangential force) or b has slid ``slide_tol`` first.
-    The ramp goes on after a slip until b has slid ``slide_tol`` (``slide_scale``), lifts off, or s reaches
-    2 s_pred.
-
-    The failure tested is the one the first-order statics predict first; it must have a finite scale s_pred.
-    With ``static`` the nonlinear statics' scale (:func:`static_capacity_scale`) is computed too.
-
-    Raises:
-        InputError: bad inputs, a brace MuJoCo does not model, or a wrench with no predicted failure.
-        MujocoValidationError: the simulation goes unstable, or the contact is open without load.
-        NumericalError: bracekit's preloaded equilibrium is unstable.
-    """
-    if not isinstance(braced, BracedRobot):
-        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    if not isinstance(holding, Holding):
-        raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
-    brace = braced.brace
-    if brace.kind.name != "frictionless_point" or brace.environment_stiffness is not None:
-        raise InputError(
-            "the MuJoCo capacity ramp models a point brace (frictionless_point, sticking with μ) on a rigid surface; "
-            f"this brace is '{brace.kind.name}'"
-        )
-    robot = braced.robot
-    qa = robot.check_q(q)
-    w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(-1)
-    if w.size != 6:
-        raise InputError(f"the tool wrench must be 6 numbers [fx, fy, fz, mx, my, mz], got {show(w)}")
-    for value, name, low in (
-        (ramp_time, "ramp_time (in damping time constants)", 0.0),
-        (impratio, "impratio", 1.0),
-        (timestep, "timestep (s)", 0.0),
-        (cone_tol, "cone_tol", 0.0),
-        (slide_tol, "slide_tol (m)", 0.0),
-    ):
-        ok = isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
-        if not ok or value < low or (low == 0.0 and value <= 0.0):
-            raise InputError(f"{name} must be a finite number {'>= 1' if low else '> 0'}, got {show(value)}")
-    mu = holding.friction if holding.friction else None
-
-    resps = contact_responses(braced, qa, preload=holding.preload, gravity=holding.gravity, friction=mu)
-    resp = resps.at(0)
-    cap = capacity_of(resps, w[None, :], effort_limits(robot))
-    liftoff = float(cap.liftoff[0, 0])
-    slip = None if cap.slip is None else float(cap.slip[0, 0])
-    predicted = min(liftoff, np.inf if slip is None else slip)
-    if not np.isfinite(predicted) or predicted <= 0.0:
-        raise InputError(
-            f"the wrench {show(w)} neither lifts off nor slips in bracekit's statics (predicted scale {predicted:g}); "
-            "give a wrench that pulls the brace off the surface or along it"
-        )
-    mode: Outcome = "lifted_off" if liftoff <= predicted else "slipped"
-
-    static_scale: float | None = None
-    static_message: str | None = None
-    if static:
-        try:
-            static_scale = static_capacity_scale(braced, qa, holding, w, mode, predicted)
-        except StaticSolveError as exc:
-            static_message = str(exc)
-
-    nhat = brace.surface.normal
-    xml = build_mujoco_model(
-        robot.model, qa, robot.stiffness, braced.brace_id, robot.tip_id, brace.surface.point, nhat,
-        sphere_radius=_SPHERE_RADIUS, gravity=holding.gravity, timestep=float(timestep), friction=mu, cone="elliptic",
-        impratio=float(impratio), set_points=resp.q_s,
-    )  # fmt: skip
-    messages: list[str] = []
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(messages.append)
-    try:
-        sim = _Sim(xml, qa, resp.q_s, robot.stiffness, braced.state(qa).b, messages)
-        sim.settle(np.zeros(6), "unloaded settling")
-        _, ncon = sim.contact_force()
-        if ncon == 0 and holding.preload > 0.0:
-            raise MujocoValidationError("no sphere–surface contact under the preload: does b lie on the surface at q?")
-        ramp = _ramp(sim, w, predicted, float(ramp_time), mu, nhat, float(cone_tol), float(slide_tol))
-    finally:
-        mujoco.set_mju_user_warning(previous)
-    s_mj, outcome, slide, creep, rate, stop, steps = ramp
-
-    def rel(x: float | None) -> float | None:
-        return None if x is None or s_mj is None else abs(x - s_mj) / s_mj
-
-    return CapacityRamp(
-        q=qa.copy(),
-        wrench=w.copy(),
-        preload=float(holding.preload),
-        friction=mu,
-        gravity=bool(holding.gravity),
-        mode=mode,
-        liftoff_margin=liftoff,
-        slip_margin=slip,
-        predicted_scale=float(predicted),
-        static_scale=static_scale,
-        static_message=static_message,
-        mujoco_scale=s_mj,
-        mujoco_outcome=outcome,
-        slide_scale=slide,
-        creep=creep,
-        rel_err=rel(float(predicted)),
-        rel_err_static=rel(static_scale),
-        rate=rate,
-        stop_scale=stop,
-        settle_time=sim.tau,
-        timestep=float(sim.m.opt.timestep),
-        steps=steps,
-    )
-
-
-#: A contact lost within this fraction of its friction cone's edge is counted as a slip, not a lift-off.
-_EDGE_TOL = 0.01
-
-
-def _ramp(
-    sim: _Sim,
-    w: Array,
-    predicted: float,
-    ramp_time: float,
-    mu: float | None,
-    nhat: Array,
-    cone_tol: float,
-    slide_tol: float,
-) -> tuple[float | None, Outcome | None, float | None, float, float, float, int]:
-    """The load ramp of :func:`mujoco_capacity_ramp`: (scale, outcome, slide scale, creep, rate, stop, steps)."""
-    m, d = sim.m, sim.d
-    dt = float(m.opt.timestep)
-    rate = predicted / (ramp_time * sim.tau)
-    stop = 2.0 * predicted
-    b0 = sim.b_point()
-    scale: float | None = None
-    outcome: Outcome | None = None
-    slide: float | None = None
-    creep = 0.0
-    steps = 0
-    last_ratio = 0.0  # ‖f_t‖/f_n of the last chunk in contact
-    while True:
-        s = rate * steps * dt
-        if s > stop:
-            break
-        d.qfrc_applied[:] = 0.0
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_applyFT(m, d, s * w[:3], s * w[3:], d.site_xpos[sim.site].copy(), sim.tip_body, d.qfrc_applied)
-        mujoco.mj_step(m, d, _CHUNK)
-        steps += _CHUNK
-        _check_warnings(d, f"the load ramp (scale {s:.3g})", sim.messages)
-        s_now = rate * steps * dt
-        f, ncon = sim.contact_force()
-        fn = float(f @ nhat)
-        db = sim.b_point() - b0
-        disp = float(np.linalg.norm(db - (db @ nhat) * nhat))
-        if outcome is None:
-            creep = disp
-        if ncon == 0 or fn <= 0.0:
-            if outcome is None:
-                # a contact lost at the edge of its cone slid off within one chunk: that is a slip
-                sliding = mu is not None and last_ratio >= (1.0 - _EDGE_TOL) * mu
-                scale, outcome = s_now, "slipped" if sliding else "lifted_off"
-            break
-        if mu is None:
-            continue
-        ft = float(np.linalg.norm(f - fn * nhat))
-        last_ratio = ft / fn
-        if outcome is None and (ft >= (1.0 - cone_tol) * mu * fn or disp > slide_tol):
-            scale, outcome = s_now, "slipped"
-        if disp > slide_tol:
-            slide = s_now
-            break
-    return scale, outcome, slide, creep, rate, stop, steps

@@ -37,11 +37,9 @@ says, per strategy, the mean measured and predicted compliance along β_x and wh
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import os
 import time
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -51,20 +49,33 @@ from scipy.interpolate import CubicSpline
 
 from bracekit._linalg import as_number, show
 from bracekit.compliance.first_order import ComplianceModel, end_effector_compliance, free_space_compliance
-from bracekit.compliance.preloaded import loaded_free_space_compliance, preloaded_compliance, simulated_model
-from bracekit.errors import InputError, MujocoValidationError
+from bracekit.compliance.preloaded import loaded_free_space_compliance, simulated_model
+from bracekit.errors import ContactError, InputError, MujocoValidationError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.run import RunResult, run_scenario
 from bracekit.simulation.scenario import Scenario
 from bracekit.simulation.simulate import Trajectory
 from bracekit.statics import contact_response, contact_responses, gravity_torque
-from bracekit.validate.mujoco_check import BRACE_GEOM, SURFACE_GEOM, TIP_SITE, build_mujoco_model
+from bracekit.statics.equilibrium import multi_contact_responses
+from bracekit.validate.compliance_check import first_order_state
+from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.mjcf import build_mujoco_model
+from bracekit.validate.preloaded_check import preloaded_tip_compliance
+from bracekit.validate.session import MujocoSession, captured_warnings
+from bracekit.validate.tracking_report import (
+    PAPER_RANKING,
+    TRACKING_TOL,
+    TrackingPoint,
+    TrackingReport,
+    TrackingStrategy,
+)
 
 __all__ = [
     "DEFAULT_FORCE",
     "DEFAULT_FRICTION",
     "DEFAULT_PRELOAD",
     "PAPER_RANKING",
+    "TRACKING_TOL",
     "TrackingPoint",
     "TrackingReport",
     "TrackingStrategy",
@@ -79,15 +90,11 @@ DEFAULT_FORCE = 1.0
 DEFAULT_PRELOAD = 5.0
 #: Coulomb μ of the pad when the scenario gives none.
 DEFAULT_FRICTION = 0.8
-#: The paper's claim, most compliant first.
-PAPER_RANKING = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
-
 _SPHERE_RADIUS = 1e-4  # m
 _IMPRATIO = 10.0  # frictional-to-normal impedance ratio: less creep of a sticking contact
 _RAMP = 2.0  # ramp time of the tool force, in units of τ
 _MIN_HOLD, _MAX_HOLD = 2.0, 20.0  # settling time, in units of τ
 _SETTLE_TOL = 1e-8  # rad: remaining motion max|q̇|·τ
-_CHUNK = 10  # steps between set-point updates, re-applications of the dead load and settling checks
 _SLIP_TOL = 1e-5  # m: tangential motion of the material point b that counts as a slip
 # timestep of the measurements: at 1 ms the stiff contact on the light links chatters and a sticking pad walks
 _MEASURE_TIMESTEP = 2.5e-4
@@ -95,294 +102,6 @@ _MEASURE_TIMESTEP = 2.5e-4
 # steps while b slides (about 6 % of the steps on the paper run); these keep it closed
 _PATH_SOLREF = np.array([0.01, 1.0])
 _PATH_SOLIMP = np.array([0.99, 0.99, 0.001, 0.5, 2.0])
-_BAD_WARNINGS = (
-    mujoco.mjtWarning.mjWARN_BADQPOS,
-    mujoco.mjtWarning.mjWARN_BADQVEL,
-    mujoco.mjtWarning.mjWARN_BADQACC,
-    mujoco.mjtWarning.mjWARN_CONTACTFULL,
-    mujoco.mjtWarning.mjWARN_CNSTRFULL,
-    mujoco.mjtWarning.mjWARN_INERTIA,
-)
-
-
-@dataclass(frozen=True, eq=False)
-class TrackingPoint:
-    """One check point of a run: the path state, and measured against predicted compliance along β_x.
-
-    Compliances are deflections along β_x per unit force along β_x (m/N for a translational β_x).
-
-    Attributes:
-        index: sample index in the run. t: the run's time there, s.
-        q: the commanded configuration (n,), rad. beta_x: the unit twist (6,).
-        tracking_error: ‖e_MuJoCo − e(q)‖ of the tip when the path reached the point, before settling, m.
-        joint_error: max |q_MuJoCo − q| at the same moment, rad.
-        normal_force: the brace's mean normal force over the path segment that ends at the point, N (None free).
-        measured: MuJoCo, frictionless pad (braced) or no contact (free space).
-        predicted: first order: β_xᵀ C_e β_x (``constrained``) braced, β_xᵀ J K⁻¹ Jᵀ β_x free.
-        predicted_projection: β_xᵀ C_e β_x of the ``projection`` model (braced; None free).
-        predicted_tangent: the same as ``predicted`` on the tangent stiffness of the preload and gravity.
-        measured_sticking, predicted_sticking: the pad sticking with μ, and the constrained model of a sticking
-            point on the tangent stiffness (braced; None free).
-        ci: the run's C_i at the sample (‖β_xᵀ C‖, the model of the run's C_i series), m/N.
-        rel_err: |measured − predicted| / predicted. rel_err_sticking: the same for the sticking pad.
-        contact_opened: the contact opened under ±f with the frictionless pad (the point does not count).
-        slip: largest tangential motion of b under ±f, sticking pad, m (None free).
-        slipped: slip > 1e-5 m, the contact opened, or the chain still moved after 20τ with the sticking pad
-            (the sticking value does not count).
-        predicted_slip: bracekit's first-order contact force under ±f leaves the cone ‖f_t‖ ≤ μ f_n or pulls
-            (:func:`~bracekit.statics.contact_response` with μ; None free).
-    """
-
-    index: int
-    t: float
-    q: Array
-    beta_x: Array
-    tracking_error: float
-    joint_error: float
-    normal_force: float | None
-    measured: float
-    predicted: float
-    predicted_projection: float | None
-    predicted_tangent: float
-    measured_sticking: float | None
-    predicted_sticking: float | None
-    ci: float | None
-    rel_err: float
-    rel_err_sticking: float | None
-    contact_opened: bool
-    slip: float | None
-    slipped: bool
-    predicted_slip: bool | None
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-able dict (no NaN)."""
-        return {
-            "index": self.index,
-            "t_s": self.t,
-            "q": self.q.tolist(),
-            "beta_x": self.beta_x.tolist(),
-            "tracking_error_m": self.tracking_error,
-            "joint_error_rad": self.joint_error,
-            "normal_force_N": self.normal_force,
-            "measured": self.measured,
-            "predicted": self.predicted,
-            "predicted_projection": self.predicted_projection,
-            "predicted_tangent": self.predicted_tangent,
-            "measured_sticking": self.measured_sticking,
-            "predicted_sticking": self.predicted_sticking,
-            "Ci": self.ci,
-            "rel_err": self.rel_err,
-            "rel_err_sticking": self.rel_err_sticking,
-            "contact_opened": self.contact_opened,
-            "slip_m": self.slip,
-            "slipped": self.slipped,
-            "predicted_slip": self.predicted_slip,
-        }
-
-
-def _mean(xs: list[float]) -> float | None:
-    return float(np.mean(xs)) if xs else None
-
-
-def _rel(a: float | None, b: float | None) -> float | None:
-    return None if a is None or b is None or b == 0.0 else abs(a - b) / abs(b)
-
-
-@dataclass(frozen=True, eq=False)
-class TrackingStrategy:
-    """The check points of one strategy's run and their means (over the points that count).
-
-    Attributes:
-        strategy: the run's name. braced: whether it is braced.
-        points: the check points. wall_time: s.
-        path: the brace's contact while the set points moved (braced): ``steps``, ``open_fraction`` (steps
-            with no contact force), ``normal_force_mean_N``, ``normal_force_max_N``, ``friction`` (μ on).
-    """
-
-    strategy: str
-    braced: bool
-    points: list[TrackingPoint]
-    wall_time: float
-    path: dict[str, Any] | None = None
-
-    def _counted(self) -> list[TrackingPoint]:
-        return [p for p in self.points if not p.contact_opened]
-
-    def _sticking(self) -> list[TrackingPoint]:
-        return [p for p in self._counted() if p.measured_sticking is not None and not p.slipped]
-
-    def summary(self) -> dict[str, Any]:
-        """Means of measured and predicted compliance along β_x, their relative error and the worst point."""
-        ok, st = self._counted(), self._sticking()
-        measured = _mean([p.measured for p in ok])
-        predicted = _mean([p.predicted for p in ok])
-        out: dict[str, Any] = {
-            "braced": self.braced,
-            "points": len(self.points),
-            "counted": len(ok),
-            "measured_mean": measured,
-            "predicted_mean": predicted,
-            "rel_err_of_mean": _rel(measured, predicted),
-            "max_rel_err": max((p.rel_err for p in ok), default=None),
-            "predicted_projection_mean": _mean([p.predicted_projection for p in ok if p.predicted_projection]),
-            "predicted_tangent_mean": _mean([p.predicted_tangent for p in ok]),
-            "max_rel_err_tangent": max(
-                (abs(p.measured - p.predicted_tangent) / p.predicted_tangent for p in ok), default=None
-            ),
-            "Ci_mean": _mean([p.ci for p in ok if p.ci is not None]),
-            "max_tracking_error_m": max((p.tracking_error for p in self.points), default=None),
-            "wall_time_s": self.wall_time,
-        }
-        if self.braced:
-            out["path_contact"] = self.path
-            ms = _mean([p.measured_sticking for p in st if p.measured_sticking is not None])
-            ps = _mean([p.predicted_sticking for p in st if p.predicted_sticking is not None])
-            out |= {
-                "sticking_counted": len(st),
-                "measured_sticking_mean": ms,
-                "predicted_sticking_mean": ps,
-                "rel_err_sticking_of_mean": _rel(ms, ps),
-                "max_rel_err_sticking": max((p.rel_err_sticking or 0.0 for p in st), default=None),
-                "slipped": sum(p.slipped for p in self.points),
-                "slip_as_predicted": sum(p.slipped == p.predicted_slip for p in self.points),
-                "min_normal_force_N": min((p.normal_force or 0.0 for p in self.points), default=None),
-            }
-        return out
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-able dict: the summary and the points."""
-        return {**self.summary(), "check_points": [p.to_json() for p in self.points]}
-
-
-#: Largest relative error of a check point (measured against predicted compliance) that still agrees.
-TRACKING_TOL = 0.05
-
-
-@dataclass(frozen=True, eq=False)
-class TrackingReport:
-    """Result of :func:`run_tracking_validation`: one :class:`TrackingStrategy` per run, and the ranking."""
-
-    scenario: str
-    compliance_model: str
-    settings: dict[str, Any]
-    strategies: dict[str, TrackingStrategy] = field(default_factory=dict)
-    wall_time: float = 0.0
-
-    def ranking(self, key: str = "measured_mean") -> dict[str, Any]:
-        """Whether the strategies of the paper's ranking are ordered as the paper says by `key` (a summary key).
-
-        Returns ``{"order": [most compliant first], "holds": bool | None, "violations": [lines]}``; ``holds``
-        is None when fewer than two of the paper's strategies have a value.
-        """
-        values = {n: s.summary().get(key) for n, s in self.strategies.items() if n in PAPER_RANKING}
-        ranked = [n for n in PAPER_RANKING if values.get(n) is not None]
-        order = sorted(ranked, key=lambda n: -float(values[n] or 0.0))
-        bad = [
-            f"{b} ({values[b]:.4g}) is not stiffer than {a} ({values[a]:.4g})"
-            for a, b in itertools.pairwise(ranked)
-            if float(values[b] or 0.0) >= float(values[a] or 0.0)
-        ]
-        return {"order": order, "holds": None if len(ranked) < 2 else not bad, "violations": bad}
-
-    def disagreements(self, tol: float = TRACKING_TOL) -> list[str]:
-        """Where MuJoCo disagrees with bracekit; empty when physics agrees.
-
-        A strategy whose worst point is off by more than `tol` (relative), or a measured ordering of the
-        strategies other than the predicted one.
-        """
-        out = []
-        for name, st in self.strategies.items():
-            worst = st.summary().get("max_rel_err")
-            if worst is not None and worst > tol:
-                out.append(f"{name}: measured compliance off the prediction by {100 * worst:.2g} % (> {100 * tol:g} %)")
-        predicted, measured = self.ranking("predicted_mean"), self.ranking("measured_mean")
-        if predicted["holds"] is not None and measured["order"] != predicted["order"]:
-            out.append(
-                f"MuJoCo orders the strategies {' > '.join(measured['order'])}, bracekit predicts "
-                f"{' > '.join(predicted['order'])}"
-            )
-        return out
-
-    def to_json(self) -> dict[str, Any]:
-        """The ``tracking`` JSON block (no NaN)."""
-        return {
-            "scenario": self.scenario,
-            "tolerance": TRACKING_TOL,
-            "disagreements": self.disagreements(),
-            "compliance_model": self.compliance_model,
-            "quantity": (
-                "compliance along beta_x: beta_x^T dx / f under the tool force f*beta_x (m/N for a translational "
-                "beta_x); predicted beta_x^T C beta_x; rel_err = |measured - predicted| / predicted"
-            ),
-            "paper_ranking": list(PAPER_RANKING),
-            "ranking": {
-                "predicted": self.ranking("predicted_mean"),
-                "measured": self.ranking("measured_mean"),
-                "measured_sticking": self.ranking("measured_sticking_mean"),
-            },
-            "settings": self.settings,
-            "wall_time_s": self.wall_time,
-            "strategies": {n: s.to_json() for n, s in self.strategies.items()},
-        }
-
-    def table_text(self) -> str:
-        """Aligned text table: per strategy, measured and predicted mean compliance along β_x and the ranking."""
-        s = self.settings
-        head = [
-            f"Tracking check in MuJoCo, scenario '{self.scenario}' ({self.compliance_model} runs)",
-            f"{s['points']} point(s) per run, tool force {s['force_N']:g} N along β_x; brace preload "
-            f"P = {s['preload_N']:g} N, μ = {s['friction']:g}, gravity {'on' if s['gravity'] else 'off'}",
-            "compliance along β_x per unit force (1e-3 m/N); error = |measured − predicted| / predicted",
-            "'max, K_t': worst point against the same model on the tangent stiffness of the preload and gravity",
-            "",
-        ]
-        cols = (
-            "strategy", "measured", "predicted", "error", "max error", "max, K_t",
-            "sticking", "predicted", "error", "track",
-        )  # fmt: skip
-        rows = []
-        for name, st in self.strategies.items():
-            m = st.summary()
-            rows.append(
-                (
-                    name,
-                    _milli(m["measured_mean"]),
-                    _milli(m["predicted_mean"]),
-                    _pct(m["rel_err_of_mean"]),
-                    _pct(m["max_rel_err"]),
-                    _pct(m["max_rel_err_tangent"]),
-                    _milli(m.get("measured_sticking_mean")),
-                    _milli(m.get("predicted_sticking_mean")),
-                    _pct(m.get("rel_err_sticking_of_mean")),
-                    "n/a" if m["max_tracking_error_m"] is None else f"{1e3 * m['max_tracking_error_m']:.2g} mm",
-                )
-            )
-        widths = [max(len(r[i]) for r in (cols, *rows)) for i in range(len(cols))]
-
-        def fmt(r: tuple[str, ...]) -> str:
-            return "  ".join(c.ljust(widths[0]) if i == 0 else c.rjust(widths[i]) for i, c in enumerate(r))
-
-        lines = [*head, fmt(cols), "-" * len(fmt(cols)), *(fmt(r) for r in rows), ""]
-        for label, key in (
-            ("predicted", "predicted_mean"),
-            ("MuJoCo, frictionless pad", "measured_mean"),
-            ("MuJoCo, sticking pad", "measured_sticking_mean"),
-        ):
-            rk = self.ranking(key)
-            if rk["holds"] is None:
-                continue
-            verdict = "holds" if rk["holds"] else "does not hold: " + "; ".join(rk["violations"])
-            lines.append(f"paper's ranking, {label}: {' > '.join(rk['order'])}: {verdict}")
-        lines.append(f"wall time {self.wall_time:.1f} s")
-        return "\n".join(lines)
-
-
-def _milli(x: float | None) -> str:
-    return "n/a" if x is None else f"{1e3 * x:.4g}"
-
-
-def _pct(x: float | None) -> str:
-    return "n/a" if x is None else f"{100.0 * x:.2g} %"
 
 
 # --------------------------------------------------------------------------------------------------
@@ -408,82 +127,41 @@ class _PathContact:
         self.force_max = max(self.force_max, fn)
 
 
-class _Sim:
-    """The MuJoCo chain of one run, its data and handles; set points and dampers' reference velocity."""
+class _Sim(MujocoSession):
+    """The MuJoCo session of one run: set points, the dampers' reference velocity and the contacts' two modes."""
 
     def __init__(self, xml: str, braced: BracedRobot, q0: Array, contact: bool, gravity: bool) -> None:
-        try:
-            self.m = mujoco.MjModel.from_xml_string(xml)
-        except ValueError as exc:
-            raise MujocoValidationError(f"MuJoCo rejected the generated model: {exc}") from exc
+        b_points = list(braced.stacked_state(q0).b_i)
+        super().__init__(xml, braced.robot.stiffness, q0, b_points, gravity=gravity)
         m = self.m
-        if not gravity:  # the model carries the URDF's inertias; gravity is switched off here
-            m.opt.gravity[:] = 0.0
-        self.d = mujoco.MjData(m)
-        k = braced.robot.stiffness
-        self.tau = float(m.dof_damping[0] / k[0])  # damping = τ k_i
         self.dt = float(m.opt.timestep)
         self.damping = np.asarray(m.dof_damping, dtype=float).copy()
-        self.site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, TIP_SITE)
-        self.tip_body = int(m.site_bodyid[self.site])
-        self.sphere = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, BRACE_GEOM)
-        self.plane = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, SURFACE_GEOM)
-        self.geoms = [self.sphere, self.plane]
-        self.condim = int(m.geom_condim[self.sphere])
+        self.spheres = [p.sphere for p in self.pairs]
+        self.geoms = [g for p in self.pairs for g in (p.sphere, p.plane)]
+        self.condim = int(m.geom_condim[self.spheres[0]])
         self.contact = contact
-        self.solref = m.geom_solref[self.sphere].copy()
-        self.solimp = m.geom_solimp[self.sphere].copy()
+        self.solref = m.geom_solref[self.spheres[0]].copy()
+        self.solimp = m.geom_solimp[self.spheres[0]].copy()
         if not contact:
-            m.geom_contype[self.sphere] = 0
-            m.geom_conaffinity[self.sphere] = 0
-        self.body = int(m.geom_bodyid[self.sphere])
-        self.nhat = braced.brace.surface.normal
-        self.d.qpos[:] = q0
-        mujoco.mj_forward(m, self.d)
-        b = braced.state(q0).b
-        self.b_local = self.d.xmat[self.body].reshape(3, 3).T @ (b - self.d.xpos[self.body])
-        self.messages: list[str] = []
+            m.geom_contype[self.spheres] = 0
+            m.geom_conaffinity[self.spheres] = 0
+        self.normals = [b.surface.normal for b in braced.braces]
 
     def contact_mode(self, condim: int, moving: bool = False) -> None:
-        """Sphere–plane pair: condim (1 frictionless, 3 with μ), timestep and contact softness.
+        """Every sphere–plane pair: condim (1 frictionless, 3 with μ), timestep and contact softness.
 
         While moving: the path's timestep and the softer path contact; otherwise the measuring timestep and the
-        stiff contact of :func:`~bracekit.validate.mujoco_check.build_mujoco_model`.
+        stiff contact of :func:`~bracekit.validate.mjcf.build_mujoco_model`.
         """
         self.m.geom_condim[self.geoms] = condim
         self.m.opt.timestep = self.dt if moving or not self.contact else min(self.dt, _MEASURE_TIMESTEP)
         self.m.geom_solref[self.geoms] = _PATH_SOLREF if moving else self.solref
         self.m.geom_solimp[self.geoms] = _PATH_SOLIMP if moving else self.solimp
 
-    def b_point(self) -> Array:
-        """World position of the material point b (m)."""
-        return np.asarray(self.d.xpos[self.body] + self.d.xmat[self.body].reshape(3, 3) @ self.b_local)
-
-    def tip(self) -> tuple[Array, Array]:
-        """Position (3,) and rotation (3×3) of the tip site, world."""
-        return self.d.site_xpos[self.site].copy(), self.d.site_xmat[self.site].reshape(3, 3).copy()
-
-    def normal_force(self) -> tuple[float, int]:
-        """Normal force of the plane on the sphere (N) and the number of active contacts."""
-        total, count, f6 = 0.0, 0, np.zeros(6)
-        for i in range(self.d.ncon):
-            c = self.d.contact[i]
-            if {int(c.geom1), int(c.geom2)} != {self.sphere, self.plane} or c.exclude != 0 or c.efc_address < 0:
-                continue
-            mujoco.mj_contactForce(self.m, self.d, i, f6)
-            total += float(f6[0])
-            count += 1
-        return total, count
-
-    def check(self, phase: str) -> None:
-        """MujocoValidationError if MuJoCo warned of an unstable state or the state is not finite."""
-        d = self.d
-        hits = [int(w) for w in _BAD_WARNINGS if d.warning[int(w)].number > 0]
-        if hits or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            said = f" MuJoCo said: {self.messages[0].strip()}" if self.messages else ""
-            raise MujocoValidationError(
-                f"MuJoCo went unstable during {phase}; reduce the tool force or the timestep.{said}"
-            )
+    def least_normal_force(self) -> tuple[float, int]:
+        """The least normal force over the contacts (N) and the least number of active contacts of a pair."""
+        forces = [self.normal_force(i) for i in range(len(self.pairs))]
+        return min(f for f, _ in forces), min(c for _, c in forces)
 
     def follow(
         self, path: CubicSpline, rate: CubicSpline, t0: float, t1: float, scale: float, stats: _PathContact | None
@@ -503,7 +181,7 @@ class _Sim:
             d.qfrc_applied[:] = self.damping * rate(t) / scale
             mujoco.mj_step(m, d)
             if stats is not None:
-                stats.add(*self.normal_force())
+                stats.add(*self.least_normal_force())
         d.qfrc_applied[:] = 0.0
         self.check("the path")
 
@@ -512,39 +190,18 @@ class _Sim:
 
         Returns whether it settled; when ``strict``, not settling raises MujocoValidationError.
         """
-        m, d = self.m, self.d
-        m.qpos_spring[:] = q_s
-        dt = float(m.opt.timestep)
-        loaded = bool(np.any(w != 0.0))
-        ramp = int(np.ceil(_RAMP * self.tau / dt)) if loaded else 0
-        least = ramp + int(np.ceil(_MIN_HOLD * self.tau / dt))
-        most = ramp + int(np.ceil(_MAX_HOLD * self.tau / dt))
-        steps = 0
-        while steps < most:
-            self._apply(w, 1.0 if ramp == 0 else min(1.0, steps / ramp))
-            mujoco.mj_step(m, d, _CHUNK)
-            steps += _CHUNK
-            if steps >= least and float(np.max(np.abs(d.qvel))) * self.tau < _SETTLE_TOL:
-                break
-        self.check(phase)
-        rest = float(np.max(np.abs(d.qvel))) * self.tau
+        self.m.qpos_spring[:] = q_s
+        self.settle_ramped(
+            w, phase, ramp=_RAMP, min_hold=_MIN_HOLD, max_hold=_MAX_HOLD, tol=_SETTLE_TOL, check_each_chunk=False
+        )
+        rest = self.motion()
         settled = rest < 100.0 * _SETTLE_TOL
         if strict and not settled:
             raise MujocoValidationError(
                 f"MuJoCo did not settle during {phase} within {_MAX_HOLD:g}τ (max|q̇|·τ = {rest:.2g} rad); "
                 "the brace may be slipping or chattering"
             )
-        self._apply(w, 1.0)
-        mujoco.mj_forward(m, d)
         return settled
-
-    def _apply(self, w: Array, a: float) -> None:
-        d = self.d
-        d.qfrc_applied[:] = 0.0
-        if a > 0.0 and np.any(w != 0.0):
-            mujoco.mj_kinematics(self.m, d)
-            f, tq = a * w[:3], a * w[3:]
-            mujoco.mj_applyFT(self.m, d, f, tq, d.site_xpos[self.site].copy(), self.tip_body, d.qfrc_applied)
 
     def measure(
         self, q_s: Array, w: Array, beta: Array, what: str, strict: bool = True
@@ -558,17 +215,18 @@ class _Sim:
         self.settle(q_s, np.zeros(6), f"unloaded settling ({what})")
         unloaded = mujoco.MjData(self.m)
         mujoco.mj_copyData(unloaded, self.m, self.d)
-        b0 = self.b_point()
+        b0 = [self.b_point(i) for i in range(len(self.pairs))]
         x, slip, opened, settled = [], 0.0, False, True
         for sign in (1.0, -1.0):
             mujoco.mj_copyData(self.d, self.m, unloaded)
             settled = self.settle(q_s, sign * w, f"loaded settling ({what})", strict) and settled
             p, r = self.tip()
             x.append((p, r))
-            db = self.b_point() - b0
-            slip = max(slip, float(np.linalg.norm(db - (db @ self.nhat) * self.nhat)))
-            fn, ncon = self.normal_force()
-            opened = opened or (self.m.geom_contype[self.sphere] != 0 and (ncon == 0 or fn <= 0.0))
+            for i, nh in enumerate(self.normals):
+                db = self.b_point(i) - b0[i]
+                slip = max(slip, float(np.linalg.norm(db - (db @ nh) * nh)))
+            fn, ncon = self.least_normal_force()
+            opened = opened or (self.m.geom_contype[self.spheres[0]] != 0 and (ncon == 0 or fn <= 0.0))
         (p1, r1), (p2, r2) = x
         dx = np.concatenate([p1 - p2, pin.log3(r1 @ r2.T)])
         return float(beta @ dx) / (2.0 * float(np.linalg.norm(w))), slip, opened, settled
@@ -577,7 +235,10 @@ class _Sim:
 def _set_points(sc: Scenario, tr: Trajectory, preload: float, gravity: bool) -> Array:
     """q_s (N×n) along the run: the preload (braced) and gravity held at the run's q (module docstring)."""
     if tr.braced:
-        return contact_responses(sc.braced, tr.q, preload=preload, gravity=gravity, geometric=False).q_s
+        try:
+            return contact_responses(sc.braced, tr.q, preload=preload, gravity=gravity, geometric=False).q_s
+        except ContactError:  # the one-brace statics refuse several braces
+            return multi_contact_responses(sc.braced, tr.q, preloads=preload, gravity=gravity, geometric=False).q_s
     k = sc.robot.stiffness
     if not gravity:
         return tr.q.copy()
@@ -605,17 +266,14 @@ def _track_run(
     """Follow one run in MuJoCo and measure at its check points."""
     start = time.perf_counter()
     braced, robot = sc.braced, sc.robot
-    brace = braced.brace
-    sticking = BracedRobot(robot, dataclasses.replace(brace, contact="point_with_friction"))
+    sticking = BracedRobot(robot, [dataclasses.replace(b, contact="point_with_friction") for b in braced.braces])
     q_s = _set_points(sc, tr, preload, gravity)
     xml = build_mujoco_model(
         robot.model,
         tr.q[0],
         robot.stiffness,
-        braced.brace_id,
         robot.tip_id,
-        brace.surface.point,
-        brace.surface.normal,
+        plane_contacts(braced, environment=False),
         sphere_radius=_SPHERE_RADIUS,
         gravity=True,  # the URDF's inertias; _Sim switches gravity off unless asked
         timestep=timestep,
@@ -631,10 +289,8 @@ def _track_run(
     if t.size > 1:
         path = CubicSpline(t, q_s, axis=0, bc_type="clamped")  # starts and ends at rest
         rate = path.derivative()
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(sim.messages.append)
     out: list[TrackingPoint] = []
-    try:
+    with captured_warnings(sim.messages):
         sim.contact_mode(path_condim)
         sim.settle(q_s[0], np.zeros(6), "settling at the start")
         checks = set(_check_indices(t.size, points))
@@ -653,8 +309,6 @@ def _track_run(
                     _check_point(sim, sc, tr, model, sticking, i, q_s[i], force, preload, friction, gravity, fn_path)
                 )
                 mujoco.mj_copyData(sim.d, sim.m, saved)
-    finally:
-        mujoco.set_mju_user_warning(previous)
     path_json = None
     if stats is not None and stats.steps:
         path_json = {
@@ -688,7 +342,7 @@ def _check_point(
     beta = np.asarray(sc.beta_x(t), dtype=float)
     beta = beta / np.linalg.norm(beta)
     w = force * beta
-    st = braced.state(q)
+    st = first_order_state(braced, q)
     mujoco.mj_forward(sim.m, sim.d)
     tracking = float(np.linalg.norm(sim.d.site_xpos[sim.site] - st.e))
     joint = float(np.max(np.abs(sim.d.qpos - q)))
@@ -698,7 +352,9 @@ def _check_point(
     if not tr.braced:
         measured, _, _, _ = sim.measure(q_s, w, beta, what)
         pred = float(beta @ free_space_compliance(st) @ beta)
-        tangent = float(beta @ loaded_free_space_compliance(braced, q, gravity=gravity) @ beta)
+        # the unbraced robot's loaded compliance does not depend on the braces: any one brace's view serves
+        one = BracedRobot(braced.robot, braced.braces[0])
+        tangent = float(beta @ loaded_free_space_compliance(one, q, gravity=gravity) @ beta)
         return TrackingPoint(
             i, t, q.copy(), beta, tracking, joint, None, measured, pred, None, tangent,
             None, None, ci, abs(measured - pred) / pred, None, False, None, False, None,
@@ -712,14 +368,16 @@ def _check_point(
     sim.contact_mode(sim.condim)  # friction on: the pad sticks
     measured_st, slip, opened_st, settled = sim.measure(q_s, w, beta, f"sticking pad, {what}", strict=False)
     pred = float(beta @ end_effector_compliance(st, "constrained") @ beta)
-    proj = float(beta @ end_effector_compliance(st, "projection") @ beta)
-    tangent = float(beta @ preloaded_compliance(braced, q, preload, gravity=gravity) @ beta)
-    pred_st = float(beta @ preloaded_compliance(sticking, q, preload, gravity=gravity) @ beta)
-    resp = contact_response(braced, q, preload=preload, gravity=gravity, friction=friction)
-    f_c = resp.contact_wrench(np.stack([w, -w]))[:, :3]
-    f_n = f_c @ sim.nhat
-    f_t = np.linalg.norm(f_c - f_n[:, None] * sim.nhat, axis=1)
-    predicted_slip = bool(np.any((f_n <= 0.0) | (f_t > friction * f_n)))
+    try:
+        proj: float | None = float(beta @ end_effector_compliance(st, "projection") @ beta)
+    except ContactError:  # the paper's projection model is defined for one brace
+        proj = None
+    tangent = float(beta @ preloaded_tip_compliance(braced, q, preload, gravity) @ beta)
+    pred_st = float(beta @ preloaded_tip_compliance(sticking, q, preload, gravity) @ beta)
+    predicted_slip = any(
+        bool(np.any((f_n <= 0.0) | (f_t > friction * f_n)))
+        for f_n, f_t in _predicted_contact_forces(braced, q, w, preload, gravity, friction)
+    )
     return TrackingPoint(
         index=i,
         t=t,
@@ -742,6 +400,25 @@ def _check_point(
         slipped=bool(slip > _SLIP_TOL or opened_st or not settled),
         predicted_slip=predicted_slip,
     )
+
+
+def _predicted_contact_forces(
+    braced: BracedRobot, q: Array, w: Array, preload: float, gravity: bool, friction: float
+) -> list[tuple[Array, Array]]:
+    """(f_n, ‖f_t‖) under ±w of every brace, first order (the one-brace statics, or the several-brace ones)."""
+    loads = np.stack([w, -w])
+    try:
+        resp = contact_response(braced, q, preload=preload, gravity=gravity, friction=friction)
+        per_brace = [resp.contact_wrench(loads)[:, :3]]
+    except ContactError:
+        multi = multi_contact_responses(braced, q, preloads=preload, gravity=gravity, frictions=friction)
+        per_brace = [(multi.f_c0[0, i] + loads @ multi.contact_gain[0, i].T)[:, :3] for i in range(len(braced.braces))]
+    out = []
+    for f_c, brace in zip(per_brace, braced.braces, strict=True):
+        nh = brace.surface.normal
+        f_n = f_c @ nh
+        out.append((f_n, np.linalg.norm(f_c - f_n[:, None] * nh, axis=1)))
+    return out
 
 
 def run_tracking_validation(
@@ -812,13 +489,9 @@ def run_tracking_validation(
     scale = as_number(time_scale, "the time scale", positive=True)
     if not isinstance(path_friction, bool):
         raise InputError(f"path_friction must be True or False, got {show(path_friction)}")
-    brace = sc.braced.brace
-    if brace.kind.name != "frictionless_point" or brace.environment_stiffness is not None:
-        raise InputError(
-            "the MuJoCo tracking check models a point brace (frictionless_point) on a rigid surface; "
-            f"this brace is '{brace.kind.name}'"
-            + (" with an environment stiffness" if brace.environment_stiffness is not None else "")
-        )
+    for brace in plane_contacts(sc.braced):  # contact types MuJoCo models, on rigid surfaces
+        if brace.k_env is not None:
+            raise InputError("the MuJoCo tracking check models rigid surfaces; a brace has an environment stiffness")
     runs = result.trajectories[result.compliance_model]
     names = list(runs) if strategies is None else list(strategies)
     unknown = [n for n in names if n not in runs]

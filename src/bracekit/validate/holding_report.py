@@ -1,0 +1,187 @@
+"""The holding block of ``bracekit validate``: the scenario's holding statics in MuJoCo at its configurations."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from bracekit.errors import (
+    InputError,
+    MujocoValidationError,
+    NumericalError,
+)
+from bracekit.simulation.scenario import Scenario
+from bracekit.validate.holding_check import (
+    DEFAULT_FRACTIONS,
+    FAIL_ABOVE,
+    HOLD_BELOW,
+    HOLDING_SETTINGS,
+    mujoco_holding_check,
+)
+from bracekit.validate.inputs import Array, _configurations, _positive, _scenario
+from bracekit.validate.table import _stats, fmt_rel
+
+__all__ = ["HoldingValidationReport", "run_holding_validation"]
+
+
+@dataclass
+class HoldingValidationReport:
+    """Result of :func:`run_holding_validation`.
+
+    ``checks``: one JSON-able dict per (configuration, listed wrench): ``config`` and ``wrench_index``,
+    ``status`` (``ok`` | ``failed``), ``message``, and the :meth:`HoldingCheck.to_json` fields (``check``; None
+    when it failed).
+    """
+
+    scenario: str
+    holding: dict[str, Any]
+    configurations: list[list[float]]
+    settings: dict[str, Any]
+    checks: list[dict[str, Any]] = field(default_factory=list)
+
+    def _cases(self) -> list[dict[str, Any]]:
+        return [c for ch in self.checks if ch["check"] is not None for c in ch["check"]["cases"]]
+
+    def summary(self) -> dict[str, Any]:
+        """Agreement in numbers: unloaded force, loaded force and torque errors, outcomes against the margins."""
+        done = [ch["check"] for ch in self.checks if ch["check"] is not None]
+        cases = self._cases()
+        med_n, max_n = _stats([c["unloaded_normal_rel_err"] for c in done])
+        med_f, max_f = _stats([c["rel_err"] for c in cases])
+        med_c, max_c = _stats([c["rel_err_change"] for c in cases])
+        med_t, max_t = _stats([c["torque_rel_err"] for c in cases])
+        judged = [c for c in cases if c["agrees"] is not None]
+        tangential = [c["unloaded_tangential_N"] for c in done]
+        return {
+            "unloaded_normal_median_rel_err": med_n,
+            "unloaded_normal_max_rel_err": max_n,
+            "unloaded_tangential_max_N": max(tangential) if tangential else None,
+            "force_median_rel_err": med_f,
+            "force_max_rel_err": max_f,
+            "force_change_median_rel_err": med_c,
+            "force_change_max_rel_err": max_c,
+            "torque_median_rel_err": med_t,
+            "torque_max_rel_err": max_t,
+            "n_force_cases": sum(c["rel_err"] is not None for c in cases),
+            "margin_cases": len(judged),
+            "margin_agree": sum(bool(c["agrees"]) for c in judged),
+            "margin_disagreements": [
+                {"fraction_of_margin": c["fraction_of_margin"], "expected": c["expected"], "mujoco": c["outcome"]}
+                for c in judged
+                if not c["agrees"]
+            ],
+            "max_creep_m": max((ch["creep_m"] for ch in done), default=None),
+            "counts": {s: sum(ch["status"] == s for ch in self.checks) for s in ("ok", "failed")},
+        }
+
+    def to_json(self) -> dict[str, Any]:
+        """One JSON-serialisable dict (no NaN: missing numbers and infinite margins are None)."""
+        return {
+            "scenario": self.scenario,
+            "holding": self.holding,
+            "error_measure": (
+                "rel_err = |f_mujoco - f_pred| / |f_pred| (contact force on the robot at b, N, world axes), "
+                "f_pred = f_c0 + s*df_c(w) first order; rel_err_change divides by |s*df_c(w)|; statistics over the "
+                "cases predicted and found to hold"
+            ),
+            "summary": self.summary(),
+            "settings": self.settings,
+            "configurations": self.configurations,
+            "checks": self.checks,
+        }
+
+    def table_text(self) -> str:
+        """A few aligned lines: unloaded force, loaded force errors, margin agreement, creep."""
+        s = self.summary()
+        h = self.holding
+        mu = "none" if h["friction"] is None else f"{h['friction']:g}"
+        cnt = s["counts"]
+        creep = "n/a" if s["max_creep_m"] is None else f"{s['max_creep_m']:.2g} m"
+        tang = "n/a" if s["unloaded_tangential_max_N"] is None else f"{s['unloaded_tangential_max_N']:.2g} N"
+        lines = [
+            f"Validation of the holding statics in MuJoCo, scenario '{self.scenario}'",
+            f"gravity {'on' if h['gravity'] else 'off'}, preload P = {h['preload_N']:g} N, friction μ = {mu}; "
+            f"{len(self.configurations)} configuration(s), {len(self.checks)} check(s): {cnt['ok']} ran, "
+            f"{cnt['failed']} failed",
+            f"unloaded normal force vs P: median {fmt_rel(s['unloaded_normal_median_rel_err'])}, "
+            f"max {fmt_rel(s['unloaded_normal_max_rel_err'])}; tangential at most {tang}",
+            f"loaded contact force vs first order ({s['n_force_cases']} cases): median "
+            f"{fmt_rel(s['force_median_rel_err'])}, max {fmt_rel(s['force_max_rel_err'])} "
+            f"(of the load's change: median {fmt_rel(s['force_change_median_rel_err'])}, "
+            f"max {fmt_rel(s['force_change_max_rel_err'])}); joint torques median "
+            f"{fmt_rel(s['torque_median_rel_err'])}, max {fmt_rel(s['torque_max_rel_err'])}",
+            f"slip / lift-off against the predicted margin (hold below 0.8×, fail above 1.2×): "
+            f"{s['margin_agree']} of {s['margin_cases']} agree; tangential creep of sticking contacts ≤ {creep}",
+        ]
+        fails = [
+            f"  config {ch['config']}, wrench {ch['wrench_index']}: {ch['message']}"
+            for ch in self.checks
+            if ch["status"] == "failed"
+        ]
+        return "\n".join([*lines, *(["failed checks:", *fails] if fails else [])])
+
+
+def run_holding_validation(
+    scenario: Scenario | str | os.PathLike[str],
+    configs: int | Sequence[ArrayLike] = 1,
+    *,
+    fractions: Sequence[float] = DEFAULT_FRACTIONS,
+    progress: Callable[[int], None] | None = None,
+) -> HoldingValidationReport:
+    """Check the scenario's holding statics (``sc.holding``: gravity, preload, friction, wrenches) in MuJoCo.
+
+    At each configuration and for each listed wrench w, :func:`~bracekit.validate.holding_check.mujoco_holding_check`
+    settles the preloaded chain and loads it with s·w at ``fractions`` of the predicted slip / lift-off margin
+    (a wrench with no finite margin: s = 0.5, 1). Without listed wrenches only the unloaded state is checked.
+    About 1 s of wall time per wrench and configuration (plus solving the configurations).
+
+    Args:
+        scenario: a Scenario, a shipped name or a TOML path; frictionless point contact, rigid surface, and a
+            holding that is active ([robot] gravity, [brace] preload or friction, or [loads] wrenches).
+        configs: number of configurations (:func:`validation_configurations`) or the configurations.
+        fractions: fractions of the predicted margin to load each wrench to.
+        progress: called with 1 after each check.
+
+    Raises:
+        InputError: bad scenario, a scenario without holding statics, bad configs or fractions.
+    """
+    sc = _scenario(scenario)
+    h = sc.holding
+    if not h.active:
+        raise InputError(
+            f"scenario '{sc.name}' has no holding statics to check: set [robot] gravity, [brace] preload or "
+            "friction, or [loads] wrenches"
+        )
+    fr = [_positive(f, "each fraction of the margin", "", zero_ok=True) for f in fractions]
+    if not fr:
+        raise InputError("fractions must hold at least one fraction of the margin")
+    qs = _configurations(sc, configs)
+    wrenches: list[Array] = [np.zeros(6)] if h.wrenches is None else list(h.wrenches)
+    report = HoldingValidationReport(
+        scenario=sc.name,
+        holding={
+            "gravity": h.gravity,
+            "preload_N": h.preload,
+            "friction": h.friction,
+            "wrenches": None if h.wrenches is None else h.wrenches.tolist(),
+        },
+        configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
+        settings={**HOLDING_SETTINGS, "fractions_of_margin": fr, "hold_below": HOLD_BELOW, "fail_above": FAIL_ABOVE},
+    )
+    for i, q in enumerate(qs):
+        for j, w in enumerate(wrenches):
+            entry: dict[str, Any] = {"config": i, "wrench_index": j, "status": "ok", "message": None, "check": None}
+            try:
+                chk = mujoco_holding_check(sc.braced, q, h, w, scales=[] if h.wrenches is None else None, fractions=fr)
+                entry["check"] = chk.to_json()
+            except (MujocoValidationError, NumericalError) as exc:
+                entry["status"], entry["message"] = "failed", str(exc)
+            report.checks.append(entry)
+            if progress is not None:
+                progress(1)
+    return report

@@ -1,0 +1,344 @@
+"""The preloaded check: the preloaded compliance (gravity and preload in the tangent stiffness) against the references.
+
+:func:`run_preloaded_validation` compares :func:`preloaded_tip_compliance` and the ``constrained`` model with
+MuJoCo and the nonlinear statics, both loaded about the gravity-loaded, preloaded equilibrium, for one brace or
+several.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from bracekit._linalg import show
+from bracekit.compliance.preloaded import preloaded_compliance
+from bracekit.errors import (
+    BracekitError,
+    ContactError,
+    InputError,
+    NumericalError,
+)
+from bracekit.kinematics import BracedRobot
+from bracekit.simulation.scenario import Scenario
+from bracekit.statics.equilibrium import multi_contact_responses
+from bracekit.validate.compliance_check import (
+    _config,
+    _model_stats,
+    _references,
+    _references_agree,
+    _status_counts,
+)
+from bracekit.validate.inputs import (
+    DEFAULT_DIRECTIONS,
+    MUJOCO_SETTINGS,
+    Array,
+    _configurations,
+    _count,
+    _directions,
+    _positive,
+    _scenario,
+)
+from bracekit.validate.table import _rel_err, aligned, fmt_rel
+
+__all__ = ["PRELOADED_MODELS", "PreloadedValidationReport", "preloaded_tip_compliance", "run_preloaded_validation"]
+
+
+def preloaded_tip_compliance(braced: BracedRobot, q: ArrayLike, preload: float, gravity: bool) -> Array:
+    """The preloaded compliance at the tip (6×6; wrench [f; m] at e → [Δp; Δθ], world axes).
+
+    The core's one-brace :func:`~bracekit.compliance.preloaded.preloaded_compliance`; where that refuses several
+    braces (ContactError), J_e δq/δw of the several-brace statics' first-order response
+    (:func:`bracekit.statics.equilibrium.multi_contact_responses` with the tangent stiffness of gravity and the
+    preloads P_i = ``preload``, every contact closed).
+    """
+    try:
+        return preloaded_compliance(braced, q, preload, gravity=gravity)
+    except ContactError:
+        resp = multi_contact_responses(braced, q, preloads=preload, gravity=gravity, geometric=True)
+        return np.asarray(braced.stacked_state(q).J_e @ resp.joint_gain[0], dtype=float)
+
+
+#: The models of :func:`run_preloaded_validation`, in report order.
+PRELOADED_MODELS = ("preloaded", "constrained")
+
+
+@dataclass
+class PreloadedValidationReport:
+    """Result of :func:`run_preloaded_validation`.
+
+    ``cases``: one JSON-able dict per (configuration, preload, load): ``config``, ``preload_N``, ``label``,
+    ``wrench``, ``status`` (``ok`` | ``contact_opened`` | ``failed``), ``message``, ``length_scale_m``,
+    ``deflection`` {mujoco, static, preloaded, constrained} → [Δp; Δθ] (m, rad) or None, ``rel_err``
+    {model: {mujoco, static}}, ``rel_err_mujoco_vs_static``, ``contact_force_static`` / ``contact_force_mujoco``
+    (N), ``opened``, ``mujoco_steps``.
+    """
+
+    scenario: str
+    gravity: bool
+    preloads: list[float]
+    configurations: list[list[float]]
+    settings: dict[str, Any]
+    cases: list[dict[str, Any]] = field(default_factory=list)
+
+    def model_stats(self, model: str, preload: float | None = None) -> dict[str, float | int | None]:
+        """Median and max relative error of ``preloaded`` or ``constrained`` vs MuJoCo and the static solve.
+
+        Over the closed-contact cases of every preload, or of one ``preload`` (N).
+        """
+        ok = [c for c in self.cases if c["status"] == "ok" and (preload is None or c["preload_N"] == preload)]
+        return _model_stats(ok, model)
+
+    def mujoco_vs_static(self) -> dict[str, float | int | None]:
+        """Agreement of the two references on every case where both ran."""
+        return _references_agree(self.cases)
+
+    def counts(self) -> dict[str, int]:
+        """Number of cases per status."""
+        return _status_counts(self.cases)
+
+    def by_preload(self) -> list[dict[str, Any]]:
+        """Per preload P (N): the statistics of both models and the case counts."""
+        out = []
+        for p in self.preloads:
+            mine = [c for c in self.cases if c["preload_N"] == p]
+            out.append(
+                {
+                    "preload_N": p,
+                    **{m: self.model_stats(m, p) for m in PRELOADED_MODELS},
+                    "counts": {s: sum(c["status"] == s for c in mine) for s in ("ok", "contact_opened", "failed")},
+                }
+            )
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        """One JSON-serialisable dict (no NaN: missing numbers are None).
+
+        The ``preloaded`` model's statistics at the top level (the keys of the ``constrained`` block of
+        :class:`ValidationReport`), ``constrained`` on the same cases, ``by_preload``, ``mujoco_vs_static``,
+        ``counts``, ``settings``, ``configurations`` and ``cases``.
+        """
+        return {
+            **self.model_stats("preloaded"),
+            "constrained": self.model_stats("constrained"),
+            "by_preload": self.by_preload(),
+            "gravity": self.gravity,
+            "preloads_N": self.preloads,
+            "error_measure": (
+                "relative error ||dx_pred - dx_ref||_L / ||dx_ref||_L as in run_validation; dx_pred = C w with C the "
+                "preloaded compliance (tangent stiffness of gravity and the preload) or the constrained C_e"
+            ),
+            "mujoco_vs_static": self.mujoco_vs_static(),
+            "counts": self.counts(),
+            "settings": self.settings,
+            "configurations": self.configurations,
+            "cases": self.cases,
+        }
+
+    def table_text(self) -> str:
+        """Aligned text table: per preload, median and max error of both models vs MuJoCo and the static solve."""
+        cnt = self.counts()
+        s = self.settings
+        head = [
+            f"Validation of the preloaded compliance, scenario '{self.scenario}', gravity "
+            f"{'on' if self.gravity else 'off'}",
+            f"{len(self.configurations)} configuration(s) × {len(self.preloads)} preload(s), "
+            f"{len(self.cases)} case(s): {cnt['ok']} compared, {cnt['contact_opened']} with the contact opened, "
+            f"{cnt['failed']} failed",
+            f"loads: |f| = {s['force_N']:g} N, |m| = {s['moment_Nm']:g} N·m",
+            "",
+        ]
+        cols = ("P [N]", "model", "median vs MuJoCo", "max vs MuJoCo", "median vs static", "max vs static", "n")
+        keys = ("median_rel_err_mujoco", "max_rel_err_mujoco", "median_rel_err_static", "max_rel_err_static")
+        rows = []
+        for entry in self.by_preload():
+            for m in PRELOADED_MODELS:
+                st = entry[m]
+                rows.append((f"{entry['preload_N']:g}", m, *(fmt_rel(st[k]) for k in keys), str(st["n_cases"])))
+        ms = self.mujoco_vs_static()
+        agree = (
+            f"MuJoCo vs static solve ({ms['n_cases']} cases): median {fmt_rel(ms['median_rel_err'])}, "
+            f"max {fmt_rel(ms['max_rel_err'])}"
+        )
+        fails = [
+            f"  config {c['config']}, P = {c['preload_N']:g} N, {c['label']}: {c['message']}"
+            for c in self.cases
+            if c["status"] == "failed"
+        ]
+        tail = ["", "failed cases:", *fails] if fails else []
+        return "\n".join([*head, *aligned(cols, rows, left=(1,)), "", agree, *tail])
+
+
+def _preloaded_case(
+    braced: BracedRobot,
+    q: Array,
+    length: float,
+    comp: dict[str, Array],
+    index: int,
+    label: str,
+    w: Array,
+    preload: float,
+    gravity: bool,
+    max_steps: int,
+) -> dict[str, Any]:
+    refs, messages = _references(braced, q, w, preload, max_steps, gravity)
+    st, mj = refs["static"], refs["mujoco"]
+    ref = {
+        "static": None if st is None else np.asarray(st.deflection, dtype=float),
+        "mujoco": None if mj is None else np.asarray(mj.deflection, dtype=float),
+    }
+    pred = {m: comp[m] @ w for m in PRELOADED_MODELS}
+    opened = bool((st is not None and st.contact_opened) or (mj is not None and mj.contact_opened))
+    status = "failed" if messages else ("contact_opened" if opened else "ok")
+    if status == "contact_opened":
+        messages.append("the contact opened under this load (it pulls more than the preload): not in the statistics")
+    return {
+        "config": index,
+        "preload_N": preload,
+        "label": label,
+        "wrench": w.tolist(),
+        "status": status,
+        "message": "; ".join(messages) if messages else None,
+        "length_scale_m": length,
+        "deflection": {
+            **{k: (None if v is None else v.tolist()) for k, v in ref.items()},
+            **{m: pred[m].tolist() for m in PRELOADED_MODELS},
+        },
+        "rel_err": {m: {k: _rel_err(pred[m], ref[k], length) for k in ("mujoco", "static")} for m in PRELOADED_MODELS},
+        "rel_err_mujoco_vs_static": (
+            _rel_err(ref["mujoco"], ref["static"], length) if ref["mujoco"] is not None else None
+        ),
+        "contact_force_static": None if st is None else float(st.contact_force),
+        "contact_force_mujoco": None if mj is None else float(mj.contact_force),
+        "opened": opened,
+        "mujoco_steps": None if mj is None else int(mj.steps),
+        "contact_forces_static": None if st is None else st.contact_forces.tolist(),
+        "contact_forces_mujoco": None if mj is None else mj.contact_forces.tolist(),
+    }
+
+
+def run_preloaded_validation(
+    scenario: Scenario | str | os.PathLike[str],
+    configs: int | Sequence[ArrayLike] = 3,
+    *,
+    preloads: Sequence[float] = (1.0, 5.0, 20.0, 50.0),
+    gravity: bool = True,
+    force: float = 0.5,
+    moment: float = 0.05,
+    directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike] = DEFAULT_DIRECTIONS,
+    max_steps: int = 100_000,
+    progress: Callable[[int], None] | None = None,
+) -> PreloadedValidationReport:
+    """Compare the preloaded compliance and the ``constrained`` model with MuJoCo and the nonlinear statics.
+
+    At each configuration and preload P the references are loaded about the preloaded, gravity-loaded
+    equilibrium: the springs' set points q_s = q + K⁻¹ (g(q) − J_b,vᵀ n̂ P) hold q under gravity (with
+    ``gravity``: the URDF's masses, 9.81 m/s² along −z, in MuJoCo and in the static solve) and the contact
+    force P n̂. The loads are those of :func:`run_validation` (``directions`` scaled to ``force`` / ``moment``);
+    the predictions are Δx = C w with C = :func:`~bracekit.compliance.preloaded_compliance` (K_t = K + ∂g/∂q −
+    P ∂(J_b,vᵀ n̂)/∂q) and the first-order ``constrained`` C_e (K alone). Errors in the L-weighted norm of
+    :func:`run_validation`; a case whose contact opens is reported and not compared. About 0.1 s per case
+    (MuJoCo), so 4 s per configuration with the 4 default preloads and 10 loads.
+
+    Args:
+        scenario: a Scenario, a shipped name or a TOML path; frictionless point contact, rigid surface.
+        configs: number of configurations (:func:`validation_configurations`) or the configurations.
+        preloads: contact forces P (N, ≥ 0).
+        gravity: gravity on in both references and in the preloaded model.
+        force: magnitude of the force part of each load, N (> 0).
+        moment: magnitude of the moment part, N·m (> 0).
+        directions: load directions as for :func:`run_validation`.
+        max_steps: MuJoCo step budget per case.
+        progress: called with 1 after each case.
+
+    Raises:
+        InputError: bad scenario, configs, preloads, loads or directions.
+    """
+    sc = _scenario(scenario)
+    if not isinstance(gravity, bool):
+        raise InputError(f"gravity must be True or False, got {show(gravity)}")
+    ps = [_positive(p, "each preload", "N", zero_ok=True) for p in preloads]
+    if not ps:
+        raise InputError("preloads must hold at least one contact force (N)")
+    force = _positive(force, "force", "N")
+    moment = _positive(moment, "moment", "N·m")
+    max_steps = _count(max_steps, "max_steps")
+    labelled = _directions(directions)
+    qs = _configurations(sc, configs)
+    scale = np.array([force] * 3 + [moment] * 3)
+    report = PreloadedValidationReport(
+        scenario=sc.name,
+        gravity=gravity,
+        preloads=ps,
+        configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
+        settings={
+            "force_N": force,
+            "moment_Nm": moment,
+            "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+            "length_scale": "L = |e - b| at each configuration (m)",
+            "set_points": "q_s = q + K^-1 (g(q) - J_b,v^T n P): q is the equilibrium under gravity and the preload",
+            "static_solve": "Newton on the KKT system, unilateral contact, gravity as set, tol 1e-12",
+            "mujoco": {**MUJOCO_SETTINGS, "gravity": gravity, "max_steps": max_steps},
+        },
+    )
+    for i, q in enumerate(qs):
+        try:
+            cfg = _config(sc.braced, q, i)
+        except InputError:
+            raise
+        except (BracekitError, np.linalg.LinAlgError) as exc:
+            for p in ps:
+                report.cases.extend(
+                    {**_preloaded_case_failed(i, p, label, d * scale, None), "message": f"configuration {i}: {exc}"}
+                    for label, d in labelled
+                )
+            if progress is not None:
+                progress(len(ps) * len(labelled))
+            continue
+        for p in ps:
+            comp = {"constrained": cfg.compliances["constrained"]}
+            try:
+                comp["preloaded"] = preloaded_tip_compliance(sc.braced, q, p, gravity)
+            except NumericalError as exc:
+                report.cases.extend(
+                    {
+                        **_preloaded_case_failed(i, p, label, d * scale, cfg.length),
+                        "message": f"preloaded compliance: {exc}",
+                    }
+                    for label, d in labelled
+                )
+                if progress is not None:
+                    progress(len(labelled))
+                continue
+            for label, d in labelled:
+                report.cases.append(
+                    _preloaded_case(sc.braced, cfg.q, cfg.length, comp, i, label, d * scale, p, gravity, max_steps)
+                )
+                if progress is not None:
+                    progress(1)
+    return report
+
+
+def _preloaded_case_failed(index: int, preload: float, label: str, w: Array, length: float | None) -> dict[str, Any]:
+    return {
+        "config": index,
+        "preload_N": preload,
+        "label": label,
+        "wrench": w.tolist(),
+        "status": "failed",
+        "message": None,
+        "length_scale_m": length,
+        "deflection": {k: None for k in ("mujoco", "static", *PRELOADED_MODELS)},
+        "rel_err": {m: {"mujoco": None, "static": None} for m in PRELOADED_MODELS},
+        "rel_err_mujoco_vs_static": None,
+        "contact_force_static": None,
+        "contact_force_mujoco": None,
+        "opened": False,
+        "mujoco_steps": None,
+        "contact_forces_static": None,
+        "contact_forces_mujoco": None,
+    }
