@@ -351,7 +351,7 @@ def _tip_compliance(result: RunResult, st: Any, braced: bool) -> Array:
 def _state(result: RunResult, q: Array) -> BracedState | Any:
     """The braced state at q: the one-brace BracedState, or the stacked state of several braces."""
     braced = result.scenario.braced
-    return braced.stacked_state(q) if len(braced.braces) > 1 else braced.state(q)
+    return braced.state(q)
 
 
 #: Axis-aligned orthographic views: (name, camera, world axis index on the screen's right and up).

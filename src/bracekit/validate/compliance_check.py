@@ -35,7 +35,6 @@ from bracekit.errors import (
     StaticSolveError,
 )
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.kinematics.multi import MultiBracedState
 from bracekit.simulation.scenario import Scenario
 from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.inputs import (
@@ -66,16 +65,9 @@ class _Config:
     length: float
 
 
-def first_order_state(braced: BracedRobot, q: ArrayLike) -> BracedState | MultiBracedState:
-    """The state the first-order models take at q: the one-brace state, or the stacked state of several braces.
-
-    The one-brace view (the paper's chain split at {b}) refuses several braces by name (ContactError); the
-    stacked state carries the ``constrained`` and ``free_space`` models for any number of braces.
-    """
-    try:
-        return braced.state(q)
-    except ContactError:
-        return braced.stacked_state(q)
+def first_order_state(braced: BracedRobot, q: ArrayLike) -> BracedState:
+    """The state the first-order models take at q (any number of braces; the projection model needs one)."""
+    return braced.state(q)
 
 
 def _config(braced: BracedRobot, q: ArrayLike, index: int) -> _Config:
@@ -83,7 +75,7 @@ def _config(braced: BracedRobot, q: ArrayLike, index: int) -> _Config:
         warnings.simplefilter("error", RedundantContactWarning)
         try:
             st = first_order_state(braced, q)
-            stacked = braced.stacked_state(q)
+            stacked = st
             comp: dict[str, Array] = {}
             for model in MODELS:
                 try:

@@ -60,7 +60,7 @@ def preloaded_tip_compliance(braced: BracedRobot, q: ArrayLike, preload: float, 
         return preloaded_compliance(braced, q, preload, gravity=gravity)
     except ContactError:
         resp = multi_contact_responses(braced, q, preloads=preload, gravity=gravity, geometric=True)
-        return np.asarray(braced.stacked_state(q).J_e @ resp.joint_gain[0], dtype=float)
+        return np.asarray(braced.state(q).J_e @ resp.joint_gain[0], dtype=float)
 
 
 #: The models of :func:`run_preloaded_validation`, in report order.

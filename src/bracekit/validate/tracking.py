@@ -131,7 +131,7 @@ class _Sim(MujocoSession):
     """The MuJoCo session of one run: set points, the dampers' reference velocity and the contacts' two modes."""
 
     def __init__(self, xml: str, braced: BracedRobot, q0: Array, contact: bool, gravity: bool) -> None:
-        b_points = list(braced.stacked_state(q0).b_i)
+        b_points = list(braced.state(q0).b_i)
         super().__init__(xml, braced.robot.stiffness, q0, b_points, gravity=gravity)
         m = self.m
         self.dt = float(m.opt.timestep)

@@ -42,7 +42,7 @@ def tip_compliance(scene: Scene, model: str, braced: bool, q: Array) -> Array:
     the scene), the others :func:`end_effector_compliance` (the stacked model with several braces).
     """
     b = scene.braced
-    state = b.stacked_state(q) if len(b.braces) > 1 else b.state(q)
+    state = b.state(q)
     preload = scene.preloads[0] if scene.preloads else 0.0
     return run_compliance(state, model, braced, preload=preload, gravity=scene.gravity)
 
