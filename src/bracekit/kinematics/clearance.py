@@ -1,5 +1,9 @@
 """Clearance of the links from the bracing surface: signed distances of the link capsules and their ∂/∂q.
 
+A robot whose URDF has collision meshes gets coal's clearance instead (:mod:`bracekit.geometry.distance`: every
+mesh and primitive, the braced link included but for its pad's neighbourhood); :class:`Clearance` gives either
+through the same methods, and :func:`geometry_of` says which. The rest of this docstring is the capsule rule.
+
 The obstacle. With a radius r_max = ``Brace.obstacle_radius`` (``Brace.surface_radius``, e.g. a table top or a
 post, else the bracing region's radius) it is the solid S = {p : h(p) ≤ 0, ρ(p) ≤ r_max}: the plane's disk of
 radius r_max about the surface's point c and the infinite cylinder below it (the table's or post's body). Here
@@ -46,6 +50,8 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit.geometry.collision import geometry_description, has_meshes
+from bracekit.geometry.distance import MeshClearance
 from bracekit.kinematics.braced import BracedRobot, BracedState
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
@@ -140,9 +146,18 @@ class Clearance:
     def __init__(self, braced: BracedRobot, link_radius: float = DEFAULT_LINK_RADIUS) -> None:
         robot = braced.robot
         model = robot.model
-        skip = int(model.frames[braced.brace_id].parentJoint)
         self.braced = braced
-        self.capsules: tuple[Capsule, ...] = tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
+        #: coal's clearance of the URDF's meshes and primitives, or None: the capsules below
+        self.mesh: MeshClearance | None = None
+        if has_meshes(robot.geometry):
+            robot.link_capsules(link_radius)  # validates link_radius as for capsules
+            self.mesh = MeshClearance(braced, robot.geometry)
+            skip = -1
+        else:
+            skip = int(model.frames[braced.brace_id].parentJoint)
+        self.capsules: tuple[Capsule, ...] = (
+            () if self.mesh else tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
+        )
         joints = sorted({c.joint for c in self.capsules})
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
@@ -270,6 +285,8 @@ class Clearance:
         whose clearance is below `below` (m; the others are not searched exactly). Without capsules: empty.
         """
         qa = self.braced.robot.check_q(q)
+        if self.mesh is not None:
+            return [LinkDistance(j, v, g) for j, v, g in self.mesh.links(qa, gradient, below)]
         if not self.capsules:
             return []
         placements, jacs = self._placements(qa, gradient)
@@ -298,6 +315,8 @@ class Clearance:
         Exact: capsules are evaluated in the order of their lower bounds until the bound passes the least found.
         """
         qa = self.braced.robot.check_q(q)
+        if self.mesh is not None:
+            return self.mesh.minimum(qa)
         if not self.capsules:
             return math.inf, -1
         placements, _ = self._placements(qa, False)
@@ -318,6 +337,15 @@ def _point_row(u: Array, arm: Array, jac: Array) -> Array:
     ax, ay, az = arm.tolist()
     ux, uy, uz = u.tolist()
     return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
+
+
+def geometry_of(braced: BracedRobot) -> str:
+    """What the clearance of `braced` is computed from, for a run's summary.
+
+    E.g. "capsules (no collision geometry in the URDF)" or "meshes and primitives from the URDF (7 elements, coal)".
+    """
+    robot = braced.robot
+    return geometry_description(robot.geometry, len({c.link for c in robot.collisions}))
 
 
 def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[float, int]:

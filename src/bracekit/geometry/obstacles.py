@@ -1,0 +1,113 @@
+"""The environment's solids as coal objects: the bracing surface with its body, and further obstacles.
+
+The surface solid is the one of :mod:`bracekit.kinematics.clearance`: with a radius r_max
+(``Brace.obstacle_radius``, a table top or a post) the disk of radius r_max about the surface's point c and the
+body below it, a coal Cylinder of radius r_max whose top face is the disk and whose height reaches far below
+anything the robot can touch; without a radius the half-space below the plane (coal's Halfspace). Further
+obstacles are boxes, cylinders and meshes (a mesh as its convex hull) at a pose in the base frame.
+
+Each obstacle gives a lower bound of the signed distance of a point (1-Lipschitz, ≤ the signed distance), so a
+ball of radius r about a point p is at least bound(p) − r away: the broad phase of :mod:`bracekit.geometry.distance`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import coal
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.contact.surface import Surface
+from bracekit.errors import InputError
+from bracekit.geometry.pieces import hull
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class Obstacle:
+    """A fixed solid of the environment: a coal shape at a pose of the base frame.
+
+    Attributes:
+        name: what messages call it ("surface", "box 1", …).
+        shape: the coal shape (convex).
+        placement: 4×4 pose of the shape in the base frame (m).
+        centre, radius: its bounding sphere (m, base frame); radius inf for an unbounded solid.
+        plane: for the surface: (c, n̂, r_max or None), the solid's exact description used by :meth:`bound`.
+    """
+
+    name: str
+    shape: Any
+    placement: Array
+    centre: Array
+    radius: float
+    plane: tuple[Array, Array, float | None] | None = None
+
+    @property
+    def transform(self) -> Any:
+        """Coal's Transform3s of the placement."""
+        return coal.Transform3s(self.placement[:3, :3], self.placement[:3, 3])
+
+    def bound(self, points: Array) -> Array:
+        """A lower bound (k,) of the signed distance (m) of points (k, 3) from the solid (exact for the surface)."""
+        if self.plane is None:
+            return np.asarray(np.linalg.norm(points - self.centre, axis=1) - self.radius)
+        c, n, r_max = self.plane
+        if r_max is None:
+            return np.asarray((points - c) @ n)
+        x, y, h = ((points - c) @ self.placement[:3, :3]).T  # plane coordinates (the placement's columns)
+        side = np.hypot(x, y) - r_max
+        outside = np.hypot(np.maximum(side, 0.0), np.maximum(h, 0.0))
+        return np.where((h <= 0.0) & (side <= 0.0), np.maximum(h, side), outside)
+
+
+def surface_obstacle(surface: Surface, r_max: float | None, depth: float) -> Obstacle:
+    """The surface's solid: a cylinder of radius r_max and height `depth` (m) below the disk, or the half-space."""
+    n, c = np.asarray(surface.normal, dtype=float), np.asarray(surface.point, dtype=float)
+    if r_max is None:
+        shape = coal.Halfspace(n, float(n @ c))
+        return Obstacle("the surface", shape, np.eye(4), c, np.inf, (c, n, None))
+    if not (np.isfinite(depth) and depth > 0.0):
+        raise InputError(f"the surface body's depth must be a positive length (m), got {depth!r}")
+    place = np.eye(4)
+    place[:3, :3] = np.asarray(surface.frame, dtype=float)  # columns x̂_t, ŷ_t, n̂
+    place[:3, 3] = c - 0.5 * depth * n
+    shape = coal.Cylinder(float(r_max), float(depth))
+    return Obstacle("the surface", shape, place, place[:3, 3].copy(), float(np.hypot(r_max, depth / 2)), (c, n, r_max))
+
+
+def _posed(pose: Array | None) -> Array:
+    place = np.eye(4) if pose is None else np.asarray(pose, dtype=float).reshape(4, 4)
+    rot = place[:3, :3]
+    if not (np.all(np.isfinite(place)) and np.allclose(rot.T @ rot, np.eye(3), atol=1e-9) and np.linalg.det(rot) > 0):
+        raise InputError("an obstacle's pose must be a 4×4 rigid transform (rotation and translation, m)")
+    return place
+
+
+def box_obstacle(name: str, size: Array, pose: Array | None = None) -> Obstacle:
+    """A box of edge lengths `size` (3,), m, centred at `pose` (4×4, base frame)."""
+    edges = np.asarray(size, dtype=float).reshape(3)
+    if not np.all(np.isfinite(edges) & (edges > 0)):
+        raise InputError(f"{name}: a box needs three positive edge lengths (m), got {edges.tolist()}")
+    place = _posed(pose)
+    return Obstacle(name, coal.Box(*edges), place, place[:3, 3].copy(), 0.5 * float(np.linalg.norm(edges)))
+
+
+def cylinder_obstacle(name: str, radius: float, length: float, pose: Array | None = None) -> Obstacle:
+    """A cylinder of `radius` and `length` (m) along the z axis of `pose` (4×4, base frame), centred there."""
+    if not (np.isfinite(radius) and radius > 0 and np.isfinite(length) and length > 0):
+        raise InputError(f"{name}: a cylinder needs a positive radius and length (m), got {radius!r}, {length!r}")
+    place = _posed(pose)
+    bound = float(np.hypot(radius, length / 2.0))
+    return Obstacle(name, coal.Cylinder(float(radius), float(length)), place, place[:3, 3].copy(), bound)
+
+
+def mesh_obstacle(name: str, vertices: Array, pose: Array | None = None) -> Obstacle:
+    """A mesh obstacle as the convex hull of its vertices (k, 3), m, in the frame `pose` (4×4, base frame)."""
+    verts = np.asarray(vertices, dtype=float).reshape(-1, 3)
+    place = _posed(pose)
+    centre = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    radius = float(np.sqrt(np.max(np.sum((verts - centre) ** 2, axis=1))))
+    return Obstacle(name, hull(verts, name), place, place[:3, :3] @ centre + place[:3, 3], radius)
