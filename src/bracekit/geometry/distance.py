@@ -30,11 +30,11 @@ from bracekit.errors import InputError
 from bracekit.geometry.collision import CollisionElement
 from bracekit.geometry.obstacles import Obstacle, surface_obstacle
 from bracekit.geometry.pieces import (
+    PATCH,
     Piece,
     clip_surface,
-    clusters,
     convex_piece,
-    enclosing,
+    patch_pieces,
     surface_triangles,
     triangle_pieces,
 )
@@ -42,9 +42,8 @@ from bracekit.kinematics.braced import BracedRobot
 from bracekit.model.chain import DATA_JOINT_LIMIT
 
 Array = NDArray[np.float64]
-
-#: Default radius (m) of the pad's neighbourhood that is exempt from the braced link's clearance.
-DEFAULT_PAD_RADIUS = 0.02
+#: (distance m, piece, witness point on the link (3,), unit normal from the obstacle to the link (3,))
+Best = tuple[float, int, Array, Array]
 
 
 def _depth(braced: BracedRobot) -> float:
@@ -84,7 +83,7 @@ class MeshClearance:
         pads: dict[int, list[tuple[Array, float]]] = {}
         for brace, fid in zip(braced.braces, braced.brace_ids, strict=True):
             frame = model.frames[fid]
-            radius = getattr(brace, "pad_radius", DEFAULT_PAD_RADIUS) if pad_radius is None else pad_radius
+            radius = brace.pad_radius if pad_radius is None else pad_radius
             if not (isinstance(radius, int | float) and math.isfinite(radius) and radius >= 0):
                 raise InputError(f"pad_radius must be a length ≥ 0 (m), got {radius!r}")
             pads.setdefault(int(frame.parentJoint), []).append((np.array(frame.placement.translation), float(radius)))
@@ -92,34 +91,37 @@ class MeshClearance:
         for element in elements:
             if element.joint <= 0:
                 continue
-            if element.joint not in pads:
+            if element.joint not in pads and element.kind != "mesh":
                 pieces.append(convex_piece(element))
                 continue
             tri = surface_triangles(element)
-            for pad, radius in pads[element.joint]:
+            near = np.zeros(len(tri), dtype=bool)
+            for pad, radius in pads.get(element.joint, []):
                 tri = clip_surface(tri, pad, radius)
-            pieces.extend(triangle_pieces(element.joint, element.link, tri))
+                near = np.zeros(len(tri), dtype=bool) if near.size != len(tri) else near
+            for pad, radius in pads.get(element.joint, []):
+                near |= np.linalg.norm(tri - pad, axis=2).min(axis=1) < 2.0 * radius + PATCH * math.sqrt(3.0)
+            pieces.extend(triangle_pieces(element.joint, element.link, tri[near]))
+            pieces.extend(patch_pieces(element.joint, element.link, tri[~near]))
         pieces.sort(key=lambda p: p.joint)
         self.pieces: tuple[Piece, ...] = tuple(pieces)
         joints = sorted({p.joint for p in pieces})
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
         self._slot = np.array([joints.index(p.joint) for p in pieces], dtype=np.intp)
+        #: each link's pieces are the contiguous range [start, stop) of self.pieces
+        self._ranges = [
+            (int(np.searchsorted(self._slot, k)), int(np.searchsorted(self._slot, k, "right")))
+            for k in range(len(joints))
+        ]
         self._centres = np.array([p.centre for p in pieces], dtype=float).reshape(-1, 3)
         self._radii = np.array([p.radius for p in pieces], dtype=float)
-        # the broad phase's first level: clusters of each link's pieces, each link's clusters contiguous
-        groups: list[NDArray[np.intp]] = []
-        self._cluster_ranges: list[tuple[int, int]] = []
-        for s in range(len(joints)):
-            own = np.flatnonzero(self._slot == s)
-            start = len(groups)
-            groups.extend(own[g] for g in clusters(self._centres[own], self._radii[own]))
-            self._cluster_ranges.append((start, len(groups)))
-        spheres = [enclosing(self._centres[g], self._radii[g]) for g in groups]
-        self._members = groups
-        self._cluster_centres = np.array([c for c, _ in spheres], dtype=float).reshape(-1, 3)
-        self._cluster_slot = np.array([self._slot[g[0]] for g in groups], dtype=np.intp)
-        self._cluster_radii = np.array([r for _, r in spheres], dtype=float)
+        # the polytopes' extreme points, flat, with each piece's range [offset[i], offset[i + 1])
+        counts = np.array([0 if p.points is None else len(p.points) for p in pieces], dtype=np.intp)
+        self._offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+        self._has_points = counts > 0
+        self._points = np.concatenate([p.points for p in pieces if p.points is not None] or [np.zeros((0, 3))])
+        self._exact_obstacles = [k for k, o in enumerate(self.obstacles) if o.plane is not None]
         self._shapes = [p.shape for p in pieces]
         self._local = [p.placement for p in pieces]
         self._identity = [bool(np.array_equal(p.placement, np.eye(4))) for p in pieces]
@@ -139,17 +141,12 @@ class MeshClearance:
         pin.updateFramePlacements(model, data)
         return np.array([data.oMf[f].homogeneous for f in self._frames]).reshape(-1, 4, 4), None
 
-    def _cluster_bounds(self, placements: Array) -> Array:
-        """Lower bounds (clusters, obstacles) of every cluster's signed distance from every obstacle, m."""
-        place = placements[self._cluster_slot]
-        centres = np.einsum("kij,kj->ki", place[:, :3, :3], self._cluster_centres) + place[:, :3, 3]
-        return np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._cluster_radii[:, None]
-
-    def _piece_bounds(self, placements: Array, pieces: NDArray[np.intp]) -> Array:
-        """Lower bounds (len(pieces), obstacles) of the given pieces' signed distances, m."""
-        place = placements[self._slot[pieces]]
-        centres = np.einsum("kij,kj->ki", place[:, :3, :3], self._centres[pieces]) + place[:, :3, 3]
-        return np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._radii[pieces, None]
+    def _bounds(self, placements: Array) -> Array:
+        """Lower bounds (pieces, obstacles) of every piece's signed distance from every obstacle, m."""
+        centres = np.concatenate(
+            [self._centres[a:b] @ m[:3, :3].T + m[:3, 3] for (a, b), m in zip(self._ranges, placements, strict=True)]
+        )
+        return np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._radii[:, None]
 
     def _pair(self, piece: int, obstacle: int, placement: Array) -> tuple[float, Array, Array]:
         """(Signed distance m, witness point on the link (3,), unit normal from the obstacle to the link (3,))."""
@@ -165,37 +162,74 @@ class MeshClearance:
         )
         return float(value), np.array(result.getNearestPoint1()), -np.array(result.normal)
 
-    def _search(
-        self, placements: Array, cluster_bounds: Array, start: int, held: float
-    ) -> tuple[float, int, Array, Array] | None:
-        """The least (distance, piece, witness, normal) of the clusters start, start + 1, … (bounds (k, obstacles)).
+    def _search(self, placements: Array, bounds: Array, start: int, held: float) -> Best | None:
+        """The least (distance, piece, witness, normal) of one link's pieces (from `start`) below `held`.
 
-        First the pair of least bound in the cluster of least bound (an upper bound of the answer); then every
-        pair of the clusters whose bound is below the least distance found, in the order of their bounds, until
-        the next bound passes it. None if no pair comes below `held`.
+        `bounds` are those pieces' sphere bounds (k, obstacles) (:meth:`_bounds`); searched pairs are set to inf.
+
+        The piece of least sphere bound first (an upper bound of the answer), then the pieces whose bound is
+        below the least distance found: the polytopes whose distance from the surface's solid is exact from
+        their extreme points all at once (:meth:`_exact`), the others by coal in the order of their bounds
+        until the next bound passes the least distance found. None if nothing comes below `held`.
         """
-        count = cluster_bounds.shape[1]
-        least = cluster_bounds.min(axis=1)
-        if least.size == 0 or float(least.min()) >= held:
+        if bounds.size == 0:
             return None
-        best: tuple[float, int, Array, Array] | None = None
-        done: set[tuple[int, int]] = set()
-        for phase in (0, 1):
-            chosen = [int(np.argmin(least))] if phase == 0 else np.flatnonzero(least < held).tolist()
-            pieces = np.concatenate([self._members[start + k] for k in chosen])
-            flat = self._piece_bounds(placements, pieces).reshape(-1)
-            order = np.argsort(flat)
-            for k in order[:1] if phase == 0 else order:
-                if flat[k] >= held:
-                    break
-                piece, obstacle = int(pieces[k // count]), int(k % count)
-                if (piece, obstacle) in done:
-                    continue
-                done.add((piece, obstacle))
-                value, witness, normal = self._pair(piece, obstacle, placements[self._slot[piece]])
-                if value < held:
-                    held, best = value, (value, piece, witness, normal)
+        count = bounds.shape[1]
+        flat = bounds.reshape(-1)
+        first = int(np.argmin(flat))
+        if flat[first] >= held:
+            return None
+        piece, obstacle = divmod(first, count)
+        held, best = self._exact(placements, start, np.array([piece], dtype=np.intp), bounds, held, None)
+        if flat[first] < math.inf:  # not exact from its points: coal
+            value, witness, normal = self._pair(start + piece, obstacle, placements[self._slot[start]])
+            if value < held:
+                held, best = value, (value, start + piece, witness, normal)
+            flat[first] = math.inf
+        chosen = np.flatnonzero(bounds.min(axis=1) < held)
+        held, best = self._exact(placements, start, chosen, bounds, held, best)
+        for k in np.argsort(flat).tolist():
+            if flat[k] >= held:
+                break
+            piece, obstacle = divmod(k, count)
+            value, witness, normal = self._pair(start + piece, obstacle, placements[self._slot[start]])
+            if value < held:
+                held, best = value, (value, start + piece, witness, normal)
         return best
+
+    def _exact(
+        self, placements: Array, start: int, chosen: NDArray[np.intp], bounds: Array, held: float, best: Best | None
+    ) -> tuple[float, Best | None]:
+        """The polytopes (of `chosen`, offsets from `start`) whose distance from the surface's solid is exact.
+
+        A polytope over the disk (its extreme points all over it), or any for the half-space, is its extreme
+        points' least signed distance away (h is linear); one with an extreme point inside the solid gets the
+        deepest one's signed distance (as a brute-force look at the mesh vertices would). Coal is left for the
+        others (across the rim). Sets those pairs' `bounds` to inf.
+        """
+        chosen = chosen[self._has_points[start + chosen]]
+        if chosen.size == 0 or not self._exact_obstacles:
+            return held, best
+        ids = start + chosen
+        lo, hi = self._offsets[ids], self._offsets[ids + 1]
+        sizes = hi - lo
+        index = np.repeat(lo - np.concatenate([[0], np.cumsum(sizes)[:-1]]), sizes) + np.arange(int(sizes.sum()))
+        place = placements[self._slot[start]]
+        world = self._points[index] @ place[:3, :3].T + place[:3, 3]
+        heads = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        for o in self._exact_obstacles:
+            value, over = self.obstacles[o].signed(world)
+            least = np.minimum.reduceat(value, heads)
+            exact = (least <= 0.0) | np.logical_and.reduceat(over, heads)
+            bounds[chosen[exact], o] = math.inf  # searched
+            if not exact.any():
+                continue
+            k = int(np.flatnonzero(exact)[np.argmin(least[exact])])
+            if least[k] < held:
+                at = heads[k] + int(np.argmin(value[heads[k] : heads[k] + sizes[k]]))
+                normal = self.obstacles[o].gradient(world[at])
+                held, best = float(least[k]), (float(least[k]), int(ids[k]), world[at], normal)
+        return held, best
 
     # --- the clearances -----------------------------------------------------------------------
     def links(self, q: Array, gradient: bool = True, below: float = math.inf) -> list[tuple[int, float, Array]]:
@@ -203,9 +237,9 @@ class MeshClearance:
         if not self.pieces or not self.obstacles:
             return []
         placements, jacs = self._placements(q, gradient)
-        bounds = self._cluster_bounds(placements)
+        bounds = self._bounds(placements)
         out = []
-        for s, (start, stop) in enumerate(self._cluster_ranges):
+        for s, (start, stop) in enumerate(self._ranges):
             found = self._search(placements, bounds[start:stop], start, below)
             if found is None:
                 continue
@@ -217,14 +251,24 @@ class MeshClearance:
         return out
 
     def minimum(self, q: Array) -> tuple[float, int]:
-        """(The least clearance over all links, m; its link's joint in chain order); (inf, −1) with no pieces."""
+        """(The least clearance over all links, m; its link's joint in chain order); (inf, −1) with no pieces.
+
+        The links in the order of their least sphere bound, each searched below the least clearance found.
+        """
         if not self.pieces or not self.obstacles:
             return math.inf, -1
         placements, _ = self._placements(q, False)
-        found = self._search(placements, self._cluster_bounds(placements), 0, math.inf)
-        if found is None:
-            return math.inf, -1
-        return found[0], self._joints[self._slot[found[1]]] - 1
+        bounds = self._bounds(placements)
+        least = [float(bounds[a:b].min()) for a, b in self._ranges]
+        low, link = math.inf, -1
+        for s in sorted(range(len(least)), key=least.__getitem__):
+            if least[s] >= low:
+                break
+            start, stop = self._ranges[s]
+            found = self._search(placements, bounds[start:stop], start, low)
+            if found is not None and (found[0], self._joints[s] - 1) < (low, link):
+                low, link = found[0], self._joints[s] - 1
+        return low, link
 
 
 def _point_row(u: Array, arm: Array, jac: Array) -> Array:

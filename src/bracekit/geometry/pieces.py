@@ -1,12 +1,19 @@
 """Convex pieces of the links for coal's narrow phase, each with a bounding sphere for the broad phase.
 
-A link's collision element becomes one convex piece: a primitive as itself (coal's Box, Cylinder, Capsule,
-Sphere) and a mesh as its convex hull (qhull through SciPy, then coal's Convex with its neighbour graph, so
-GJK/EPA walk it exactly). The braced link is different: its pad touches the surface by design, so the part of
-its surface within the pad radius of the pad is left out (:func:`clip_surface`). Its elements are then a
-triangle soup (meshes as they are, primitives tessellated) with the triangles near the pad subdivided to a
-quarter of the pad radius and those touching the pad ball dropped; every remaining triangle is a piece (coal's
-three-point Convex). Triangles, not hulls: a hull of the remaining surface would close the hole again.
+A primitive (box, cylinder, capsule, sphere) is one piece, coal's own shape. A mesh is cut into patches: its
+triangles grouped by the cube of edge PATCH (m) their centre falls in, each patch's convex hull one piece (coal's
+Convex with its neighbour graph, so GJK/EPA walk it exactly). The hull of a patch departs from the mesh only by
+the patch's own concavity (sub-millimetre for the meshes of arms; the tests compare with the mesh vertices); a
+hull of the whole link would fill its concave sides and, on the braced link, the pad's hole.
+
+The braced link: its pad touches the surface by design, so its surface within the pad radius of the pad is left
+out (:func:`clip_surface`): its elements as triangles (meshes as they are, primitives tessellated), the
+triangles near the pad subdivided to half the pad radius and those touching the pad ball dropped. Triangles
+within two pad radii plus a patch of the pad stay single triangles (a patch's hull could reach into the hole);
+the rest are patched.
+
+Each piece keeps its extreme points (the hull's vertices, a triangle's corners): a linear height takes its least
+value over the piece at one of them (:mod:`bracekit.geometry.distance` uses that).
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ Array = NDArray[np.float64]
 #: Segments around a tessellated cylinder, capsule or sphere of the braced link (chord error r (1 − cos(π/48))).
 SEGMENTS = 48
 #: The triangles near the pad are subdivided until their longest edge is at most this fraction of the pad radius.
-REFINE = 0.25
+REFINE = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,6 +48,8 @@ class Piece:
         placement: 4×4 pose of the shape in the joint's frame.
         centre: centre of its bounding sphere in the joint's frame (3,), m.
         radius: its bounding sphere's radius, m.
+        points: a polytope's extreme points (k, 3) in the joint's frame, m (a patch's hull vertices, a
+            triangle's corners); None for a primitive.
     """
 
     joint: int
@@ -49,6 +58,7 @@ class Piece:
     placement: Array
     centre: Array
     radius: float
+    points: Array | None = None
 
 
 def _vec3s(points: Array) -> Any:
@@ -59,12 +69,27 @@ def _vec3s(points: Array) -> Any:
 
 
 def hull(points: Array, link: str) -> Any:
-    """Coal's convex hull of points (k, 3), m; ModelError if they span no volume."""
+    """Coal's Convex of the convex hull of points (k, 3), m (flat sets too: qhull joggles them).
+
+    Built from SciPy's qhull facets (coal's own qhull call does not take flat sets); ModelError for fewer than
+    three distinct points.
+    """
+    unique = np.unique(np.asarray(points, dtype=float).reshape(-1, 3), axis=0)
+    if len(unique) < 3:
+        raise ModelError(f"{link}: a collision mesh has fewer than three distinct vertices")
+    if len(unique) == 3:
+        return coal.Convex(_vec3s(unique), _face())
     try:
-        found = ConvexHull(points)
+        found = ConvexHull(unique, qhull_options="QJ")
     except (QhullError, ValueError) as exc:
-        raise ModelError(f"link {link!r}: a collision mesh spans no volume (flat or degenerate)") from exc
-    return coal.Convex.convexHull(_vec3s(points[np.unique(found.simplices)]), False, "")
+        raise ModelError(f"{link}: cannot take the convex hull of a collision mesh ({exc})") from exc
+    used = np.unique(found.simplices)
+    remap = np.full(len(unique), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    faces = coal.StdVec_Triangle()
+    for a, b, c in remap[found.simplices]:
+        faces.append(coal.Triangle(int(a), int(b), int(c)))
+    return coal.Convex(_vec3s(unique[used]), faces)
 
 
 def _sphere_of(points: Array) -> tuple[Array, float]:
@@ -73,13 +98,8 @@ def _sphere_of(points: Array) -> tuple[Array, float]:
 
 
 def convex_piece(element: CollisionElement) -> Piece:
-    """The one convex piece of an element: a primitive as itself, a mesh as its convex hull."""
+    """The one convex piece of a primitive element: coal's own shape."""
     place = element.placement
-    if element.kind == "mesh":
-        assert element.vertices is not None
-        centre, radius = _sphere_of(element.vertices)
-        shape = hull(element.vertices, element.link)
-        return Piece(element.joint, element.link, shape, place, place[:3, :3] @ centre + place[:3, 3], radius)
     size = element.size
     if element.kind == "box":
         shape, radius = coal.Box(*size), 0.5 * float(np.linalg.norm(size))
@@ -169,38 +189,54 @@ def clip_surface(triangles: Array, pad: Array, pad_radius: float) -> Array:
     return tri[keep]
 
 
+#: Edge (m) of the cubes that cut a mesh into patches.
+PATCH = 0.02
+
+
+def _face() -> Any:
+    face = coal.StdVec_Triangle()
+    face.append(coal.Triangle(0, 1, 2))
+    return face
+
+
 def triangle_pieces(joint: int, link: str, triangles: Array) -> list[Piece]:
     """One piece per triangle (t, 3, 3) given in the joint's frame: a coal Convex of its three corners.
 
     (Coal's TriangleP has no distance to a cylinder or a half-space; GJK on the three-point Convex is exact.)
     """
     eye = np.eye(4)
+    face = _face()
     out = []
-    face = coal.StdVec_Triangle()
-    face.append(coal.Triangle(0, 1, 2))
     for corners in triangles:
         centre, radius = _sphere_of(corners)
-        out.append(Piece(joint, link, coal.Convex(_vec3s(corners), face), eye, centre, radius))
+        out.append(Piece(joint, link, coal.Convex(_vec3s(corners), face), eye, centre, radius, corners.copy()))
     return out
 
 
-#: A link with more pieces than this groups them into clusters (cubes of CLUSTER_CELL) for the broad phase.
-CLUSTER_MIN = 16
-#: Edge (m) of the cubes that group a link's many pieces (the braced link's triangles) for the broad phase.
-CLUSTER_CELL = 0.03
-
-
-def clusters(centres: Array, radii: Array) -> list[NDArray[np.intp]]:
-    """Groups of pieces (indices into `centres`) for a two-level broad phase: cubes of CLUSTER_CELL, or one each."""
-    if len(centres) <= CLUSTER_MIN:
-        return [np.array([i], dtype=np.intp) for i in range(len(centres))]
-    cells = np.floor(centres / CLUSTER_CELL).astype(np.int64)
+def patch_pieces(joint: int, link: str, triangles: Array) -> list[Piece]:
+    """The triangles (t, 3, 3) (joint frame) as patches: one convex hull per cube of edge PATCH."""
+    if len(triangles) == 0:
+        return []
+    cells = np.floor(triangles.mean(axis=1) / PATCH).astype(np.int64)
     _, label = np.unique(cells, axis=0, return_inverse=True)
     label = label.reshape(-1)
-    return [np.flatnonzero(label == k) for k in range(int(label.max()) + 1)]
+    order = np.argsort(label, kind="stable")
+    bounds = np.flatnonzero(np.diff(label[order])) + 1
+    eye = np.eye(4)
+    out = []
+    for group in np.split(order, bounds):
+        points = extreme_points(triangles[group].reshape(-1, 3))
+        centre, radius = _sphere_of(points)
+        out.append(Piece(joint, link, hull(points, link), eye, centre, radius, points))
+    return out
 
 
-def enclosing(centres: Array, radii: Array) -> tuple[Array, float]:
-    """A sphere (centre (3,), radius m) enclosing the spheres (centres (k, 3), radii (k,))."""
-    centre = 0.5 * (np.min(centres - radii[:, None], axis=0) + np.max(centres + radii[:, None], axis=0))
-    return centre, float(np.max(np.linalg.norm(centres - centre, axis=1) + radii))
+def extreme_points(points: Array) -> Array:
+    """The points (k, 3) that are vertices of their convex hull (all of them if they span no volume), m."""
+    unique = np.unique(points, axis=0)
+    if len(unique) <= 4:
+        return np.asarray(unique)
+    try:
+        return np.asarray(unique[np.unique(ConvexHull(unique, qhull_options="QJ").vertices)])
+    except (QhullError, ValueError):
+        return np.asarray(unique)
