@@ -42,6 +42,8 @@ from bracekit.kinematics.braced import BracedRobot
 from bracekit.model.chain import DATA_JOINT_LIMIT
 
 Array = NDArray[np.float64]
+#: GJK's and EPA's tolerance (m): with coal's default (1e-6) d is noisy at 1e-10 m, which blurs ∂d/∂q.
+GJK_TOLERANCE = 1e-12
 #: (distance m, piece, witness point on the link (3,), unit normal from the obstacle to the link (3,))
 Best = tuple[float, int, Array, Array]
 
@@ -127,6 +129,8 @@ class MeshClearance:
         self._identity = [bool(np.array_equal(p.placement, np.eye(4))) for p in pieces]
         self._obstacle_tf = [o.transform for o in self.obstacles]
         self._request = coal.DistanceRequest()
+        self._request.gjk_tolerance = GJK_TOLERANCE
+        self._request.epa_tolerance = GJK_TOLERANCE
         self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
 
     # --- configuration ------------------------------------------------------------------------
