@@ -96,6 +96,11 @@ def _mesh_error(exc: BaseException) -> ModelError:
             "(package_dirs, --package-dir, or ROS_PACKAGE_PATH)"
         )
     unreadable = _UNREADABLE.search(text)
+    if unreadable and not os.path.exists(unreadable.group(1)):
+        return ModelError(
+            f"collision mesh {unreadable.group(1)} not found; give the URDF a mesh path that exists (absolute, "
+            "relative to the URDF's folder, or package:// through package_dirs or ROS_PACKAGE_PATH)"
+        )
     if unreadable:
         return ModelError(f"cannot read the collision mesh {unreadable.group(1)}; give a valid STL, DAE or OBJ file")
     first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__

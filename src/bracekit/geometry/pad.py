@@ -197,8 +197,9 @@ def pad_on_surface(robot: Robot, link: str, fraction: float, angle: float) -> Pa
     if found is None or found[0] < 0.0:
         span = (tri.reshape(-1, 3) - o) @ z / length
         raise ContactError(
-            f"no surface of link {link!r} at fraction {fraction:g}, angle {angle:g}°: its collision geometry spans "
-            f"the fractions {span.min():.2f} to {span.max():.2f} of its axis; choose a fraction there"
+            f"no surface of link {link!r} on the ray at fraction {fraction:g}, angle {angle:g}° (its collision "
+            f"geometry spans the fractions {span.min():.2f} to {span.max():.2f} of its axis); choose another "
+            "fraction or angle"
         )
     t, normal = found
     inward = normal if normal @ out < 0.0 else -normal

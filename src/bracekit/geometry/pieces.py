@@ -112,13 +112,16 @@ def convex_piece(element: CollisionElement) -> Piece:
     return Piece(element.joint, element.link, shape, place, place[:3, 3].copy(), float(radius))
 
 
-def _grid_sphere(r: float, n: int) -> tuple[Array, NDArray[np.int64]]:
-    """A UV sphere of radius r: vertices and triangles."""
-    theta = np.linspace(0.0, np.pi, n // 2 + 1)
+def _grid_sphere(r: float, n: int, half: float = 0.0) -> tuple[Array, NDArray[np.int64]]:
+    """A UV sphere of radius r (n segments about z), its halves moved apart by ±half along z (a capsule)."""
+    quarter = n // 4
+    theta = np.concatenate([np.linspace(0.0, np.pi / 2, quarter + 1), np.linspace(np.pi / 2, np.pi, quarter + 1)])
     phi = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
     tt, pp = np.meshgrid(theta, phi, indexing="ij")
-    verts = r * np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], axis=-1).reshape(-1, 3)
-    return verts, _grid_triangles(theta.size, n)
+    verts = r * np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], axis=-1)
+    verts[: quarter + 1, :, 2] += half  # the upper half (the equator row twice: the side between them)
+    verts[quarter + 1 :, :, 2] -= half
+    return verts.reshape(-1, 3), _grid_triangles(theta.size, n)
 
 
 def _grid_triangles(rows: int, cols: int) -> NDArray[np.int64]:
@@ -154,8 +157,7 @@ def surface_triangles(element: CollisionElement) -> Array:
             caps = [(2 * n, (j + 1) % n, j) for j in range(n)] + [(2 * n + 1, n + j, n + (j + 1) % n) for j in range(n)]
             tris = np.vstack([side, np.array(caps, dtype=np.int64)])
         else:  # a capsule: a sphere split at its equator and stretched by the length
-            verts, tris = _grid_sphere(r, n)
-            verts = verts + np.where(verts[:, 2:3] >= 0.0, 1.0, -1.0) * np.array([0.0, 0.0, half])
+            verts, tris = _grid_sphere(r, n, half)
     place = element.placement
     world = verts @ place[:3, :3].T + place[:3, 3]
     return np.asarray(world[tris], dtype=float)
