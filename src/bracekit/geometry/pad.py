@@ -228,3 +228,48 @@ def offset_depth(robot: Robot, link: str, offset: ArrayLike) -> float:
         if found is not None and found[0] > 0.0:
             depths.append(found[0])
     return min(depths, default=0.0)
+
+
+def brace_point(
+    robot: Robot,
+    link: str,
+    offset: ArrayLike | None = None,
+    surface: object = None,
+    snap: ArrayLike | None = None,
+) -> tuple[Array, Array | None]:
+    """A ``[brace]`` table's link point: (offset (3,), m; the pad axis (3,) or None), in the link's frame.
+
+    `surface` ({fraction, angle}) places it on the link's surface (:func:`pad_on_surface`); `snap` (a direction)
+    snaps `offset` to the surface along it (:func:`pad_by_offset`); both give the surface's inward normal as the
+    pad axis. A bare `offset` is kept; on a link with collision meshes one inside them warns with its depth.
+
+    Raises:
+        ContactError: a malformed `surface`, `surface` with `offset` or `snap`, `snap` without `offset`, or a
+            ray that misses the link.
+    """
+    if surface is not None:
+        if offset is not None or snap is not None:
+            raise ContactError("give either surface = {fraction, angle} or an offset (with snap), not both")
+        if not isinstance(surface, dict) or set(surface) - {"fraction", "angle"} or "fraction" not in surface:
+            raise ContactError(
+                "surface must be a table {fraction = 0.5, angle = 90.0} (fraction along the link's axis, angle in "
+                f"degrees about it, default 0), got {surface!r}"
+            )
+        pad = pad_on_surface(robot, link, surface["fraction"], surface.get("angle", 0.0))
+        return pad.point, pad.axis
+    point = np.zeros(3) if offset is None else as_array(offset, "the brace offset (m)", (3,), error=ContactError)
+    if snap is not None:
+        if offset is None:
+            raise ContactError("snap needs the offset to snap (m, link axes)")
+        pad = pad_by_offset(robot, link, point, snap)
+        return pad.point, pad.axis
+    if any(e.kind == "mesh" for e in robot.geometry) and any(e.link == link for e in robot.geometry):
+        depth = offset_depth(robot, link, point)
+        if depth > 0.0:
+            warnings.warn(
+                f"the brace offset {point.tolist()} lies {depth:.4f} m inside the collision geometry of link "
+                f"{link!r}; place the pad on its surface (surface = {{fraction, angle}} or snap = [x, y, z])",
+                PadPlacementWarning,
+                stacklevel=2,
+            )
+    return point, None
