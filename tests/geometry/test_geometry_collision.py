@@ -20,6 +20,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.clearance import Clearance, geometry_of
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
+from bracekit.simulation.run import run_scenario
 from helpers import random_chain_urdf
 
 
@@ -90,3 +91,8 @@ def test_a_mesh_box_and_a_box_primitive_have_their_corners_clearance_from_a_plan
 def test_the_pad_radius_is_a_length() -> None:
     with pytest.raises(ContactError, match="pad_radius"):
         Brace("b", Surface([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), pad_radius=-0.01)
+
+
+def test_a_run_summary_says_the_paper_robot_uses_capsules(short_scenario_file: Path) -> None:
+    result = run_scenario(short_scenario_file, both_models=False)
+    assert result.summary["geometry"] == "capsules (no collision geometry in the URDF)"
