@@ -78,3 +78,14 @@ def box_triangles(half: tuple[float, float, float]) -> np.ndarray:
         (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3),
     ]  # fmt: skip
     return v[np.array(faces)]
+
+
+def surface_points(triangles: np.ndarray, step: float = 0.002) -> np.ndarray:
+    """The corners of triangles (t, 3, 3) and, on those longer than `step` (m), a barycentric grid of that pitch."""
+    out = [triangles.reshape(-1, 3)]
+    edge = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(axis=1)
+    count = np.ceil(edge / step).astype(int)
+    for n in np.unique(count[count > 1]):
+        weights = np.array([(i, j, n - i - j) for i in range(n + 1) for j in range(n + 1 - i)]) / n
+        out.append(np.einsum("wc,tci->twi", weights, triangles[count == n]).reshape(-1, 3))
+    return np.concatenate(out)

@@ -1,9 +1,10 @@
 """Tests of coal's link clearance (bracekit.geometry.distance) on the xArm7's STL meshes.
 
-References: the STL vertices read without coal (geometry_refs.read_stl), placed by Pinocchio's frame
-placements of the link frames, their signed distance from the surface's solid written out in the test (a
-brute-force vertex distance: an upper bound of the mesh's distance, equal to it within the mesh's
-resolution); central finite differences of the clearance for its gradient.
+References: the STL triangles read without coal (geometry_refs.read_stl), placed by Pinocchio's frame
+placements of the link frames, the signed distance of their vertices and of points 3 mm apart on their faces
+from the surface's solid written out in the test (a brute-force distance: the vertices alone are an upper
+bound of the mesh's distance; with the faces' points it is the mesh's within the pitch); central finite
+differences of the clearance for its gradient.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from geometry_refs import read_stl, solid_distance, xarm7
+from geometry_refs import read_stl, solid_distance, surface_points, xarm7
 
 from bracekit.contact import Brace, Surface
 from bracekit.geometry.pad import pad_on_surface
@@ -48,8 +49,13 @@ def _braced(robot: Robot, tilt: float = 0.05, lift: float = 0.0, pad_radius: flo
     return BracedRobot(braced_robot, brace)
 
 
-def _reference(braced: BracedRobot, q: np.ndarray, meshes: dict[str, np.ndarray]) -> dict[int, float]:
-    """Each link's least signed vertex distance from the post (the braced link without the pad's ball)."""
+def _reference(
+    braced: BracedRobot, q: np.ndarray, meshes: dict[str, np.ndarray], near: dict[int, float] | None = None
+) -> dict[int, float]:
+    """Each link's least signed point distance from the post (the braced link without the pad's ball).
+
+    With `near` (an upper bound per link), only the links whose bound is below 0.12 m.
+    """
     robot = braced.robot
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, q)
@@ -57,8 +63,10 @@ def _reference(braced: BracedRobot, q: np.ndarray, meshes: dict[str, np.ndarray]
     surface = braced.brace.surface
     out = {}
     for link, tri in meshes.items():
+        if near is not None and near[robot.frame_joint(link)] >= 0.12:
+            continue
         place = data.oMf[robot.frame_id(link)]
-        points = tri.reshape(-1, 3) @ np.array(place.rotation).T + np.array(place.translation)
+        points = tri @ np.array(place.rotation).T + np.array(place.translation)
         if link == "link4":
             points = points[np.linalg.norm(points - pad, axis=1) >= braced.brace.pad_radius]
         out[robot.frame_joint(link)] = float(solid_distance(points, surface.point, surface.normal, POST).min())
@@ -72,7 +80,14 @@ def robot() -> Robot:
 
 @pytest.fixture(scope="module")
 def meshes(robot: Robot) -> dict[str, np.ndarray]:
-    return {e.link: read_stl(e.source) for e in robot.geometry if e.joint > 0}
+    """Each link's STL vertices (k, 3)."""
+    return {e.link: read_stl(e.source).reshape(-1, 3) for e in robot.geometry if e.joint > 0}
+
+
+@pytest.fixture(scope="module")
+def surfaces(robot: Robot) -> dict[str, np.ndarray]:
+    """Each link's STL vertices and points 3 mm apart on its faces (k, 3)."""
+    return {e.link: surface_points(read_stl(e.source), 0.003) for e in robot.geometry if e.joint > 0}
 
 
 def test_the_summary_names_the_geometry(robot: Robot) -> None:
@@ -82,21 +97,22 @@ def test_the_summary_names_the_geometry(robot: Robot) -> None:
 
 
 @pytest.mark.parametrize("lift", [0.0, 0.03])
-def test_every_link_clearance_equals_the_stl_vertices_within_the_mesh_resolution(robot, meshes, lift) -> None:
+def test_every_link_clearance_equals_the_stl_surface_within_the_mesh_resolution(robot, meshes, surfaces, lift) -> None:
     braced = _braced(robot, lift=lift)
     clearance = Clearance(braced)
     rng = np.random.default_rng(4)
     count = 0
-    for q in [Q0, *(Q0 + rng.uniform(-0.25, 0.25, 7) for _ in range(12))]:
+    for q in [Q0, *(Q0 + rng.uniform(-0.25, 0.25, 7) for _ in range(10))]:
         found = {d.joint: d.clearance for d in clearance.links(q, gradient=False)}
-        brute = _reference(braced, q, meshes)
-        assert set(found) == set(brute)  # every link, the braced link (joint 3) included
+        corners = _reference(braced, q, meshes)
+        brute = _reference(braced, q, surfaces, corners)
+        assert set(found) == set(corners)  # every link, the braced link (joint 3) included
         for joint, value in found.items():
-            if brute[joint] < 0.1:  # the links near the post
+            if joint in brute and brute[joint] < 0.1:  # the links near the post
                 count += 1
                 assert value == pytest.approx(brute[joint], abs=MESH_TOLERANCE), (joint, q)
-                if brute[joint] > 0.0:  # vertices are points of the mesh: its distance is at most theirs
-                    assert value <= brute[joint] + 1e-8  # (GJK's tolerance)
+                if corners[joint] > 0.0:  # vertices are points of the mesh: its distance is at most theirs
+                    assert value <= corners[joint] + 1e-8  # (GJK's tolerance)
         value, joint = link_clearance(braced.state(q))
         assert (value, joint) == min((v, j) for j, v in found.items())
     assert count > 20
@@ -105,7 +121,7 @@ def test_every_link_clearance_equals_the_stl_vertices_within_the_mesh_resolution
 def test_a_link_inside_the_post_has_a_negative_clearance_its_deepest_vertex(robot, meshes) -> None:
     braced = _braced(robot, lift=0.03)  # the post's top 3 cm above the pad: the forearm dips into it
     found = {d.joint: d.clearance for d in Clearance(braced).links(Q0, gradient=False)}
-    brute = _reference(braced, Q0, meshes)
+    brute = _reference(braced, Q0, meshes)  # the deepest vertex
     assert found[3] < -0.02 and brute[3] < -0.02
     assert found[3] == pytest.approx(brute[3], abs=MESH_TOLERANCE)
 
@@ -129,10 +145,10 @@ def test_the_clearance_gradient_matches_central_differences(robot) -> None:
             if d.clearance <= 0.0:
                 continue
             fd = central_difference(
-                lambda x, j=d.joint: {e.joint: e.clearance for e in clearance.links(x, False)}[j], q, 1e-6
+                lambda x, j=d.joint: {e.joint: e.clearance for e in clearance.links(x, False)}[j], q, 1e-5
             )
-            np.testing.assert_allclose(d.gradient, fd, atol=2e-5)
+            np.testing.assert_allclose(d.gradient, fd, atol=1e-4)  # GJK's tolerance 1e-9 m over the step 1e-5
         value, _ = link_clearance(braced.state(q))
         if value > 0.0:
-            fd = central_difference(lambda x: link_clearance(braced.state(x))[0], q, 1e-6)
-            np.testing.assert_allclose(link_clearance_gradient(braced.state(q)), fd, atol=2e-5)
+            fd = central_difference(lambda x: link_clearance(braced.state(x))[0], q, 1e-5)
+            np.testing.assert_allclose(link_clearance_gradient(braced.state(q)), fd, atol=1e-4)

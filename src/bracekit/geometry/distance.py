@@ -26,7 +26,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from bracekit.errors import InputError
+from bracekit.errors import InputError, NumericalError
 from bracekit.geometry.collision import CollisionElement
 from bracekit.geometry.obstacles import Obstacle, surface_obstacle
 from bracekit.geometry.pieces import (
@@ -42,8 +42,12 @@ from bracekit.kinematics.braced import BracedRobot
 from bracekit.model.chain import DATA_JOINT_LIMIT
 
 Array = NDArray[np.float64]
-#: GJK's and EPA's tolerance (m): with coal's default (1e-6) d is noisy at 1e-10 m, which blurs ∂d/∂q.
-GJK_TOLERANCE = 1e-12
+#: GJK's and EPA's tolerance (m): coal's default (1e-6) leaves d noisy at 1e-9 m (blurring ∂d/∂q); much below
+#: 1e-9 GJK stops converging on thin pieces.
+GJK_TOLERANCE = 1e-9
+#: Divisions of a triangle's edges for the barycentric grid of :meth:`MeshClearance._sampled`.
+SAMPLES = 16
+_GRID = np.array([(i, j, SAMPLES - i - j) for i in range(SAMPLES + 1) for j in range(SAMPLES + 1 - i)]) / SAMPLES
 #: (distance m, piece, witness point on the link (3,), unit normal from the obstacle to the link (3,))
 Best = tuple[float, int, Array, Array]
 
@@ -102,7 +106,7 @@ class MeshClearance:
                 tri = clip_surface(tri, pad, radius)
                 near = np.zeros(len(tri), dtype=bool) if near.size != len(tri) else near
             for pad, radius in pads.get(element.joint, []):
-                near |= np.linalg.norm(tri - pad, axis=2).min(axis=1) < 2.0 * radius + PATCH * math.sqrt(3.0)
+                near |= np.linalg.norm(tri - pad, axis=2).min(axis=1) < radius + PATCH * math.sqrt(3.0)
             pieces.extend(triangle_pieces(element.joint, element.link, tri[near]))
             pieces.extend(patch_pieces(element.joint, element.link, tri[~near]))
         pieces.sort(key=lambda p: p.joint)
@@ -164,7 +168,33 @@ class MeshClearance:
             self._request,
             result,
         )
-        return float(value), np.array(result.getNearestPoint1()), -np.array(result.normal)
+        witness = np.array(result.getNearestPoint1())
+        solid = self.obstacles[obstacle]
+        if solid.plane is not None and self.pieces[piece].faces is not None:
+            # coal's answer checked: outside, its witness is `value` from the solid; EPA needs volume
+            if not abs(value) < 1e6 or (value > 0.0 and abs(float(solid.signed(witness[None])[0][0]) - value) > 1e-6):
+                return self._sampled(piece, obstacle, place)
+        if not abs(value) < 1e6:
+            raise NumericalError(
+                f"coal's distance between a piece of link {self.pieces[piece].link!r} and "
+                f"{self.obstacles[obstacle].name} failed (got {value:g} m)"
+            )
+        return float(value), witness, -np.array(result.normal)
+
+    def _sampled(self, piece: int, obstacle: int, place: Array) -> tuple[float, Array, Array]:
+        """(Least signed distance, its point, the gradient there) over barycentric grids of a piece's triangles.
+
+        For the rare flat piece (a triangle, a thin patch) whose corners are all outside the surface's solid but
+        which crosses its rim, where coal's EPA fails (it needs volume), or a sliver where GJK's witness is not at
+        the distance it reports: the value to within a sixteenth of its triangles.
+        """
+        faces = self.pieces[piece].faces
+        assert faces is not None
+        corners = faces @ place[:3, :3].T + place[:3, 3]
+        points = np.einsum("wc,tci->twi", _GRID, corners).reshape(-1, 3)
+        value = self.obstacles[obstacle].signed(points)[0]
+        k = int(np.argmin(value))
+        return float(value[k]), points[k], self.obstacles[obstacle].gradient(points[k])
 
     def _search(self, placements: Array, bounds: Array, start: int, held: float) -> Best | None:
         """The least (distance, piece, witness, normal) of one link's pieces (from `start`) below `held`.
@@ -209,7 +239,8 @@ class MeshClearance:
         A polytope over the disk (its extreme points all over it), or any for the half-space, is its extreme
         points' least signed distance away (h is linear); one with an extreme point inside the solid gets the
         deepest one's signed distance (as a brute-force look at the mesh vertices would). Coal is left for the
-        others (across the rim). Sets those pairs' `bounds` to inf.
+        others (across the rim), whose `bounds` are raised to their least height (the solid is below the plane);
+        the pairs done here are set to inf.
         """
         chosen = chosen[self._has_points[start + chosen]]
         if chosen.size == 0 or not self._exact_obstacles:
@@ -222,10 +253,13 @@ class MeshClearance:
         world = self._points[index] @ place[:3, :3].T + place[:3, 3]
         heads = np.concatenate([[0], np.cumsum(sizes)[:-1]])
         for o in self._exact_obstacles:
-            value, over = self.obstacles[o].signed(world)
+            value, over, height = self.obstacles[o].signed(world)
             least = np.minimum.reduceat(value, heads)
             exact = (least <= 0.0) | np.logical_and.reduceat(over, heads)
             bounds[chosen[exact], o] = math.inf  # searched
+            # the others are at least their least height away (the solid lies below the plane; h is linear)
+            rest = chosen[~exact]
+            bounds[rest, o] = np.maximum(bounds[rest, o], np.minimum.reduceat(height, heads)[~exact])
             if not exact.any():
                 continue
             k = int(np.flatnonzero(exact)[np.argmin(least[exact])])
@@ -276,5 +310,7 @@ class MeshClearance:
 
 
 def _point_row(u: Array, arm: Array, jac: Array) -> Array:
-    """uᵀ J_p = uᵀ(J_v − [arm]× J_ω) (n,) for the point at `arm` (m) from the joint's origin."""
-    return np.concatenate([u, np.cross(arm, u)]) @ jac
+    """uᵀ J_p = uᵀ(J_v − [arm]× J_ω) = uᵀJ_v + (arm × u)ᵀ J_ω (n,) for the point at `arm` (m) from the joint."""
+    ax, ay, az = arm.tolist()
+    ux, uy, uz = u.tolist()
+    return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac

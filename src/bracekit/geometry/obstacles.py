@@ -12,6 +12,7 @@ ball of radius r about a point p is at least bound(p) − r away: the broad phas
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -56,8 +57,10 @@ class Obstacle:
             return np.asarray(np.linalg.norm(points - self.centre, axis=1) - self.radius)
         return self.signed(points)[0]
 
-    def signed(self, points: Array) -> tuple[Array, NDArray[np.bool_]]:
-        """(Signed distance (k,), m; whether each is over the disk (k,)) of points (k, 3) from the surface's solid.
+    def signed(self, points: Array) -> tuple[Array, NDArray[np.bool_], Array]:
+        """(Signed distance (k,), m; whether each is over the disk (k,); height h over the plane (k,), m).
+
+        Of points (k, 3) from the surface's solid.
 
         Outside: |(max(ρ − r_max, 0), max(h, 0))|; inside (h ≤ 0, ρ ≤ r_max): max(h, ρ − r_max), minus the
         depth below the top or inside the side, whichever is less (the body's bottom is far below). Over the
@@ -67,13 +70,14 @@ class Obstacle:
             raise ValueError("only the surface's solid has an exact signed distance here")
         c, n, r_max = self.plane
         if r_max is None:
-            return np.asarray((points - c) @ n), np.ones(len(points), dtype=bool)
+            h = np.asarray((points - c) @ n)
+            return h, np.ones(len(points), dtype=bool), h
         local = (points - c) @ self.placement[:3, :3]  # plane coordinates (the placement's columns)
         h = local[:, 2]
         side = np.sqrt(local[:, 0] ** 2 + local[:, 1] ** 2) - r_max
         over = side <= 0.0
         outside = np.sqrt(np.maximum(side, 0.0) ** 2 + np.maximum(h, 0.0) ** 2)
-        return np.where(over & (h <= 0.0), np.maximum(h, side), outside), over
+        return np.where(over & (h <= 0.0), np.maximum(h, side), outside), over, h
 
     def gradient(self, point: Array) -> Array:
         """∇ of the signed distance (3,), unit, at a point (3,) of the surface's solid (its outward direction)."""
@@ -82,18 +86,18 @@ class Obstacle:
         c, n, r_max = self.plane
         if r_max is None:
             return np.asarray(n, dtype=float)
-        x, y, h = (np.asarray(point) - c) @ self.placement[:3, :3]
-        rho = float(np.hypot(x, y))
-        radial = np.array([x / rho, y / rho, 0.0]) if rho > 0.0 else np.zeros(3)
-        up = np.array([0.0, 0.0, 1.0])
+        axes = self.placement[:3, :3]
+        x, y, h = ((np.asarray(point) - c) @ axes).tolist()
+        rho = math.hypot(x, y)
+        rx, ry = (x / rho, y / rho) if rho > 0.0 else (0.0, 0.0)
         side = rho - r_max
         if h <= 0.0 and side <= 0.0:
-            local = up if h >= side else radial
+            gx, gy, gz = (0.0, 0.0, 1.0) if h >= side else (rx, ry, 0.0)
         else:
             out_side, out_top = max(side, 0.0), max(h, 0.0)
-            dist = float(np.hypot(out_side, out_top))
-            local = (out_side * radial + out_top * up) / dist if dist > 0.0 else up
-        return np.asarray(self.placement[:3, :3] @ local)
+            dist = math.hypot(out_side, out_top)
+            gx, gy, gz = (out_side * rx / dist, out_side * ry / dist, out_top / dist) if dist > 0.0 else (0.0, 0.0, 1.0)
+        return np.asarray(axes[:, 0] * gx + axes[:, 1] * gy + axes[:, 2] * gz)
 
 
 def surface_obstacle(surface: Surface, r_max: float | None, depth: float) -> Obstacle:

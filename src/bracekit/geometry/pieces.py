@@ -50,6 +50,7 @@ class Piece:
         radius: its bounding sphere's radius, m.
         points: a polytope's extreme points (k, 3) in the joint's frame, m (a patch's hull vertices, a
             triangle's corners); None for a primitive.
+        faces: the mesh triangles (t, 3, 3) the polytope was made of, joint frame, m; None for a primitive.
     """
 
     joint: int
@@ -59,6 +60,7 @@ class Piece:
     centre: Array
     radius: float
     points: Array | None = None
+    faces: Array | None = None
 
 
 def _vec3s(points: Array) -> Any:
@@ -193,6 +195,9 @@ def clip_surface(triangles: Array, pad: Array, pad_radius: float) -> Array:
 
 #: Edge (m) of the cubes that cut a mesh into patches.
 PATCH = 0.02
+#: A patch whose points' least spread (singular value) is below this fraction of the largest is flat: its
+#: triangles are pieces of their own (EPA fails on a hull without volume).
+FLAT = 1e-3
 
 
 def _face() -> Any:
@@ -211,7 +216,8 @@ def triangle_pieces(joint: int, link: str, triangles: Array) -> list[Piece]:
     out = []
     for corners in triangles:
         centre, radius = _sphere_of(corners)
-        out.append(Piece(joint, link, coal.Convex(_vec3s(corners), face), eye, centre, radius, corners.copy()))
+        shape = coal.Convex(_vec3s(corners), face)
+        out.append(Piece(joint, link, shape, eye, centre, radius, corners.copy(), corners[None].copy()))
     return out
 
 
@@ -228,8 +234,12 @@ def patch_pieces(joint: int, link: str, triangles: Array) -> list[Piece]:
     out = []
     for group in np.split(order, bounds):
         points = extreme_points(triangles[group].reshape(-1, 3))
+        spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+        if len(points) < 4 or spread[-1] <= FLAT * max(float(spread[0]), 1e-12):
+            out.extend(triangle_pieces(joint, link, triangles[group]))  # a flat patch: GJK/EPA need volume
+            continue
         centre, radius = _sphere_of(points)
-        out.append(Piece(joint, link, hull(points, link), eye, centre, radius, points))
+        out.append(Piece(joint, link, hull(points, link), eye, centre, radius, points, triangles[group]))
     return out
 
 
