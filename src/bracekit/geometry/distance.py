@@ -19,6 +19,7 @@ own motion along the surface does not change d to first order).
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Sequence
 
 import coal
@@ -97,8 +98,8 @@ class MeshClearance:
         for element in elements:
             if element.joint <= 0:
                 continue
-            if element.joint not in pads and element.kind != "mesh":
-                pieces.append(convex_piece(element))
+            if element.joint not in pads:
+                pieces.extend(_free_pieces(element))
                 continue
             tri = surface_triangles(element)
             near = np.zeros(len(tri), dtype=bool)
@@ -307,6 +308,20 @@ class MeshClearance:
             if found is not None and (found[0], self._joints[s] - 1) < (low, link):
                 low, link = found[0], self._joints[s] - 1
         return low, link
+
+
+#: collision element → its pieces on a link that carries no pad (they do not depend on the brace): built once
+_FREE: weakref.WeakKeyDictionary[CollisionElement, list[Piece]] = weakref.WeakKeyDictionary()
+
+
+def _free_pieces(element: CollisionElement) -> list[Piece]:
+    """The pieces of an element of a link without a pad: a primitive as itself, a mesh as patches (cached)."""
+    if element not in _FREE:
+        if element.kind == "mesh":
+            _FREE[element] = patch_pieces(element.joint, element.link, surface_triangles(element))
+        else:
+            _FREE[element] = [convex_piece(element)]
+    return _FREE[element]
 
 
 def _point_row(u: Array, arm: Array, jac: Array) -> Array:
