@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from geometry_refs import read_stl, solid_distance, surface_points, xarm7
 
 from bracekit.contact import Brace, Surface
 from bracekit.geometry.pad import pad_on_surface
@@ -21,6 +20,7 @@ from bracekit.kinematics.clearance import Clearance, geometry_of, link_clearance
 from bracekit.model.robot import Robot
 from bracekit.objective import central_difference
 from bracekit.spatial import rotation_with_z
+from geometry_refs import read_stl, solid_distance, surface_points, xarm7
 
 #: The start of the xArm7 runs here: the forearm (link4) laid across a post.
 Q0 = np.array([0.0, 0.3, 0.0, 0.8, 0.0, 0.5, 0.0])

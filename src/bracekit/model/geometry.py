@@ -2,8 +2,9 @@
 
 A capsule comes from the URDF's collision geometry where a link has some: a cylinder (or a ``<capsule>``)
 becomes a capsule along its axis with its radius, a sphere a capsule of zero length, a box the bounding
-capsule along its longest edge (radius the half-diagonal of the other two edges). A mesh is not read: a
-link whose collision geometry is only meshes, like a link with none, gets the default capsule of its joint,
+capsule along its longest edge (radius the half-diagonal of the other two edges), a mesh the tightest capsule
+along its principal axis (:func:`mesh_capsules`; pictures only: the clearance of a robot with meshes is coal's,
+:mod:`bracekit.geometry.distance`). A link without collision geometry gets the default capsule of its joint,
 the segment from the joint's origin to the origin of the next joint of the chain (to the tip frame for the
 last joint) with the radius ``link_radius`` (:data:`DEFAULT_LINK_RADIUS`). Links fixed to the base do not
 move and are left out.
@@ -12,6 +13,7 @@ move and are left out.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +21,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from bracekit.errors import InputError, ModelError
+from bracekit.geometry.collision import CollisionElement
 
 Array = NDArray[np.float64]
 
@@ -142,4 +145,31 @@ def link_capsules(
         else:
             end = np.zeros(3)
         out.append(Capsule(j, np.zeros(3), end, float(link_radius), str(model.names[j])))
+    return tuple(out)
+
+
+def mesh_capsules(elements: Sequence[CollisionElement]) -> tuple[Capsule, ...]:
+    """The tightest capsule along each moving mesh's principal axis, in its joint's frame (for pictures).
+
+    The axis is the principal direction of the mesh's vertices (through their mean); the radius the largest
+    distance of a vertex from that line; the segment the shortest one whose capsule holds every vertex (each
+    vertex at axial t and distance d from the line needs an end within √(r² − d²) of t). The clearance of a
+    robot with meshes is coal's (:mod:`bracekit.geometry.distance`), not these capsules'.
+    """
+    out = []
+    for e in elements:
+        if e.kind != "mesh" or e.joint <= 0 or e.vertices is None:
+            continue
+        points = e.vertices @ e.placement[:3, :3].T + e.placement[:3, 3]
+        mean = points.mean(axis=0)
+        _, _, vt = np.linalg.svd(points - mean, full_matrices=False)
+        axis = vt[0]
+        t = (points - mean) @ axis
+        d = np.linalg.norm(points - mean - np.outer(t, axis), axis=1)
+        radius = float(d.max())
+        reach = np.sqrt(np.maximum(radius * radius - d * d, 0.0))
+        start, stop = float(np.min(t + reach)), float(np.max(t - reach))
+        if start > stop:  # short: a sphere anywhere in [stop, start] holds every vertex
+            start = stop = 0.5 * (start + stop)
+        out.append(Capsule(e.joint, mean + start * axis, mean + stop * axis, radius, e.link))
     return tuple(out)

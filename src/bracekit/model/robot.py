@@ -23,7 +23,7 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
 from bracekit.geometry.collision import CollisionElement, read_collision_geometry
 from bracekit.model.chain import DATA_JOINT_LIMIT, ChainFK, joint_axis
-from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules
+from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules, mesh_capsules
 
 Array = NDArray[np.float64]
 
@@ -217,7 +217,7 @@ def _check_joints(model: pin.Model) -> None:
         (lower > upper, "has lower limit {lo:g} > upper limit {hi:g}; give it lower < upper in its <limit>"),
         (
             lower == upper,
-            "is locked (lower = upper = {lo:g}) and cannot move; make it type=\"fixed\" or give it a range of motion",
+            'is locked (lower = upper = {lo:g}) and cannot move; make it type="fixed" or give it a range of motion',
         ),
     ):
         if bad.any():
@@ -301,7 +301,7 @@ class Robot:
             if full.existJointName(name) and full.getJointId(name) in keep:
                 raise ModelError(
                     f"joint {show(name)} mimics joint {show(leader)} and moves the tip {show(tip)}; bracekit needs "
-                    "independent joints on the chain to the tip: remove its <mimic> or make it type=\"fixed\""
+                    'independent joints on the chain to the tip: remove its <mimic> or make it type="fixed"'
                 )
         lock = [j for j in range(1, full.njoints) if j not in keep]
         model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
@@ -314,6 +314,7 @@ class Robot:
         collisions = collision_capsules(text, model)
         here = [] if isinstance(source, str) and source.lstrip().startswith("<") else [Path(source).parent]
         geometry = read_collision_geometry(model, text, [*package_dirs, *here])
+        collisions += mesh_capsules(geometry)  # the meshes' capsule fits, for pictures
         return cls(model=model, tip=tip, stiffness=k, off_chain=off_chain, collisions=collisions, geometry=geometry)
 
     # --- names and sizes -------------------------------------------------------------------------
