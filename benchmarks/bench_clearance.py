@@ -53,7 +53,7 @@ def main(spread: float = 0.02, samples: int = 20) -> None:
         sys.exit("install the test extra (example-robot-data) to run this benchmark")
     urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
     meshes = Robot.from_urdf(urdf, tip="link_eef", package_dirs=[share])
-    capsules = dataclasses.replace(meshes, geometry=())
+    capsules = dataclasses.replace(meshes, geometry=(), collisions=())  # what it was before meshes were read
     rng = np.random.default_rng(2)
     qs = [Q0 + rng.uniform(-spread, spread, 7) for _ in range(samples)]
     for robot in (capsules, meshes):

@@ -173,7 +173,7 @@ class MeshClearance:
         solid = self.obstacles[obstacle]
         if solid.plane is not None and self.pieces[piece].faces is not None:
             # coal's answer checked: outside, its witness is `value` from the solid; EPA needs volume
-            if not abs(value) < 1e6 or (value > 0.0 and abs(float(solid.signed(witness[None])[0][0]) - value) > 1e-6):
+            if not abs(value) < 1e6 or (value > 0.0 and abs(solid.signed_at(witness) - value) > 1e-6):
                 return self._sampled(piece, obstacle, place)
         if not abs(value) < 1e6:
             raise NumericalError(

@@ -79,6 +79,19 @@ class Obstacle:
         outside = np.sqrt(np.maximum(side, 0.0) ** 2 + np.maximum(h, 0.0) ** 2)
         return np.where(over & (h <= 0.0), np.maximum(h, side), outside), over, h
 
+    def signed_at(self, point: Array) -> float:
+        """The signed distance (m) of one point (3,) from the surface's solid (:meth:`signed` for one point)."""
+        if self.plane is None:
+            raise ValueError("only the surface's solid has an exact signed distance here")
+        c, n, r_max = self.plane
+        x, y, h = ((np.asarray(point) - c) @ self.placement[:3, :3]).tolist()
+        if r_max is None:
+            return float((np.asarray(point) - c) @ n)
+        side = math.hypot(x, y) - r_max
+        if h <= 0.0 and side <= 0.0:
+            return max(h, side)
+        return math.hypot(max(side, 0.0), max(h, 0.0))
+
     def gradient(self, point: Array) -> Array:
         """∇ of the signed distance (3,), unit, at a point (3,) of the surface's solid (its outward direction)."""
         if self.plane is None:
