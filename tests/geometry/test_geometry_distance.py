@@ -152,3 +152,23 @@ def test_the_clearance_gradient_matches_central_differences(robot) -> None:
         if value > 0.0:
             fd = central_difference(lambda x: link_clearance(braced.state(x))[0], q, 1e-5)
             np.testing.assert_allclose(link_clearance_gradient(braced.state(q)), fd, atol=1e-4)
+
+
+def test_two_braces_each_exempt_their_own_pad_through_the_same_clearance(robot) -> None:
+    """The forearm on one post and the wrist (link6) on another, each post under its pad at Q0."""
+    one = _braced(robot)
+    pad = pad_on_surface(robot, "link6", 0.5, 0.0)
+    both_robot = one.robot.with_point_frame("wrist", "link6", pad.point, rotation_with_z(pad.axis, "pad"))
+    data = both_robot.model.createData()
+    pin.framesForwardKinematics(both_robot.model, data, Q0)
+    place = data.oMf[both_robot.frame_id("wrist")]
+    axis = np.array(place.rotation[:, 2])
+    normal = axis + 0.1 * np.cross(axis, [0.0, 1.0, 0.0])  # turned so that only the pad touches
+    second = Brace("wrist", Surface(np.array(place.translation), normal), region_radius=0.03, surface_radius=0.04)
+    both = BracedRobot(both_robot, [one.brace, second])
+    clearance = Clearance(both)
+    assert clearance.mesh is not None and len(clearance.mesh.obstacles) == 2
+    found = {d.joint: d.clearance for d in clearance.links(Q0, gradient=False)}
+    assert 0.0 <= found[3] < 0.01 and 0.0 <= found[5] < 0.01  # each braced link touches only at its pad
+    bare = BracedRobot(both_robot, [one.brace, Brace("wrist", second.surface, region_radius=0.03, pad_radius=0.0)])
+    assert {d.joint: d.clearance for d in Clearance(bare).links(Q0, gradient=False)}[5] <= 1e-9

@@ -5,9 +5,16 @@ pieces (:mod:`bracekit.geometry.pieces`) and the obstacles (:mod:`bracekit.geome
 ``distance`` (GJK, and EPA in penetration) with a DistanceRequest. The braced link counts like any other link,
 with the surface within ``Brace.pad_radius`` of its pad left out (the pad touches the surface by design).
 
+Exact shortcut: a polytope piece over the surface's disk (its extreme points all over it; any piece for the
+half-space) is its extreme points' least height away (h is linear), and one with an extreme point inside the
+solid gets the deepest one's signed distance; these are computed for many pieces at once, coal for the others.
+Coal's answer is checked (outside, its witness must be at the distance it reports); where GJK or EPA fail on a
+thin piece its triangles are sampled instead.
+
 Broad phase: each piece's bounding sphere gives a lower bound of its distance from each obstacle
-(``Obstacle.bound(centre) − radius``); pieces are searched in the order of their bounds and only while the bound
-is below the least distance found (of their link, or of all links for :meth:`MeshClearance.minimum`).
+(``Obstacle.bound(centre) − radius``, raised to the piece's least height where the shortcut does not apply);
+pieces are searched in the order of their bounds and only while the bound is below the least distance found
+(of their link, or of all links for :meth:`MeshClearance.minimum`).
 
 Gradient: coal gives the witness points p₁ (on the link) and p₂ (on the obstacle) and the unit normal ν from
 the link toward the obstacle; with n = −ν (from the obstacle to the link)
@@ -102,11 +109,10 @@ class MeshClearance:
                 pieces.extend(_free_pieces(element))
                 continue
             tri = surface_triangles(element)
-            near = np.zeros(len(tri), dtype=bool)
-            for pad, radius in pads.get(element.joint, []):
+            for pad, radius in pads[element.joint]:
                 tri = clip_surface(tri, pad, radius)
-                near = np.zeros(len(tri), dtype=bool) if near.size != len(tri) else near
-            for pad, radius in pads.get(element.joint, []):
+            near = np.zeros(len(tri), dtype=bool)  # single triangles near a pad: a patch's hull could fill its hole
+            for pad, radius in pads[element.joint]:
                 near |= np.linalg.norm(tri - pad, axis=2).min(axis=1) < radius + PATCH * math.sqrt(3.0)
             pieces.extend(triangle_pieces(element.joint, element.link, tri[near]))
             pieces.extend(patch_pieces(element.joint, element.link, tri[~near]))

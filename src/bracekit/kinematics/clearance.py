@@ -149,15 +149,13 @@ class Clearance:
         self.braced = braced
         #: coal's clearance of the URDF's meshes and primitives, or None: the capsules below
         self.mesh: MeshClearance | None = None
-        if has_meshes(robot.geometry):
+        self.capsules: tuple[Capsule, ...] = ()
+        if has_meshes(robot.geometry):  # one brace or several: MeshClearance takes each brace's surface and pad
             robot.link_capsules(link_radius)  # validates link_radius as for capsules
             self.mesh = MeshClearance(braced, robot.geometry)
-            skip = -1
-        else:
-            skip = int(model.frames[braced.brace_id].parentJoint)
-        self.capsules: tuple[Capsule, ...] = (
-            () if self.mesh else tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
-        )
+            return
+        skip = int(model.frames[braced.brace_id].parentJoint)
+        self.capsules = tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
         joints = sorted({c.joint for c in self.capsules})
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
