@@ -129,6 +129,8 @@ class MeshClearance:
         ]
         self._centres = np.array([p.centre for p in pieces], dtype=float).reshape(-1, 3)
         self._radii = np.array([p.radius for p in pieces], dtype=float)
+        #: each link's bounding sphere (joint frame): its pieces' bounds are computed only when it comes near
+        self._link_spheres = [_enclosing(self._centres[a:b], self._radii[a:b]) for a, b in self._ranges]
         # the polytopes' extreme points, flat, with each piece's range [offset[i], offset[i + 1])
         counts = np.array([0 if p.points is None else len(p.points) for p in pieces], dtype=np.intp)
         self._offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
@@ -156,12 +158,20 @@ class MeshClearance:
         pin.updateFramePlacements(model, data)
         return np.array([data.oMf[f].homogeneous for f in self._frames]).reshape(-1, 4, 4), None
 
-    def _bounds(self, placements: Array) -> Array:
-        """Lower bounds (pieces, obstacles) of every piece's signed distance from every obstacle, m."""
-        centres = np.concatenate(
-            [self._centres[a:b] @ m[:3, :3].T + m[:3, 3] for (a, b), m in zip(self._ranges, placements, strict=True)]
-        )
-        return np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._radii[:, None]
+    def _bounds(self, placements: Array, link: int) -> Array:
+        """Lower bounds (the link's pieces, obstacles) of its pieces' signed distances from the obstacles, m."""
+        a, b = self._ranges[link]
+        m = placements[link]
+        centres = self._centres[a:b] @ m[:3, :3].T + m[:3, 3]
+        return np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._radii[a:b, None]
+
+    def _link_bounds(self, placements: Array) -> list[float]:
+        """A lower bound (m) of each link's distance from the obstacles (its bounding sphere's)."""
+        out = []
+        for (centre, radius), m in zip(self._link_spheres, placements, strict=True):
+            world = m[:3, :3] @ centre + m[:3, 3]
+            out.append(min(o.bound_at(world) for o in self.obstacles) - radius)
+        return out
 
     def _pair(self, piece: int, obstacle: int, placement: Array) -> tuple[float, Array, Array]:
         """(Signed distance m, witness point on the link (3,), unit normal from the obstacle to the link (3,))."""
@@ -208,35 +218,41 @@ class MeshClearance:
 
         `bounds` are those pieces' sphere bounds (k, obstacles) (:meth:`_bounds`); searched pairs are set to inf.
 
-        The piece of least sphere bound first (an upper bound of the answer), then the pieces whose bound is
-        below the least distance found: the polytopes whose distance from the surface's solid is exact from
-        their extreme points all at once (:meth:`_exact`), the others by coal in the order of their bounds
-        until the next bound passes the least distance found. None if nothing comes below `held`.
+        The pieces whose bound is at most an upper bound of the answer (the least sphere centre's distance plus
+        its diameter): the polytopes whose distance from the surface's solid is exact from their extreme points
+        all at once (:meth:`_exact`), the others by coal in the order of their bounds until the next bound passes
+        the least distance found. None if nothing comes below `held`.
         """
-        if bounds.size == 0:
+        if bounds.size == 0 or float(bounds.min()) >= held:
             return None
         count = bounds.shape[1]
         flat = bounds.reshape(-1)
-        first = int(np.argmin(flat))
-        if flat[first] >= held:
-            return None
-        piece, obstacle = divmod(first, count)
-        held, best = self._exact(placements, start, np.array([piece], dtype=np.intp), bounds, held, None)
-        if flat[first] < math.inf:  # not exact from its points: coal
-            value, witness, normal = self._pair(start + piece, obstacle, placements[self._slot[start]])
-            if value < held:
-                held, best = value, (value, start + piece, witness, normal)
-            flat[first] = math.inf
-        chosen = np.flatnonzero(bounds.min(axis=1) < held)
-        held, best = self._exact(placements, start, chosen, bounds, held, best)
+        cap = min(held, self._upper(placements, start, bounds))
+        held, best = self._exact(placements, start, np.flatnonzero(bounds.min(axis=1) <= cap), bounds, held, None)
         for k in np.argsort(flat).tolist():
-            if flat[k] >= held:
+            if flat[k] >= held or flat[k] > cap:
                 break
             piece, obstacle = divmod(k, count)
             value, witness, normal = self._pair(start + piece, obstacle, placements[self._slot[start]])
             if value < held:
                 held, best = value, (value, start + piece, witness, normal)
         return best
+
+    def _upper(self, placements: Array, start: int, bounds: Array) -> float:
+        """An upper bound (m) of a link's clearance: its closest piece's, from that piece's points.
+
+        The sphere's centre's bound plus its diameter (a point of the piece lies within its radius of the
+        centre), or for a polytope its extreme points' least signed distance from the surface's solid (every
+        value of the piece, exact, coal's or sampled, is at most that of any of its points).
+        """
+        upper = float((bounds + 2.0 * self._radii[start : start + len(bounds), None]).min())
+        piece, obstacle = divmod(int(np.argmin(bounds)), bounds.shape[1])
+        piece += start
+        if self._has_points[piece] and self.obstacles[obstacle].plane is not None:
+            m = placements[self._slot[piece]]
+            points = self._points[self._offsets[piece] : self._offsets[piece + 1]] @ m[:3, :3].T + m[:3, 3]
+            upper = min(upper, float(self.obstacles[obstacle].signed(points)[0].min()))
+        return upper
 
     def _exact(
         self, placements: Array, start: int, chosen: NDArray[np.intp], bounds: Array, held: float, best: Best | None
@@ -282,10 +298,12 @@ class MeshClearance:
         if not self.pieces or not self.obstacles:
             return []
         placements, jacs = self._placements(q, gradient)
-        bounds = self._bounds(placements)
+        near = self._link_bounds(placements)
         out = []
-        for s, (start, stop) in enumerate(self._ranges):
-            found = self._search(placements, bounds[start:stop], start, below)
+        for s, (start, _) in enumerate(self._ranges):
+            if near[s] >= below:
+                continue
+            found = self._search(placements, self._bounds(placements, s), start, below)
             if found is None:
                 continue
             value, _, witness, normal = found
@@ -303,17 +321,23 @@ class MeshClearance:
         if not self.pieces or not self.obstacles:
             return math.inf, -1
         placements, _ = self._placements(q, False)
-        bounds = self._bounds(placements)
-        least = [float(bounds[a:b].min()) for a, b in self._ranges]
+        near = self._link_bounds(placements)
         low, link = math.inf, -1
-        for s in sorted(range(len(least)), key=least.__getitem__):
-            if least[s] >= low:
+        for s in sorted(range(len(near)), key=near.__getitem__):
+            if near[s] >= low:
                 break
-            start, stop = self._ranges[s]
-            found = self._search(placements, bounds[start:stop], start, low)
+            found = self._search(placements, self._bounds(placements, s), self._ranges[s][0], low)
             if found is not None and (found[0], self._joints[s] - 1) < (low, link):
                 low, link = found[0], self._joints[s] - 1
         return low, link
+
+
+def _enclosing(centres: Array, radii: Array) -> tuple[Array, float]:
+    """A sphere (centre (3,), radius m) holding the spheres (centres (k, 3), radii (k,))."""
+    if len(centres) == 0:
+        return np.zeros(3), 0.0
+    centre = 0.5 * (np.min(centres - radii[:, None], axis=0) + np.max(centres + radii[:, None], axis=0))
+    return centre, float(np.max(np.linalg.norm(centres - centre, axis=1) + radii))
 
 
 #: collision element → its pieces on a link that carries no pad (they do not depend on the brace): built once

@@ -57,6 +57,12 @@ class Obstacle:
             return np.asarray(np.linalg.norm(points - self.centre, axis=1) - self.radius)
         return self.signed(points)[0]
 
+    def bound_at(self, point: Array) -> float:
+        """:meth:`bound` of one point (3,), m."""
+        if self.plane is None:
+            return float(np.linalg.norm(np.asarray(point) - self.centre)) - self.radius
+        return self.signed_at(point)
+
     def signed(self, points: Array) -> tuple[Array, NDArray[np.bool_], Array]:
         """(Signed distance (k,), m; whether each is over the disk (k,); height h over the plane (k,), m).
 
