@@ -8,6 +8,9 @@ bisection for penetration), and central finite differences of the clearance.
 
 from __future__ import annotations
 
+import gc
+import weakref
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -15,7 +18,7 @@ import pytest
 from bracekit.contact import Brace, Surface
 from bracekit.errors import InputError, ModelError
 from bracekit.kinematics import BracedRobot
-from bracekit.kinematics.clearance import Clearance, link_clearance, link_clearance_gradient
+from bracekit.kinematics.clearance import CACHE_SIZE, Clearance, link_clearance, link_clearance_gradient
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
@@ -419,3 +422,15 @@ def test_segments_along_the_normal_grazing_the_cylinder_or_of_zero_length_give_f
     ball = _chain_braced(Surface(centre - [0.01, 0.0, 0.3], [0.0, 0.0, 1.0]), 0.02)
     got = {d.joint: d.clearance for d in Clearance(ball).links(q)}
     assert got[sphere.joint - 1] == pytest.approx(0.3 - sphere.radius, abs=1e-12)
+
+
+def test_the_clearance_cache_lets_braced_robots_go() -> None:
+    robot = load_model("paper-robot").with_point_frame("b", "link2", [0.1, 0.0, 0.0])
+    refs = []
+    for k in range(CACHE_SIZE + 3):
+        braced = BracedRobot(robot, Brace("b", Surface([0.0, 0.0, -1.0 - k], [0.0, 0.0, 1.0])))
+        link_clearance(braced.state(np.zeros(robot.n)))
+        refs.append(weakref.ref(braced))
+        del braced
+    gc.collect()
+    assert all(r() is None for r in refs[:3])  # the oldest are no longer held by the cache

@@ -43,7 +43,7 @@ only grazes the cylinder (wᵀ(b − a) ≈ 0) the clip point is held fixed (dt*
 from __future__ import annotations
 
 import math
-import weakref
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -363,14 +363,21 @@ def link_clearance_gradient(state: BracedState, link_radius: float = DEFAULT_LIN
     return min(found, key=lambda d: d.clearance).gradient
 
 
-#: braced robot → {link radius: its Clearance}: built once per model (capsules, frames, data), not per sample.
-_CACHE: weakref.WeakKeyDictionary[BracedRobot, dict[float, Clearance]] = weakref.WeakKeyDictionary()
+#: (braced robot, link radius) → its Clearance, the CACHE_SIZE used last: built once per model (capsules or
+#: coal's pieces, frames, data), not per sample. Bounded, since a Clearance holds its braced robot (a weak-keyed
+#: cache would keep every robot it saw alive through its value).
+_CACHE: OrderedDict[tuple[BracedRobot, float], Clearance] = OrderedDict()
+CACHE_SIZE = 8
 
 
 def _clearance(braced: BracedRobot, link_radius: float) -> Clearance:
     if isinstance(link_radius, bool) or not isinstance(link_radius, int | float):
         return Clearance(braced, link_radius)  # validates (and refuses) it
-    per = _CACHE.setdefault(braced, {})
-    if link_radius not in per:
-        per[link_radius] = Clearance(braced, link_radius)
-    return per[link_radius]
+    key = (braced, float(link_radius))
+    if key in _CACHE:
+        _CACHE.move_to_end(key)
+        return _CACHE[key]
+    found = _CACHE[key] = Clearance(braced, link_radius)
+    while len(_CACHE) > CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return found
