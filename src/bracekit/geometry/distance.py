@@ -262,8 +262,9 @@ class MeshClearance:
         A polytope over the disk (its extreme points all over it), or any for the half-space, is its extreme
         points' least signed distance away (h is linear); one with an extreme point inside the solid gets the
         deepest one's signed distance (as a brute-force look at the mesh vertices would). Coal is left for the
-        others (across the rim), whose `bounds` are raised to their least height (the solid is below the plane);
-        the pairs done here are set to inf.
+        others (across the rim), whose `bounds` are raised to their least height (the solid is below the plane)
+        or their least distance beyond the side's tangent plane facing them (:meth:`Obstacle.beside`), whichever
+        is more; the pairs done here are set to inf.
         """
         chosen = chosen[self._has_points[start + chosen]]
         if chosen.size == 0 or not self._exact_obstacles:
@@ -280,9 +281,12 @@ class MeshClearance:
             least = np.minimum.reduceat(value, heads)
             exact = (least <= 0.0) | np.logical_and.reduceat(over, heads)
             bounds[chosen[exact], o] = math.inf  # searched
-            # the others are at least their least height away (the solid lies below the plane; h is linear)
+            # the others are at least their least height away (the solid lies below the plane; h is linear) and at
+            # least their least distance beyond the tangent plane of the body's side facing them
             rest = chosen[~exact]
-            bounds[rest, o] = np.maximum(bounds[rest, o], np.minimum.reduceat(height, heads)[~exact])
+            if rest.size:
+                supporting = np.maximum(np.minimum.reduceat(height, heads), self.obstacles[o].beside(world, heads))
+                bounds[rest, o] = np.maximum(bounds[rest, o], supporting[~exact])
             if not exact.any():
                 continue
             k = int(np.flatnonzero(exact)[np.argmin(least[exact])])

@@ -98,6 +98,25 @@ class Obstacle:
             return max(h, side)
         return math.hypot(max(side, 0.0), max(h, 0.0))
 
+    def beside(self, points: Array, heads: NDArray[np.intp]) -> Array:
+        """Lower bounds (m) of the distance of convex sets from the surface's solid, from their points beside it.
+
+        `points` (k, 3) are the sets' extreme points, set i being points[heads[i]:heads[i + 1]]. The solid lies
+        in the half-space {x : ûᵀ L (x − c) ≤ r_max} for any horizontal unit û; with û toward a set's mean, the
+        set is at least min ûᵀ L (v − c) − r_max away over its points v (linear, so least at a point). −inf for the
+        half-space below the whole plane.
+        """
+        if self.plane is None or self.plane[2] is None:
+            return np.full(len(heads), -np.inf)
+        c, _, r_max = self.plane
+        local = (points - c) @ self.placement[:3, :2]  # x, y in the plane
+        sizes = np.diff(np.append(heads, len(points)))
+        mean = np.add.reduceat(local, heads, axis=0) / sizes[:, None]
+        norm = np.linalg.norm(mean, axis=1)
+        unit = np.where(norm[:, None] > 0.0, mean / np.where(norm > 0.0, norm, 1.0)[:, None], 0.0)
+        along = np.einsum("ij,ij->i", local, np.repeat(unit, sizes, axis=0))
+        return np.where(norm > 0.0, np.minimum.reduceat(along, heads) - r_max, -np.inf)
+
     def gradient(self, point: Array) -> Array:
         """∇ of the signed distance (3,), unit, at a point (3,) of the surface's solid (its outward direction)."""
         if self.plane is None:
