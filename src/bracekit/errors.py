@@ -114,3 +114,7 @@ class HoldingWarning(BracekitWarning):
 
 class ClearanceWarning(BracekitWarning):
     """A link of the robot entered the surface as a solid obstacle (negative clearance)."""
+
+
+class PadPlacementWarning(BracekitWarning):
+    """A brace point given inside its link's collision geometry (the warning gives the depth), or off its surface."""

@@ -8,6 +8,9 @@ bisection for penetration), and central finite differences of the clearance.
 
 from __future__ import annotations
 
+import gc
+import weakref
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -15,7 +18,7 @@ import pytest
 from bracekit.contact import Brace, Surface
 from bracekit.errors import InputError, ModelError
 from bracekit.kinematics import BracedRobot
-from bracekit.kinematics.clearance import Clearance, link_clearance, link_clearance_gradient
+from bracekit.kinematics.clearance import CACHE_SIZE, Clearance, link_clearance, link_clearance_gradient
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
@@ -24,34 +27,36 @@ from helpers import random_chain_urdf
 
 
 def _with_collisions(text: str) -> str:
-    """The random chain with a cylinder on l1, a sphere and a mesh on l2, a box on l3 (l4.. keep defaults)."""
+    """The random chain with a cylinder on l1, a sphere on l2, a box on l3 (l4.. keep defaults).
+
+    Primitives only: such a robot keeps the capsules (a URDF with a mesh gets coal's clearance,
+    tests/geometry/).
+    """
     geometry = {
         "l1": '<collision><origin xyz="0.1 0 0" rpy="0 1.5707963267948966 0"/>'
         '<geometry><cylinder radius="0.03" length="0.2"/></geometry></collision>',
-        "l2": '<collision><origin xyz="0 0.05 0"/><geometry><sphere radius="0.06"/></geometry></collision>'
-        '<collision><geometry><mesh filename="package://none/l2.stl"/></geometry></collision>',
+        "l2": '<collision><origin xyz="0 0.05 0"/><geometry><sphere radius="0.06"/></geometry></collision>',
         "l3": '<collision><geometry><box size="0.02 0.3 0.04"/></geometry></collision>',
-        "l4": '<collision><geometry><mesh filename="package://none/l4.stl"/></geometry></collision>',
     }
     for link, xml in geometry.items():
         text = text.replace(f'<link name="{link}"><inertial>', f'<link name="{link}">{xml}<inertial>')
     return text
 
 
-def test_capsules_come_from_cylinders_spheres_boxes_and_default_for_meshes_and_bare_links() -> None:
+def test_capsules_come_from_cylinders_spheres_boxes_and_default_for_bare_links() -> None:
     robot = Robot.from_urdf(_with_collisions(random_chain_urdf(5, seed=3)), tip="tip")
     caps = {c.link: c for c in robot.link_capsules()}
     cyl = caps["l1"]  # along the x axis of l1 (z turned by +90° about y), centred at x = 0.1
     np.testing.assert_allclose(sorted([cyl.a[0], cyl.b[0]]), [0.0, 0.2], atol=1e-12)
     np.testing.assert_allclose([cyl.a[1:], cyl.b[1:]], 0.0, atol=1e-12)
     assert cyl.radius == 0.03
-    sphere = caps["l2"]  # the mesh of l2 is not read
+    sphere = caps["l2"]
     np.testing.assert_allclose([sphere.a, sphere.b], [[0, 0.05, 0]] * 2, atol=1e-12)
     assert sphere.radius == 0.06
     box = caps["l3"]  # the bounding capsule along the 0.3 m edge, radius the half-diagonal of 0.02 × 0.04
     np.testing.assert_allclose([box.a, box.b], [[0, -0.15, 0], [0, 0.15, 0]], atol=1e-12)
     assert box.radius == pytest.approx(np.hypot(0.01, 0.02))
-    default = caps["j4"]  # only a mesh: the default capsule from joint 4 to joint 5
+    default = caps["j4"]  # no collision element: the default capsule from joint 4 to joint 5
     np.testing.assert_allclose(default.b, robot.model.jointPlacements[5].translation)
     assert default.radius == DEFAULT_LINK_RADIUS
     np.testing.assert_allclose(caps["j5"].b, [0.1, 0.02, 0.03])  # the last joint's default capsule ends at the tip
@@ -417,3 +422,15 @@ def test_segments_along_the_normal_grazing_the_cylinder_or_of_zero_length_give_f
     ball = _chain_braced(Surface(centre - [0.01, 0.0, 0.3], [0.0, 0.0, 1.0]), 0.02)
     got = {d.joint: d.clearance for d in Clearance(ball).links(q)}
     assert got[sphere.joint - 1] == pytest.approx(0.3 - sphere.radius, abs=1e-12)
+
+
+def test_the_clearance_cache_lets_braced_robots_go() -> None:
+    robot = load_model("paper-robot").with_point_frame("b", "link2", [0.1, 0.0, 0.0])
+    refs = []
+    for k in range(CACHE_SIZE + 3):
+        braced = BracedRobot(robot, Brace("b", Surface([0.0, 0.0, -1.0 - k], [0.0, 0.0, 1.0])))
+        link_clearance(braced.state(np.zeros(robot.n)))
+        refs.append(weakref.ref(braced))
+        del braced
+    gc.collect()
+    assert all(r() is None for r in refs[:3])  # the oldest are no longer held by the cache

@@ -34,6 +34,8 @@ class Brace:
         pad_axis: whether the z axis of {b} is a pad direction (the brace's contact normal on the robot's
             side), so that θ_z (eq:theta) is defined: True for a frame of the robot's description or a link
             point given a pad axis; False for a bare link point, whose z is only the link's.
+        pad_radius: radius (m) of the pad's neighbourhood on the braced link that may touch the surface; the
+            rest of the link must keep clear of it (used with collision meshes, :mod:`bracekit.geometry.distance`).
     """
 
     frame: str
@@ -43,6 +45,7 @@ class Brace:
     environment_stiffness: float | None = None
     pad_axis: bool = True
     surface_radius: float | None = None
+    pad_radius: float = 0.02
 
     def __post_init__(self) -> None:
         if not isinstance(self.frame, str) or not self.frame:
@@ -65,6 +68,10 @@ class Brace:
                     f"surface_radius {extent:g} m is smaller than the bracing region's radius "
                     f"{self.region_radius:g} m; the region lies on the surface: give a surface at least as large"
                 )
+        pad = as_number(self.pad_radius, "pad_radius", nonnegative=True, unit="m", error=ContactError)
+        if not pad < 1e150:
+            raise ContactError(f"pad_radius must be a length below 1e150 m, got {pad:g}")
+        object.__setattr__(self, "pad_radius", pad)
         if self.environment_stiffness is not None:
             as_number(
                 self.environment_stiffness,

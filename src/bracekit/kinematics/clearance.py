@@ -1,5 +1,9 @@
 """Clearance of the links from the bracing surface: signed distances of the link capsules and their ∂/∂q.
 
+A robot whose URDF has collision meshes gets coal's clearance instead (:mod:`bracekit.geometry.distance`: every
+mesh and primitive, the braced link included but for its pad's neighbourhood); :class:`Clearance` gives either
+through the same methods, and :func:`geometry_of` says which. The rest of this docstring is the capsule rule.
+
 The obstacle. With a radius r_max = ``Brace.obstacle_radius`` (``Brace.surface_radius``, e.g. a table top or a
 post, else the bracing region's radius) it is the solid S = {p : h(p) ≤ 0, ρ(p) ≤ r_max}: the plane's disk of
 radius r_max about the surface's point c and the infinite cylinder below it (the table's or post's body). Here
@@ -39,13 +43,15 @@ only grazes the cylinder (wᵀ(b − a) ≈ 0) the clip point is held fixed (dt*
 from __future__ import annotations
 
 import math
-import weakref
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit.geometry.collision import geometry_description, has_meshes
+from bracekit.geometry.distance import MeshClearance
 from bracekit.kinematics.braced import BracedRobot, BracedState
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
@@ -140,9 +146,16 @@ class Clearance:
     def __init__(self, braced: BracedRobot, link_radius: float = DEFAULT_LINK_RADIUS) -> None:
         robot = braced.robot
         model = robot.model
-        skip = int(model.frames[braced.brace_id].parentJoint)
         self.braced = braced
-        self.capsules: tuple[Capsule, ...] = tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
+        #: coal's clearance of the URDF's meshes and primitives, or None: the capsules below
+        self.mesh: MeshClearance | None = None
+        self.capsules: tuple[Capsule, ...] = ()
+        if has_meshes(robot.geometry):  # one brace or several: MeshClearance takes each brace's surface and pad
+            robot.link_capsules(link_radius)  # validates link_radius as for capsules
+            self.mesh = MeshClearance(braced, robot.geometry)
+            return
+        skip = int(model.frames[braced.brace_id].parentJoint)
+        self.capsules = tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
         joints = sorted({c.joint for c in self.capsules})
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
@@ -270,6 +283,8 @@ class Clearance:
         whose clearance is below `below` (m; the others are not searched exactly). Without capsules: empty.
         """
         qa = self.braced.robot.check_q(q)
+        if self.mesh is not None:
+            return [LinkDistance(j, v, g) for j, v, g in self.mesh.links(qa, gradient, below)]
         if not self.capsules:
             return []
         placements, jacs = self._placements(qa, gradient)
@@ -298,6 +313,8 @@ class Clearance:
         Exact: capsules are evaluated in the order of their lower bounds until the bound passes the least found.
         """
         qa = self.braced.robot.check_q(q)
+        if self.mesh is not None:
+            return self.mesh.minimum(qa)
         if not self.capsules:
             return math.inf, -1
         placements, _ = self._placements(qa, False)
@@ -320,6 +337,15 @@ def _point_row(u: Array, arm: Array, jac: Array) -> Array:
     return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
 
 
+def geometry_of(braced: BracedRobot) -> str:
+    """What the clearance of `braced` is computed from, for a run's summary.
+
+    E.g. "capsules (no collision geometry in the URDF)" or "meshes and primitives from the URDF (7 elements, coal)".
+    """
+    robot = braced.robot
+    return geometry_description(robot.geometry, len({c.link for c in robot.collisions}))
+
+
 def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[float, int]:
     """(Minimum link clearance from the bracing surface, m; the index of that link's joint in chain order).
 
@@ -337,14 +363,21 @@ def link_clearance_gradient(state: BracedState, link_radius: float = DEFAULT_LIN
     return min(found, key=lambda d: d.clearance).gradient
 
 
-#: braced robot → {link radius: its Clearance}: built once per model (capsules, frames, data), not per sample.
-_CACHE: weakref.WeakKeyDictionary[BracedRobot, dict[float, Clearance]] = weakref.WeakKeyDictionary()
+#: (braced robot, link radius) → its Clearance, the CACHE_SIZE used last: built once per model (capsules or
+#: coal's pieces, frames, data), not per sample. Bounded, since a Clearance holds its braced robot (a weak-keyed
+#: cache would keep every robot it saw alive through its value).
+_CACHE: OrderedDict[tuple[BracedRobot, float], Clearance] = OrderedDict()
+CACHE_SIZE = 8
 
 
 def _clearance(braced: BracedRobot, link_radius: float) -> Clearance:
     if isinstance(link_radius, bool) or not isinstance(link_radius, int | float):
         return Clearance(braced, link_radius)  # validates (and refuses) it
-    per = _CACHE.setdefault(braced, {})
-    if link_radius not in per:
-        per[link_radius] = Clearance(braced, link_radius)
-    return per[link_radius]
+    key = (braced, float(link_radius))
+    if key in _CACHE:
+        _CACHE.move_to_end(key)
+        return _CACHE[key]
+    found = _CACHE[key] = Clearance(braced, link_radius)
+    while len(_CACHE) > CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return found

@@ -2,8 +2,9 @@
 
 A capsule comes from the URDF's collision geometry where a link has some: a cylinder (or a ``<capsule>``)
 becomes a capsule along its axis with its radius, a sphere a capsule of zero length, a box the bounding
-capsule along its longest edge (radius the half-diagonal of the other two edges). A mesh is not read: a
-link whose collision geometry is only meshes, like a link with none, gets the default capsule of its joint,
+capsule along its longest edge (radius the half-diagonal of the other two edges), a mesh the tightest capsule
+along its principal axis (:func:`mesh_capsules`; pictures only: the clearance of a robot with meshes is coal's,
+:mod:`bracekit.geometry.distance`). A link without collision geometry gets the default capsule of its joint,
 the segment from the joint's origin to the origin of the next joint of the chain (to the tip frame for the
 last joint) with the radius ``link_radius`` (:data:`DEFAULT_LINK_RADIUS`). Links fixed to the base do not
 move and are left out.
@@ -12,6 +13,7 @@ move and are left out.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +21,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from bracekit.errors import InputError, ModelError
+from bracekit.geometry.collision import CollisionElement
 
 Array = NDArray[np.float64]
 
@@ -142,4 +145,72 @@ def link_capsules(
         else:
             end = np.zeros(3)
         out.append(Capsule(j, np.zeros(3), end, float(link_radius), str(model.names[j])))
+    return tuple(out)
+
+
+#: A mesh's capsule is split in two (its vertices' two clusters, up to twice) when that saves this share of its
+#: volume: an elbow housing becomes two or three capsules instead of one ball.
+SPLIT_SAVING = 0.15
+
+
+def _fit(points: Array) -> tuple[Array, Array, float]:
+    """The tightest capsule (a, b, radius) along the points' principal axis that holds every point.
+
+    The axis is the principal direction of the points (through their mean); the radius the largest distance of a
+    point from that line; the segment the shortest one whose capsule holds every point (each point at axial t
+    and distance d from the line needs an end within √(r² − d²) of t).
+    """
+    mean = points.mean(axis=0)
+    _, _, vt = np.linalg.svd(points - mean, full_matrices=False)
+    axis = vt[0]
+    t = (points - mean) @ axis
+    d = np.linalg.norm(points - mean - np.outer(t, axis), axis=1)
+    radius = float(d.max())
+    reach = np.sqrt(np.maximum(radius * radius - d * d, 0.0))
+    start, stop = float(np.min(t + reach)), float(np.max(t - reach))
+    if start > stop:  # short: a sphere anywhere in [stop, start] holds every point
+        start = stop = 0.5 * (start + stop)
+    return mean + start * axis, mean + stop * axis, radius
+
+
+def _volume(a: Array, b: Array, r: float) -> float:
+    return float(np.pi * r * r * np.linalg.norm(b - a) + 4.0 / 3.0 * np.pi * r**3)
+
+
+def _fits(points: Array, depth: int) -> list[tuple[Array, Array, float]]:
+    """One capsule, or those of its two clusters (two-means from the ends of its axis) when they save SPLIT_SAVING."""
+    whole = _fit(points)
+    if depth == 0 or len(points) < 8:
+        return [whole]
+    centred = points - points.mean(axis=0)
+    t = centred @ np.linalg.svd(centred, full_matrices=False)[2][0]  # along the principal axis
+    centres = points[[int(np.argmin(t)), int(np.argmax(t))]]
+    for _ in range(20):  # two-means from the two ends
+        near = np.linalg.norm(points - centres[0], axis=1) <= np.linalg.norm(points - centres[1], axis=1)
+        if near.all() or not near.any():
+            return [whole]
+        centres = np.array([points[near].mean(axis=0), points[~near].mean(axis=0)])
+    halves = [points[near], points[~near]]
+    if min(len(h) for h in halves) < 4:
+        return [whole]
+    parts = [f for h in halves for f in _fits(h, depth - 1)]
+    if sum(_volume(*f) for f in parts) <= (1.0 - SPLIT_SAVING) * _volume(*whole):
+        return parts
+    return [whole]
+
+
+def mesh_capsules(elements: Sequence[CollisionElement]) -> tuple[Capsule, ...]:
+    """Tight capsules of each moving mesh, in its joint's frame (for pictures).
+
+    One capsule along the mesh's principal axis (:func:`_fit`), split into its two clusters' capsules (two-means
+    from the ends of the axis; up to four in all) when that saves SPLIT_SAVING of the volume; together they hold
+    every vertex.
+    The clearance of a robot with meshes is coal's (:mod:`bracekit.geometry.distance`), not these capsules'.
+    """
+    out: list[Capsule] = []
+    for e in elements:
+        if e.kind != "mesh" or e.joint <= 0 or e.vertices is None:
+            continue
+        points = e.vertices @ e.placement[:3, :3].T + e.placement[:3, 3]
+        out.extend(Capsule(e.joint, a, b, r, e.link) for a, b, r in _fits(points, 2))
     return tuple(out)

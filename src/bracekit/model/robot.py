@@ -21,8 +21,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, show
 from bracekit.errors import FrameNotFoundError, InputError, ModelError
+from bracekit.geometry.collision import CollisionElement, read_collision_geometry
 from bracekit.model.chain import DATA_JOINT_LIMIT, ChainFK, joint_axis
-from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules
+from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule, collision_capsules, link_capsules, mesh_capsules
 from bracekit.model.urdf_numbers import MAX_LENGTH, MAX_URDF_BYTES, check_model_numbers, check_urdf_numbers
 
 Array = NDArray[np.float64]
@@ -244,6 +245,8 @@ class Robot:
         stiffness: joint stiffnesses K (n,), N·m/rad (N/m for prismatic joints).
         collisions: the capsules of the URDF's collision geometry (:mod:`bracekit.model.geometry`), read at load
             time; () when the URDF has none (every link then gets its default capsule).
+        geometry: every collision element (meshes and primitives) as Pinocchio + coal read them
+            (:mod:`bracekit.geometry.collision`); with a mesh among them the clearance is coal's.
     """
 
     model: pin.Model
@@ -251,6 +254,7 @@ class Robot:
     stiffness: Array
     off_chain: frozenset[str] = frozenset()
     collisions: tuple[Capsule, ...] = ()
+    geometry: tuple[CollisionElement, ...] = ()
     _tip_id: int = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -280,6 +284,7 @@ class Robot:
         source: str | os.PathLike[str],
         tip: str,
         stiffness: float | Sequence[float] | ArrayLike = 170.0,
+        package_dirs: Sequence[str | os.PathLike[str]] = (),
     ) -> Robot:
         """Load a robot from a URDF file path or an XML string.
 
@@ -289,6 +294,8 @@ class Robot:
             tip: name of the end-effector frame {e} (a link or a fixed joint of the URDF).
                 Continuous joints become revolute joints with limits ±inf: q holds their angles.
             stiffness: one joint stiffness for all joints or one per joint of the chain, N·m/rad.
+            package_dirs: folders searched for the collision meshes' ``package://`` paths (then
+                ``ROS_PACKAGE_PATH``; a file's own folder for relative paths).
 
         Raises:
             ModelError: the file is missing or not URDF, or a joint of the chain is not a 1-DoF revolute or
@@ -316,8 +323,12 @@ class Robot:
             raise ModelError(f"no joint moves the tip frame {show(tip)}; choose a frame on a moving link")
         _check_joints(model)
         k = _as_stiffness(stiffness, tuple(model.names[1:]))
-        collisions = collision_capsules(_urdf_text(source), model)
-        return cls(model=model, tip=tip, stiffness=k, off_chain=off_chain, collisions=collisions)
+        text = _urdf_text(source)
+        collisions = collision_capsules(text, model)
+        here = [] if isinstance(source, str) and source.lstrip().startswith("<") else [Path(source).parent]
+        geometry = read_collision_geometry(model, text, [*package_dirs, *here])
+        collisions += mesh_capsules(geometry)  # the meshes' capsule fits, for pictures
+        return cls(model=model, tip=tip, stiffness=k, off_chain=off_chain, collisions=collisions, geometry=geometry)
 
     # --- names and sizes -------------------------------------------------------------------------
     @property
@@ -441,13 +452,25 @@ class Robot:
             parent = model.frames[fid]
             model.addFrame(pin.Frame(name, parent.parentJoint, fid, parent.placement * local, pin.FrameType.OP_FRAME))
         return Robot(
-            model=model, tip=self.tip, stiffness=self.stiffness, off_chain=self.off_chain, collisions=self.collisions
+            model=model,
+            tip=self.tip,
+            stiffness=self.stiffness,
+            off_chain=self.off_chain,
+            collisions=self.collisions,
+            geometry=self.geometry,
         )
 
     def with_stiffness(self, stiffness: float | Sequence[float] | ArrayLike) -> Robot:
         """A copy of this robot with other joint stiffnesses (N·m/rad)."""
         k = _as_stiffness(stiffness, self.joint_names)
-        return Robot(model=self.model, tip=self.tip, stiffness=k, off_chain=self.off_chain, collisions=self.collisions)
+        return Robot(
+            model=self.model,
+            tip=self.tip,
+            stiffness=k,
+            off_chain=self.off_chain,
+            collisions=self.collisions,
+            geometry=self.geometry,
+        )
 
     def link_capsules(self, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[Capsule, ...]:
         """Each moving link as capsules in its joint's frame: the URDF's collision geometry or the default capsule.

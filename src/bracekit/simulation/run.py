@@ -17,6 +17,7 @@ from bracekit.compliance.measures import theta_z
 from bracekit.compliance.preloaded import check_run_model, simulated_model
 from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
 from bracekit.kinematics import BracedState
+from bracekit.kinematics.clearance import geometry_of
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
 from bracekit.simulation.holding import (
     holding_measures,
@@ -78,6 +79,7 @@ def _summaries(result: RunResult) -> None:
             "compliance_model": model,
             "gradient": result.gradient,
             "units": "SI: C_i in m/N, lengths in m, angles in rad",
+            "geometry": geometry_of(sc.braced),  # what the link clearance is computed from
             "strategies": strategies,
         }
         free = strategies.get("free_space_min_norm")

@@ -20,6 +20,7 @@ from bracekit._linalg import show
 from bracekit.compliance.preloaded import RUN_MODELS
 from bracekit.contact import REGISTRY, Brace, Surface, contact_type
 from bracekit.errors import BracekitError, FrameNotFoundError, InputError, ScenarioError
+from bracekit.geometry.pad import brace_point
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import MODELS, load_model
@@ -118,7 +119,7 @@ def parse_scenario(
             "loads",
         ),
     )
-    robot_t = top.table("robot", ("model", "urdf", "tip", "stiffness", "gravity"))
+    robot_t = top.table("robot", ("model", "urdf", "tip", "stiffness", "gravity", "package_dirs"))
     robot = _robot(robot_t, base)
     brace_ts = _brace_tables(top)
     several = len(brace_ts) > 1
@@ -275,7 +276,11 @@ def _robot(t: _Table, base: Path) -> Robot:
             if tip is None:
                 raise ScenarioError("'robot.tip' is needed with 'robot.urdf': name the end-effector frame")
             urdf = Path(t.string("urdf"))
-            robot = Robot.from_urdf(urdf if urdf.is_absolute() else base / urdf, tip=tip)
+            dirs = t.raw("package_dirs", [])  # where the collision meshes' package:// paths are found
+            if not (isinstance(dirs, list) and all(isinstance(d, str) and d for d in dirs)):
+                raise ScenarioError(f"'{t.key('package_dirs')}' must be a list of folders (strings), got {show(dirs)}")
+            dirs = [base / Path(d) for d in dirs]
+            robot = Robot.from_urdf(urdf if urdf.is_absolute() else base / urdf, tip=tip, package_dirs=dirs)
     except FrameNotFoundError as exc:
         raise ScenarioError(f"'robot.tip': {exc}") from exc
     except BracekitError as exc:
@@ -290,6 +295,9 @@ BRACE_KEYS = (
     "frame",
     "link",
     "offset",
+    "surface",
+    "snap",
+    "pad_radius",
     "pad_axis",
     "contact",
     "point",
@@ -340,12 +348,23 @@ def _brace(t: _Table, robot: Robot, default_frame: str = "brace") -> tuple[Robot
                 f"'{t.key('frame')}' = {show(frame)} is already a frame of the robot; name the new brace point "
                 "otherwise"
             )
+        try:  # a point on the link's surface (bracekit.geometry.pad) or the offset as given
+            offset, normal = brace_point(
+                robot,
+                t.string("link"),
+                t.vector("offset", 3) if t.has("offset") else None,
+                t.raw("surface", None),
+                t.vector("snap", 3) if t.has("snap") else None,
+            )
+        except BracekitError as exc:
+            raise ScenarioError(f"'{t.key('surface' if t.has('surface') else 'link')}': {exc}") from exc
         rotation = None
-        pad_axis = t.has("pad_axis")
+        pad_axis = t.has("pad_axis") or normal is not None
         if pad_axis:
-            rotation = rotation_with_z(t.vector("pad_axis", 3), f"'{t.key('pad_axis')}' (link axes)", ScenarioError)
+            axis = t.vector("pad_axis", 3) if t.has("pad_axis") or normal is None else normal
+            rotation = rotation_with_z(axis, f"'{t.key('pad_axis')}' (link axes)", ScenarioError)
         try:
-            robot = robot.with_point_frame(frame, t.string("link"), t.vector("offset", 3, [0.0, 0.0, 0.0]), rotation)
+            robot = robot.with_point_frame(frame, t.string("link"), offset, rotation)
         except BracekitError as exc:
             raise ScenarioError(f"'{t.key('link')}': {exc}") from exc
     else:
@@ -373,13 +392,15 @@ def _brace(t: _Table, robot: Robot, default_frame: str = "brace") -> tuple[Robot
             if t.has("environment_stiffness")
             else None,
             pad_axis=pad_axis,
+            pad_radius=t.number("pad_radius", 0.02) if t.has("pad_radius") else 0.02,
         )
         BracedRobot(robot, brace)  # the checks of one brace (frame, link), with this table's key
         return robot, brace
     except ScenarioError:
         raise
     except BracekitError as exc:
-        named = [k for k in ("surface_radius", "region_radius", "environment_stiffness", "contact") if k in str(exc)]
+        keys = ("surface_radius", "region_radius", "environment_stiffness", "contact", "pad_radius")
+        named = [k for k in keys if k in str(exc)]
         key = named[0] if named else ("link" if t.has("link") else "frame")
         raise ScenarioError(f"'{t.key(key)}': {exc}") from exc
 
