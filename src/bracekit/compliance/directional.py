@@ -38,6 +38,7 @@ __all__ = [
     "CW_LABEL",
     "DirectionalCompliances",
     "directional_compliances",
+    "directional_keys",
     "translational_compliance",
     "translational_direction",
 ]
@@ -104,3 +105,22 @@ def directional_compliances(c: ArrayLike, beta_x: ArrayLike, beta_w: ArrayLike |
         c_t=translational_compliance(c, beta) if translational else None,
         c_w=None if beta_w is None else directional_compliance(c, beta, beta_w),
     )
+
+
+def directional_keys(
+    compliances: dict[str, Array | None], beta_x: ArrayLike, beta_w: ArrayLike | None = None
+) -> dict[str, object]:
+    """The report keys of the directional readings of each named compliance (None stays None).
+
+    ``ct_<model>`` (m/N; None if β_x rotates) and, with β_w, ``beta_w`` and ``Cw_<model>``; ``measures`` names them.
+    """
+    out: dict[str, object] = {}
+    for name, c in compliances.items():
+        r = None if c is None else directional_compliances(c, beta_x, beta_w)
+        out[f"ct_{name}"] = None if r is None else r.c_t
+        if beta_w is not None:
+            out[f"Cw_{name}"] = None if r is None else r.c_w
+    if beta_w is not None:
+        out["beta_w"] = unit6(beta_w, "beta_w")
+    out["measures"] = {"Ci": CI_LABEL, "ct": CT_LABEL, **({"Cw": CW_LABEL} if beta_w is not None else {})}
+    return out

@@ -26,6 +26,8 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, finite_math, show
+from bracekit.compliance.first_order import end_effector_compliance
+from bracekit.compliance.preloaded import preloaded_compliance
 from bracekit.errors import InputError, ModelError, SingularityError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
@@ -35,7 +37,7 @@ from bracekit.spatial import twist_rotate
 
 Array = NDArray[np.float64]
 
-__all__ = ["ToolStiffness", "frame_axes", "stacked_tangent_stiffness", "tool_stiffness"]
+__all__ = ["ToolStiffness", "frame_axes", "stacked_tangent_stiffness", "stiffness_report", "tool_stiffness"]
 
 #: σ_min/σ_max of J_e N (the tool motions the rigid braces allow) at or below which a tool direction is locked.
 LOCKED_RATIO = 1e-10
@@ -273,4 +275,32 @@ def _bordered_stiffness(state: MultiBracedState, k_t: Array) -> Array:
         rhs = np.zeros((n + c + 6, 6))
         rhs[n + c :] = -np.eye(6)
         out: Array = np.linalg.solve(kkt, rhs)[n + c :]
+    return out
+
+
+def stiffness_report(
+    state: BracedState | MultiBracedState,
+    frame: str | ArrayLike = "world",
+    *,
+    preload: float | Sequence[float] = 0.0,
+    gravity: bool = False,
+) -> dict[str, Any]:
+    """What ``bracekit evaluate --stiffness-out`` writes: the tool stiffness, first order and preloaded.
+
+    ``first_order`` and, with a preload or gravity, ``preloaded`` (each :meth:`ToolStiffness.as_dict`), with
+    ``inverse_check`` = ‖K_x C − I‖_F / √6 against the compliance it must invert (the constrained C_e; the
+    preloaded compliance for one brace).
+    """
+    first = tool_stiffness(state, frame)
+    t = twist_rotate(first.R)
+    out: dict[str, Any] = {"first_order": first.as_dict()}
+    c_e = t.T @ end_effector_compliance(state, "constrained") @ t
+    out["first_order"]["inverse_check"] = float(np.linalg.norm(first.K @ c_e - np.eye(6)) / np.sqrt(6.0))
+    if gravity or any(_preloads(preload, len(state.braced.braces))):
+        loaded = tool_stiffness(state, frame, preload=preload, gravity=gravity)
+        out["preloaded"] = loaded.as_dict()
+        if isinstance(state, BracedState):
+            p = _preloads(preload, 1)[0]
+            c = t.T @ preloaded_compliance(state.braced, state.q, p, gravity=gravity) @ t
+            out["preloaded"]["inverse_check"] = float(np.linalg.norm(loaded.K @ c - np.eye(6)) / np.sqrt(6.0))
     return out
