@@ -75,3 +75,40 @@ def test_c_t_is_what_a_static_probe_measures_on_the_paper_robot() -> None:
     r = directional_compliances(c, np.concatenate([beta, np.zeros(3)]))
     assert r.c_t == pytest.approx(probe, rel=1e-6)
     assert abs(r.Ci - probe) > 1e-3 * probe  # the index is not the probe's number
+
+
+@pytest.mark.parametrize("scenario", ["paper", "panda"])
+def test_c_t_is_what_mujoco_measures_along_beta_x(scenario: str) -> None:
+    """MuJoCo's settled tool deflection along β per newton pushed along β (central differences, ±0.1 N) is c_t:
+    the first-order c_t to 1 %, the preloaded one (the preload's geometric stiffness) to 0.1 %; C_i is not."""
+    mujoco_check = pytest.importorskip("bracekit.validate.mujoco_check")
+    from bracekit.compliance import preloaded_compliance
+
+    sc = load_scenario(scenario)
+    braced = sc.braced
+    q = solve_start(braced, sc.task.position(0.0), sc.guess).q
+    robot, surface = braced.robot, braced.brace.surface
+    beta6 = sc.beta_x(0.0)
+    beta = beta6[:3] / np.linalg.norm(beta6[:3])
+    force, preload = 0.1, 5.0
+    along = []
+    for sign in (1.0, -1.0):
+        res = mujoco_check.mujoco_static_deflection(
+            robot.model,
+            q,
+            robot.stiffness,
+            braced.brace_id,
+            robot.tip_id,
+            surface.point,
+            surface.normal,
+            np.concatenate([sign * force * beta, np.zeros(3)]),
+            preload=preload,
+        )
+        assert res.converged and not res.contact_opened
+        along.append(float(beta @ res.deflection[:3]))
+    measured = (along[0] - along[1]) / (2 * force)
+    first = directional_compliances(end_effector_compliance(braced.state(q)), beta6)
+    loaded = directional_compliances(preloaded_compliance(braced, q, preload), beta6)
+    assert first.c_t == pytest.approx(measured, rel=1e-2)
+    assert loaded.c_t == pytest.approx(measured, rel=1e-3)
+    assert abs(first.Ci - measured) > 0.5 * measured  # the index is several times the measured compliance
