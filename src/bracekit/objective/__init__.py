@@ -17,17 +17,17 @@ from bracekit.objective.base import (
 )
 
 # isort: off
-# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d), then further terms (joint limits,
-# joint-limit barrier, brace margin, link clearance, translational compliance c_t): the order of the sum g
+# registration, in the order of eq:objective (α1 k, α2 C_i with c_t beside it, α3 θ_z, α4 d), then further terms
+# (joint limits, joint-limit barrier, brace margin, link clearance): the order of the sum g
 from bracekit.objective.condition_number import ConditionNumber
 from bracekit.objective.compliance_index import ComplianceIndex
+from bracekit.objective.translational_compliance import TranslationalCompliance
 from bracekit.objective.brace_angle import BraceAngle
 from bracekit.objective.region_barrier import RegionBarrier
 from bracekit.objective.joint_limits import JointLimits
 from bracekit.objective.joint_limit_barrier import JointLimitBarrier
 from bracekit.objective.brace_margin import BraceMargin
 from bracekit.objective.clearance import ClearanceBarrier
-from bracekit.objective.translational_compliance import TranslationalCompliance
 
 # isort: on
 

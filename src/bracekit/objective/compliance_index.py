@@ -8,19 +8,19 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from bracekit._linalg import as_array, cross3, cross3_list
+from bracekit._linalg import as_array, cross3_list
 from bracekit.compliance.first_order import (
     ComplianceModel,
     braced_c1_unchecked,
     c1_unchecked,
     check_finite,
     check_model,
-    constraint_gain,
     end_effector_compliance,
     unit6,
 )
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.objective.base import Array, Term, TermContext, contract, hessians, register_term
+from bracekit.objective.base import Array, Term, TermContext, hessians, register_term
+from bracekit.objective.compliance_gradient import bilinear_gradient
 from bracekit.objective.fused import FusedGradient, FusedKinematics
 
 
@@ -49,41 +49,19 @@ class ComplianceIndex(Term):
 
     @np.errstate(all="ignore")  # an overflow raises NumericalError below (check_finite), not a RuntimeWarning
     def gradient(self, state: BracedState) -> Array:
-        """∂value/∂q (n,), exact through the state's kinematic Hessians."""
-        d_je, d_jb = hessians(state)
-        n1 = state.n1
+        """∂value/∂q (n,), exact through the state's kinematic Hessians: (C_eβ)ᵀ (∂C_e/∂q) β / C_i."""
+        hessians(state)  # InputError before any work when the state has none
         beta = self.beta_x
         c1 = c1_unchecked(state)
         c1t = braced_c1_unchecked(state, self.model, c1)
         s1 = state.S_t1
         # chain 2: S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ with J_e2 = S_t2 J2 = J_e[:, n1:]
-        j_e2 = state.J_e[:, n1:]
-        k2 = state.K[n1:]
+        j_e2, k2 = state.J_e[:, state.n1 :], state.K[state.n1 :]
         v = beta @ (s1 @ c1t @ s1.T + (j_e2 / k2) @ j_e2.T)
         ci = float(check_finite(np.linalg.norm(v), "the compliance index"))
         if ci == 0.0:
             return np.zeros(state.q.size)
-        # chain 2: β ⊗ (J_e2ᵀ v / k2) + v ⊗ (J_e2ᵀ β / k2) against ∂J_e, columns n1…
-        u = np.zeros((6, state.q.size))
-        u[:, n1:] = np.outer(beta, (j_e2.T @ v) / k2) + np.outer(v, (j_e2.T @ beta) / k2)
-        grad = contract(d_je, u)
-        # S_t1 depends on b − e
-        b1, v1 = s1.T @ beta, s1.T @ v
-        w = cross3((c1t @ v1)[3:], beta[:3]) + cross3((c1t @ b1)[3:], v[:3])
-        grad += (state.J_b[:3] - state.J_e[:3]).T @ w
-        # C̃1 through C1: β̂ᵀ dC1 v̂ with the model's (constant or compliance-weighted) projector
-        if self.model == "projection":
-            t = np.eye(6) - state.P
-            bh, vh = t @ b1, t @ v1
-        else:
-            x = state.X
-            tt = np.eye(6) - x @ constraint_gain(state, c1) @ x.T @ c1  # (I − P_C)ᵀ
-            bh, vh = tt @ b1, tt @ v1
-        j1, k1 = state.J1, state.K[:n1]
-        u = np.zeros((6, state.q.size))
-        u[:, :n1] = np.outer(bh, (j1.T @ vh) / k1) + np.outer(vh, (j1.T @ bh) / k1)
-        grad += contract(d_jb, u)
-        return check_finite(grad / ci, "the gradient of the compliance index")
+        return check_finite(bilinear_gradient(state, self.model, v, beta) / ci, "the gradient of the compliance index")
 
     def fused_value(self, kin: FusedKinematics) -> float:
         """The value from the fused step's kinematics (the same as :meth:`value`)."""
