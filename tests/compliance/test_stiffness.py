@@ -181,3 +181,15 @@ def test_a_tool_locked_by_the_braces_or_an_unstable_load_is_refused(paper_start)
         tool_stiffness(BracedRobot(robot, [braced.brace, finger]).stacked_state(q))
     with pytest.raises(UnstableEquilibriumError):
         tool_stiffness(braced.state(q), preload=1e4)
+
+
+def test_several_soft_braces_are_the_inverse_of_the_stacked_compliance() -> None:
+    braced, q = two_braces(0.0)
+    soft = BracedRobot(
+        braced.robot,
+        [dataclasses.replace(b, environment_stiffness=k) for b, k in zip(braced.braces, (3e3, 1e4), strict=True)],
+    )
+    st = soft.stacked_state(q)
+    k = tool_stiffness(st)
+    assert rel(k.K @ end_effector_compliance(st), np.eye(6)) < 1e-9
+    assert rel(np.linalg.inv(k.K), end_effector_compliance(braced.stacked_state(q))) > 1e-3  # softer than rigid
