@@ -228,6 +228,9 @@ def test_ellipses_are_the_projected_compliance_ellipsoids(paper_run) -> None:
 
 
 def test_measures_figure_has_units_on_every_axis_one_shared_legend_and_the_runs_data(paper_run) -> None:
+    from bracekit.compliance.first_order import end_effector_compliance
+    from bracekit.compliance.preloaded import simulated_model
+
     fig = figures.measures_figure(paper_run)
     runs = paper_run.trajectories[paper_run.compliance_model]
     assert len(fig.axes) == 4
@@ -237,11 +240,25 @@ def test_measures_figure_has_units_on_every_axis_one_shared_legend_and_the_runs_
     assert all(ax.get_legend() is None for ax in fig.axes) and len(fig.legends) == 1
     assert [t.get_text() for t in fig.legends[0].get_texts()] == [figures._label(n) for n in runs]
     for ax, key in zip(fig.axes, ("Ci", "prod_sigma_t", "prod_sigma_o", "k"), strict=True):
-        lines = ax.get_lines()
+        lines = [line for line in ax.get_lines() if line.get_linestyle() == "-"]
         assert len(lines) == len(runs)
         for line, tr in zip(lines, runs.values(), strict=True):
             want = tr.measures[tr.ci_key(paper_run.compliance_model) if key == "Ci" else key]
             assert np.array_equal(line.get_ydata(), want) and np.array_equal(line.get_xdata(), tr.t)
+    # panel (a) also draws c_t = β_xᵀC_ttβ_x (dashed), from the run's compliance: checked at a few samples
+    assert "mixed units" in fig.axes[0].get_title() and "c_t" in fig.axes[0].get_title()
+    dashed = [line for line in fig.axes[0].get_lines() if line.get_linestyle() == "--"]
+    assert len(dashed) == len(runs)
+    sc = paper_run.scenario
+    model = simulated_model(paper_run.compliance_model)
+    for line, tr in zip(dashed, runs.values(), strict=True):
+        assert np.array_equal(line.get_xdata(), tr.t)
+        for i in (0, tr.t.size // 3, tr.t.size - 1):
+            st = sc.braced.state(tr.q[i])
+            c = end_effector_compliance(st, model) if tr.braced else bk.free_space_compliance(st)
+            r = sc.beta_x(float(tr.t[i]))[:3]
+            assert line.get_ydata()[i] == pytest.approx(r @ c[:3, :3] @ r / (r @ r), rel=1e-12)
+            assert line.get_ydata()[i] < tr.measures[tr.ci_key(paper_run.compliance_model)][i]
     assert _texts_overlap(fig) == []
 
 

@@ -25,6 +25,7 @@ def test_paper_scenario_matches_the_paper_setup() -> None:
     assert sc.weights == {
         "k": 0.5,
         "Ci": 100.0,
+        "ct": 0.0,
         "theta_z": 0.6,
         "d": 0.01,
         "joint_limits": 0.0,

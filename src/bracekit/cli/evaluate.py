@@ -47,6 +47,20 @@ def add_parser(sub: Any) -> None:
     ev.add_argument(
         "--beta-x", help="unit twist for the compliance index, 6 numbers (default: along the (first brace's) normal)"
     )
+    ev.add_argument(
+        "--beta-w",
+        help="a wrench direction FX,FY,FZ,MX,MY,MZ: also report β_xᵀ C β_w, the deflection along β_x per unit wrench",
+    )
+    ev.add_argument(
+        "--stiffness-out",
+        type=Path,
+        help="write the tool's 6×6 stiffness (first order, and preloaded with --preload/--gravity) to this JSON file",
+    )
+    ev.add_argument(
+        "--stiffness-frame",
+        default="world",
+        help="axes of the exported stiffness: world, tool, or a rotation R11,...,R33 (row-major; default world)",
+    )
     ev.add_argument("--gravity", action="store_true", help="statics with gravity (URDF masses)")
     ev.add_argument("--preload", default="0", help="normal force the brace presses with, N (default 0)")
     ev.add_argument("--friction", help="friction coefficient μ of the contact (default: frictionless)")
@@ -80,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"give one --normal for the one brace, got {len(normals)}")
     q = joint_values(args, robot)
     beta = None if args.beta_x is None else floats(args.beta_x, "--beta-x")
+    beta_w = None if args.beta_w is None else floats(args.beta_w, "--beta-w")
+    frame = _stiffness_frame(args)
     holding = _holding(args)
     if len(frames) > 1 and holding is not None:
         raise InputError(
@@ -87,7 +103,17 @@ def run(args: argparse.Namespace) -> int:
         )
     if len(frames) == 1:
         normal = floats(normals[0], "--normal")
-        report = evaluate(robot, frames[0], q, normal=normal, contact=args.contact, beta_x=beta, holding=holding)
+        report = evaluate(
+            robot,
+            frames[0],
+            q,
+            normal=normal,
+            contact=args.contact,
+            beta_x=beta,
+            holding=holding,
+            beta_w=beta_w,
+            stiffness_frame=frame,
+        )
     else:
         vectors = [floats(n, "--normal") for n in normals]
         if any(v.size != 3 for v in vectors):
@@ -99,7 +125,14 @@ def run(args: argparse.Namespace) -> int:
             normal=np.array(vectors) if len(vectors) > 1 else vectors[0],
             contact=args.contact,
             beta_x=beta,
+            beta_w=beta_w,
+            stiffness_frame=frame,
         )
+    if args.stiffness_out is not None:
+        from bracekit._version import __version__
+        from bracekit.report.stiffness_file import write_stiffness_json
+
+        write_stiffness_json(args.stiffness_out, report.pop("tool_stiffness"), __version__)
     if args.json:
         from bracekit.report.output import to_json
 
@@ -107,6 +140,18 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(_evaluate_text(report) if len(frames) == 1 else _evaluate_braces_text(report))
     return 0
+
+
+def _stiffness_frame(args: argparse.Namespace) -> Any:
+    """The axes of --stiffness-frame ("world", "tool" or a 3×3 rotation) when --stiffness-out is given, else None."""
+    if args.stiffness_out is None:
+        return None
+    if args.stiffness_frame in ("world", "tool"):
+        return args.stiffness_frame
+    values = floats(args.stiffness_frame, "--stiffness-frame")
+    if values.size != 9:
+        raise InputError("--stiffness-frame takes world, tool or 9 numbers R11,...,R33 (a rotation, row-major)")
+    return values.reshape(3, 3)
 
 
 def _brace_frames(args: argparse.Namespace, robot: Any, own_brace: str | None) -> tuple[Any, list[str]]:
@@ -215,13 +260,41 @@ def _evaluate_braces_text(r: dict[str, Any]) -> str:
     lines += _ellipsoid_lines(r, (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained")))
     lines += [
         "",
-        f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
+        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
         f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
         f"({pct(r['Ci_reduction_constrained'])} less); no projection model: {r['projection_reason']}",
-        f"  largest translational compliance: free {1e3 * r['max_translational_free']:.4f} mm/N → braced "
-        f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
+        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
+        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
+        "(constrained)",
+        *_directional_text(r),
     ]
     return "\n".join(lines)
+
+
+def _directional_text(r: dict[str, Any]) -> list[str]:
+    """The lines naming what each directional number measures: c_t (m/N) and β_xᵀCβ_w beside C_i."""
+
+    def mm(key: str) -> str:
+        return "–" if r.get(key) is None else f"{1e3 * r[key]:.4f} mm/N"
+
+    models = [m for m in ("free", "constrained", "projection") if r.get(f"ct_{m}") is not None]
+    lines = [
+        "  (C_i = ‖β_xᵀC_e‖ adds the m/N force columns and the 1/N moment columns: mixed units, the paper's index)"
+    ]
+    if models:
+        lines.append(
+            "translational compliance along β_x, c_t = β_xᵀC_ttβ_x (displacement per newton along β_x): "
+            + ", ".join(f"{m} {mm(f'ct_{m}')}" for m in models)
+            + (f", preloaded {mm('ct_preloaded')}" if r.get("ct_preloaded") is not None else "")
+        )
+    if "beta_w" in r:
+        lines.append(
+            f"β_xᵀCβ_w, along β_x per unit wrench along β_w = {np.round(r['beta_w'], 3).tolist()}: "
+            + ", ".join(
+                f"{m} {mm(f'Cw_{m}')}" for m in ("free", "constrained", "projection") if r.get(f"Cw_{m}") is not None
+            )
+        )
+    return lines
 
 
 def _evaluate_text(r: dict[str, Any]) -> str:
@@ -252,12 +325,14 @@ def _evaluate_text(r: dict[str, Any]) -> str:
     )
     lines += [
         "",
-        f"compliance index C_i along β_x = {np.round(r['beta_x'], 3).tolist()}:",
+        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
         f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
         f"({pct(r['Ci_reduction_constrained'])} less), braced projection {1e3 * r['Ci_projection']:.4f} mm/N "
         f"({pct(r['Ci_reduction_projection'])} less)",
-        f"  largest translational compliance: free {1e3 * r['max_translational_free']:.4f} mm/N → braced "
-        f"{1e3 * r['max_translational_constrained']:.4f} mm/N (constrained)",
+        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
+        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
+        "(constrained)",
+        *_directional_text(r),
     ]
     if "tau0" in r:
         lines += ["", _statics_text(r)]

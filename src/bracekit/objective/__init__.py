@@ -17,10 +17,11 @@ from bracekit.objective.base import (
 )
 
 # isort: off
-# registration, in the order of eq:objective (α1 k, α2 C_i, α3 θ_z, α4 d), then further terms (joint limits,
-# joint-limit barrier, brace margin, link clearance): the order of the sum g
+# registration, in the order of eq:objective (α1 k, α2 C_i with c_t beside it, α3 θ_z, α4 d), then further terms
+# (joint limits, joint-limit barrier, brace margin, link clearance): the order of the sum g
 from bracekit.objective.condition_number import ConditionNumber
 from bracekit.objective.compliance_index import ComplianceIndex
+from bracekit.objective.translational_compliance import TranslationalCompliance
 from bracekit.objective.brace_angle import BraceAngle
 from bracekit.objective.region_barrier import RegionBarrier
 from bracekit.objective.joint_limits import JointLimits
@@ -43,6 +44,7 @@ __all__ = [
     "RegionBarrier",
     "Term",
     "TermContext",
+    "TranslationalCompliance",
     "braced_gradient",
     "central_difference",
     "finite_difference_gradient",

@@ -8,18 +8,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from bracekit._linalg import as_array, cross3, cross3_list
+from bracekit._linalg import as_array, cross3_list
 from bracekit.compliance.first_order import (
     ComplianceModel,
-    braced_c1_unchecked,
-    c1_unchecked,
     check_finite,
     check_model,
     end_effector_compliance,
     unit6,
 )
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.objective.base import Array, Term, TermContext, contract, hessians, register_term
+from bracekit.objective.base import Array, Term, TermContext, hessians, register_term
+from bracekit.objective.compliance_gradient import bilinear_gradient
 from bracekit.objective.fused import FusedGradient, FusedKinematics
 
 
@@ -47,77 +46,19 @@ class ComplianceIndex(Term):
         return float(np.linalg.norm(self.beta_x @ end_effector_compliance(state, self.model)))
 
     def gradient(self, state: BracedState) -> Array:
-        """∂value/∂q (n,), exact through the state's kinematic Hessians (any number of braces; see below).
+        """∂value/∂q (n,), exact through the state's kinematic Hessians: (C_eβ)ᵀ (∂C_e/∂q) β / C_i.
 
-        ``constrained``: with C_e = J_e K⁻¹ J_eᵀ − B M⁻¹ Bᵀ, B = J_e K⁻¹ Gᵀ, M = G K⁻¹ Gᵀ + D over the independent
-        rows of G = [X_iᵀ J_b_i] (constrained_compliance), v = C_e β, p = M⁻¹ Bᵀ β, r = M⁻¹ Bᵀ v and the
-        constrained joint deflections β̃ = K⁻¹ (J_eᵀ β − Gᵀ p), ṽ = K⁻¹ (J_eᵀ v − Gᵀ r):
-
-            ∂C_i/∂q_k = [Σ (v β̃ᵀ + β ṽᵀ) ∘ ∂J_e/∂q_k − Σ_i Σ X_i (p_i ṽᵀ + r_i β̃ᵀ) ∘ ∂J_b_i/∂q_k] / C_i,
-
-        p_i, r_i the rows of brace i (D and the row choice are constant). ``projection``: one brace, through the
-        chain split (eq:C1wave_detail).
+        Any number of braces for ``constrained``; ``projection`` through the one brace's chain split
+        (:func:`~bracekit.objective.compliance_gradient.bilinear_gradient`).
         """
-        if self.model == "projection":
-            return self._projection_gradient(state)
-        d_je, d_jb = hessians(state)
-        beta, k = self.beta_x, state.K
-        con = state.constraint
-        rows = list(con.independent)
-        with np.errstate(all="ignore"):  # an overflow raises NumericalError below (check_finite)
-            c_e = end_effector_compliance(state, "constrained")
-            v = c_e @ beta
-            ci = float(check_finite(np.linalg.norm(v), "the compliance index"))
-            if ci == 0.0:
-                return np.zeros(state.q.size)
-            je_t = state.J_e.T
-            g = con.G[rows]
-            b_mat = (state.J_e / k) @ g.T
-            m = (g / k) @ g.T + np.diag(con.compliance[rows])
-            p, r = np.linalg.solve(m, b_mat.T @ np.column_stack([beta, v])).T if rows else (np.zeros(0), np.zeros(0))
-            bt = (je_t @ beta - g.T @ p) / k
-            vt = (je_t @ v - g.T @ r) / k
-            grad = contract(d_je, np.outer(v, bt) + np.outer(beta, vt))
-            u_g = -(np.outer(p, vt) + np.outer(r, bt))  # against dG, one row per independent row of G
-            for i, (x, dj) in enumerate(zip(state.X_i, d_jb, strict=True)):
-                mine = [j for j, row in enumerate(rows) if con.rows[row][0] == i]
-                if mine:
-                    cols = [con.rows[rows[j]][1] for j in mine]
-                    grad += contract(dj, x[:, cols] @ u_g[mine])
-            return check_finite(grad / ci, "the gradient of the compliance index")
-
-    @np.errstate(all="ignore")  # an overflow raises NumericalError below (check_finite), not a RuntimeWarning
-    def _projection_gradient(self, state: BracedState) -> Array:
-        """∂C_i/∂q of the projection model (one brace: the chain split), eq:C1wave_detail."""
-        d_je, (d_jb,) = hessians(state)
-        n1 = state.split.n1
+        hessians(state)  # InputError before any work when the state has none
         beta = self.beta_x
-        c1 = c1_unchecked(state)
-        c1t = braced_c1_unchecked(state, self.model, c1)
-        s1 = state.split.S_t1
-        # chain 2: S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ with J_e2 = S_t2 J2 = J_e[:, n1:]
-        j_e2 = state.J_e[:, n1:]
-        k2 = state.K[n1:]
-        v = beta @ (s1 @ c1t @ s1.T + (j_e2 / k2) @ j_e2.T)
-        ci = float(check_finite(np.linalg.norm(v), "the compliance index"))
+        with np.errstate(all="ignore"):  # an overflow raises NumericalError below (check_finite)
+            v = end_effector_compliance(state, self.model) @ beta
+            ci = float(check_finite(np.linalg.norm(v), "the compliance index"))
         if ci == 0.0:
             return np.zeros(state.q.size)
-        # chain 2: β ⊗ (J_e2ᵀ v / k2) + v ⊗ (J_e2ᵀ β / k2) against ∂J_e, columns n1…
-        u = np.zeros((6, state.q.size))
-        u[:, n1:] = np.outer(beta, (j_e2.T @ v) / k2) + np.outer(v, (j_e2.T @ beta) / k2)
-        grad = contract(d_je, u)
-        # S_t1 depends on b − e
-        b1, v1 = s1.T @ beta, s1.T @ v
-        w = cross3((c1t @ v1)[3:], beta[:3]) + cross3((c1t @ b1)[3:], v[:3])
-        grad += (state.split.J_b[:3] - state.J_e[:3]).T @ w
-        # C̃1 through C1: β̂ᵀ dC1 v̂ with the constant projector I − P
-        t = np.eye(6) - state.split.P
-        bh, vh = t @ b1, t @ v1
-        j1, k1 = state.split.J1, state.K[:n1]
-        u = np.zeros((6, state.q.size))
-        u[:, :n1] = np.outer(bh, (j1.T @ vh) / k1) + np.outer(vh, (j1.T @ bh) / k1)
-        grad += contract(d_jb, u)
-        return check_finite(grad / ci, "the gradient of the compliance index")
+        return check_finite(bilinear_gradient(state, self.model, v, beta) / ci, "the gradient of the compliance index")
 
     def fused_value(self, kin: FusedKinematics) -> float:
         """The value from the fused step's kinematics (the same as :meth:`value`)."""

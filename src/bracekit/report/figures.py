@@ -26,8 +26,10 @@ from matplotlib.ticker import MaxNLocator
 from numpy.typing import NDArray
 from PIL import Image
 
+from bracekit.compliance.directional import CI_LABEL, CT_LABEL
 from bracekit.compliance.first_order import compliance_ellipsoids
 from bracekit.compliance.preloaded import run_compliance
+from bracekit.errors import NumericalError
 from bracekit.report import forked
 from bracekit.report.gif import quantize, render_frames, save_gif
 from bracekit.report.projection import OrthoCamera, ellipsoid_outline
@@ -483,6 +485,26 @@ def ellipsoid_figure(result: RunResult, points: int = 6) -> Figure:
 
 
 # --- Fig. 4 and the capacity figure: measures along the task ---------------------------------------------
+def _ct_series(result: RunResult, tr: Any) -> Array | None:
+    """c_t = β_xᵀC_ttβ_x (m/N) along a run, with the run's own compliance as C_i's; None if β_x rotates.
+
+    A sample where the compliance cannot be computed is NaN (a visible gap in the curve).
+    """
+    sc = result.scenario
+    out = np.full(tr.t.size, np.nan)
+    for i, (t, q) in enumerate(zip(tr.t, tr.q, strict=True)):
+        beta = sc.beta_x(float(t))
+        if np.linalg.norm(beta[3:]) > 1e-12 * np.linalg.norm(beta):
+            return None
+        try:
+            c = _tip_compliance(result, _state(result, q), tr.braced)
+        except NumericalError:
+            continue
+        b = beta[:3] / np.linalg.norm(beta[:3])
+        out[i] = b @ c[:3, :3] @ b
+    return out
+
+
 def _curves(result: RunResult, panels: list[tuple[str, str, str]], title: str, margins: bool = False) -> Figure:
     """A 2×2 figure of measures over time: (key, panel title, y label with unit) per panel, one shared legend."""
     runs = _runs(result)
@@ -501,6 +523,9 @@ def _curves(result: RunResult, panels: list[tuple[str, str, str]], title: str, m
             if margin:
                 y = np.clip(y, 1e-2, 1e2)
             ax.plot(tr.t, y, color=COLORS.get(name), label=_label(name), lw=1.4)
+            ct = _ct_series(result, tr) if key == "Ci" else None
+            if ct is not None:
+                ax.plot(tr.t, ct, color=COLORS.get(name), lw=1.1, linestyle="--")
         if margins:
             ax.axhline(1.0, color="0.3", linestyle="--", linewidth=0.8)
             if margin:
@@ -537,11 +562,15 @@ def figure_measures(result: RunResult, path: Path) -> None:
 
 
 def measures_figure(result: RunResult) -> Figure:
-    """Fig. 4: C_i, Πσ_t, Πσ_o and k of J̃ along the task for every strategy (2×2 axes, one legend)."""
+    """Fig. 4: C_i, Πσ_t, Πσ_o and k of J̃ along the task for every strategy (2×2 axes, one legend).
+
+    Panel (a) draws the paper's index C_i (solid) and, for a translational β_x, the translational compliance
+    c_t along β_x (dashed, m/N) of the same compliance model.
+    """
     return _curves(
         result,
         [
-            ("Ci", "(a) compliance index C_i", "C_i [m/N]"),
+            ("Ci", f"(a) solid: {CI_LABEL};\ndashed: {CT_LABEL}", "C_i (mixed) and c_t [m/N]"),
             ("prod_sigma_t", "(b) Πσ_t of J̃ (rows 1–3, translational)", "Πσ_t [m³/rad³]"),
             ("prod_sigma_o", "(c) Πσ_o of J̃ (rows 4–6, rotational)", "Πσ_o [1] (rad/rad)"),
             ("k", "(d) Frobenius condition number k of J̃", "k [1]"),

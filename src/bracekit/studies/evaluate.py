@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, show
+from bracekit.compliance.directional import directional_compliances, directional_keys
 from bracekit.compliance.first_order import (
     compliance_ellipsoids,
     compliance_index,
@@ -21,6 +22,7 @@ from bracekit.compliance.first_order import (
 )
 from bracekit.compliance.measures import SingularValues, frobenius_condition, singular_value_measures, theta_z
 from bracekit.compliance.preloaded import preloaded_compliance
+from bracekit.compliance.stiffness import stiffness_report
 from bracekit.contact import Brace, ContactType, Surface, contact_type
 from bracekit.errors import ChainSingularWarning, ContactError, InputError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
@@ -89,6 +91,8 @@ def evaluate(
     contact: str | ContactType = "frictionless_point",
     beta_x: ArrayLike | None = None,
     holding: Holding | None = None,
+    beta_w: ArrayLike | None = None,
+    stiffness_frame: str | ArrayLike | None = None,
 ) -> dict[str, Any]:
     """The braced model at q with a surface through b of the given normal (world).
 
@@ -106,13 +110,27 @@ def evaluate(
     b, e, theta_z, the compliance index along β_x (default [n̂; 0]) in each model and the ellipsoids;
     J1_condition, J1_singular, braced_motions and A_rank (:func:`chain1_motions`). Where J1 is singular a
     ChainSingularWarning says that chain 1 realises fewer braced motions than A's columns suggest.
+    Beside C_i (the paper's index, mixed units) ``ct_<model>`` is the translational compliance along β_x (m/N,
+    None if β_x rotates) and, with a wrench direction `beta_w`, ``Cw_<model>`` = β_xᵀ C β_w; ``measures`` names
+    each. With `stiffness_frame` ("world", "tool" or a 3×3 rotation) ``tool_stiffness`` holds the tool stiffness
+    (:func:`~bracekit.compliance.stiffness.stiffness_report`, with the statics' preload and gravity).
     """
     if not isinstance(robot, Robot):
         raise InputError(f"evaluate needs a bracekit Robot, got {type(robot).__name__}")
     if not isinstance(brace_frame, str):
         frames = _frames(brace_frame)
         if len(frames) > 1:
-            return evaluate_braces(robot, frames, q, normal=normal, contact=contact, beta_x=beta_x, holding=holding)
+            return evaluate_braces(
+                robot,
+                frames,
+                q,
+                normal=normal,
+                contact=contact,
+                beta_x=beta_x,
+                holding=holding,
+                beta_w=beta_w,
+                stiffness_frame=stiffness_frame,
+            )
         brace_frame = frames[0]
         if np.shape(normal) == (1, 3):  # one normal per brace, for one brace
             normal = np.asarray(normal)[0]
@@ -188,9 +206,17 @@ def evaluate(
         "ellipsoid_constrained": _ellipsoids(c_con),
         "ellipsoid_projection": _ellipsoids(c_proj),
         "units": "m, rad, N, N·m; compliances in m/N, 1/N, rad/N, rad/(N·m)",
+        **directional_keys({"free": c_free, "constrained": c_con, "projection": c_proj}, beta, beta_w),
     }
     if holding is not None:
         out.update(_statics(braced, qa, holding, beta))
+    if stiffness_frame is not None:
+        out["tool_stiffness"] = stiffness_report(
+            st,
+            stiffness_frame,
+            preload=0.0 if holding is None else holding.preload,
+            gravity=holding is not None and holding.gravity,
+        )
     return out
 
 
@@ -250,6 +276,8 @@ def evaluate_braces(
     contact: str | ContactType | Sequence[str | ContactType] = "frictionless_point",
     beta_x: ArrayLike | None = None,
     holding: Holding | None = None,
+    beta_w: ArrayLike | None = None,
+    stiffness_frame: str | ArrayLike | None = None,
 ) -> dict[str, Any]:
     """Several braces at q: brace i touches a surface through its b_i with normal i (world).
 
@@ -264,7 +292,8 @@ def evaluate_braces(
     Ci_reduction_projection and ellipsoid_projection are None with ``projection_reason``. ``braces``: per brace
     frame, contact, normal, b, R_b, H, X, J_b; ``G`` (c×n), ``G_rows`` ([brace index from 0, column of X_i]
     per row), ``G_rank``, ``G_dependent_rows`` (indices of the rows of G left out: dependent or unloaded),
-    ``N`` (n×(n − rank G)) and ``braced_jacobian`` (J_e N).
+    ``N`` (n×(n − rank G)) and ``braced_jacobian`` (J_e N); ``ct_*``, ``Cw_*``, ``measures`` and
+    ``tool_stiffness`` as :func:`evaluate`.
 
     Raises InputError for statics (`holding`): one brace only for now.
     """
@@ -341,6 +370,8 @@ def evaluate_braces(
         "ellipsoid_constrained": _ellipsoids(c_con),
         "ellipsoid_projection": None,
         "units": "m, rad, N, N·m; compliances in m/N, 1/N, rad/N, rad/(N·m)",
+        **directional_keys({"free": c_free, "constrained": c_con, "projection": None}, beta, beta_w),
+        **({} if stiffness_frame is None else {"tool_stiffness": stiffness_report(st, stiffness_frame)}),
     }
 
 
@@ -385,4 +416,5 @@ def _statics(
         c = preloaded_compliance(braced, q, holding.preload, gravity=holding.gravity)
         out["C_e_preloaded"] = c
         out["Ci_preloaded"] = compliance_index(c, beta)
+        out["ct_preloaded"] = directional_compliances(c, beta).c_t
     return out
