@@ -25,7 +25,7 @@ from bracekit.simulation.holding import (
     holding_warnings,
     relief_summary,
 )
-from bracekit.simulation.scenario import Scenario, load_scenario
+from bracekit.simulation.scenario import OPTIMISING, Scenario, load_scenario
 from bracekit.simulation.simulate import Trajectory, simulate, solve_start, solve_start_braces
 from bracekit.statics import effort_limits
 
@@ -176,7 +176,7 @@ def run_scenario(
     trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}
     for m in models:
         for name in sc.strategies:
-            if name != "braced_gradient_projection" and name in shared:
+            if name not in OPTIMISING and name in shared:
                 trajectories[m][name] = shared[name]
                 continue
             strategy = sc.strategy(name, gradient=grad, model=check_model(m))
@@ -192,7 +192,7 @@ def run_scenario(
             )
             _add_holding(sc, tr)
             trajectories[m][name] = tr
-            if name != "braced_gradient_projection":
+            if name not in OPTIMISING:
                 shared[name] = tr
     if model == "preloaded":  # the same runs as the constrained model, C_i of the preloaded compliance
         trajectories["preloaded"] = trajectories["constrained"]
@@ -204,5 +204,5 @@ def run_scenario(
 def total_steps(scenario: Scenario, both_models: bool = True) -> int:
     """Steps a run_scenario call takes (for a progress bar)."""
     per = max(1, round(scenario.task.duration / scenario.dt))
-    n_gp = ("braced_gradient_projection" in scenario.strategies) * (2 if both_models else 1)
-    return per * (len([s for s in scenario.strategies if s != "braced_gradient_projection"]) + n_gp)
+    n_gp = sum(s in OPTIMISING for s in scenario.strategies) * (2 if both_models else 1)
+    return per * (len([s for s in scenario.strategies if s not in OPTIMISING]) + n_gp)

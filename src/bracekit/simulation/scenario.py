@@ -44,7 +44,11 @@ from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
 
 Array = NDArray[np.float64]
-STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
+STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection", "braced_qp")
+#: The strategies a scenario runs when it names none.
+DEFAULT_STRATEGIES = STRATEGIES[:3]
+#: The strategies that descend the objective (run once per compliance model).
+OPTIMISING = ("braced_gradient_projection", "braced_qp")
 #: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
 START_THETA_WEIGHT = 0.3
 
@@ -211,6 +215,12 @@ class Scenario:
             return cast(Strategy, FreeSpaceMinNorm(space=self.task_space))
         if name == "braced_min_norm":
             return cast(Strategy, BracedMinNorm(space=self.task_space))
+        if name == "braced_qp":
+            from bracekit.resolution.qp import BracedQP
+
+            mode = gradient or self.gradient
+            qp = BracedQP(self.objective(model), alpha=self.alpha, gradient=mode, dt=self.dt, space=self.task_space)
+            return cast(Strategy, qp)
         strategy = BracedGradientProjection(
             self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient, space=self.task_space
         )
@@ -398,7 +408,7 @@ def parse_scenario(
     feedback_gain = sim.number("feedback_gain", 1.0)
     if feedback_gain < 0:
         raise ScenarioError(f"'simulation.feedback_gain' must be ≥ 0 (1/s), got {feedback_gain}")
-    strategies = sim.raw("strategies", list(STRATEGIES))
+    strategies = sim.raw("strategies", list(DEFAULT_STRATEGIES))
     if not isinstance(strategies, list) or not strategies or any(s not in STRATEGIES for s in strategies):
         raise ScenarioError(
             f"'simulation.strategies' must be a list drawn from: {', '.join(STRATEGIES)}; got {show(strategies)}"

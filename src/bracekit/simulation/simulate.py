@@ -68,6 +68,7 @@ from bracekit.kinematics.multi import MultiBracedState
 from bracekit.model.robot import Robot
 from bracekit.objective import RegionBarrier
 from bracekit.resolution.multi import MULTI_MATRIX_LABELS, MultiBraceObjective, sigma_ratios
+from bracekit.resolution.qp import BracedQP
 from bracekit.resolution.strategies import (
     MATRIX_LABELS,
     BracedGradientProjection,
@@ -1016,9 +1017,10 @@ def _simulate_braces(
     region substeps (any brace with a region, when the objective weighs d) and the singularity checks (σ_min /
     σ_max of G's independent rows and of S J_e N, or of J_e in free space) are those of the one-brace run.
     """
-    if strategy.braced and not isinstance(strategy, BracedMinNorm | BracedGradientProjection):
+    if strategy.braced and not isinstance(strategy, BracedMinNorm | BracedGradientProjection | BracedQP):
         raise InputError(
-            f"strategy {strategy.name!r} has no several-brace form: use BracedMinNorm or BracedGradientProjection"
+            f"strategy {strategy.name!r} has no several-brace form: use BracedMinNorm, BracedGradientProjection "
+            "or BracedQP"
         )
     space = getattr(strategy, "space", POSE)
     if not isinstance(space, TaskSpace):
