@@ -49,7 +49,7 @@ from bracekit.resolution import GradientProjectionStep
 from bracekit.simulation import Scenario, load_scenario
 
 #: The parts of :func:`run_benchmarks`.
-PARTS = ("core", "sweep", "figures")
+PARTS = ("core", "sweep", "figures", "qp")
 #: The speed targets (README, Speed).
 TARGET_STEP_US = 100.0
 TARGET_STEP_RATIO = 20.0
@@ -437,6 +437,8 @@ def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS) -> dict[
         extra.update(_sibling("bench_figures").figures_benchmarks(quick))
     if "sweep" in parts:
         extra.update(_sweep(quick))
+    if "qp" in parts:
+        extra.update(_qp(quick))
     if "core" not in parts:
         extra["table"] = _extra_table(extra)
         return extra
@@ -606,9 +608,23 @@ def _sweep(quick: bool) -> dict[str, Any]:
     return dict(_sibling("bench_sweep").sweep_benchmarks(quick))
 
 
+def _qp(quick: bool) -> dict[str, Any]:
+    """braced_qp and bracekit.pink per step (benchmarks/bench_qp.py), or why they were skipped."""
+    import importlib.util
+
+    missing = [m for m in ("qpsolvers", "pink") if importlib.util.find_spec(m) is None]
+    if missing:
+        return {"qp_skipped": f"{', '.join(missing)} not installed: pip install 'bracekit[pink]'"}
+    return dict(_sibling("bench_qp").qp_benchmarks(quick))
+
+
 def _extra_table(r: dict[str, Any]) -> str:
-    """Rows of the sweep and figures benchmarks."""
+    """Rows of the sweep, figures and QP benchmarks."""
     rows: list[tuple[str, str, str]] = []
+    if "pink_frame_task_step_us" in r:
+        rows += _sibling("bench_qp").qp_table(r)
+    elif "qp_skipped" in r:
+        rows.append(("braced_qp and bracekit.pink", "skipped", r["qp_skipped"]))
     if "sweep_candidates_per_s_1" in r:
         one, two = r["sweep_candidates_per_s_1"], r["sweep_candidates_per_s_2"]
         rows += [

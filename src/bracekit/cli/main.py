@@ -178,9 +178,9 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument(
         "--only",
         action="append",
-        choices=("core", "sweep", "figures"),
+        choices=("core", "sweep", "figures", "qp"),
         help="run only this part (repeat for several; default all: core hot paths, sweep throughput on 1 and 2 "
-        "Dask workers, the figures' overhead)",
+        "Dask workers, the figures' overhead, the braced_qp and bracekit.pink steps)",
     )
     sweep_cli.add_parser(sub)
     view_cli.add_parser(sub)
