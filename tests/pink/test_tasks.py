@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -9,6 +10,7 @@ import pytest
 
 pink = pytest.importorskip("pink")
 
+from bracekit.kinematics import BracedRobot  # noqa: E402
 from bracekit.pink import BraceTask, ComplianceTask  # noqa: E402
 from bracekit.simulation.scenario import load_scenario  # noqa: E402
 from bracekit.simulation.simulate import solve_start, solve_start_braces  # noqa: E402
@@ -55,6 +57,21 @@ def test_the_brace_task_jacobian_is_the_derivative_of_its_error(which: str, requ
         b.surface.signed_distance(p) for b, p in zip(sc.braced.braces, sc.braced.stacked_state(q1).b_i, strict=True)
     ]
     assert np.allclose(err, dist, atol=1e-12)
+    fd = _fd(lambda x: task.compute_error(_config(sc, x)), q1)
+    assert np.max(np.abs(task.compute_jacobian(_config(sc, q1)) - fd)) < 1e-7
+
+
+@pytest.mark.parametrize("contact, rows", [("point_with_friction", 3), ("soft_finger", 4)])
+def test_friction_contacts_hold_the_anchor_with_an_exact_jacobian(
+    panda: Any, contact: str, rows: int
+) -> None:
+    sc, q = panda
+    braced = BracedRobot(sc.braced.robot, dataclasses.replace(sc.braced.brace, contact=contact))
+    task = BraceTask(braced, _config(sc, q))
+    assert np.max(np.abs(task.compute_error(_config(sc, q)))) < 1e-12  # anchored where it stands
+    q1 = q + np.random.default_rng(1).normal(scale=0.05, size=q.size)
+    err = task.compute_error(_config(sc, q1))
+    assert err.shape == (rows,) and np.max(np.abs(err)) > 1e-4
     fd = _fd(lambda x: task.compute_error(_config(sc, x)), q1)
     assert np.max(np.abs(task.compute_jacobian(_config(sc, q1)) - fd)) < 1e-7
 

@@ -174,3 +174,31 @@ def test_the_paper_run_keeps_the_links_clear_where_gradient_projection_does_not(
     assert qp["max_contact_violation_m"] < 1e-9
     assert qp["max_joint_limit_violation_rad"] == 0.0
     assert qp["Ci_mean"] < out["braced_gradient_projection"]["Ci_mean"] * 1.05
+
+
+@pytest.mark.parametrize("name", ["paper", "panda", "panda-holding", "two-braces"])
+def test_braced_qp_runs_every_shipped_scenario(name: str) -> None:
+    """A tenth of each shipped task; where the metrics agree (n1 ≠ 6, or several braces) and no inequality is
+    active, braced_qp's path is gradient projection's (two independent solutions of one problem)."""
+    sc = load_scenario(name)
+    sc = dataclasses.replace(sc, task=dataclasses.replace(sc.task, turns=0.1))
+    sc = dataclasses.replace(sc, strategies=["braced_gradient_projection", "braced_qp"])
+    res = run_scenario(sc, both_models=False)
+    out = res.summary["strategies"]["braced_qp"]
+    assert out["completed"], out["failure"]
+    assert out["max_contact_violation_m"] < 1e-9
+    assert out["max_joint_limit_violation_rad"] == 0.0
+    if name != "paper":
+        runs = next(iter(res.trajectories.values()))
+        qp, gp = runs["braced_qp"].q, runs["braced_gradient_projection"].q
+        assert qp.shape == gp.shape and np.max(np.abs(qp - gp)) < 1e-8
+
+
+def test_a_missing_solver_is_named(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    from bracekit.errors import MissingDependencyError
+
+    monkeypatch.setitem(sys.modules, "qpsolvers", None)
+    with pytest.raises(MissingDependencyError, match=r"bracekit\[qp\]"):
+        BracedQP(None)

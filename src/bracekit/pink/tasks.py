@@ -67,7 +67,8 @@ class BraceTask(Task):
     """Keep every brace on its surface: e_i = X_iᵀ [b_i − a_i; θ_i] (eq:constraint), J_i = X_iᵀ J_b_i.
 
     a_i is the anchor of brace i (its point when the task is made or :meth:`set_anchors` is called) moved onto the
-    brace's plane along the normal, θ_i the rotation vector of ⁰R_b_i ⁰R_a_iᵀ (rad, world axes). A frictionless
+    brace's plane along the normal, θ_i = ⁰R_a_i log(⁰R_a_iᵀ ⁰R_b_i) the rotation from the anchor's orientation
+    (rad, world axes). A frictionless
     point contact (X = [n̂; 0]) constrains only the signed distance n̂ᵀ(b_i − p_i) to the plane; a contact with
     friction also holds b_i at a_i along the plane, a soft finger its spin about n̂.
 
@@ -92,16 +93,24 @@ class BraceTask(Task):
             self.anchors.append((frame.b - n * brace.surface.signed_distance(frame.b), frame.R_b))
 
     def compute_error(self, configuration: Configuration) -> Array:
-        """E = [X_iᵀ [b_i − a_i; θ_i]] stacked over the braces (N for a force row, N·m for a moment row × m, rad)."""
+        """E = [X_iᵀ [b_i − a_i; θ_i]] stacked over the braces (m for a force row, rad for a moment row)."""
         parts = []
         for frame, (a, r_a) in zip(brace_frames(self.braced, configuration), self.anchors, strict=True):
-            twist = np.concatenate([frame.b - a, pin.log3(frame.R_b @ r_a.T)])
+            twist = np.concatenate([frame.b - a, r_a @ pin.log3(r_a.T @ frame.R_b)])
             parts.append(frame.X.T @ twist)
         return np.concatenate(parts)
 
     def compute_jacobian(self, configuration: Configuration) -> Array:
-        """J = [X_iᵀ J_b_i] stacked over the braces (rows × n)."""
-        return np.vstack([f.X.T @ f.J_b for f in brace_frames(self.braced, configuration)])
+        """J = ∂e/∂q stacked over the braces (rows × n): X_iᵀ J_b_i on the surface (θ_i = 0), exact off it.
+
+        θ_i = ⁰R_a log(⁰R_aᵀ ⁰R_b) (world axes) moves as ⁰R_a Jlog3(⁰R_aᵀ ⁰R_b) ⁰R_bᵀ J_ω,b.
+        """
+        rows = []
+        for frame, (_, r_a) in zip(brace_frames(self.braced, configuration), self.anchors, strict=True):
+            rel = r_a.T @ frame.R_b
+            j_rot = r_a @ pin.Jlog3(rel) @ frame.R_b.T @ frame.J_b[3:]
+            rows.append(frame.X.T @ np.vstack([frame.J_b[:3], j_rot]))
+        return np.vstack(rows)
 
     def __repr__(self) -> str:
         """The braces it holds."""
