@@ -64,3 +64,24 @@ def test_a_region_barrier_needs_a_region(panda: Any) -> None:
     braced = BracedRobot(sc.braced.robot, dataclasses.replace(sc.braced.brace, region_radius=None, surface_radius=None))
     with pytest.raises(InputError, match="region_radius"):
         BraceRegionBarrier(braced)
+
+
+def test_the_brace_margin_barrier_rows_add_up_to_the_terms_analytic_gradient(panda: Any) -> None:
+    """Σ φ'(r_j) ∂h_j/∂q (the barrier's rows by differences) equals BraceMargin's exact (Hessian) gradient."""
+    from bracekit.objective import BraceMargin
+    from bracekit.pink import BraceMarginBarrier
+
+    sc, q = panda
+    wrenches = np.array([[0.0, 0.0, 2.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    delta = 40.0
+    term = BraceMargin(sc.braced, wrenches, preload=20.0, friction=0.8, margin=delta)
+    barrier = BraceMarginBarrier(term, _config(sc, q))
+    state = sc.braced.state(q, hessians=True)
+    r = term.residuals(state)
+    assert barrier.compute_barrier(_config(sc, q)) == pytest.approx(r, abs=1e-12)
+    # every residual on the barrier's exact branch δ/4 ≤ r < δ, where φ(r) = δ/r − 2 + r/δ
+    assert r.size == 4 and np.all((r >= delta / 4) & (r < delta))
+    dphi = 1.0 / delta - delta / r**2
+    rows = barrier.compute_jacobian(_config(sc, q))
+    exact = term.gradient(state)
+    assert np.max(np.abs(dphi @ rows - exact)) < 1e-6 * max(1.0, np.max(np.abs(exact)))

@@ -62,9 +62,7 @@ def test_the_brace_task_jacobian_is_the_derivative_of_its_error(which: str, requ
 
 
 @pytest.mark.parametrize("contact, rows", [("point_with_friction", 3), ("soft_finger", 4)])
-def test_friction_contacts_hold_the_anchor_with_an_exact_jacobian(
-    panda: Any, contact: str, rows: int
-) -> None:
+def test_friction_contacts_hold_the_anchor_with_an_exact_jacobian(panda: Any, contact: str, rows: int) -> None:
     sc, q = panda
     braced = BracedRobot(sc.braced.robot, dataclasses.replace(sc.braced.brace, contact=contact))
     task = BraceTask(braced, _config(sc, q))

@@ -6,6 +6,7 @@
   analytic gradient, a linear cost of the QP.
 * :class:`BraceRegionBarrier`: keeps each brace point inside its bracing region (r_i < r_max,i).
 * :class:`LinkClearanceBarrier`: keeps the links clear of the bracing surfaces (kinematics.clearance).
+* :class:`BraceMarginBarrier`: keeps the brace holding each listed tool wrench (the BraceMargin term's residuals).
 
 The configuration is pink's ``Configuration`` over the braced robot's Pinocchio model
 (``braced.robot.model``, revolute and prismatic joints: q and Δq have the same size).
@@ -20,7 +21,7 @@ except ImportError as exc:  # pragma: no cover - the extra is missing
 
     raise MissingDependencyError("bracekit.pink needs pin-pink: pip install 'bracekit[pink]'") from exc
 
-from bracekit.pink.barriers import BraceRegionBarrier, LinkClearanceBarrier
+from bracekit.pink.barriers import BraceMarginBarrier, BraceRegionBarrier, LinkClearanceBarrier
 from bracekit.pink.tasks import BraceTask, ComplianceTask
 
-__all__ = ["BraceRegionBarrier", "BraceTask", "ComplianceTask", "LinkClearanceBarrier"]
+__all__ = ["BraceMarginBarrier", "BraceRegionBarrier", "BraceTask", "ComplianceTask", "LinkClearanceBarrier"]

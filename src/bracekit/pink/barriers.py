@@ -15,6 +15,7 @@ from pink.barriers import Barrier
 from bracekit._linalg import as_number
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
+from bracekit.objective.brace_margin import BraceMargin
 from bracekit.pink.tasks import brace_frames
 from bracekit.resolution.qp import clearance_rows
 from pink import Configuration
@@ -90,3 +91,49 @@ class LinkClearanceBarrier(Barrier):
         """∂h/∂q (rows × n), m per rad."""
         rows = self._rows(configuration)
         return np.array([rows[name][1] for name in self.names])
+
+
+def holding_residuals(term: BraceMargin, q: Array) -> Array:
+    """The adapter to bracekit's brace margin: its lift-off and slip residuals r (N) at q (the term's public API)."""
+    return np.asarray(term.residuals(term.braced.state(q)), dtype=np.float64)
+
+
+class BraceMarginBarrier(Barrier):
+    """h_j = r_j − r_min ≥ 0 (N): the brace holds each listed tool wrench (lift-off, and slip with friction).
+
+    r_j are the residuals of bracekit's :class:`~bracekit.objective.BraceMargin` term (its module docstring: the
+    contact force under each listed wrench at scale 1, first order in the joint springs K), one row each;
+    ∂h/∂q by central differences of r over q with step ``fd_step`` (rad). One brace (the term's model).
+    """
+
+    def __init__(
+        self,
+        term: BraceMargin,
+        configuration: Configuration,
+        margin_min: float = 0.0,
+        fd_step: float = 1e-6,
+        gain: float = 1.0,
+        safe_displacement_gain: float = 0.0,
+    ):
+        if not isinstance(term, BraceMargin):
+            raise InputError(f"a BraceMarginBarrier needs a bracekit BraceMargin term, got {type(term).__name__}")
+        self.term = term
+        self.margin_min = as_number(margin_min, "the least holding residual margin_min", unit="N")
+        self.fd_step = as_number(fd_step, "the finite-difference step fd_step", positive=True, unit="rad")
+        dim = holding_residuals(term, configuration.q).size
+        super().__init__(dim, gain=gain, safe_displacement_gain=safe_displacement_gain)
+
+    def compute_barrier(self, configuration: Configuration) -> Array:
+        """H (rows,), N."""
+        return holding_residuals(self.term, configuration.q) - self.margin_min
+
+    def compute_jacobian(self, configuration: Configuration) -> Array:
+        """∂h/∂q (rows × n), N per rad, by central differences."""
+        q = np.asarray(configuration.q, dtype=float)
+        cols = []
+        for i in range(q.size):
+            dq = np.zeros(q.size)
+            dq[i] = self.fd_step
+            plus, minus = holding_residuals(self.term, q + dq), holding_residuals(self.term, q - dq)
+            cols.append((plus - minus) / (2.0 * self.fd_step))
+        return np.array(cols).T
