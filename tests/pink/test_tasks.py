@@ -12,81 +12,53 @@ pink = pytest.importorskip("pink")
 
 from bracekit.kinematics import BracedRobot  # noqa: E402
 from bracekit.pink import BraceTask, ComplianceTask  # noqa: E402
-from bracekit.simulation.scenario import load_scenario  # noqa: E402
-from bracekit.simulation.simulate import solve_start, solve_start_braces  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def panda() -> Any:
-    sc = load_scenario("panda")
-    q = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation).q
-    return sc, q
-
-
-@pytest.fixture(scope="module")
-def two() -> Any:
-    sc = load_scenario("two-braces")
-    q = solve_start_braces(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation).q
-    return sc, q
-
-
-def _config(sc: Any, q: np.ndarray) -> Any:
-    model = sc.braced.robot.model
-    return pink.Configuration(model, model.createData(), q)
-
-
-def _fd(fn: Any, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
-    cols = []
-    for i in range(q.size):
-        dq = np.zeros(q.size)
-        dq[i] = h
-        cols.append((fn(q + dq) - fn(q - dq)) / (2 * h))
-    return np.array(cols).T
 
 
 @pytest.mark.parametrize("which", ["panda", "two"])
-def test_the_brace_task_jacobian_is_the_derivative_of_its_error(which: str, request: Any) -> None:
+def test_the_brace_task_jacobian_is_the_derivative_of_its_error(which: str, request: Any, config: Any, fd: Any) -> None:
     sc, q = request.getfixturevalue(which)
     rng = np.random.default_rng(0)
     q1 = q + rng.normal(scale=0.05, size=q.size)  # off the surface: a non-zero error
-    task = BraceTask(sc.braced, _config(sc, q))
-    err = task.compute_error(_config(sc, q1))
+    task = BraceTask(sc.braced, config(sc, q))
+    err = task.compute_error(config(sc, q1))
     assert err.shape == (len(sc.braced.braces),) and np.max(np.abs(err)) > 1e-4
     # the frictionless point's error is the signed distance of b_i from its plane
     dist = [
         b.surface.signed_distance(p) for b, p in zip(sc.braced.braces, sc.braced.stacked_state(q1).b_i, strict=True)
     ]
     assert np.allclose(err, dist, atol=1e-12)
-    fd = _fd(lambda x: task.compute_error(_config(sc, x)), q1)
-    assert np.max(np.abs(task.compute_jacobian(_config(sc, q1)) - fd)) < 1e-7
+    fd = fd(lambda x: task.compute_error(config(sc, x)), q1)
+    assert np.max(np.abs(task.compute_jacobian(config(sc, q1)) - fd)) < 1e-7
 
 
 @pytest.mark.parametrize("contact, rows", [("point_with_friction", 3), ("soft_finger", 4)])
-def test_friction_contacts_hold_the_anchor_with_an_exact_jacobian(panda: Any, contact: str, rows: int) -> None:
+def test_friction_contacts_hold_the_anchor_with_an_exact_jacobian(
+    panda: Any, contact: str, rows: int, config: Any, fd: Any
+) -> None:
     sc, q = panda
     braced = BracedRobot(sc.braced.robot, dataclasses.replace(sc.braced.brace, contact=contact))
-    task = BraceTask(braced, _config(sc, q))
-    assert np.max(np.abs(task.compute_error(_config(sc, q)))) < 1e-12  # anchored where it stands
+    task = BraceTask(braced, config(sc, q))
+    assert np.max(np.abs(task.compute_error(config(sc, q)))) < 1e-12  # anchored where it stands
     q1 = q + np.random.default_rng(1).normal(scale=0.05, size=q.size)
-    err = task.compute_error(_config(sc, q1))
+    err = task.compute_error(config(sc, q1))
     assert err.shape == (rows,) and np.max(np.abs(err)) > 1e-4
-    fd = _fd(lambda x: task.compute_error(_config(sc, x)), q1)
-    assert np.max(np.abs(task.compute_jacobian(_config(sc, q1)) - fd)) < 1e-7
+    fd = fd(lambda x: task.compute_error(config(sc, x)), q1)
+    assert np.max(np.abs(task.compute_jacobian(config(sc, q1)) - fd)) < 1e-7
 
 
-def test_the_compliance_task_gradient_is_the_derivative_of_c_i(panda: Any) -> None:
+def test_the_compliance_task_gradient_is_the_derivative_of_c_i(panda: Any, config: Any, fd: Any) -> None:
     sc, q = panda
     task = ComplianceTask(sc.braced, sc.beta_x(0.0))
-    fd = _fd(lambda x: np.array([task.value(_config(sc, x))]), q)
-    jac = task.compute_jacobian(_config(sc, q))
+    fd = fd(lambda x: np.array([task.value(config(sc, x))]), q)
+    jac = task.compute_jacobian(config(sc, q))
     assert np.max(np.abs(jac - fd)) < 1e-7 * max(1.0, np.max(np.abs(fd)))
-    h, c = task.compute_qp_objective(_config(sc, q))
+    h, c = task.compute_qp_objective(config(sc, q))
     assert np.allclose(h, np.eye(q.size)) and np.allclose(c, jac[0])
 
 
-def test_the_brace_task_is_a_hard_equality_in_solve_ik(panda: Any) -> None:
+def test_the_brace_task_is_a_hard_equality_in_solve_ik(panda: Any, config: Any) -> None:
     sc, q = panda
-    config = _config(sc, q)
+    config = config(sc, q)
     brace = BraceTask(sc.braced, config)
     tool = pink.tasks.FrameTask(sc.braced.robot.tip, position_cost=1.0, orientation_cost=0.0)
     target = config.get_transform_frame_to_world(sc.braced.robot.tip).copy()
@@ -102,8 +74,8 @@ def test_the_brace_task_is_a_hard_equality_in_solve_ik(panda: Any) -> None:
     assert np.max(np.abs(jac @ free * dt + err)) > 1e-6
 
 
-def test_several_braces_give_one_row_each(two: Any) -> None:
+def test_several_braces_give_one_row_each(two: Any, config: Any) -> None:
     sc, q = two
     task = ComplianceTask(sc.braced, [1.0, 0, 0, 0, 0, 0])
-    c_i, grad = task.value(_config(sc, q)), task.compute_jacobian(_config(sc, q))
+    c_i, grad = task.value(config(sc, q)), task.compute_jacobian(config(sc, q))
     assert c_i > 0 and grad.shape == (1, q.size)
