@@ -208,7 +208,7 @@ class Scenario:
     def strategy(
         self, name: str, *, gradient: GradientMode | None = None, model: ComplianceModel | None = None
     ) -> Strategy:
-        """One of the three strategies with this scenario's gains and task space."""
+        """One of the strategies (STRATEGIES) with this scenario's gains, task space and, for braced_qp, its dt."""
         if name not in STRATEGIES:
             raise InputError(f"unknown strategy {show(name)}; choose one of {', '.join(STRATEGIES)}")
         if name == "free_space_min_norm":
