@@ -202,3 +202,33 @@ def test_a_missing_solver_is_named(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "qpsolvers", None)
     with pytest.raises(MissingDependencyError, match=r"bracekit\[qp\]"):
         BracedQP(None)
+
+
+def test_a_link_at_or_inside_the_least_clearance_may_not_go_deeper(paper: Any) -> None:
+    """Links 4, 5 (0.01 m) and 7 (0.04 m) count as inside with c_min = 0.05 m; the minimum-norm step takes one
+    deeper, braced_qp's does not: checked on the clearance itself, a short step along q̇ (first order, h = 1e-5 s)."""
+    from bracekit.kinematics.clearance import Clearance
+
+    sc, q = paper
+    clearance = Clearance(sc.braced)
+
+    def links(x: np.ndarray) -> dict[int, float]:
+        return {d.joint: d.clearance for d in clearance.links(x, gradient=False)}
+
+    base = links(q)
+    inside = [j for j, c in base.items() if c < 0.05]
+    assert len(inside) == 3
+    h = 1e-5
+    x = _xdot(7)
+    ref = braced_min_norm_rates(sc.braced.stacked_state(q), x, sc.task_space)
+    rate = {j: (links(q + h * ref)[j] - base[j]) / h for j in inside}
+    if min(rate.values()) > -1e-3:  # none deepens at a rate: the opposite twist does
+        x, ref = -x, -ref
+        rate = {j: (links(q + h * ref)[j] - base[j]) / h for j in inside}
+    assert min(rate.values()) < -1e-3
+    qp = BracedQP(None, dt=0.05, clearance_margin=0.1, clearance_min=0.05, space=sc.task_space)
+    qdot = qp.velocity(sc.braced.state(q), x)
+    after = links(q + h * qdot)
+    assert all((after[j] - base[j]) / h > -1e-4 for j in inside)
+    st = sc.braced.stacked_state(q)
+    assert np.max(np.abs(st.G @ qdot)) < 1e-9 and np.max(np.abs(st.J_e @ qdot - x)) < 1e-9

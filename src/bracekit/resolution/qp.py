@@ -6,16 +6,18 @@ Per step, in the joint velocities q̇ (n,), rad/s (m/s for a prismatic joint):
     subject to X_iᵀ J_b_i q̇ = −(β/dt) X_iᵀ ρ_i             every brace i                  (contacts)
                S J_e q̇ = S ẋ                                when the task is an equality   (task)
                max(−q̇_max, γ (q_min − q)/dt) ≤ q̇ ≤ min(q̇_max, γ (q_max − q)/dt)     (joint limits)
-               (∂c_j/∂q) q̇ ≥ −γ_c max(c_j − c_min, 0)/dt     every link j with c_j < margin (clearance)
+               (∂c_j/∂q) q̇ ≥ −γ_c max(c_j − c_min, 0)/dt − ε   every link j with c_j < margin (clearance)
 
 S = S(⁰R_e) the task rows of the :class:`~bracekit.resolution.task_space.TaskSpace` and ẋ the tip twist [v; ω]
 (m/s, rad/s), J_e and J_b_i the tip's and brace i's Jacobians (LOCAL_WORLD_ALIGNED, 6×n), X_i brace i's constraint
 wrenches (eq:constraint) and ρ_i = [n̂ n̂ᵀ(b_i − p_i); 0] the offset of b_i from its plane (m), closed at the rate
 β/dt (Baumgarte). q̇_max are the URDF velocity limits, q_min, q_max the position limits, approached at the rate
 γ/dt; c_j is link j's clearance from each brace's surface (m, :mod:`bracekit.kinematics.clearance`) and ∂c_j/∂q
-its gradient: a link at or inside c_min may not go deeper (a step cannot take it out against the task). The link
-that carries a pad, and the one whose capsule ends at a pad on a joint's origin, touch that surface by design and
-are left out for it. g is the objective of eq:objective (its analytic ∂g/∂q, eq:grad_g, or central differences;
+its gradient: a link at or inside c_min may not go deeper (a step cannot take it out against the task; ε =
+:data:`CLEARANCE_SLACK` absorbs round-off where its row is parallel to a contact's). The link
+that carries a pad, the one whose capsule ends at a pad on a joint's origin, and any link whose clearance moves
+only with a pad's normal motion (its row in the span of the contact rows) touch that surface by design and are
+left out for it. g is the objective of eq:objective (its analytic ∂g/∂q, eq:grad_g, or central differences;
 with several braces that of :class:`~bracekit.resolution.multi.MultiBraceObjective`), α < 0.
 
 The task is an equality (``task_weight=None``, the default) or a weighted cost w. μ is the damping of Nakamura
@@ -56,6 +58,10 @@ Array = NDArray[np.float64]
 QP_FEASIBILITY_TOL = 1e-9
 #: The QP solvers braced_qp accepts (qpsolvers names).
 QP_SOLVERS = ("daqp", "proxqp")
+#: How fast (m/s) a link at or inside c_min may still go deeper: the round-off of a row parallel to a contact's.
+CLEARANCE_SLACK = 1e-10
+#: A clearance row with less than this part (relative) off the contact rows is held by the contacts and left out.
+HELD_BY_CONTACT = 1e-4
 #: Relative rank tolerance of the stacked contact rows G.
 CONTACT_RANK_RTOL = 1e-10
 
@@ -135,6 +141,24 @@ def clearance_rows(braced: BracedRobot, q: Array, below: float) -> list[Clearanc
     return out
 
 
+def _free_of_contacts(rows: list[ClearanceRow], g: Array) -> list[ClearanceRow]:
+    """The rows whose ∂c/∂q is not in the span of the contact rows G (relative part off it > HELD_BY_CONTACT).
+
+    A link whose clearance moves only as a pad's normal motion (its nearest point at the pad) is held by the contact
+    equality; its inequality would repeat that row and conflict with it by round-off.
+    """
+    if not rows:
+        return rows
+    _, s, vt = np.linalg.svd(g, full_matrices=False)
+    basis = vt[s > CONTACT_RANK_RTOL * max(1.0, s[0] if s.size else 1.0)]
+    out = []
+    for r in rows:
+        size = float(np.linalg.norm(r.gradient))
+        if size > 0.0 and np.linalg.norm(r.gradient - basis.T @ (basis @ r.gradient)) > HELD_BY_CONTACT * size:
+            out.append(r)
+    return out
+
+
 def _solve(sets: list[ConstraintSet], p: Array, c: Array, solver: str) -> Array | None:
     """The QP's q̇, or None when the solver finds none (infeasible or failed)."""
     import qpsolvers
@@ -149,7 +173,7 @@ def _solve(sets: list[ConstraintSet], p: Array, c: Array, solver: str) -> Array 
         np.vstack([s.M for s in eq]) if eq else None,
         np.concatenate([s.v for s in eq]) if eq else None,
     )
-    options: dict[str, Any] = {"eps_abs": 1e-12, "eps_rel": 0.0} if solver == "proxqp" else {}
+    options: dict[str, Any] = {"eps_abs": 1e-10, "eps_rel": 0.0} if solver == "proxqp" else {"primal_tol": 1e-12}
     result = qpsolvers.solve_problem(problem, solver=solver, **options)
     if not result.found or result.x is None or not np.all(np.isfinite(result.x)):
         return None
@@ -290,14 +314,15 @@ class BracedQP:
             )
         )
         if self.clearance_margin is not None:
-            rows = clearance_rows(state.braced, q, float(self.clearance_margin))
+            rows = _free_of_contacts(clearance_rows(state.braced, q, float(self.clearance_margin)), contacts.G)
             if rows:
                 sets.append(
                     ConstraintSet(
                         "the link clearance (" + ", ".join(r.name for r in rows) + ")",
                         False,
                         -np.array([r.gradient for r in rows]),
-                        np.array([self.clearance_gain * max(r.clearance - self.clearance_min, 0.0) / dt for r in rows]),
+                        np.array([self.clearance_gain * max(r.clearance - self.clearance_min, 0.0) / dt for r in rows])
+                        + CLEARANCE_SLACK,
                     )
                 )
         return sets
