@@ -83,19 +83,27 @@ class BraceTask(Task):
             raise InputError(f"a BraceTask needs a bracekit BracedRobot, got {type(braced).__name__}")
         self.braced = braced
         self.anchors: list[tuple[Array, Array]] = []
+        self._cache: tuple[bytes, list[BraceFrame]] | None = None
         self.set_anchors(configuration)
+
+    def _frames(self, configuration: Configuration) -> list[BraceFrame]:
+        """brace_frames at the configuration, once per q (pink asks for the error, then the Jacobian)."""
+        key = np.asarray(configuration.q, dtype=float).tobytes()
+        if self._cache is None or self._cache[0] != key:
+            self._cache = (key, brace_frames(self.braced, configuration))
+        return self._cache[1]
 
     def set_anchors(self, configuration: Configuration) -> None:
         """Anchor every brace at its current point (moved onto its plane) and orientation."""
         self.anchors = []
-        for brace, frame in zip(self.braced.braces, brace_frames(self.braced, configuration), strict=True):
+        for brace, frame in zip(self.braced.braces, self._frames(configuration), strict=True):
             n = brace.surface.normal
             self.anchors.append((frame.b - n * brace.surface.signed_distance(frame.b), frame.R_b))
 
     def compute_error(self, configuration: Configuration) -> Array:
         """E = [X_iᵀ [b_i − a_i; θ_i]] stacked over the braces (m for a force row, rad for a moment row)."""
         parts = []
-        for frame, (a, r_a) in zip(brace_frames(self.braced, configuration), self.anchors, strict=True):
+        for frame, (a, r_a) in zip(self._frames(configuration), self.anchors, strict=True):
             twist = np.concatenate([frame.b - a, r_a @ pin.log3(r_a.T @ frame.R_b)])
             parts.append(frame.X.T @ twist)
         return np.concatenate(parts)
@@ -106,7 +114,7 @@ class BraceTask(Task):
         θ_i = ⁰R_a log(⁰R_aᵀ ⁰R_b) (world axes) moves as ⁰R_a Jlog3(⁰R_aᵀ ⁰R_b) ⁰R_bᵀ J_ω,b.
         """
         rows = []
-        for frame, (_, r_a) in zip(brace_frames(self.braced, configuration), self.anchors, strict=True):
+        for frame, (_, r_a) in zip(self._frames(configuration), self.anchors, strict=True):
             rel = r_a.T @ frame.R_b
             j_rot = r_a @ pin.Jlog3(rel) @ frame.R_b.T @ frame.J_b[3:]
             rows.append(frame.X.T @ np.vstack([frame.J_b[:3], j_rot]))
