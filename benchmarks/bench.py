@@ -18,6 +18,7 @@ measured, the table ends with the ratios against ``compare`` (default: the commi
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import sys
 from pathlib import Path
 from typing import Any
@@ -26,7 +27,7 @@ from bracekit.errors import InputError
 
 HERE = Path(__file__).resolve().parent
 #: The parts of :func:`run_benchmarks`, in the order they run.
-PARTS = ("figures", "sweep", "runs", "core")
+PARTS = ("figures", "sweep", "runs", "core", "qp")
 #: The result of the version before the speed work (tools/bench_baseline.py on commit e6bc01a).
 BASELINE = HERE / "baseline-e6bc01a.json"
 
@@ -44,6 +45,14 @@ def _core(quick: bool) -> dict[str, Any]:
         return dict(_sibling("bench_core").core_benchmarks(quick))
     except Exception as exc:  # an internal API the micro-benchmarks use changed: say so, keep the other parts
         return {"core_failed": f"{type(exc).__name__}: {exc}"}
+
+
+def _qp(quick: bool) -> dict[str, Any]:
+    """braced_qp and bracekit.pink per step (benchmarks/bench_qp.py), or why they were skipped."""
+    missing = [m for m in ("qpsolvers", "pink") if importlib.util.find_spec(m) is None]
+    if missing:
+        return {"qp_skipped": f"{', '.join(missing)} not installed: pip install 'bracekit[pink]'"}
+    return dict(_sibling("bench_qp").qp_benchmarks(quick))
 
 
 def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS, compare: Path | None = None) -> dict[str, Any]:
@@ -82,6 +91,8 @@ def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS, compare:
         res = core
         if "figures_overhead_ratio" in res and "targets_met" in res:
             res["targets_met"]["figures overhead ≤ 2× the run without figures"] = res["figures_overhead_ratio"] <= 2.0
+    if "qp" in parts:
+        res.update(_qp(quick))
     before["load_average_after"] = runs.machine()["load_average"]
     res["machine"] = before
     res["parts"] = list(parts)
@@ -91,6 +102,10 @@ def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS, compare:
     if "core_failed" in res:
         text.append(f"core hot paths: not measured ({res['core_failed']})")
     text.append(table.extra_table(res))
+    if "pink_frame_task_step_us" in res:
+        text.append("\n".join(f"| {a} | {b} | {c} |" for a, b, c in _sibling("bench_qp").qp_table(res)))
+    elif "qp_skipped" in res:
+        text.append(f"braced_qp and bracekit.pink: skipped ({res['qp_skipped']})")
     if other is None and ("runs" in parts or "sweep" in parts) and BASELINE.is_file():
         compare, other = BASELINE, cmp.load(BASELINE)
     if compare is not None and other is not None:

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from geometry_refs import box_triangles, write_ascii_stl
 
 from bracekit.contact import Brace, Surface
 from bracekit.errors import ContactError, ModelError
@@ -21,6 +20,7 @@ from bracekit.kinematics.clearance import Clearance, geometry_of
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
 from bracekit.simulation.run import run_scenario
+from geometry_refs import box_triangles, write_ascii_stl
 from helpers import random_chain_urdf
 
 

@@ -11,13 +11,13 @@ import warnings
 
 import numpy as np
 import pytest
-from geometry_refs import read_stl, xarm7
 
 from bracekit.errors import ContactError, PadPlacementWarning
 from bracekit.geometry.pad import link_axis, offset_depth, pad_by_offset, pad_on_surface
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS
 from bracekit.model.robot import Robot
 from bracekit.model.shipped import load_model
+from geometry_refs import read_stl, xarm7
 
 
 @pytest.fixture(scope="module")

@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from geometry_refs import xarm7, xarm_share
 
 from bracekit.errors import PadPlacementWarning, ScenarioError
 from bracekit.geometry.pad import pad_on_surface
 from bracekit.simulation.scenario import load_scenario
+from geometry_refs import xarm7, xarm_share
 
 SCENARIO = """
 name = "xarm7"

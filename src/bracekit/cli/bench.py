@@ -20,7 +20,7 @@ def add_parser(sub: Any) -> None:
     be.add_argument(
         "--only",
         action="append",
-        choices=("core", "runs", "sweep", "figures"),
+        choices=("core", "runs", "sweep", "figures", "qp"),
         help="run only this part (repeat for several; default all: core hot paths, whole runs in process, sweep "
         "throughput on 1 and 2 Dask workers, the figures' overhead)",
     )

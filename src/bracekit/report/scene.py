@@ -49,6 +49,7 @@ STRATEGY_COLORS = {
     "free_space_min_norm": "tab:red",
     "braced_min_norm": "tab:blue",
     "braced_gradient_projection": "tab:green",
+    "braced_qp": "tab:purple",
 }
 #: Names of the shipped robots' parts: URDF robot name → ((label, joints), ...), base to tip.
 NAMED_PARTS = {"paper_robot": (("PUMA 560", 6), ("HEBI X8-16 modules", 5))}

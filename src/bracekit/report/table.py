@@ -10,6 +10,7 @@ STRATEGY_LABELS = {
     "free_space_min_norm": "Free space min. norm",
     "braced_min_norm": "Braced min. norm",
     "braced_gradient_projection": "Braced grad. projection",
+    "braced_qp": "Braced QP",
 }
 COLUMNS = ("Ci_mean", "Ci_min", "prod_sigma_t_mean", "prod_sigma_o_mean", "sigma_t_min", "sigma_o_min", "k_mean")
 HEADERS = ("mean C_i [m/N]", "min C_i [m/N]", "mean Πσ_t", "mean Πσ_o", "σ_t,min", "σ_o,min", "mean k")

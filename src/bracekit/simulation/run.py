@@ -29,6 +29,7 @@ from bracekit.simulation.holding import (
 from bracekit.simulation.loop import simulate
 from bracekit.simulation.samples import compliance_models
 from bracekit.simulation.scenario import Scenario, load_scenario
+from bracekit.simulation.scenario_model import OPTIMISING
 from bracekit.simulation.start import solve_start
 from bracekit.simulation.trajectory import Trajectory
 from bracekit.statics import effort_limits
@@ -183,7 +184,7 @@ def run_scenario(
     trajectories: dict[str, dict[str, Trajectory]] = {m: {} for m in models}
     for m in models:
         for name in sc.strategies:
-            if name != "braced_gradient_projection" and name in shared:
+            if name not in OPTIMISING and name in shared:
                 trajectories[m][name] = shared[name]
                 continue
             strategy = sc.strategy(name, gradient=grad, model=check_model(m))
@@ -199,7 +200,7 @@ def run_scenario(
             )
             _add_holding(sc, tr)
             trajectories[m][name] = tr
-            if name != "braced_gradient_projection":
+            if name not in OPTIMISING:
                 shared[name] = tr
     if model == "preloaded":  # the same runs as the constrained model, C_i of the preloaded compliance
         trajectories["preloaded"] = trajectories["constrained"]
@@ -211,5 +212,5 @@ def run_scenario(
 def total_steps(scenario: Scenario, both_models: bool = True) -> int:
     """Steps a run_scenario call takes (for a progress bar)."""
     per = max(1, round(scenario.task.duration / scenario.dt))
-    n_gp = ("braced_gradient_projection" in scenario.strategies) * (2 if both_models else 1)
-    return per * (len([s for s in scenario.strategies if s != "braced_gradient_projection"]) + n_gp)
+    n_gp = sum(s in OPTIMISING for s in scenario.strategies) * (2 if both_models else 1)
+    return per * (len([s for s in scenario.strategies if s not in OPTIMISING]) + n_gp)

@@ -30,7 +30,7 @@ from bracekit.resolution.strategies import (
 )
 from bracekit.resolution.task_space import TASK_SPACES, TaskSpace
 from bracekit.simulation.holding import Holding
-from bracekit.simulation.scenario_model import STRATEGIES, Scenario, weight_keys
+from bracekit.simulation.scenario_model import DEFAULT_STRATEGIES, STRATEGIES, Scenario, weight_keys
 from bracekit.simulation.tasks import TASK_SHAPES, Task, radial_of
 from bracekit.simulation.toml_table import Table as _Table
 from bracekit.spatial import rotation_with_z
@@ -217,7 +217,7 @@ def parse_scenario(
     feedback_gain = sim.number("feedback_gain", 1.0)
     if feedback_gain < 0:
         raise ScenarioError(f"'simulation.feedback_gain' must be ≥ 0 (1/s), got {feedback_gain}")
-    strategies = sim.raw("strategies", list(STRATEGIES))
+    strategies = sim.raw("strategies", list(DEFAULT_STRATEGIES))
     if not isinstance(strategies, list) or not strategies or any(s not in STRATEGIES for s in strategies):
         raise ScenarioError(
             f"'simulation.strategies' must be a list drawn from: {', '.join(STRATEGIES)}; got {show(strategies)}"

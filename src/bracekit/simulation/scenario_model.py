@@ -17,6 +17,7 @@ from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.objective import TERMS, Objective, TermContext
+from bracekit.resolution.qp import BracedQP
 from bracekit.resolution.strategies import (
     BracedGradientProjection,
     BracedMinNorm,
@@ -29,9 +30,13 @@ from bracekit.simulation.holding import Holding
 from bracekit.simulation.tasks import Task
 
 Array = NDArray[np.float64]
-STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection")
+STRATEGIES = ("free_space_min_norm", "braced_min_norm", "braced_gradient_projection", "braced_qp")
+#: The strategies a scenario runs when it names none.
+DEFAULT_STRATEGIES = STRATEGIES[:3]
+#: The strategies that descend the objective (run once per compliance model).
+OPTIMISING = ("braced_gradient_projection", "braced_qp")
 
-__all__ = ["STRATEGIES", "Scenario", "weight_keys"]
+__all__ = ["DEFAULT_STRATEGIES", "OPTIMISING", "STRATEGIES", "Scenario", "weight_keys"]
 
 
 def weight_keys() -> tuple[str, ...]:
@@ -84,13 +89,17 @@ class Scenario:
     def strategy(
         self, name: str, *, gradient: GradientMode | None = None, model: ComplianceModel | None = None
     ) -> Strategy:
-        """One of the three strategies with this scenario's gains and task space."""
+        """One of the strategies (STRATEGIES) with this scenario's gains, task space and, for braced_qp, its dt."""
         if name not in STRATEGIES:
             raise InputError(f"unknown strategy {show(name)}; choose one of {', '.join(STRATEGIES)}")
         if name == "free_space_min_norm":
             return cast(Strategy, FreeSpaceMinNorm(space=self.task_space))
         if name == "braced_min_norm":
             return cast(Strategy, BracedMinNorm(space=self.task_space))
+        if name == "braced_qp":
+            mode = gradient or self.gradient
+            qp = BracedQP(self.objective(model), alpha=self.alpha, gradient=mode, dt=self.dt, space=self.task_space)
+            return cast(Strategy, qp)
         strategy = BracedGradientProjection(
             self.objective(model), alpha=self.alpha, gradient=gradient or self.gradient, space=self.task_space
         )
