@@ -1,7 +1,8 @@
 """The preloaded equilibrium with every brace of a braced robot (one or several) and its first-order load response.
 
 The conventions and the physics are those of :mod:`bracekit.statics.equilibrium`, with one load contact per
-brace stacked in the KKT system (docs/model.md, "Several braces").
+brace stacked in the KKT system (docs/model.md, "Several braces"). :func:`contact_response` and
+:func:`contact_responses` are one brace's view of it (the records of ``equilibrium``).
 """
 
 from __future__ import annotations
