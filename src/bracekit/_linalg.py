@@ -3,8 +3,8 @@
 NumPy's ``np.cross`` and ``np.linalg`` wrappers cost 5–30 µs per call on 3-vectors and 6×6 matrices,
 far more than the arithmetic. These helpers do the same computations with less overhead: ``cross3``
 gives bit-for-bit the result of ``np.cross`` for 3-vectors; ``inverse`` and ``row_basis`` call LAPACK
-(``dgetrf``/``dgetri``, ``dgeqrf``/``dorgqr``/``dtrtri``) directly through SciPy, imported on first use so
-that ``import bracekit`` stays light.
+(``dgetrf``/``dgetri``, ``dgeqrf``/``dorgqr``/``dtrtri``) directly through SciPy's LAPACK wrappers, without
+NumPy's per-call checks.
 """
 
 from __future__ import annotations
@@ -16,21 +16,15 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg import lapack
 
 from bracekit.errors import InputError, NumericalError
 
 Array = NDArray[np.float64]
 
-_LAPACK: Any = None
-
-
 def _lapack() -> Any:
-    global _LAPACK
-    if _LAPACK is None:
-        from scipy.linalg import lapack
-
-        _LAPACK = lapack
-    return _LAPACK
+    """SciPy's LAPACK wrappers (the low-overhead routines of the hot paths)."""
+    return lapack
 
 
 def cross3(a: Array, b: Array) -> Array:

@@ -23,8 +23,7 @@ from bracekit.simulation.holding import (
     relief_summary,
 )
 from bracekit.statics.capacity import capacity_along, effort_limits, multi_capacity_along
-from bracekit.statics.equilibrium import contact_responses
-from bracekit.statics.stacked import multi_contact_responses
+from bracekit.statics.stacked import contact_responses, multi_contact_responses
 from bracekit.validate.statics import solve_static_equilibrium_multi
 
 Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])

@@ -20,16 +20,14 @@ from bracekit.statics.capacity import (
     saturation_scale,
     slip_scale,
 )
-from bracekit.statics.equilibrium import (
-    ContactResponse,
-    ContactResponses,
+from bracekit.statics.equilibrium import ContactResponse, ContactResponses, gravity_torque, load_contact_wrenches
+from bracekit.statics.relief import Relief, actuator_relief, actuator_torques
+from bracekit.statics.stacked import (
+    MultiContactResponses,
     contact_response,
     contact_responses,
-    gravity_torque,
-    load_contact_wrenches,
+    multi_contact_responses,
 )
-from bracekit.statics.relief import Relief, actuator_relief, actuator_torques
-from bracekit.statics.stacked import MultiContactResponses, multi_contact_responses
 
 __all__ = [
     "Capacity",

@@ -26,8 +26,8 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
-from bracekit.statics.equilibrium import ContactResponses, contact_responses, wrench_list
-from bracekit.statics.stacked import MultiContactResponses, multi_contact_responses
+from bracekit.statics.equilibrium import ContactResponses, wrench_list
+from bracekit.statics.stacked import MultiContactResponses, contact_responses, multi_contact_responses
 
 Array = NDArray[np.float64]
 

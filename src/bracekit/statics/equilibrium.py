@@ -33,16 +33,12 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit._linalg import as_array, as_number, finite_math, show
-from bracekit.compliance.first_order import loaded_gain, warn_unloaded
+from bracekit._linalg import as_array, as_number
 from bracekit.contact import Brace
 from bracekit.errors import (
     InputError,
     ModelError,
-    NumericalError,
-    UnstableEquilibriumError,
 )
-from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.model.robot import Robot
 
@@ -177,128 +173,6 @@ def gravity_torque(robot: Robot, q: ArrayLike) -> Array:
     return np.asarray(pin.computeGeneralizedGravity(robot.model, robot.model.createData(), qa), dtype=float).copy()
 
 
-def contact_response(
-    braced: BracedRobot,
-    q: ArrayLike,
-    *,
-    preload: float = 0.0,
-    gravity: bool = False,
-    friction: float | None = None,
-    geometric: bool = True,
-) -> ContactResponse:
-    """The preloaded equilibrium at q and its first-order response to tool wrenches (module docstring).
-
-    Args:
-        braced: the braced robot.
-        q: the commanded configuration (n,), rad; {b} is taken to touch the surface there.
-        preload: P ≥ 0 (N), the normal force the surface exerts on b without tool load.
-        gravity: include g(q) (Pinocchio's gravity field of the model).
-        friction: μ ≥ 0; with μ > 0 a frictionless point brace sticks under load (3-D force). None: no friction.
-        geometric: use the tangent stiffness K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q (True) or the joint stiffness K alone.
-
-    Raises:
-        InputError: a negative or non-finite preload or μ, or a configuration that is not n finite numbers.
-        NumericalError: the tangent stiffness is not positive definite (gravity or the preload buckles the
-            springs), or the result is not finite.
-    """
-    return contact_responses(braced, q, preload=preload, gravity=gravity, friction=friction, geometric=geometric).at(0)
-
-
-def contact_responses(
-    braced: BracedRobot,
-    qs: ArrayLike,
-    *,
-    preload: float = 0.0,
-    gravity: bool = False,
-    friction: float | None = None,
-    geometric: bool = True,
-) -> ContactResponses:
-    """:func:`contact_response` at each row of `qs` (N×n, or one configuration (n,)), with one solve per stack.
-
-    The kinematics come from one Pinocchio pass per configuration; the linear algebra is batched.
-    Directions in which chain 1 cannot push {b} carry no load (dropped, with one UnloadedContactWarning).
-    """
-    if not isinstance(braced, BracedRobot):
-        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    robot = braced.robot
-    p = check_preload(preload)
-    mu = check_friction(friction)
-    for flag, name in ((gravity, "gravity"), (geometric, "geometric")):
-        if not isinstance(flag, bool):
-            raise InputError(f"{name} must be True or False, got {show(flag)}")
-    q_all = configurations(robot, qs)
-    n, count = robot.n, q_all.shape[0]
-    nhat = braced.split.brace.surface.normal
-    f_c0 = np.concatenate([p * nhat, np.zeros(3)])
-    x_l = load_contact_wrenches(braced.split.brace, mu)
-    k = robot.stiffness
-    hessians = geometric and p > 0.0
-    if gravity or hessians:
-        _check_size(robot, "gravity torques and geometric stiffness")
-    data = robot.model.createData() if gravity else None
-
-    j_e = np.empty((count, 6, n))
-    j_b = np.empty((count, 6, n))
-    g = np.zeros((count, n))
-    k_t = np.zeros((count, n, n))
-    k_t[:, np.arange(n), np.arange(n)] = k
-    for i, q in enumerate(q_all):
-        st = braced.state(q, hessians=hessians)
-        j_e[i], j_b[i] = st.J_e, st.split.J_b
-        if data is not None:
-            if geometric:
-                dg = pin.computeGeneralizedGravityDerivatives(robot.model, data, q)
-                k_t[i] += np.asarray(dg, dtype=float)  # ∂g/∂q: the Hessian of the potential energy
-            g[i] = pin.computeGeneralizedGravity(robot.model, data, q)
-        if hessians and st.split.dJ_b is not None:
-            k_t[i] -= np.einsum("r,rik->ik", f_c0, st.split.dJ_b)
-    k_env = braced.split.brace.environment_stiffness
-    with finite_math("the contact response"):
-        k_t = 0.5 * (k_t + np.swapaxes(k_t, 1, 2))
-        tau0 = g - np.einsum("nri,r->ni", j_b, f_c0)
-        q_s = q_all + tau0 / k
-        a = np.swapaxes(j_b, 1, 2) @ x_l  # (N, n, c): J_bᵀ X_L
-        rho = _augmentation(k_t, a, k_env)
-        k_aug = k_t + rho[:, None, None] * (a @ np.swapaxes(a, 1, 2))
-        rhs = np.concatenate([np.swapaxes(j_e, 1, 2), a, np.swapaxes(j_b, 1, 2)], axis=2)
-        sol = np.linalg.solve(k_aug, rhs)
-        c = a.shape[2]
-        kj_e, ka, kj_b = sol[:, :, :6], sol[:, :, 6 : 6 + c], sol[:, :, 6 + c :]
-        schur = np.swapaxes(a, 1, 2) @ ka
-        schur = 0.5 * (schur + np.swapaxes(schur, 1, 2))
-        c1_trace = np.einsum("nri,nir->n", j_b, kj_b)  # tr(J_b K⁻¹ J_bᵀ): the scale of "unloaded"
-        if k_env is None:
-            gain, unloaded = loaded_gain(schur, c1_trace)
-        else:  # with ρ a aᵀ in the stiffness, the surface's stiffness seen by the multiplier is k_env − ρ
-            inv_k = 1.0 / (k_env - rho)
-            gain = np.asarray(np.linalg.inv(schur + inv_k[:, None, None] * np.eye(c)), dtype=np.float64)
-            unloaded = np.zeros(count, dtype=int)
-        mult = -gain @ (np.swapaxes(a, 1, 2) @ kj_e)  # (N, c, 6): the augmented multiplier per unit w
-        joint_gain = kj_e + ka @ mult
-        lam = mult - rho[:, None, None] * (np.swapaxes(a, 1, 2) @ joint_gain)  # δλ = μ' − ρ aᵀ δq
-        contact_gain = x_l @ lam
-        torque_gain = -k[None, :, None] * joint_gain
-    if np.any(unloaded):
-        warn_unloaded(int(np.count_nonzero(unloaded)), None if count == 1 else count, stacklevel=3)
-    out = ContactResponses(
-        q=q_all,
-        q_s=q_s,
-        tau0=tau0,
-        f_c0=np.broadcast_to(f_c0, (count, 6)).copy(),
-        contact_gain=contact_gain,
-        torque_gain=torque_gain,
-        joint_gain=joint_gain,
-        X=x_l,
-        normal=nhat.copy(),
-        preload=p,
-        friction=mu,
-    )
-    for arr in (q_s, contact_gain, torque_gain, joint_gain):
-        if not np.all(np.isfinite(arr)):
-            raise NumericalError("the contact response is not finite; use SI units and moderate values")
-    return out
-
-
 def configurations(robot: Robot, qs: ArrayLike) -> Array:
     """`qs` as an N×n float array (one configuration (n,) gives N = 1); InputError if not finite numbers."""
     a = as_array(qs, "the configurations (N×n, rad)")
@@ -334,29 +208,3 @@ def _check_size(robot: Robot, what: str) -> None:
             f"{what} support up to {MAX_HESSIAN_JOINTS} joints (Pinocchio's data grows as n³), the robot has "
             f"{robot.n}; use gravity=False and geometric=False or a shorter chain"
         )
-
-
-def _augmentation(k_t: Array, a: Array, k_env: float | None) -> Array:
-    """ρ (N,) ≥ 0 with K_t + ρ a aᵀ positive definite; NumericalError where none exists (an unstable equilibrium).
-
-    Where K_t itself is positive definite ρ = 0. Otherwise the contact must stabilise the robot: K_t is positive
-    definite on the motions it allows (rigid) or K_t + k_env a aᵀ is. Adding ρ a aᵀ changes only the
-    multiplier (augmented Lagrangian), which the caller undoes: δλ = μ' − ρ aᵀ δq.
-    """
-    low = np.linalg.eigvalsh(k_t)[:, 0]
-    rho = np.zeros(k_t.shape[0])
-    for i in np.flatnonzero(~(low > 0.0)):
-        scale = float(np.max(np.abs(k_t[i])))
-        aa = np.linalg.eigvalsh(a[i].T @ a[i])
-        trial = 1e3 * scale / max(float(aa[0]), 1e-300)
-        if k_env is not None:
-            trial = min(trial, 0.5 * k_env)
-        low_aug = float(np.linalg.eigvalsh(k_t[i] + trial * a[i] @ a[i].T)[0])
-        if not low_aug > 1e-9 * scale:
-            raise UnstableEquilibriumError(
-                f"the braced equilibrium is unstable at configuration {int(i)}: the tangent stiffness "
-                f"K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q (smallest eigenvalue {low[i]:.3g} N·m/rad) is not positive on the "
-                "motions the contact allows; use stiffer joints or a smaller preload"
-            )
-        rho[i] = trial
-    return rho

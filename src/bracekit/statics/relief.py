@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linprog
 
 from bracekit._linalg import as_number, finite_math, show
 from bracekit.errors import InputError, NumericalError
@@ -139,8 +140,6 @@ def actuator_relief(
 
 def _solve_lp(t: Array, s: Array, cap: float | None) -> tuple[float, float]:
     """(smallest optimal P, optimal peak) of min max_r |t_r − P s_r| over P in [0, cap] (HiGHS)."""
-    from scipy.optimize import linprog
-
     ones = np.ones_like(t)
     # variables (P, peak): t − P s ≤ peak and −(t − P s) ≤ peak
     a_ub = np.vstack([np.column_stack([-s, -ones]), np.column_stack([s, -ones])])

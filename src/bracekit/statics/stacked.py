@@ -1,7 +1,8 @@
 """The preloaded equilibrium with every brace of a braced robot (one or several) and its first-order load response.
 
 The conventions and the physics are those of :mod:`bracekit.statics.equilibrium`, with one load contact per
-brace stacked in the KKT system (docs/model.md, "Several braces").
+brace stacked in the KKT system (docs/model.md, "Several braces"). :func:`contact_response` and
+:func:`contact_responses` are one brace's view of it (the records of ``equilibrium``).
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from bracekit.kinematics.braced import contact_null_space
 from bracekit.kinematics.constraint import _independent_rows
 from bracekit.kinematics.hessian import ensure_hessian_layout, frame_hessian
 from bracekit.statics.equilibrium import (
+    ContactResponse,
+    ContactResponses,
     _check_size,
     check_friction,
     check_preload,
@@ -248,3 +251,68 @@ def _check_stable(k_t: Array, a: Array, comp: Array, sample: int) -> None:
             f"Σ ∂(J_b_iᵀ f_c0,i)/∂q (smallest eigenvalue {low:.3g} N·m/rad on the motions the contacts allow) is "
             "not positive; use stiffer joints or smaller preloads"
         )
+
+
+def contact_response(
+    braced: BracedRobot,
+    q: ArrayLike,
+    *,
+    preload: float = 0.0,
+    gravity: bool = False,
+    friction: float | None = None,
+    geometric: bool = True,
+) -> ContactResponse:
+    """The preloaded equilibrium at q and its first-order response to tool wrenches (module docstring).
+
+    Args:
+        braced: the braced robot.
+        q: the commanded configuration (n,), rad; {b} is taken to touch the surface there.
+        preload: P ≥ 0 (N), the normal force the surface exerts on b without tool load.
+        gravity: include g(q) (Pinocchio's gravity field of the model).
+        friction: μ ≥ 0; with μ > 0 a frictionless point brace sticks under load (3-D force). None: no friction.
+        geometric: use the tangent stiffness K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q (True) or the joint stiffness K alone.
+
+    Raises:
+        InputError: a negative or non-finite preload or μ, or a configuration that is not n finite numbers.
+        NumericalError: the tangent stiffness is not positive definite (gravity or the preload buckles the
+            springs), or the result is not finite.
+    """
+    return contact_responses(braced, q, preload=preload, gravity=gravity, friction=friction, geometric=geometric).at(0)
+
+
+def contact_responses(
+    braced: BracedRobot,
+    qs: ArrayLike,
+    *,
+    preload: float = 0.0,
+    gravity: bool = False,
+    friction: float | None = None,
+    geometric: bool = True,
+) -> ContactResponses:
+    """:func:`contact_response` at each row of `qs` (N×n, or one configuration (n,)): one brace's view.
+
+    The response of the one brace of `braced` through the stacked response of every brace
+    (:func:`bracekit.statics.stacked.multi_contact_responses`); ContactError with several braces (use that).
+    Directions in which chain 1 cannot push {b} carry no load (dropped, with one UnloadedContactWarning).
+    """
+    if not isinstance(braced, BracedRobot):
+        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
+    braced.split  # noqa: B018  (one brace: ContactError naming the stacked response otherwise)
+    p = check_preload(preload)
+    mu = check_friction(friction)
+    resp = multi_contact_responses(
+        braced, qs, preloads=p, gravity=gravity, frictions=mu, geometric=geometric
+    )
+    return ContactResponses(
+        q=resp.q,
+        q_s=resp.q_s,
+        tau0=resp.tau0,
+        f_c0=resp.f_c0[:, 0],
+        contact_gain=resp.contact_gain[:, 0],
+        torque_gain=resp.torque_gain,
+        joint_gain=resp.joint_gain,
+        X=resp.X[0],
+        normal=resp.normals[0].copy(),
+        preload=p,
+        friction=mu,
+    )
