@@ -32,7 +32,6 @@ from bracekit.errors import InputError, ModelError, SingularityError, UnstableEq
 from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout, frame_hessian
-from bracekit.kinematics.multi import MultiBracedState
 from bracekit.spatial import twist_rotate
 
 Array = NDArray[np.float64]
@@ -182,7 +181,7 @@ def stacked_tangent_stiffness(
 
 
 def tool_stiffness(
-    state: BracedState | MultiBracedState,
+    state: BracedState,
     frame: str | ArrayLike = "world",
     *,
     preload: float | Sequence[float] = 0.0,
@@ -192,7 +191,7 @@ def tool_stiffness(
     """The 6×6 stiffness K_x of the braced robot at the tool point e, w = K_x δx (section 12).
 
     One path for one brace and several: the state's robot with all its braces (``braced.state(q)`` or
-    ``braced.stacked_state(q)``; only its robot and q are used), every brace closed (rigid, or a spring of
+    ``braced.state(q)``; only its robot and q are used), every brace closed (rigid, or a spring of
     stiffness k_env), dependent or unloaded contact rows dropped as in the constrained compliance.
 
     Args:
@@ -212,12 +211,12 @@ def tool_stiffness(
         UnstableEquilibriumError: the loads overcome the joint springs (K_t not positive on the allowed motions).
         InputError: a bad frame, preload or wrench.
     """
-    if not isinstance(state, BracedState | MultiBracedState):
+    if not isinstance(state, BracedState):
         raise InputError(f"tool_stiffness needs the braced robot's state (braced.state(q)), got {type(state).__name__}")
     if not isinstance(gravity, bool):
         raise InputError(f"gravity must be True or False, got {show(gravity)}")
     braced, q = state.braced, state.q
-    stacked = state if isinstance(state, MultiBracedState) else braced.stacked_state(q)
+    stacked = state
     loads = _preloads(preload, len(braced.braces))
     w0 = np.zeros(6) if wrench is None else as_array(wrench, "the tool wrench w0 [f; m] (N, N·m)", (6,))
     name, r = frame_axes(frame, stacked.R_e)
@@ -241,7 +240,7 @@ def tool_stiffness(
     )
 
 
-def _bordered_stiffness(state: MultiBracedState, k_t: Array) -> Array:
+def _bordered_stiffness(state: BracedState, k_t: Array) -> Array:
     """K_x in world axes at e from the bordered system of the module docstring (checks lock and stability)."""
     con = state.constraint
     rows = list(con.independent)
@@ -279,7 +278,7 @@ def _bordered_stiffness(state: MultiBracedState, k_t: Array) -> Array:
 
 
 def stiffness_report(
-    state: BracedState | MultiBracedState,
+    state: BracedState,
     frame: str | ArrayLike = "world",
     *,
     preload: float | Sequence[float] = 0.0,

@@ -240,7 +240,7 @@ def _holding_session(
         sphere_radius=_SPHERE_RADIUS, gravity=holding.gravity, timestep=float(timestep), friction=mu, cone="elliptic",
         impratio=float(impratio), set_points=q_s,
     )  # fmt: skip
-    return MujocoSession(xml, robot.stiffness, q, [braced.state(q).b])
+    return MujocoSession(xml, robot.stiffness, q, list(braced.state(q).b_i))
 
 
 def _settle(sim: MujocoSession, w: Array, phase: str) -> tuple[int, bool]:

@@ -25,7 +25,7 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario import Scenario
-from bracekit.statics.equilibrium import multi_contact_responses
+from bracekit.statics import multi_contact_responses
 from bracekit.validate.compliance_check import (
     _config,
     _model_stats,
@@ -53,7 +53,7 @@ def preloaded_tip_compliance(braced: BracedRobot, q: ArrayLike, preload: float, 
 
     The core's one-brace :func:`~bracekit.compliance.preloaded.preloaded_compliance`; where that refuses several
     braces (ContactError), J_e δq/δw of the several-brace statics' first-order response
-    (:func:`bracekit.statics.equilibrium.multi_contact_responses` with the tangent stiffness of gravity and the
+    (:func:`bracekit.statics.multi_contact_responses` with the tangent stiffness of gravity and the
     preloads P_i = ``preload``, every contact closed).
     """
     try:
