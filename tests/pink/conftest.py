@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bracekit.simulation.scenario import load_scenario
-from bracekit.simulation.simulate import solve_start, solve_start_braces
+from bracekit.simulation.simulate import solve_start
 
 
 @pytest.fixture(scope="session")
@@ -24,7 +24,7 @@ def panda() -> Any:
 def two() -> Any:
     """The shipped two-braces scenario and its start configuration."""
     sc = load_scenario("two-braces")
-    q = solve_start_braces(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation).q
+    q = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation).q
     return sc, q
 
 

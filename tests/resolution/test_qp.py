@@ -1,5 +1,5 @@
-"""braced_qp against independent references: the closed forms of resolution.multi (SVD pseudo-inverses over the
-braced motions N of kinematics.multi's G), the URDF limits, and Pinocchio's brace Jacobians."""
+"""braced_qp against independent references: the closed forms written here (SVD pseudo-inverses over the braced
+motions N = null(G) of G = [X_iᵀ J_b_i], from SciPy), the URDF limits, and Pinocchio's brace Jacobians."""
 
 from __future__ import annotations
 
@@ -8,17 +8,41 @@ from typing import Any
 
 import numpy as np
 import pytest
-from bracekit.resolution.multi import braced_gradient_projection_rates, braced_min_norm_rates
+import scipy.linalg
 
 from bracekit.errors import InputError, NumericalError, SingularityError
 from bracekit.kinematics import BracedRobot
 from bracekit.resolution.qp import BracedQP
-from bracekit.resolution.task_space import TaskSpace
+from bracekit.resolution.task_space import POSE, TaskSpace, select
 from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import load_scenario
-from bracekit.simulation.simulate import solve_start, solve_start_braces
+from bracekit.simulation.simulate import solve_start
 
 pytest.importorskip("qpsolvers")
+
+
+def _task_rows(state: Any, xdot: np.ndarray, space: TaskSpace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(N, S J_e N, S ẋ) with N an orthonormal basis of null(G) from SciPy (independent of bracekit's own N)."""
+    g = np.vstack([x.T @ j for x, j in zip(state.X_i, state.J_b_i, strict=True)])
+    n = scipy.linalg.null_space(g)
+    b, x = select(space, state.R_e, state.J_e @ n, xdot)
+    return n, b, x
+
+
+def braced_min_norm_rates(state: Any, xdot: np.ndarray, space: TaskSpace = POSE) -> np.ndarray:
+    """q̇ = N (S J_e N)⁺ S ẋ: the least-norm joint rates that keep every contact and do the task rows."""
+    n, b, x = _task_rows(state, xdot, space)
+    return n @ (np.linalg.pinv(b) @ x)
+
+
+def braced_gradient_projection_rates(
+    state: Any, xdot: np.ndarray, dg_dq: np.ndarray, alpha: float, space: TaskSpace = POSE
+) -> np.ndarray:
+    """q̇ = N [B⁺ S ẋ + α (I − B⁺ B) Nᵀ ∂g/∂q], B = S J_e N: eq:grad_proj over the braced motions."""
+    n, b, x = _task_rows(state, xdot, space)
+    b_pinv = np.linalg.pinv(b)
+    grad = n.T @ np.asarray(dg_dq, dtype=float)
+    return n @ (b_pinv @ x + alpha * (grad - b_pinv @ (b @ grad)))
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +55,7 @@ def paper() -> Any:
 @pytest.fixture(scope="module")
 def two() -> Any:
     sc = load_scenario("two-braces")
-    start = solve_start_braces(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation)
     return sc, start.q
 
 
@@ -44,7 +68,7 @@ def test_without_active_inequalities_the_qp_is_the_braced_min_norm(paper: Any, s
     sc, q = paper
     qp = BracedQP(None, dt=0.05, solver=solver, clearance_margin=None, space=sc.task_space)
     qdot = qp.velocity(sc.braced.state(q), _xdot())
-    ref = braced_min_norm_rates(sc.braced.stacked_state(q), _xdot(), sc.task_space)
+    ref = braced_min_norm_rates(sc.braced.state(q), _xdot(), sc.task_space)
     assert np.max(np.abs(qdot - ref)) < tol * max(1.0, np.max(np.abs(ref)))
 
 
@@ -56,17 +80,17 @@ def test_with_the_objective_the_qp_is_the_projected_gradient(paper: Any) -> None
     grad = objective.gradient(state)
     assert np.linalg.norm(grad) > 0
     qdot = qp.velocity(state, _xdot(1))
-    ref = braced_gradient_projection_rates(sc.braced.stacked_state(q), _xdot(1), grad, -0.7, sc.task_space)
+    ref = braced_gradient_projection_rates(sc.braced.state(q), _xdot(1), grad, -0.7, sc.task_space)
     assert np.max(np.abs(qdot - ref)) < 1e-9 * max(1.0, np.max(np.abs(ref)))
     # the gradient moves q̇ away from the minimum norm (the reference is not trivially the same)
-    assert np.max(np.abs(ref - braced_min_norm_rates(sc.braced.stacked_state(q), _xdot(1), sc.task_space))) > 1e-6
+    assert np.max(np.abs(ref - braced_min_norm_rates(sc.braced.state(q), _xdot(1), sc.task_space))) > 1e-6
 
 
 def test_several_braces_give_the_closed_form_too(two: Any) -> None:
     sc, q = two
     space = TaskSpace("position")
     qp = BracedQP(None, dt=0.05, clearance_margin=None, space=space)
-    st = sc.braced.stacked_state(q)
+    st = sc.braced.state(q)
     qdot = qp.velocity(st, _xdot(2))
     ref = braced_min_norm_rates(st, _xdot(2), space)
     assert np.max(np.abs(qdot - ref)) < 1e-9 * max(1.0, np.max(np.abs(ref)))
@@ -76,7 +100,7 @@ def test_the_contact_holds_to_1e_9_on_every_step(two: Any) -> None:
     sc, q = two
     qp = BracedQP(sc.objective(), gradient="finite-difference", dt=0.05, space=sc.task_space)
     for step in range(5):
-        st = sc.braced.stacked_state(q)
+        st = sc.braced.state(q)
         qdot = qp.velocity(st, _xdot(step))
         offset = np.concatenate(
             [
@@ -92,7 +116,7 @@ def test_position_limits_hold_where_the_minimum_norm_breaks_them(paper: Any) -> 
     sc, q = paper
     robot = sc.braced.robot
     x = _xdot(3)
-    ref = braced_min_norm_rates(sc.braced.stacked_state(q), x, sc.task_space)
+    ref = braced_min_norm_rates(sc.braced.state(q), x, sc.task_space)
     # a step long enough that the minimum-norm rate uses the whole distance to one joint's limit (γ = 0.5: half)
     room = np.where(ref > 0, robot.upper - q, q - robot.lower) / np.abs(ref)
     dt = 0.55 * float(np.min(room))  # 55 % of the room: beyond γ = 0.5
@@ -101,7 +125,7 @@ def test_position_limits_hold_where_the_minimum_norm_breaks_them(paper: Any) -> 
     upper, lower = q + 0.5 * (robot.upper - q), q + 0.5 * (robot.lower - q)
     assert np.any(q + ref * dt > upper + 1e-6) or np.any(q + ref * dt < lower - 1e-6)
     assert np.all(q + qdot * dt <= upper + 1e-9) and np.all(q + qdot * dt >= lower - 1e-9)
-    st = sc.braced.stacked_state(q)  # the task and the contact still hold exactly
+    st = sc.braced.state(q)  # the task and the contact still hold exactly
     assert np.max(np.abs(st.G @ qdot)) < 1e-9
     assert np.max(np.abs(st.J_e @ qdot - x)) < 1e-9
 
@@ -110,13 +134,13 @@ def test_velocity_limits_hold_where_the_minimum_norm_breaks_them(paper: Any) -> 
     sc, q = paper
     vmax = sc.braced.robot.model.velocityLimit
     x = _xdot(3)
-    ref = braced_min_norm_rates(sc.braced.stacked_state(q), x, sc.task_space)
+    ref = braced_min_norm_rates(sc.braced.state(q), x, sc.task_space)
     x = x * 1.3 * float(np.min(vmax / np.abs(ref)))  # the minimum norm runs one joint at 1.3 × its URDF limit
     ref = ref * 1.3 * float(np.min(vmax / np.abs(ref)))
     assert np.max(np.abs(ref) / vmax) > 1.29
     qdot = BracedQP(None, dt=0.05, clearance_margin=None, space=sc.task_space).velocity(sc.braced.state(q), x)
     assert np.all(np.abs(qdot) <= vmax + 1e-9)
-    st = sc.braced.stacked_state(q)
+    st = sc.braced.state(q)
     assert np.max(np.abs(st.G @ qdot)) < 1e-9
     assert np.max(np.abs(st.J_e @ qdot - x)) < 1e-9
 
@@ -132,7 +156,7 @@ def test_a_weighted_task_is_the_equality_at_high_weight(paper: Any) -> None:
     sc, q = paper
     weighted = BracedQP(None, dt=0.05, task_weight=1e8, clearance_margin=None, space=sc.task_space)
     qdot = weighted.velocity(sc.braced.state(q), _xdot(5))
-    ref = braced_min_norm_rates(sc.braced.stacked_state(q), _xdot(5), sc.task_space)
+    ref = braced_min_norm_rates(sc.braced.state(q), _xdot(5), sc.task_space)
     assert np.max(np.abs(qdot - ref)) < 1e-6 * max(1.0, np.max(np.abs(ref)))
 
 
@@ -146,7 +170,7 @@ def test_too_few_contact_motions_raise_or_are_damped() -> None:
         BracedQP(None, dt=0.05, clearance_margin=None).velocity(braced.state(q), _xdot(6))
     damped = BracedQP(None, dt=0.05, task_weight=1e8, clearance_margin=None, baumgarte=0.0)
     qdot = damped.velocity(braced.state(q), _xdot(6))
-    st = braced.stacked_state(q)
+    st = braced.state(q)
     y = np.linalg.lstsq(st.J_e @ st.N, _xdot(6), rcond=None)[0]  # least squares over the contact motions
     assert np.max(np.abs(qdot - st.N @ y)) < 1e-5 * max(1.0, np.max(np.abs(st.N @ y)))
     b = st.J_e @ st.N  # the damped least squares: (w BᵀB + (1 + λ) I) y = w Bᵀ ẋ, σ_min/σ_max(B) = 0 (4 < 6 rows)
@@ -220,7 +244,7 @@ def test_a_link_at_or_inside_the_least_clearance_may_not_go_deeper(paper: Any) -
     assert len(inside) == 3
     h = 1e-5
     x = _xdot(7)
-    ref = braced_min_norm_rates(sc.braced.stacked_state(q), x, sc.task_space)
+    ref = braced_min_norm_rates(sc.braced.state(q), x, sc.task_space)
     rate = {j: (links(q + h * ref)[j] - base[j]) / h for j in inside}
     if min(rate.values()) > -1e-3:  # none deepens at a rate: the opposite twist does
         x, ref = -x, -ref
@@ -230,5 +254,5 @@ def test_a_link_at_or_inside_the_least_clearance_may_not_go_deeper(paper: Any) -
     qdot = qp.velocity(sc.braced.state(q), x)
     after = links(q + h * qdot)
     assert all((after[j] - base[j]) / h > -1e-4 for j in inside)
-    st = sc.braced.stacked_state(q)
+    st = sc.braced.state(q)
     assert np.max(np.abs(st.G @ qdot)) < 1e-9 and np.max(np.abs(st.J_e @ qdot - x)) < 1e-9
