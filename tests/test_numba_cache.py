@@ -41,7 +41,8 @@ _PROBE = """
 import json, sys
 import numpy as np
 import bracekit
-from bracekit import GradientProjectionStep, load_scenario
+from bracekit import load_scenario
+from bracekit.resolution import GradientProjectionStep
 import numba
 from numba.core.dispatcher import Dispatcher
 sc = load_scenario("paper")

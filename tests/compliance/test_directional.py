@@ -17,6 +17,7 @@ from bracekit.compliance.directional import (
 from bracekit.compliance.first_order import end_effector_compliance
 from bracekit.errors import InputError
 from bracekit.simulation import load_scenario, solve_start
+from bracekit.validate.plane_contact import PlaneContact
 from bracekit.validate.statics import solve_static_equilibrium
 
 
@@ -67,7 +68,7 @@ def test_c_t_is_what_a_static_probe_measures_on_the_paper_robot() -> None:
             surface.point,
             surface.normal,
             np.concatenate([s * h * beta, np.zeros(3)]),
-            constraint_wrenches=braced.X,
+            constraint_wrenches=braced.split.X,
         ).deflection
         for s in (1.0, -1.0)
     ]
@@ -97,12 +98,9 @@ def test_c_t_is_what_mujoco_measures_along_beta_x(scenario: str) -> None:
             robot.model,
             q,
             robot.stiffness,
-            braced.brace_id,
             robot.tip_id,
-            surface.point,
-            surface.normal,
+            [PlaneContact(braced.split.brace_id, surface.point, surface.normal, preload=preload)],
             np.concatenate([sign * force * beta, np.zeros(3)]),
-            preload=preload,
         )
         assert res.converged and not res.contact_opened
         along.append(float(beta @ res.deflection[:3]))

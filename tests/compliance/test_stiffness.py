@@ -44,7 +44,7 @@ def static_compliance(braced: BracedRobot, q: np.ndarray, preload: float, gravit
         "gravity": gravity,
         "base_wrench": tool,
         "environment_stiffness": brace.environment_stiffness,
-        "constraint_wrenches": braced.X,
+        "constraint_wrenches": braced.split.X,
     }
     cols = [
         solve_static_equilibrium(*args, H * e, **kw).deflection
@@ -128,7 +128,7 @@ def two_braces(preload: float):
     q = solve_start(sc.braced, sc.task.position(0.0), sc.guess).q
     robot = sc.braced.robot.with_point_frame("wall_pad", "link9", np.zeros(3))
     wall = BracedRobot(robot, Brace("wall_pad", Surface(np.zeros(3), np.array([0.0, -1.0, 0.0]))))
-    b_wall = wall.state(q).b
+    b_wall = wall.state(q).b_i[0]
     braces = [
         dataclasses.replace(sc.braced.brace),
         Brace("wall_pad", Surface(b_wall, np.array([0.0, -1.0, 0.0]))),
@@ -139,7 +139,7 @@ def two_braces(preload: float):
 @pytest.mark.parametrize("preload", [0.0, 30.0])
 def test_several_braces_through_the_same_path_match_the_stacked_static_solve(preload: float) -> None:
     braced, q = two_braces(preload)
-    st = braced.stacked_state(q)
+    st = braced.state(q)
     k = tool_stiffness(st, preload=preload)
     robot = braced.robot
     args = (
@@ -167,7 +167,7 @@ def test_several_braces_through_the_same_path_match_the_stacked_static_solve(pre
 def test_one_brace_as_a_stacked_state_is_the_same_stiffness(paper_start) -> None:
     braced, q = paper_start
     a = tool_stiffness(braced.state(q), preload=10.0, gravity=True)
-    b = tool_stiffness(braced.stacked_state(q), preload=[10.0], gravity=True)
+    b = tool_stiffness(braced.state(q), preload=[10.0], gravity=True)
     np.testing.assert_array_equal(a.K, b.K)
 
 
@@ -175,10 +175,10 @@ def test_a_tool_locked_by_the_braces_or_an_unstable_load_is_refused(paper_start)
     braced, q = paper_start
     robot = braced.robot.with_point_frame("near_tip", "link10", np.zeros(3))
     probe = BracedRobot(robot, Brace("near_tip", Surface(np.zeros(3), np.array([0.0, 0.0, 1.0]))))
-    finger = Brace("near_tip", Surface(probe.state(q).b, np.array([0.0, 0.0, 1.0])), "soft_finger")
+    finger = Brace("near_tip", Surface(probe.state(q).b_i[0], np.array([0.0, 0.0, 1.0])), "soft_finger")
     # a soft finger on link 10 leaves joint 11 and the table pad's slide: fewer than 6 tool motions
     with pytest.raises(SingularityError, match="directions of motion"):
-        tool_stiffness(BracedRobot(robot, [braced.brace, finger]).stacked_state(q))
+        tool_stiffness(BracedRobot(robot, [braced.brace, finger]).state(q))
     with pytest.raises(UnstableEquilibriumError):
         tool_stiffness(braced.state(q), preload=1e4)
 
@@ -189,7 +189,7 @@ def test_several_soft_braces_are_the_inverse_of_the_stacked_compliance() -> None
         braced.robot,
         [dataclasses.replace(b, environment_stiffness=k) for b, k in zip(braced.braces, (3e3, 1e4), strict=True)],
     )
-    st = soft.stacked_state(q)
+    st = soft.state(q)
     k = tool_stiffness(st)
     assert rel(k.K @ end_effector_compliance(st), np.eye(6)) < 1e-9
-    assert rel(np.linalg.inv(k.K), end_effector_compliance(braced.stacked_state(q))) > 1e-3  # softer than rigid
+    assert rel(np.linalg.inv(k.K), end_effector_compliance(braced.state(q))) > 1e-3  # softer than rigid

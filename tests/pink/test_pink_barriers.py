@@ -18,7 +18,7 @@ def test_the_region_barrier_is_r_max_squared_minus_r_squared(panda: Any, config:
     sc, q = panda
     barrier = BraceRegionBarrier(sc.braced)
     brace = sc.braced.brace
-    b = sc.braced.state(q).b
+    b = sc.braced.state(q).b_i[0]
     r = np.linalg.norm((b - brace.surface.point)[:2])  # the post's top is horizontal: lateral = x, y
     assert barrier.compute_barrier(config(sc, q)) == pytest.approx([brace.region_radius**2 - r**2], abs=1e-12)
     fd = fd(lambda x: barrier.compute_barrier(config(sc, x)), q)

@@ -11,6 +11,8 @@ from numpy.typing import ArrayLike
 from bracekit._linalg import as_array, cross3_list
 from bracekit.compliance.first_order import (
     ComplianceModel,
+    braced_c1_unchecked,
+    c1_unchecked,
     check_finite,
     check_model,
     end_effector_compliance,
@@ -54,7 +56,13 @@ class ComplianceIndex(Term):
         hessians(state)  # InputError before any work when the state has none
         beta = self.beta_x
         with np.errstate(all="ignore"):  # an overflow raises NumericalError below (check_finite)
-            v = end_effector_compliance(state, self.model) @ beta
+            if self.model == "projection":  # eq:Ce through the split, unchecked: the index's own check below
+                split = state.split
+                c1t = braced_c1_unchecked(state, self.model, c1_unchecked(state))
+                j_e2, k2 = state.J_e[:, split.n1 :], state.K[split.n1 :]
+                v = beta @ (split.S_t1 @ c1t @ split.S_t1.T + (j_e2 / k2) @ j_e2.T)
+            else:
+                v = end_effector_compliance(state, self.model) @ beta
             ci = float(check_finite(np.linalg.norm(v), "the compliance index"))
         if ci == 0.0:
             return np.zeros(state.q.size)

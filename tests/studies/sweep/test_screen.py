@@ -38,7 +38,7 @@ def test_screening_equals_the_single_configuration_path(tiny_spec: Path) -> None
         for q, beta in zip(ctx.Q, ctx.beta, strict=True):
             st = braced.state(q)
             ci.append(compliance_index(end_effector_compliance(st, "constrained"), beta))
-            k.append(frobenius_condition(st.J_braced))
+            k.append(frobenius_condition(st.split.J_braced))
         assert s.candidate == c.id
         assert s.Ci_mean == pytest.approx(np.mean(ci), rel=1e-10)
         assert s.k_max == pytest.approx(np.max(k), rel=1e-10)
