@@ -603,7 +603,16 @@ def test_a_run_with_two_braces_reports_each_brace_s_margins(capsys, tmp_path: Pa
 
 def test_the_projection_model_with_two_braces_is_refused_in_one_line(capsys, tmp_path: Path) -> None:
     path = _two_braces_toml(tmp_path)
-    args = ["run", str(path), "--no-figures", "--quiet", "--compliance-model", "projection", "--out", str(tmp_path / "o")]
+    args = [
+        "run",
+        str(path),
+        "--no-figures",
+        "--quiet",
+        "--compliance-model",
+        "projection",
+        "--out",
+        str(tmp_path / "o"),
+    ]
     code, _, err = _run(args, capsys)
     assert code == 2 and "defined for one brace" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
@@ -611,9 +620,20 @@ def test_the_projection_model_with_two_braces_is_refused_in_one_line(capsys, tmp
 
 def test_the_preloaded_model_runs_with_two_braces_and_a_preload(capsys, tmp_path: Path) -> None:
     path = _two_braces_toml(tmp_path)
-    text = path.read_text(encoding="utf-8").replace("region_radius = 0.15\n", "region_radius = 0.15\npreload = 5.0\n", 1)
+    text = path.read_text(encoding="utf-8").replace(
+        "region_radius = 0.15\n", "region_radius = 0.15\npreload = 5.0\n", 1
+    )
     path.write_text(text, encoding="utf-8")
-    args = ["run", str(path), "--no-figures", "--quiet", "--compliance-model", "preloaded", "--out", str(tmp_path / "o")]
+    args = [
+        "run",
+        str(path),
+        "--no-figures",
+        "--quiet",
+        "--compliance-model",
+        "preloaded",
+        "--out",
+        str(tmp_path / "o"),
+    ]
     code, _, err = _run(args, capsys)
     assert code == 0, err
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
