@@ -198,7 +198,7 @@ def _split_step(sc: Scenario, q: np.ndarray, xdot: np.ndarray, calls: int, round
     """
     robot = sc.robot.with_point_frame("pad4", "link4", (0.03, 0.02, 0.0))
     probe = BracedRobot(robot, Brace("pad4", Surface(np.zeros(3), (0.0, 0.0, 1.0))))
-    b = probe.placements(q)[0]
+    b = probe.frame_placements(q).b_i[0]
     braced = BracedRobot(robot, Brace("pad4", Surface(b, (0.0, 0.0, 1.0)), region_radius=1.0, pad_axis=True))
     base = sc.strategy("braced_gradient_projection", gradient="analytic")
     objective = base.objective  # type: ignore[attr-defined]
@@ -206,7 +206,7 @@ def _split_step(sc: Scenario, q: np.ndarray, xdot: np.ndarray, calls: int, round
     strategy = dataclasses.replace(base, objective=Objective(terms, objective.weights))  # type: ignore[type-var]
     npb = GradientProjectionStep(braced, strategy, backend="numpy")  # type: ignore[arg-type]
     ref_q = strategy.velocity(braced.state(q, hessians=True), xdot)  # type: ignore[attr-defined]
-    out: dict[str, Any] = {"n1": braced.n1, "numba_us": None, "kernel_used": False, "max_rel_diff_numba": None}
+    out: dict[str, Any] = {"n1": braced.split.n1, "numba_us": None, "kernel_used": False, "max_rel_diff_numba": None}
     cases = {"numpy": (lambda: npb(q, xdot), calls)}
     try:
         nbs = GradientProjectionStep(braced, strategy, backend="numba")  # type: ignore[arg-type]

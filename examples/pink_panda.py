@@ -50,7 +50,7 @@ def run(with_compliance: bool) -> tuple[float, float, float]:
         )
         configuration.integrate_inplace(velocity, dt)
         state = braced.state(configuration.q)
-        gap = max(gap, abs(surface.signed_distance(state.b)))
+        gap = max(gap, abs(surface.signed_distance(state.b_i[0])))
         tracking = max(tracking, float(np.linalg.norm(state.e - sc.task.position(t))))
         ci.append(compliance.value(configuration))
     return float(np.mean(ci)), gap, tracking

@@ -69,7 +69,7 @@ def test_mjcf_has_the_coulomb_cone_friction_gravity_and_the_statics_set_points(s
     mujoco.mj_forward(m, d)
     # with the robot at rest, MuJoCo's bias force is gravity: it matches Pinocchio's g(q) = τ0 + J_bᵀ f_c0
     st = sc.braced.state(q)
-    np.testing.assert_allclose(d.qfrc_bias, resp.tau0 + st.J_b.T @ resp.f_c0, atol=1e-9)
+    np.testing.assert_allclose(d.qfrc_bias, resp.tau0 + st.J_b_i[0].T @ resp.f_c0, atol=1e-9)
 
 
 def test_unloaded_contact_force_is_the_preload_with_no_tangential_force(down: HoldingCheck) -> None:

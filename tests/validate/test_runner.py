@@ -56,7 +56,7 @@ def test_configurations_are_braced_and_distinct(scenario: Scenario, configs: lis
     surface = scenario.braced.brace.surface
     for q in configs:
         assert q.shape == (scenario.robot.n,)
-        assert abs(surface.signed_distance(scenario.braced.state(q).b)) < 1e-9
+        assert abs(surface.signed_distance(scenario.braced.state(q).b_i[0])) < 1e-9
     assert np.linalg.norm(configs[1] - configs[0]) > 1e-2
 
 

@@ -82,9 +82,13 @@ class MujocoSession:
     """A compiled MuJoCo model of the braced chain, its data at q0 and the handles of the checks.
 
     Attributes:
-        m, d: MuJoCo's model and data. tau: the damping time constant τ (s). site, tip_body: the tip site and
-        its body. pairs: one sphere/plane pair per contact. messages: MuJoCo's warnings (with
-        :func:`captured_warnings`).
+        m: MuJoCo's model.
+        d: MuJoCo's data.
+        tau: the damping time constant τ (s).
+        site: the tip site's id.
+        tip_body: the tip site's body id.
+        pairs: one sphere/plane pair per contact.
+        messages: MuJoCo's warnings (with :func:`captured_warnings`).
     """
 
     def __init__(

@@ -53,8 +53,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.simulation.run import RunResult, run_scenario
 from bracekit.simulation.scenario import Scenario
 from bracekit.simulation.simulate import Trajectory
-from bracekit.statics import contact_response, contact_responses, gravity_torque
-from bracekit.statics import multi_contact_responses
+from bracekit.statics import contact_response, contact_responses, gravity_torque, multi_contact_responses
 from bracekit.validate.compliance_check import first_order_state
 from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.mjcf import build_mujoco_model
