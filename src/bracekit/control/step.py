@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit._linalg import as_number
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.resolution.fused import fused_step
+from bracekit.resolution.fused import GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import Strategy, tip_twist, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace
 from bracekit.simulation.correction import contact_jacobian, contact_residual
@@ -39,6 +39,9 @@ from bracekit.simulation.correction import contact_jacobian, contact_residual
 Array = NDArray[np.float64]
 
 __all__ = ["ControlResult", "ControlStep"]
+
+#: A contact drift below this (m, rad) is round-off: no correction is computed.
+_ROUNDOFF = 1e-13
 
 
 class ControlResult(NamedTuple):
@@ -71,6 +74,7 @@ class ControlStep:
         preloads: P_i ≥ 0 (N) per brace, or one for all, pressed by the set point (braced strategies only).
         gravity: hold gravity in the set point (Pinocchio's g(q)).
         correction: ticks over which a contact drift is removed (≥ 1; 1 is deadbeat).
+        backend: the fused gradient-projection step's backend (``"auto"``: numba when installed, else NumPy).
     """
 
     def __init__(
@@ -83,6 +87,7 @@ class ControlStep:
         preloads: float | Sequence[float] = 0.0,
         gravity: bool = False,
         correction: float = 1.0,
+        backend: str = "auto",
     ) -> None:
         if not isinstance(braced, BracedRobot):
             raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
@@ -104,7 +109,10 @@ class ControlStep:
         self.preloads = pre if strategy.braced else np.zeros(count)
         self.gravity = bool(gravity)
         self.stiffness = np.asarray(braced.robot.stiffness, dtype=float)
-        self._fast = fused_step(braced, self.strategy)
+        fast = fused_step(braced, self.strategy)
+        if fast is not None and backend != "numpy" and len(braced.braces) == 1:
+            fast = GradientProjectionStep(braced, self.strategy, backend=backend)  # type: ignore[arg-type]
+        self._fast = fast
         self._data = braced.robot.model.createData()
         self.anchors: list[tuple[Array, Array]] | None = None
 
@@ -139,11 +147,15 @@ class ControlStep:
             if self.anchors is None:
                 self.anchors = [(c.b.copy(), c.R_b.copy()) for c in st.contacts]
             residual = contact_residual(st, self.anchors)
-            if np.any(residual):
+            if np.max(np.abs(residual)) > _ROUNDOFF:
                 rows = self.space.selection(st.R_e) @ st.J_e if not self.space.is_pose else st.J_e
                 stacked = np.vstack([rows, contact_jacobian(st, self.anchors)])
                 rhs = np.concatenate([np.zeros(rows.shape[0]), -residual / (self.correction * self.dt)])
-                qdot = qdot + stacked.T @ np.linalg.lstsq(stacked @ stacked.T, rhs, rcond=None)[0]
+                gram = stacked @ stacked.T
+                try:
+                    qdot = qdot + stacked.T @ np.linalg.solve(gram, rhs)
+                except np.linalg.LinAlgError:  # dependent rows (two braces constraining one motion)
+                    qdot = qdot + stacked.T @ np.linalg.lstsq(gram, rhs, rcond=None)[0]
         q_next = qa + qdot * self.dt
         margin = np.array(
             [
