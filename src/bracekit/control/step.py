@@ -53,6 +53,7 @@ class ControlResult(NamedTuple):
         set_point: the servo set point q_s of q_next (n,), rad (preload and gravity held).
         residual: the contacts' drift r at q (c,), m and rad, stacked in brace order (empty in free space).
         region_margin: r_max_i − ‖b_i − p_i‖ per brace (N,), m; +∞ where a brace has no region.
+        e: the tool position at q (3,), m, world. R_e: the tool orientation at q (3×3).
     """
 
     qdot: Array
@@ -60,6 +61,8 @@ class ControlResult(NamedTuple):
     set_point: Array
     residual: Array
     region_margin: Array
+    e: Array
+    R_e: Array
 
 
 class ControlStep:
@@ -164,4 +167,4 @@ class ControlStep:
             ]
         )
         set_point = self.set_point(st, q_next) if (self.gravity or np.any(self.preloads)) else q_next
-        return ControlResult(qdot, q_next, set_point, residual, margin)
+        return ControlResult(qdot, q_next, set_point, residual, margin, st.e.copy(), st.R_e.copy())
