@@ -43,19 +43,26 @@ from bracekit.validate.session import MujocoSession, captured_warnings
 
 Array = NDArray[np.float64]
 
-__all__ = ["CobotRun", "Dwell", "run_strategy"]
+__all__ = ["LIFT_TOL", "CobotRun", "Dwell", "run_strategy"]
 
 _SPHERE_RADIUS = 1e-4  # m
 _IMPRATIO = 10.0  # frictional-to-normal impedance ratio: less creep of the clamped pad
 _SETTLE = 0.3  # s at the start before the worker grips
+#: The height (m) of a material point b_i above its surface that counts as a lift-off (with a tick whose mean
+#: normal force is ≤ 0): the contact's own MuJoCo steps flicker on and off at sub-micrometre separations.
+LIFT_TOL = 1e-5
 # the pad's contact while it glides (the validation's path contact: the stiff one drops out for single steps while
 # b slides); the model's stiff contact while clamped for the work
 _GLIDE_SOLREF = np.array([0.01, 1.0])
 _GLIDE_SOLIMP = np.array([0.99, 0.99, 0.001, 0.5, 2.0])
+_STIFFEN = 0.1  # s: the clamped contact's settings are blended in from the glide's (no bounce at the switch)
 
 
 class Dwell(NamedTuple):
-    """The work at one target: measured and predicted deflection (3,), m, their relative error, slip (m)."""
+    """The work at one target: measured and predicted deflection (3,) m, relative error, slips (m), path error (m).
+
+    ``clamp_slip``: the pad's slip while the clamp engaged (before the work); ``slip``: under the work.
+    """
 
     target: int
     t_on: float
@@ -65,6 +72,7 @@ class Dwell(NamedTuple):
     rel_err: float
     slip: float
     path_error: float
+    clamp_slip: float
 
 
 @dataclasses.dataclass
@@ -87,7 +95,7 @@ class CobotRun:
     normal: Array
     tangential: Array
     torque: Array
-    dwell: Array
+    dwell: NDArray[np.bool_]
     tick_us: Array
     dwells: list[Dwell]
     effort: Array
@@ -136,6 +144,7 @@ def run_strategy(sc: CobotScenario, name: str, q0: Array) -> CobotRun:
     damping = np.asarray(m.dof_damping, dtype=float).copy()
     k = np.asarray(robot.stiffness, dtype=float)
     normals = [b.surface.normal for b in braced.braces]
+    planes = [b.surface.point for b in braced.braces]
     worker = Worker(sc, first.e)
     w_proc = sc.process.wrench
     steps = round((_SETTLE + sc.duration) / dt)
@@ -149,7 +158,7 @@ def run_strategy(sc: CobotScenario, name: str, q0: Array) -> CobotRun:
     qdot_c = np.zeros(robot.n)
     clamped, previous = False, "settle"
     anchor_b: list[Array] = []
-    slip = 0.0
+    slips: dict[int, list[float]] = {}  # per work start: [slip while clamping, slip under the work]
     lost: str | None = None
     dwell_marks: list[tuple[int, float, int]] = []  # (target, t_on, tick of the work's start)
     q_work: list[Array] = []
@@ -174,13 +183,17 @@ def run_strategy(sc: CobotScenario, name: str, q0: Array) -> CobotRun:
             if name_now == "dwell":
                 qdot_c[:] = 0.0
                 law.reset()
+                if ph is not None and ph.since < _STIFFEN:  # the contact stiffens from the glide's over _STIFFEN
+                    _stiffen(m, geoms, ph.since / _STIFFEN, solref, solimp)
                 if not clamped:  # the pad is clamped for the work, the command held
-                    _glide(m, geoms, False, solref, solimp, condim)
+                    m.geom_condim[geoms] = condim
                     clamped = True
                     anchor_b = [sim.b_point(j) for j in range(len(sim.pairs))]
                     assert ph is not None
                     work = i + round(sc.process.start / dt)
                     dwell_marks.append((ph.target, t, work))
+                if i == work:  # the pad's slip under the work is measured from here
+                    anchor_b = [sim.b_point(j) for j in range(len(sim.pairs))]
                 if i == work:  # the linearisation point: MuJoCo's configuration and normal force before the load
                     q_work.append(d.qpos.copy())
                     f_work.append(float(np.mean(normal[i - round(0.1 / dt) : i])) if strategy.braced else 0.0)
@@ -203,7 +216,12 @@ def run_strategy(sc: CobotScenario, name: str, q0: Array) -> CobotRun:
             if np.any(load):
                 mujoco.mj_kinematics(m, d)
                 mujoco.mj_applyFT(m, d, load[:3], load[3:], d.site_xpos[sim.site].copy(), sim.tip_body, d.qfrc_applied)
-            mujoco.mj_step(m, d, sub)
+            forces = np.zeros((len(normals), 3))
+            for _ in range(sub):  # the brace's force averaged over the tick's MuJoCo steps
+                mujoco.mj_step(m, d)
+                if strategy.braced:
+                    for j in range(len(normals)):
+                        forces[j] += sim.contact_force(j)[0] / sub
             sim.check(f"{name} at t = {t:.3f} s")
             rows["force"][i], rows["e"][i], rows["e_cmd"][i] = force, e, x_c
             rows["torque"][i] = k * (q_s - d.qpos) + damping * (qdot_c - d.qvel)
@@ -211,22 +229,23 @@ def run_strategy(sc: CobotScenario, name: str, q0: Array) -> CobotRun:
             if i % 20 == 0:
                 qpos[i // 20] = d.qpos
             if strategy.braced:
-                fn, ft = np.inf, 0.0
-                for j, nh in enumerate(normals):
-                    f, count = sim.contact_force(j)
-                    f_n = float(f @ nh) if count else 0.0
+                fn, ft, gap = np.inf, 0.0, -np.inf
+                for j, (nh, f) in enumerate(zip(normals, forces, strict=True)):
+                    f_n = float(f @ nh)
                     if f_n < fn:
                         fn, ft = f_n, float(np.linalg.norm(f - f_n * nh))
+                    gap = max(gap, float((sim.b_point(j) - planes[j]) @ nh))
                     if clamped:
                         db = sim.b_point(j) - anchor_b[j]
-                        slip = max(slip, float(np.linalg.norm(db - (db @ nh) * nh)))
+                        entry = slips.setdefault(work, [0.0, 0.0])
+                        entry[int(i >= work)] = max(entry[int(i >= work)], float(np.linalg.norm(db - (db @ nh) * nh)))
                 normal[i], tangential[i] = fn, ft
-                if fn <= 0.0 and t >= _SETTLE:
+                if (fn <= 0.0 or gap > LIFT_TOL) and t >= _SETTLE:
                     open_ticks += 1
                     if lost is None:
                         lost = f"the brace lifted off at t = {t:.3f} s ({name_now})"
     marks = [(tg, ton, st, q, f) for (tg, ton, st), q, f in zip(dwell_marks, q_work, f_work, strict=False)]
-    dwells = _dwells(sc, strategy.braced, marks, t_arr, rows["e"], slip)
+    dwells = _dwells(sc, strategy.braced, marks, t_arr, rows["e"], slips)
     effort = np.asarray(robot.model.effortLimit, dtype=float)
     return CobotRun(
         name, strategy.braced, t_arr, rows["force"], rows["e"], rows["e_cmd"], proc, normal, tangential,
@@ -241,6 +260,12 @@ def _glide(m: mujoco.MjModel, geoms: list[int], gliding: bool, solref: Array, so
     m.geom_solimp[geoms] = _GLIDE_SOLIMP if gliding else solimp
 
 
+def _stiffen(m: mujoco.MjModel, geoms: list[int], x: float, solref: Array, solimp: Array) -> None:
+    """The contact's settings a fraction x ∈ [0, 1] of the way from the glide's to the clamped (stiff) ones."""
+    m.geom_solref[geoms] = _GLIDE_SOLREF * (solref / _GLIDE_SOLREF) ** x  # time constant: geometric blend
+    m.geom_solimp[geoms] = (1.0 - x) * _GLIDE_SOLIMP + x * solimp
+
+
 def _twist(xd: Array, x_c: Array, r_c: Array, q_c: Array, step: ControlStep, gain: float) -> Array:
     """ẋ_a plus the feedback of the tool reference (position) and the held orientation, at the command q_c."""
     st = step.braced.state(q_c)
@@ -249,7 +274,12 @@ def _twist(xd: Array, x_c: Array, r_c: Array, q_c: Array, step: ControlStep, gai
 
 
 def _dwells(
-    sc: CobotScenario, braced: bool, marks: list[tuple[int, float, int, Array, float]], t: Array, e: Array, slip: float
+    sc: CobotScenario,
+    braced: bool,
+    marks: list[tuple[int, float, int, Array, float]],
+    t: Array,
+    e: Array,
+    slips: dict[int, list[float]],
 ) -> list[Dwell]:
     """Deflection under the process wrench at each dwell, against C w (module docstring)."""
     p = sc.process
@@ -268,5 +298,6 @@ def _dwells(
         peak = float(np.max(np.linalg.norm(e[start:hold1] - ref, axis=1)))
         err = float(np.linalg.norm(meas - pred)) / max(float(np.linalg.norm(pred)), 1e-300)
         path = float(np.linalg.norm(ref - sc.operator.targets[target]))
-        out.append(Dwell(target, float(t_on), meas, pred, peak, err, slip, path))
+        clamp_slip, slip = slips.get(start, [0.0, 0.0])
+        out.append(Dwell(target, float(t_on), meas, pred, peak, err, slip, path, clamp_slip))
     return out
