@@ -148,13 +148,14 @@ def figure_cobot(sc: CobotScenario, runs: list[CobotRun], path: Path) -> None:
     period = sc.operator.travel + sc.operator.approach + sc.operator.dwell
     targets = sc.operator.targets
     direction = sc.process.wrench[:3] / max(float(np.linalg.norm(sc.process.wrench[:3])), 1e-300)
-    for run in runs:
+    for c, run in enumerate(runs):
+        colour = f"C{c}"
         idx = np.clip(((run.t - _START) // period).astype(int), 0, len(targets) - 1)
-        axes[0].plot(run.t, np.linalg.norm(run.force, axis=1), lw=0.8, label=run.strategy)
-        axes[1].plot(run.t, 1e3 * np.linalg.norm(run.e - targets[idx], axis=1), lw=0.8)
+        axes[0].plot(run.t, np.linalg.norm(run.force, axis=1), lw=0.8, color=colour, label=run.strategy)
+        axes[1].plot(run.t, 1e3 * np.linalg.norm(run.e - targets[idx], axis=1), lw=0.8, color=colour)
         if run.braced:
-            axes[2].plot(run.t, run.normal, lw=0.8, label=run.strategy)
-        axes[3].plot(run.t, 1e3 * ((run.e - run.e_cmd) @ direction), lw=0.8)
+            axes[2].plot(run.t, run.normal, lw=0.8, color=colour)
+        axes[3].plot(run.t, 1e3 * ((run.e - run.e_cmd) @ direction), lw=0.8, color=colour)
     for ax, label in zip(
         axes,
         ("worker force (N)", "tool to hole (mm)", "brace normal force (N)", "tool − command along the load (mm)"),
