@@ -44,6 +44,20 @@ __all__ = ["ControlResult", "ControlStep"]
 _ROUNDOFF = 1e-13
 
 
+def _least_norm(gram: Array, rhs: Array) -> Array:
+    """The solution of gram · x = rhs by one solve, or by least squares when the rows are dependent.
+
+    Two braces constraining one motion make the Gram matrix singular.
+    """
+    try:
+        x: Array = np.asarray(np.linalg.solve(gram, rhs), dtype=np.float64)
+        if np.all(np.isfinite(x)) and np.linalg.norm(gram @ x - rhs) <= 1e-9 * (np.linalg.norm(rhs) + 1e-300):
+            return x
+    except np.linalg.LinAlgError:
+        pass
+    return np.asarray(np.linalg.lstsq(gram, rhs, rcond=None)[0], dtype=float)
+
+
 class ControlResult(NamedTuple):
     """One control tick.
 
@@ -117,6 +131,7 @@ class ControlStep:
             fast = GradientProjectionStep(braced, self.strategy, backend=backend)  # type: ignore[arg-type]
         self._fast = fast
         self._data = braced.robot.model.createData()
+        self._regions = [i for i, b in enumerate(braced.braces) if b.region_radius is not None]
         self.anchors: list[tuple[Array, Array]] | None = None
 
     def reset(self, q: ArrayLike) -> None:
@@ -154,17 +169,12 @@ class ControlStep:
                 rows = self.space.selection(st.R_e) @ st.J_e if not self.space.is_pose else st.J_e
                 stacked = np.vstack([rows, contact_jacobian(st, self.anchors)])
                 rhs = np.concatenate([np.zeros(rows.shape[0]), -residual / (self.correction * self.dt)])
-                gram = stacked @ stacked.T
-                try:
-                    qdot = qdot + stacked.T @ np.linalg.solve(gram, rhs)
-                except np.linalg.LinAlgError:  # dependent rows (two braces constraining one motion)
-                    qdot = qdot + stacked.T @ np.linalg.lstsq(gram, rhs, rcond=None)[0]
+                qdot = qdot + stacked.T @ _least_norm(stacked @ stacked.T, rhs)
         q_next = qa + qdot * self.dt
-        margin = np.array(
-            [
-                np.inf if b.region_radius is None else b.region_radius - float(np.linalg.norm(bi - b.surface.point))
-                for b, bi in zip(self.braced.braces, st.b_i, strict=True)
-            ]
-        )
+        margin = np.full(len(self.braced.braces), np.inf)
+        for i in self._regions:
+            brace = self.braced.braces[i]
+            radius = brace.region_radius or 0.0  # a brace of _regions has one
+            margin[i] = radius - float(np.linalg.norm(st.contacts[i].b - brace.surface.point))
         set_point = self.set_point(st, q_next) if (self.gravity or np.any(self.preloads)) else q_next
         return ControlResult(qdot, q_next, set_point, residual, margin, st.e.copy(), st.R_e.copy())
