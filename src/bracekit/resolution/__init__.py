@@ -31,3 +31,12 @@ __all__ = [
     "numba_available",
     "with_beta_x",
 ]
+
+
+def __getattr__(name: str) -> object:
+    """``ControlStep`` of :mod:`bracekit.control`, imported on first use (it builds on this package)."""
+    if name == "ControlStep":
+        from bracekit.control.step import ControlStep
+
+        return ControlStep
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
