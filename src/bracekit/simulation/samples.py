@@ -176,6 +176,21 @@ class Samples:
             ),
         )
 
+    @classmethod
+    def concat(cls, parts: Sequence[Samples]) -> Samples:
+        """The samples of `parts` (at least one, of one braced robot) one after the other."""
+        first = parts[0]
+        return cls(
+            braced=first.braced,
+            series={key: np.concatenate([p.series[key] for p in parts]) for key in first.series},
+            Ci={key: np.concatenate([p.Ci[key] for p in parts]) for key in first.Ci},
+            sigma_ratio={key: np.concatenate([p.sigma_ratio[key] for p in parts]) for key in first.sigma_ratio},
+            contacts=tuple(
+                ContactSeries(*(np.concatenate([p.contacts[i][f] for p in parts]) for f in range(3)))
+                for i in range(len(first.contacts))
+            ),
+        )
+
     def as_dict(self) -> dict[str, Array]:
         """The measures under their names in trajectories.npz (``Ci_<model>``, ``sigma_ratio_<key>``, …).
 
