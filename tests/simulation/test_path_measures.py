@@ -9,7 +9,7 @@ import pytest
 
 from bracekit import Circle, load_scenario, simulate, solve_start
 from bracekit.errors import InputError
-from bracekit.simulation.path_measures import measure_path
+from bracekit.simulation.path_measures import measure_path, path_ratios
 from bracekit.simulation.samples import Samples, measure
 
 
@@ -77,3 +77,19 @@ def test_a_refused_first_sample_gives_no_samples() -> None:
 def test_no_states_no_samples() -> None:
     sc = load_scenario("paper")
     assert measure_path(sc.braced, [], [], [], [], []) == (None, 0, None)
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_the_path_ratios_equal_the_guard_s_ratios(name: str) -> None:
+    from bracekit.simulation.guards import sigma_ratios
+
+    sc, states, *_ = _path(name)
+    space = sc.strategy("braced_gradient_projection").space
+    ref = [sigma_ratios(st, space) for st in states]
+    keys = tuple(ref[0])
+    checked = states[0].motions.inverted(True)
+    known = [{key: r[key] for key in checked} for r in ref]
+    got = path_ratios(states, space, keys, known)
+    assert [tuple(g) for g in got] == [keys] * len(states)
+    for g, r in zip(got, ref, strict=True):
+        assert all(abs(g[key] - r[key]) <= 1e-12 * abs(r[key]) for key in keys)

@@ -63,7 +63,7 @@ from bracekit.simulation.guards import (
     sigma_ratios,
 )
 from bracekit.simulation.notes import run_notes
-from bracekit.simulation.path_measures import measure_path
+from bracekit.simulation.path_measures import measure_path, path_ratios
 from bracekit.simulation.samples import Samples
 from bracekit.simulation.tasks import Task
 from bracekit.simulation.trajectory import Trajectory
@@ -236,7 +236,7 @@ def simulate(
                 if np.any(step > bound):
                     gain = getattr(strategy, "objective", None) is not None
                     raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
-                ratios = sigma_ratios(st, space)
+                ratios = sigma_ratios(st, space, checked)  # the others after the steps, at once
                 check_conditioning(ratios, checked)
             except BracekitError as exc:
                 failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
@@ -247,6 +247,7 @@ def simulate(
             if progress is not None:
                 progress(1)
         # the measures, from the corrected states, all at once; the run stops at the first it cannot measure
+        ratio_rows[1:] = path_ratios(states[1:], space, tuple(start), ratio_rows[1:])
         tail, count, refused = samples_of(states[1:], 1, ratio_rows[1:], jumps[1:])
         if refused is not None:
             i = count + 1

@@ -18,7 +18,7 @@ constraint (a redundant or unloaded contact) are given once per state, as the re
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,12 +26,16 @@ from numpy.typing import NDArray
 from bracekit.errors import BracekitError, ContactError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.clearance import link_clearance
+from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
 from bracekit.tolerances import MEASURE_SINGULAR_RATIO
 
 Array = NDArray[np.float64]
 
-__all__ = ["measure_path"]
+__all__ = ["measure_path", "path_ratios"]
+
+#: The recorded matrices whose σ_min/σ_max is taken over the whole path at once (singular_ratio of each).
+_STACKED: dict[str, Callable[[BracedState], Array]] = {"J": lambda st: st.J_e, "J1": lambda st: st.split.J1}
 
 
 class _UncertifiedError(Exception):
@@ -57,6 +61,37 @@ def measure_path(
         return _batch(braced, states, beta_x, task_error, sigma_ratio, joint_step), len(states), None
     except (_UncertifiedError, BracekitError, FloatingPointError, np.linalg.LinAlgError):
         return _one_by_one(braced, states, beta_x, task_error, sigma_ratio, joint_step)
+
+
+def path_ratios(
+    states: Sequence[BracedState], space: TaskSpace, keys: tuple[str, ...], known: Sequence[dict[str, float]]
+) -> list[dict[str, float]]:
+    """σ_min/σ_max of every matrix in `keys` at each state, in the order of `keys` (guards.sigma_ratios).
+
+    `known`: the ratios already taken at each state (the run's guard); the others are computed here, J and J1
+    as one stacked SVD over the states (σ_min/σ_max of each, 0 for a zero matrix, as ``singular_ratio``).
+    """
+    if not states:
+        return []
+    missing = [key for key in keys if key not in known[0]]
+    found: dict[str, Array] = {}
+    for key in missing:
+        if key in _STACKED:
+            try:
+                stack = np.array([_STACKED[key](st) for st in states], dtype=np.float64)
+            except (ValueError, BracekitError):
+                continue
+            s = np.linalg.svd(stack, compute_uv=False)
+            with np.errstate(all="ignore"):
+                found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
+    out = []
+    for i, (st, have) in enumerate(zip(states, known, strict=True)):
+        rest = [key for key in missing if key not in found]
+        more = st.motions.conditioning(None if space.is_pose else space.selection(st.R_e), tuple(rest)) if rest else {}
+        out.append(
+            {key: have[key] if key in have else float(found[key][i]) if key in found else more[key] for key in keys}
+        )
+    return out
 
 
 def _one_by_one(
