@@ -22,7 +22,10 @@ A capsule is a segment p(t) = a + t (b − a), t ∈ [0, 1], of radius r. Its cl
   it, from the side below it. D is convex along the segment (S is convex); its least point t* solves
   d(D²)/dt = 0 by a Newton iteration bracketed in [0, 1] (to the rounding of t).
 
-A link's clearance is the least over its capsules; negative is penetration. With a disk every link counts (its
+Several braces: each surface is an obstacle with its own rule (its braced link left out of it, and a capsule
+that holds its pad at every configuration, e.g. the link before a pad at a joint's origin), and a link's
+clearance is the least over the surfaces. A link's clearance is the least over its capsules; negative is
+penetration. With a disk every link counts (its
 clearance is finite); only the link carrying {b} (every capsule of the brace frame's joint) is left out: its
 pad touches the plane by design. The ends of all capsules are placed at once, in plane coordinates, with a
 lower bound each (min(h(a), h(b)) where the segment may dip below the top over the disk, else
@@ -150,21 +153,18 @@ class Clearance:
         #: coal's clearance of the URDF's meshes and primitives, or None: the capsules below
         self.mesh: MeshClearance | None = None
         self.capsules: tuple[Capsule, ...] = ()
+        #: several braces with capsules: one Clearance per surface (its own braced link left out), least over them
+        self.surfaces: tuple[Clearance, ...] = ()
         if has_meshes(robot.geometry):  # one brace or several: MeshClearance takes each brace's surface and pad
             robot.link_capsules(link_radius)  # validates link_radius as for capsules
             self.mesh = MeshClearance(braced, robot.geometry)
             return
+        if len(braced.braces) > 1:
+            self.surfaces = tuple(Clearance(BracedRobot(robot, b), link_radius)._leave_pad() for b in braced.braces)
+            self.capsules = self.surfaces[0].capsules
+            return
         skip = int(model.frames[braced.brace_id].parentJoint)
-        self.capsules = tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
-        joints = sorted({c.joint for c in self.capsules})
-        self._joints = joints
-        self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
-        self._slot = np.array([joints.index(c.joint) for c in self.capsules], dtype=np.intp)
-        self._slots = [int(k) for k in self._slot]
-        #: each capsule's ends a, b as the columns of a 3×2 matrix in its joint's frame (k, 3, 2)
-        self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
-        self._radius = np.array([c.radius for c in self.capsules], dtype=float)
-        self._radii = [float(c.radius) for c in self.capsules]
+        self._set_capsules(tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip))
         surface = braced.brace.surface
         self._normal, self._point = surface.normal, surface.point
         n = self._normal
@@ -175,6 +175,43 @@ class Clearance:
         r_max = braced.brace.obstacle_radius
         self._r_max = None if r_max is None else float(r_max)
         self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
+
+    def _set_capsules(self, capsules: tuple[Capsule, ...]) -> None:
+        """The capsules searched, with their joints, frames and ends as arrays."""
+        model = self.braced.robot.model
+        self.capsules = capsules
+        joints = sorted({c.joint for c in self.capsules})
+        self._joints = joints
+        self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
+        self._slot = np.array([joints.index(c.joint) for c in self.capsules], dtype=np.intp)
+        self._slots = [int(k) for k in self._slot]
+        #: each capsule's ends a, b as the columns of a 3×2 matrix in its joint's frame (k, 3, 2)
+        self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
+        self._radius = np.array([c.radius for c in self.capsules], dtype=float)
+        self._radii = [float(c.radius) for c in self.capsules]
+
+    def _leave_pad(self) -> Clearance:
+        """Itself without the capsules that hold its brace's pad {b} at every configuration (several braces).
+
+        With several braces a pad may sit at the end of another link's capsule (a link-point brace at a joint's
+        origin): that capsule touches the surface at the pad by design, as the braced link does. A capsule is
+        left out when {b} lies within its radius at two configurations (the neutral one and a fixed other).
+        """
+        robot = self.braced.robot
+        inside = np.ones(len(self.capsules), dtype=bool)
+        other = np.where(
+            np.isfinite(robot.lower) & np.isfinite(robot.upper), 0.3 * robot.lower + 0.7 * robot.upper, 0.7
+        )
+        for q in (robot.neutral(), other):
+            placements, _ = self._placements(robot.check_q(q), False)
+            b = self.braced.state(q).contacts[0].b
+            ends = placements[self._slot, :3, :3] @ self._ends + placements[self._slot, :3, 3][:, :, None]
+            a, d = ends[:, :, 0], ends[:, :, 1] - ends[:, :, 0]
+            t = np.clip(np.einsum("ij,ij->i", b - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+            inside &= np.linalg.norm(a + t[:, None] * d - b, axis=1) <= self._radius + 1e-9
+        if inside.any():
+            self._set_capsules(tuple(c for c, drop in zip(self.capsules, inside, strict=True) if not drop))
+        return self
 
     def _placements(self, qa: Array, gradient: bool) -> tuple[Array, list[Array] | None]:
         """(⁰M of each capsule joint's frame (J, 4, 4); their LOCAL_WORLD_ALIGNED Jacobians (6×n) or None)."""
@@ -285,6 +322,13 @@ class Clearance:
         qa = self.braced.robot.check_q(q)
         if self.mesh is not None:
             return [LinkDistance(j, v, g) for j, v, g in self.mesh.links(qa, gradient, below)]
+        if self.surfaces:
+            least: dict[int, LinkDistance] = {}
+            for each in self.surfaces:
+                for d in each.links(qa, gradient, below):
+                    if d.joint not in least or d.clearance < least[d.joint].clearance:
+                        least[d.joint] = d
+            return [least[j] for j in sorted(least)]
         if not self.capsules:
             return []
         placements, jacs = self._placements(qa, gradient)
@@ -315,6 +359,8 @@ class Clearance:
         qa = self.braced.robot.check_q(q)
         if self.mesh is not None:
             return self.mesh.minimum(qa)
+        if self.surfaces:
+            return min((each.minimum(qa) for each in self.surfaces), default=(math.inf, -1))
         if not self.capsules:
             return math.inf, -1
         placements, _ = self._placements(qa, False)

@@ -259,7 +259,7 @@ def _projection(states: Sequence[BracedState], k: Array) -> Array:
 
 
 def _clearance(states: Sequence[BracedState]) -> Array:
-    """Link_clearance of each state (inf where its model does not apply: several surfaces)."""
+    """Link_clearance of each state (inf where its model does not apply)."""
     out = np.empty(len(states))
     for i, st in enumerate(states):
         try:

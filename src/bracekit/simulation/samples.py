@@ -63,8 +63,8 @@ class Sample(NamedTuple):
         k: condition number of the braced task Jacobian (eq:manip); k_free: of J_e.
         joint_limit_violation: largest excursion beyond a URDF limit, rad (m for a prismatic joint).
         task_error: ‖p_d − e‖, m. joint_step: largest |Δq_i| since the previous sample (0 at the start).
-        link_clearance: least clearance of the link capsules from the surface as a solid obstacle, m (inf where
-            the clearance model does not apply: several surfaces).
+        link_clearance: least clearance of the links from the surfaces as solid obstacles, m (each surface with
+            its own braced link left out; :mod:`bracekit.kinematics.clearance`).
         sigma_ratio: σ_min/σ_max of each matrix the run watches (keys of ``kinematics.motions.MATRIX_LABELS``).
         contacts: each brace's :class:`ContactSample`, in brace order.
     """
