@@ -462,3 +462,15 @@ def test_several_braces_each_surface_an_obstacle_without_its_braced_link_and_pad
             assert found[link] == pytest.approx(value, abs=1e-7)
         assert clearance.minimum(q) == min((v, j) for j, v in found.items())
         assert link_clearance(braced.state(q)) == clearance.minimum(q)
+
+
+@pytest.mark.parametrize("region", [None, 0.3])
+def test_the_clearances_of_a_path_at_once_are_those_of_each_configuration(region) -> None:
+    from bracekit.kinematics.clearance import link_clearances
+
+    braced = _braced(region)
+    qs = list(np.random.default_rng(7).uniform(-2.0, 2.0, (40, braced.n)))
+    values, joints = link_clearances(braced, qs)
+    one = [link_clearance(braced.state(q)) for q in qs]
+    assert values.tolist() == [v for v, _ in one] and joints.tolist() == [j for _, j in one]
+    assert link_clearances(braced, [])[0].size == 0

@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -231,16 +232,21 @@ class Clearance:
         (exact) or where the segment may pass below the top over the disk (h_min < 0 and ρ_min ≤ r_max); else
         |(max(ρ_min − r_max, 0), max(h_min, 0))| − r (D ≥ it along the whole segment).
         """
+        pts, bound = self._screen_arrays(placements)
+        return pts.tolist(), bound.tolist()
+
+    def _screen_arrays(self, placements: Array) -> tuple[Array, Array]:
+        """:meth:`_screen` as arrays, over any leading axes of `placements` (…, J, 4, 4): ends (…, k, 3, 2), (…, k)."""
         basis = self._basis
-        rot = basis @ placements[:, :3, :3]
-        origin = (placements[:, :3, 3] - self._point) @ basis.T
-        pts = rot[self._slot] @ self._ends + origin[self._slot][:, :, None]
-        low = pts[:, 2].min(axis=1)
+        rot = basis @ placements[..., :3, :3]
+        origin = (placements[..., :3, 3] - self._point) @ basis.T
+        pts = rot[..., self._slot, :, :] @ self._ends + origin[..., self._slot, :][..., None]
+        low = pts[..., 2, :].min(axis=-1)
         r_max = self._r_max
         if r_max is None:
-            return pts.tolist(), (low - self._radius).tolist()
-        xa, ya = pts[:, 0, 0], pts[:, 1, 0]
-        dx, dy = pts[:, 0, 1] - xa, pts[:, 1, 1] - ya
+            return pts, low - self._radius
+        xa, ya = pts[..., 0, 0], pts[..., 1, 0]
+        dx, dy = pts[..., 0, 1] - xa, pts[..., 1, 1] - ya
         quad = dx * dx + dy * dy
         half = xa * dx + ya * dy
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -248,7 +254,7 @@ class Clearance:
         rho = np.sqrt(np.maximum((quad * tm + 2.0 * half) * tm + xa * xa + ya * ya, 0.0))
         side = rho - r_max
         bound = np.where((low < 0.0) & (side <= _SLACK), low, np.hypot(np.maximum(side, 0.0), np.maximum(low, 0.0)))
-        return pts.tolist(), (bound - self._radius).tolist()
+        return pts, bound - self._radius
 
     def _capsule(self, ends: list[list[float]], radius: float) -> tuple[float, float, tuple[float, float, float], bool]:
         """(Clearance m, t*, unit direction u in plane coordinates, whether t* is a moving clip point) of a capsule.
@@ -365,6 +371,25 @@ class Clearance:
             return math.inf, -1
         placements, _ = self._placements(qa, False)
         ends, bounds = self._screen(placements)
+        return self._least(ends, bounds)
+
+    def minima(self, qs: Sequence[Array]) -> tuple[Array, NDArray[np.intp]]:
+        """:meth:`minimum` of each configuration of a path (N arrays (n,)): the clearances (N,) m and joints (N,).
+
+        The capsules of every configuration are placed and bounded at once; each is then searched as by
+        :meth:`minimum`, so the values are the same.
+        """
+        if self.mesh is not None or self.surfaces or not self.capsules or self._data is None or not len(qs):
+            found = [self.minimum(q) for q in qs]
+            return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
+        check = self.braced.robot.check_q
+        placements = np.array([self._placements(check(q), False)[0] for q in qs])
+        ends, bounds = self._screen_arrays(placements)
+        found = [self._least(e, b) for e, b in zip(ends.tolist(), bounds.tolist(), strict=True)]
+        return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
+
+    def _least(self, ends: list[list[list[float]]], bounds: list[float]) -> tuple[float, int]:
+        """(Least clearance, its joint) from the capsules' ends and bounds of one configuration (:meth:`_screen`)."""
         low, link = math.inf, -1
         for i in sorted(range(len(bounds)), key=bounds.__getitem__):
             if bounds[i] - _SLACK > low:
@@ -399,6 +424,13 @@ def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS)
     in this module's docstring.
     """
     return _clearance(state.braced, link_radius).minimum(state.q)
+
+
+def link_clearances(
+    braced: BracedRobot, qs: Sequence[Array], link_radius: float = DEFAULT_LINK_RADIUS
+) -> tuple[Array, NDArray[np.intp]]:
+    """:func:`link_clearance` at each configuration of a path (N arrays (n,)), at once: clearances (N,) m, joints."""
+    return _clearance(braced, link_radius).minima(qs)
 
 
 def link_clearance_gradient(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> Array:

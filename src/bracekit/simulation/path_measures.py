@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError, ContactError
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.kinematics.clearance import link_clearance
+from bracekit.kinematics.clearance import link_clearances
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
 from bracekit.tolerances import MEASURE_SINGULAR_RATIO
@@ -259,12 +259,8 @@ def _projection(states: Sequence[BracedState], k: Array) -> Array:
 
 
 def _clearance(states: Sequence[BracedState]) -> Array:
-    """Link_clearance of each state (inf where its model does not apply)."""
-    out = np.empty(len(states))
-    for i, st in enumerate(states):
-        try:
-            out[i] = link_clearance(st)[0]
-        except ContactError:
-            out[i:] = np.inf
-            break
-    return out
+    """Link_clearance of each state, the path at once (inf where its model does not apply)."""
+    try:
+        return link_clearances(states[0].braced, [st.q for st in states])[0]
+    except ContactError:
+        return np.full(len(states), np.inf)
