@@ -462,6 +462,9 @@ def test_several_braces_each_surface_an_obstacle_without_its_braced_link_and_pad
             assert found[link] == pytest.approx(value, abs=1e-7)
         assert clearance.minimum(q) == min((v, j) for j, v in found.items())
         assert link_clearance(braced.state(q)) == clearance.minimum(q)
+    qs = [robot.neutral(), *(rng.uniform(robot.lower, robot.upper) for _ in range(20))]
+    values, joints = clearance.minima(qs)
+    assert list(zip(values.tolist(), joints.tolist(), strict=True)) == [clearance.minimum(q) for q in qs]
 
 
 @pytest.mark.parametrize("region", [None, 0.3])

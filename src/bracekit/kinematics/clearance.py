@@ -379,7 +379,14 @@ class Clearance:
         The capsules of every configuration are placed and bounded at once; each is then searched as by
         :meth:`minimum`, so the values are the same.
         """
-        if self.mesh is not None or self.surfaces or not self.capsules or self._data is None or not len(qs):
+        if self.surfaces:  # the least (clearance, joint) over the surfaces, as minimum
+            values, joints = self.surfaces[0].minima(qs)
+            for each in self.surfaces[1:]:
+                v, j = each.minima(qs)
+                better = (v < values) | ((v == values) & (j < joints))
+                values, joints = np.where(better, v, values), np.where(better, j, joints)
+            return values, joints
+        if self.mesh is not None or not self.capsules or self._data is None or not len(qs):
             found = [self.minimum(q) for q in qs]
             return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
         check = self.braced.robot.check_q
