@@ -19,6 +19,7 @@ constraint (a redundant or unloaded contact) are given once per state, as the re
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +37,15 @@ __all__ = ["measure_path", "path_ratios"]
 
 #: The recorded matrices whose σ_min/σ_max is taken over the whole path at once (singular_ratio of each).
 _STACKED: dict[str, Callable[[BracedState], Array]] = {"J": lambda st: st.J_e, "J1": lambda st: st.split.J1}
+
+
+class _Inputs(NamedTuple):
+    """What a run gives each sample besides its state, in :func:`measure`'s order."""
+
+    beta_x: Sequence[Array]
+    task_error: Sequence[float]
+    sigma_ratio: Sequence[dict[str, float]]
+    joint_step: Sequence[float]
 
 
 class _UncertifiedError(Exception):
@@ -57,10 +67,11 @@ def measure_path(
     """
     if not states:
         return None, 0, None
+    inputs = _Inputs(beta_x, task_error, sigma_ratio, joint_step)
     try:
-        return _batch(braced, states, beta_x, task_error, sigma_ratio, joint_step), len(states), None
+        return _batch(braced, states, inputs), len(states), None
     except (_UncertifiedError, BracekitError, FloatingPointError, np.linalg.LinAlgError):
-        return _one_by_one(braced, states, beta_x, task_error, sigma_ratio, joint_step)
+        return _one_by_one(braced, states, inputs)
 
 
 def path_ratios(
@@ -95,16 +106,12 @@ def path_ratios(
 
 
 def _one_by_one(
-    braced: BracedRobot,
-    states: Sequence[BracedState],
-    beta_x: Sequence[Array],
-    task_error: Sequence[float],
-    sigma_ratio: Sequence[dict[str, float]],
-    joint_step: Sequence[float],
+    braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs
 ) -> tuple[Samples | None, int, BracekitError | None]:
     rows = []
     error: BracekitError | None = None
-    for st, beta, err, ratios, step in zip(states, beta_x, task_error, sigma_ratio, joint_step, strict=True):
+    each = zip(states, inputs.beta_x, inputs.task_error, inputs.sigma_ratio, inputs.joint_step, strict=True)
+    for st, beta, err, ratios, step in each:
         try:
             rows.append(measure(st, beta, err, ratios, step))
         except BracekitError as exc:
@@ -155,20 +162,13 @@ def _frobenius(j: Array) -> Array:
         return np.asarray(np.sqrt(np.sum(s**2, axis=1) * np.sum(s**-2, axis=1)) / 6.0)
 
 
-def _batch(
-    braced: BracedRobot,
-    states: Sequence[BracedState],
-    beta_x: Sequence[Array],
-    task_error: Sequence[float],
-    sigma_ratio: Sequence[dict[str, float]],
-    joint_step: Sequence[float],
-) -> Samples:
+def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) -> Samples:
     """The samples' measures; _UncertifiedError (or the reference's error) where the batch cannot vouch for them."""
     k = states[0].K
     q = np.array([st.q for st in states])
     j_e = _stack([st.J_e for st in states])
     jac = _stack([st.motions.task_jacobian for st in states])
-    betas = _unit(_stack([np.asarray(b, dtype=np.float64).reshape(-1) for b in beta_x]))
+    betas = _unit(_stack([np.asarray(b, dtype=np.float64).reshape(-1) for b in inputs.beta_x]))
     if betas.shape[1] != 6:
         raise _UncertifiedError
     with np.errstate(all="ignore"):
@@ -192,8 +192,8 @@ def _batch(
         "joint_limit_violation": np.max(
             np.maximum(0.0, np.maximum(braced.robot.lower - q, q - braced.robot.upper)), axis=1
         ),
-        "task_error": np.array(task_error, dtype=np.float64),
-        "joint_step": np.array(joint_step, dtype=np.float64),
+        "task_error": np.array(inputs.task_error, dtype=np.float64),
+        "joint_step": np.array(inputs.joint_step, dtype=np.float64),
         "link_clearance": _clearance(states),
     }
     contacts = []
@@ -216,12 +216,12 @@ def _batch(
                 surface_distance=np.array([brace.surface.signed_distance(p) for p in b]),
             )
         )
-    keys = tuple(sigma_ratio[0])
+    keys = tuple(inputs.sigma_ratio[0])
     return Samples(
         braced=braced,
         series=series,
         Ci=ci,
-        sigma_ratio={key: np.array([r[key] for r in sigma_ratio], dtype=np.float64) for key in keys},
+        sigma_ratio={key: np.array([r[key] for r in inputs.sigma_ratio], dtype=np.float64) for key in keys},
         contacts=tuple(contacts),
     )
 
