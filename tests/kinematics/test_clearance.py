@@ -434,3 +434,46 @@ def test_the_clearance_cache_lets_braced_robots_go() -> None:
         del braced
     gc.collect()
     assert all(r() is None for r in refs[:3])  # the oldest are no longer held by the cache
+
+
+def test_several_braces_each_surface_an_obstacle_without_its_braced_link_and_pad_against_brute_force() -> None:
+    from bracekit import load_scenario
+
+    braced = load_scenario("two-braces").braced
+    robot = braced.robot
+    clearance = Clearance(braced)
+    assert clearance.mesh is None and len(clearance.surfaces) == 2
+    # the wall pad sits at link 9's origin: the capsule of the link before it ends at the pad, left out
+    wall_joint = int(robot.model.frames[braced.brace_ids[1]].parentJoint)
+    pad_link = int(robot.model.parents[wall_joint]) - 1
+    assert pad_link not in {c.joint - 1 for c in clearance.surfaces[1].capsules}
+    assert pad_link in {c.joint - 1 for c in clearance.surfaces[0].capsules}
+    rng = np.random.default_rng(5)
+    for q in [robot.neutral(), *(rng.uniform(robot.lower, robot.upper) for _ in range(3))]:
+        brute: dict[int, float] = {}
+        for i, brace in enumerate(braced.braces):
+            for link, (value, _, _) in _sampled(BracedRobot(robot, brace), q).items():
+                if i == 1 and link == pad_link:
+                    continue
+                brute[link] = min(brute.get(link, np.inf), value)
+        found = {d.joint: d.clearance for d in clearance.links(q, False)}
+        assert set(found) == set(brute)
+        for link, value in brute.items():
+            assert found[link] == pytest.approx(value, abs=1e-7)
+        assert clearance.minimum(q) == min((v, j) for j, v in found.items())
+        assert link_clearance(braced.state(q)) == clearance.minimum(q)
+    qs = [robot.neutral(), *(rng.uniform(robot.lower, robot.upper) for _ in range(20))]
+    values, joints = clearance.minima(qs)
+    assert list(zip(values.tolist(), joints.tolist(), strict=True)) == [clearance.minimum(q) for q in qs]
+
+
+@pytest.mark.parametrize("region", [None, 0.3])
+def test_the_clearances_of_a_path_at_once_are_those_of_each_configuration(region) -> None:
+    from bracekit.kinematics.clearance import link_clearances
+
+    braced = _braced(region)
+    qs = list(np.random.default_rng(7).uniform(-2.0, 2.0, (40, braced.n)))
+    values, joints = link_clearances(braced, qs)
+    one = [link_clearance(braced.state(q)) for q in qs]
+    assert values.tolist() == [v for v, _ in one] and joints.tolist() == [j for _, j in one]
+    assert link_clearances(braced, [])[0].size == 0

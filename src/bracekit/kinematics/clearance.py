@@ -22,7 +22,10 @@ A capsule is a segment p(t) = a + t (b − a), t ∈ [0, 1], of radius r. Its cl
   it, from the side below it. D is convex along the segment (S is convex); its least point t* solves
   d(D²)/dt = 0 by a Newton iteration bracketed in [0, 1] (to the rounding of t).
 
-A link's clearance is the least over its capsules; negative is penetration. With a disk every link counts (its
+Several braces: each surface is an obstacle with its own rule (its braced link left out of it, and a capsule
+that holds its pad at every configuration, e.g. the link before a pad at a joint's origin), and a link's
+clearance is the least over the surfaces. A link's clearance is the least over its capsules; negative is
+penetration. With a disk every link counts (its
 clearance is finite); only the link carrying {b} (every capsule of the brace frame's joint) is left out: its
 pad touches the plane by design. The ends of all capsules are placed at once, in plane coordinates, with a
 lower bound each (min(h(a), h(b)) where the segment may dip below the top over the disk, else
@@ -44,6 +47,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -150,21 +154,18 @@ class Clearance:
         #: coal's clearance of the URDF's meshes and primitives, or None: the capsules below
         self.mesh: MeshClearance | None = None
         self.capsules: tuple[Capsule, ...] = ()
+        #: several braces with capsules: one Clearance per surface (its own braced link left out), least over them
+        self.surfaces: tuple[Clearance, ...] = ()
         if has_meshes(robot.geometry):  # one brace or several: MeshClearance takes each brace's surface and pad
             robot.link_capsules(link_radius)  # validates link_radius as for capsules
             self.mesh = MeshClearance(braced, robot.geometry)
             return
+        if len(braced.braces) > 1:
+            self.surfaces = tuple(Clearance(BracedRobot(robot, b), link_radius)._leave_pad() for b in braced.braces)
+            self.capsules = self.surfaces[0].capsules
+            return
         skip = int(model.frames[braced.brace_id].parentJoint)
-        self.capsules = tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip)
-        joints = sorted({c.joint for c in self.capsules})
-        self._joints = joints
-        self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
-        self._slot = np.array([joints.index(c.joint) for c in self.capsules], dtype=np.intp)
-        self._slots = [int(k) for k in self._slot]
-        #: each capsule's ends a, b as the columns of a 3×2 matrix in its joint's frame (k, 3, 2)
-        self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
-        self._radius = np.array([c.radius for c in self.capsules], dtype=float)
-        self._radii = [float(c.radius) for c in self.capsules]
+        self._set_capsules(tuple(c for c in robot.link_capsules(link_radius) if c.joint != skip))
         surface = braced.brace.surface
         self._normal, self._point = surface.normal, surface.point
         n = self._normal
@@ -175,6 +176,43 @@ class Clearance:
         r_max = braced.brace.obstacle_radius
         self._r_max = None if r_max is None else float(r_max)
         self._data = model.createData() if robot.n <= DATA_JOINT_LIMIT else None
+
+    def _set_capsules(self, capsules: tuple[Capsule, ...]) -> None:
+        """The capsules searched, with their joints, frames and ends as arrays."""
+        model = self.braced.robot.model
+        self.capsules = capsules
+        joints = sorted({c.joint for c in self.capsules})
+        self._joints = joints
+        self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
+        self._slot = np.array([joints.index(c.joint) for c in self.capsules], dtype=np.intp)
+        self._slots = [int(k) for k in self._slot]
+        #: each capsule's ends a, b as the columns of a 3×2 matrix in its joint's frame (k, 3, 2)
+        self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
+        self._radius = np.array([c.radius for c in self.capsules], dtype=float)
+        self._radii = [float(c.radius) for c in self.capsules]
+
+    def _leave_pad(self) -> Clearance:
+        """Itself without the capsules that hold its brace's pad {b} at every configuration (several braces).
+
+        With several braces a pad may sit at the end of another link's capsule (a link-point brace at a joint's
+        origin): that capsule touches the surface at the pad by design, as the braced link does. A capsule is
+        left out when {b} lies within its radius at two configurations (the neutral one and a fixed other).
+        """
+        robot = self.braced.robot
+        inside = np.ones(len(self.capsules), dtype=bool)
+        other = np.where(
+            np.isfinite(robot.lower) & np.isfinite(robot.upper), 0.3 * robot.lower + 0.7 * robot.upper, 0.7
+        )
+        for q in (robot.neutral(), other):
+            placements, _ = self._placements(robot.check_q(q), False)
+            b = self.braced.state(q).contacts[0].b
+            ends = placements[self._slot, :3, :3] @ self._ends + placements[self._slot, :3, 3][:, :, None]
+            a, d = ends[:, :, 0], ends[:, :, 1] - ends[:, :, 0]
+            t = np.clip(np.einsum("ij,ij->i", b - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+            inside &= np.linalg.norm(a + t[:, None] * d - b, axis=1) <= self._radius + 1e-9
+        if inside.any():
+            self._set_capsules(tuple(c for c, drop in zip(self.capsules, inside, strict=True) if not drop))
+        return self
 
     def _placements(self, qa: Array, gradient: bool) -> tuple[Array, list[Array] | None]:
         """(⁰M of each capsule joint's frame (J, 4, 4); their LOCAL_WORLD_ALIGNED Jacobians (6×n) or None)."""
@@ -194,16 +232,21 @@ class Clearance:
         (exact) or where the segment may pass below the top over the disk (h_min < 0 and ρ_min ≤ r_max); else
         |(max(ρ_min − r_max, 0), max(h_min, 0))| − r (D ≥ it along the whole segment).
         """
+        pts, bound = self._screen_arrays(placements)
+        return pts.tolist(), bound.tolist()
+
+    def _screen_arrays(self, placements: Array) -> tuple[Array, Array]:
+        """:meth:`_screen` as arrays, over any leading axes of `placements` (…, J, 4, 4): ends (…, k, 3, 2), (…, k)."""
         basis = self._basis
-        rot = basis @ placements[:, :3, :3]
-        origin = (placements[:, :3, 3] - self._point) @ basis.T
-        pts = rot[self._slot] @ self._ends + origin[self._slot][:, :, None]
-        low = pts[:, 2].min(axis=1)
+        rot = basis @ placements[..., :3, :3]
+        origin = (placements[..., :3, 3] - self._point) @ basis.T
+        pts = rot[..., self._slot, :, :] @ self._ends + origin[..., self._slot, :][..., None]
+        low = pts[..., 2, :].min(axis=-1)
         r_max = self._r_max
         if r_max is None:
-            return pts.tolist(), (low - self._radius).tolist()
-        xa, ya = pts[:, 0, 0], pts[:, 1, 0]
-        dx, dy = pts[:, 0, 1] - xa, pts[:, 1, 1] - ya
+            return pts, low - self._radius
+        xa, ya = pts[..., 0, 0], pts[..., 1, 0]
+        dx, dy = pts[..., 0, 1] - xa, pts[..., 1, 1] - ya
         quad = dx * dx + dy * dy
         half = xa * dx + ya * dy
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -211,7 +254,7 @@ class Clearance:
         rho = np.sqrt(np.maximum((quad * tm + 2.0 * half) * tm + xa * xa + ya * ya, 0.0))
         side = rho - r_max
         bound = np.where((low < 0.0) & (side <= _SLACK), low, np.hypot(np.maximum(side, 0.0), np.maximum(low, 0.0)))
-        return pts.tolist(), (bound - self._radius).tolist()
+        return pts, bound - self._radius
 
     def _capsule(self, ends: list[list[float]], radius: float) -> tuple[float, float, tuple[float, float, float], bool]:
         """(Clearance m, t*, unit direction u in plane coordinates, whether t* is a moving clip point) of a capsule.
@@ -285,6 +328,13 @@ class Clearance:
         qa = self.braced.robot.check_q(q)
         if self.mesh is not None:
             return [LinkDistance(j, v, g) for j, v, g in self.mesh.links(qa, gradient, below)]
+        if self.surfaces:
+            least: dict[int, LinkDistance] = {}
+            for each in self.surfaces:
+                for d in each.links(qa, gradient, below):
+                    if d.joint not in least or d.clearance < least[d.joint].clearance:
+                        least[d.joint] = d
+            return [least[j] for j in sorted(least)]
         if not self.capsules:
             return []
         placements, jacs = self._placements(qa, gradient)
@@ -315,10 +365,38 @@ class Clearance:
         qa = self.braced.robot.check_q(q)
         if self.mesh is not None:
             return self.mesh.minimum(qa)
+        if self.surfaces:
+            return min((each.minimum(qa) for each in self.surfaces), default=(math.inf, -1))
         if not self.capsules:
             return math.inf, -1
         placements, _ = self._placements(qa, False)
         ends, bounds = self._screen(placements)
+        return self._least(ends, bounds)
+
+    def minima(self, qs: Sequence[Array]) -> tuple[Array, NDArray[np.intp]]:
+        """:meth:`minimum` of each configuration of a path (N arrays (n,)): the clearances (N,) m and joints (N,).
+
+        The capsules of every configuration are placed and bounded at once; each is then searched as by
+        :meth:`minimum`, so the values are the same.
+        """
+        if self.surfaces:  # the least (clearance, joint) over the surfaces, as minimum
+            values, joints = self.surfaces[0].minima(qs)
+            for each in self.surfaces[1:]:
+                v, j = each.minima(qs)
+                better = (v < values) | ((v == values) & (j < joints))
+                values, joints = np.where(better, v, values), np.where(better, j, joints)
+            return values, joints
+        if self.mesh is not None or not self.capsules or self._data is None or not len(qs):
+            found = [self.minimum(q) for q in qs]
+            return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
+        check = self.braced.robot.check_q
+        placements = np.array([self._placements(check(q), False)[0] for q in qs])
+        ends, bounds = self._screen_arrays(placements)
+        found = [self._least(e, b) for e, b in zip(ends.tolist(), bounds.tolist(), strict=True)]
+        return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
+
+    def _least(self, ends: list[list[list[float]]], bounds: list[float]) -> tuple[float, int]:
+        """(Least clearance, its joint) from the capsules' ends and bounds of one configuration (:meth:`_screen`)."""
         low, link = math.inf, -1
         for i in sorted(range(len(bounds)), key=bounds.__getitem__):
             if bounds[i] - _SLACK > low:
@@ -353,6 +431,13 @@ def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS)
     in this module's docstring.
     """
     return _clearance(state.braced, link_radius).minimum(state.q)
+
+
+def link_clearances(
+    braced: BracedRobot, qs: Sequence[Array], link_radius: float = DEFAULT_LINK_RADIUS
+) -> tuple[Array, NDArray[np.intp]]:
+    """:func:`link_clearance` at each configuration of a path (N arrays (n,)), at once: clearances (N,) m, joints."""
+    return _clearance(braced, link_radius).minima(qs)
 
 
 def link_clearance_gradient(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> Array:

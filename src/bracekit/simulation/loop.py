@@ -22,7 +22,7 @@ is near, not only where one is crossed. The joint-limit terms of g are what keep
 away from its limits; this check is the guarantee behind it.
 
 The measures of every sample (:mod:`bracekit.simulation.samples`) are taken after the steps, from the
-states the correction returned.
+states the correction returned, over the whole path at once (:mod:`bracekit.simulation.path_measures`).
 """
 
 from __future__ import annotations
@@ -63,7 +63,8 @@ from bracekit.simulation.guards import (
     sigma_ratios,
 )
 from bracekit.simulation.notes import run_notes
-from bracekit.simulation.samples import Sample, Samples, measure
+from bracekit.simulation.path_measures import measure_path, path_ratios
+from bracekit.simulation.samples import Samples
 from bracekit.simulation.tasks import Task
 from bracekit.simulation.trajectory import Trajectory
 from bracekit.tolerances import MAX_STEPS
@@ -201,17 +202,24 @@ def simulate(
             return advance(mid, t + h / 2, h / 2, depth + 1)
         return new
 
-    def sample(st: BracedState, t: float, ratios: dict[str, float], joint_step: float = 0.0) -> Sample:
-        return measure(st, beta_x(t), float(np.linalg.norm(task.position(t) - st.e)), ratios, joint_step)
+    def samples_of(
+        states: list[BracedState], first: int, ratios: list[dict[str, float]], jumps: list[float]
+    ) -> tuple[Samples | None, int, BracekitError | None]:
+        times = [(first + i) * dt for i in range(len(states))]
+        errors = [float(np.linalg.norm(task.position(t) - st.e)) for t, st in zip(times, states, strict=True)]
+        return measure_path(braced, states, [beta_x(t) for t in times], errors, ratios, jumps)
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnloadedContactWarning)
         warnings.simplefilter("always", RedundantContactWarning)
         ratios = sigma_ratios(st, space)
-        try:
-            rows = [sample(st, 0.0, ratios)]
-        except NumericalError as exc:  # nothing can be recorded at a start the measures cannot take
-            raise type(exc)(f"the start of {strategy.name} (t = 0.000 s) cannot be measured: {exc}") from exc
+        head, _, refused = samples_of([st], 0, [ratios], [0.0])
+        if refused is not None:  # nothing can be recorded at a start the measures cannot take
+            if not isinstance(refused, NumericalError):
+                raise refused
+            raise type(refused)(
+                f"the start of {strategy.name} (t = 0.000 s) cannot be measured: {refused}"
+            ) from refused
         start = ratios
         states, ratio_rows, jumps = [st], [ratios], [0.0]
         failure = None
@@ -228,7 +236,7 @@ def simulate(
                 if np.any(step > bound):
                     gain = getattr(strategy, "objective", None) is not None
                     raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
-                ratios = sigma_ratios(st, space)
+                ratios = sigma_ratios(st, space, checked)  # the others after the steps, at once
                 check_conditioning(ratios, checked)
             except BracekitError as exc:
                 failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
@@ -238,14 +246,15 @@ def simulate(
             jumps.append(float(np.max(step)))
             if progress is not None:
                 progress(1)
-        for i in range(1, len(states)):  # the measures, from the corrected states
-            try:
-                rows.append(sample(states[i], i * dt, ratio_rows[i], jumps[i]))
-            except BracekitError as exc:  # the run stops at the first sample it cannot measure
-                failure = f"step {i} (t = {i * dt:.3f} s): {exc}"
-                states = states[:i]
-                break
-    samples = Samples.stack(braced, rows)
+        # the measures, from the corrected states, all at once; the run stops at the first it cannot measure
+        ratio_rows[1:] = path_ratios(states[1:], space, tuple(start), ratio_rows[1:])
+        tail, count, refused = samples_of(states[1:], 1, ratio_rows[1:], jumps[1:])
+        if refused is not None:
+            i = count + 1
+            failure = f"step {i} (t = {i * dt:.3f} s): {refused}"
+            states = states[:i]
+    assert head is not None
+    samples = head if tail is None else Samples.concat([head, tail])
     notes, per_brace = run_notes(braced, strategy, samples, caught, counts, free_dims, space)
     return Trajectory(
         strategy=strategy.name,

@@ -63,8 +63,8 @@ class Sample(NamedTuple):
         k: condition number of the braced task Jacobian (eq:manip); k_free: of J_e.
         joint_limit_violation: largest excursion beyond a URDF limit, rad (m for a prismatic joint).
         task_error: ‖p_d − e‖, m. joint_step: largest |Δq_i| since the previous sample (0 at the start).
-        link_clearance: least clearance of the link capsules from the surface as a solid obstacle, m (inf where
-            the clearance model does not apply: several surfaces).
+        link_clearance: least clearance of the links from the surfaces as solid obstacles, m (each surface with
+            its own braced link left out; :mod:`bracekit.kinematics.clearance`).
         sigma_ratio: σ_min/σ_max of each matrix the run watches (keys of ``kinematics.motions.MATRIX_LABELS``).
         contacts: each brace's :class:`ContactSample`, in brace order.
     """
@@ -172,6 +172,21 @@ class Samples:
             sigma_ratio={key: np.array([r.sigma_ratio[key] for r in rows]) for key in first.sigma_ratio},
             contacts=tuple(
                 ContactSeries(*(np.array([r.contacts[i][f] for r in rows]) for f in range(3)))
+                for i in range(len(first.contacts))
+            ),
+        )
+
+    @classmethod
+    def concat(cls, parts: Sequence[Samples]) -> Samples:
+        """The samples of `parts` (at least one, of one braced robot) one after the other."""
+        first = parts[0]
+        return cls(
+            braced=first.braced,
+            series={key: np.concatenate([p.series[key] for p in parts]) for key in first.series},
+            Ci={key: np.concatenate([p.Ci[key] for p in parts]) for key in first.Ci},
+            sigma_ratio={key: np.concatenate([p.sigma_ratio[key] for p in parts]) for key in first.sigma_ratio},
+            contacts=tuple(
+                ContactSeries(*(np.concatenate([p.contacts[i][f] for p in parts]) for f in range(3)))
                 for i in range(len(first.contacts))
             ),
         )

@@ -1,0 +1,266 @@
+"""The measures of a whole run at once, over the stacked matrices of every sample (one brace or several).
+
+:func:`measure_path` gives what :func:`~bracekit.simulation.samples.measure` gives each sample, one code path
+for any number of braces.
+
+The formulas are the reference's, applied to stacks (N, ·, ·) of the per-sample matrices: C_e under each model
+(eq:Ce; ``constrained`` over each sample's independent rows of the stacked constraint G), C_i = ‖β_xᵀ C_e‖
+(eq:compliance_index), k (eq:manip) and Πσ, σ_min of the braced task Jacobian, θ_z (eq:theta), the region
+radius and surface distance of every brace, the joint-limit excursion. A stacked SVD, solve or product runs the
+same LAPACK / BLAS routine per matrix as the single call, so the results equal the per-sample path to round-off
+(tested to 1e-12 relative in tests/simulation/test_path_measures.py).
+
+Whenever the batch cannot certify a sample (a singular Jacobian, a non-finite compliance, a β_x that is not a
+finite non-zero twist, samples whose matrices differ in shape), it measures the samples one by one with the
+reference, which raises the same typed error at the same sample as before. The warnings of a state's stacked
+constraint (a redundant or unloaded contact) are given once per state, as the reference gives them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.errors import BracekitError, ContactError
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics.clearance import link_clearances
+from bracekit.resolution.task_space import TaskSpace
+from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
+from bracekit.tolerances import MEASURE_SINGULAR_RATIO
+
+Array = NDArray[np.float64]
+
+__all__ = ["measure_path", "path_ratios"]
+
+#: The recorded matrices whose σ_min/σ_max is taken over the whole path at once (singular_ratio of each).
+_STACKED: dict[str, Callable[[BracedState], Array]] = {"J": lambda st: st.J_e, "J1": lambda st: st.split.J1}
+
+
+class _Inputs(NamedTuple):
+    """What a run gives each sample besides its state, in :func:`measure`'s order."""
+
+    beta_x: Sequence[Array]
+    task_error: Sequence[float]
+    sigma_ratio: Sequence[dict[str, float]]
+    joint_step: Sequence[float]
+
+
+class _UncertifiedError(Exception):
+    """The batch cannot vouch for a sample: the reference measures them one by one."""
+
+
+def measure_path(
+    braced: BracedRobot,
+    states: Sequence[BracedState],
+    beta_x: Sequence[Array],
+    task_error: Sequence[float],
+    sigma_ratio: Sequence[dict[str, float]],
+    joint_step: Sequence[float],
+) -> tuple[Samples | None, int, BracekitError | None]:
+    """The measures of `states` in order: (Samples of the first `count` states or None if 0, count, error).
+
+    `error` is the typed error of the first state that cannot be measured (None if every one is), exactly as
+    :func:`~bracekit.simulation.samples.measure` raises it for that state; `count` the states measured before it.
+    """
+    if not states:
+        return None, 0, None
+    inputs = _Inputs(beta_x, task_error, sigma_ratio, joint_step)
+    try:
+        return _batch(braced, states, inputs), len(states), None
+    except (_UncertifiedError, BracekitError, FloatingPointError, np.linalg.LinAlgError):
+        return _one_by_one(braced, states, inputs)
+
+
+def path_ratios(
+    states: Sequence[BracedState], space: TaskSpace, keys: tuple[str, ...], known: Sequence[dict[str, float]]
+) -> list[dict[str, float]]:
+    """σ_min/σ_max of every matrix in `keys` at each state, in the order of `keys` (guards.sigma_ratios).
+
+    `known`: the ratios already taken at each state (the run's guard); the others are computed here, J and J1
+    as one stacked SVD over the states (σ_min/σ_max of each, 0 for a zero matrix, as ``singular_ratio``).
+    """
+    if not states:
+        return []
+    missing = [key for key in keys if key not in known[0]]
+    found: dict[str, Array] = {}
+    for key in missing:
+        if key in _STACKED:
+            try:
+                stack = np.array([_STACKED[key](st) for st in states], dtype=np.float64)
+            except (ValueError, BracekitError):
+                continue
+            s = np.linalg.svd(stack, compute_uv=False)
+            with np.errstate(all="ignore"):
+                found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
+    out = []
+    for i, (st, have) in enumerate(zip(states, known, strict=True)):
+        rest = [key for key in missing if key not in found]
+        more = st.motions.conditioning(None if space.is_pose else space.selection(st.R_e), tuple(rest)) if rest else {}
+        out.append(
+            {key: have[key] if key in have else float(found[key][i]) if key in found else more[key] for key in keys}
+        )
+    return out
+
+
+def _one_by_one(
+    braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs
+) -> tuple[Samples | None, int, BracekitError | None]:
+    rows = []
+    error: BracekitError | None = None
+    each = zip(states, inputs.beta_x, inputs.task_error, inputs.sigma_ratio, inputs.joint_step, strict=True)
+    for st, beta, err, ratios, step in each:
+        try:
+            rows.append(measure(st, beta, err, ratios, step))
+        except BracekitError as exc:
+            error = exc
+            break
+    return (Samples.stack(braced, rows) if rows else None), len(rows), error
+
+
+def _stack(arrays: Sequence[Array]) -> Array:
+    """The arrays as one stack; _UncertifiedError when their shapes differ or an entry is not finite."""
+    try:
+        out = np.array(arrays, dtype=np.float64)
+    except ValueError as exc:
+        raise _UncertifiedError from exc
+    if out.dtype != np.float64 or not np.isfinite(out).all():
+        raise _UncertifiedError
+    return out
+
+
+def _finite(a: Array) -> Array:
+    if not np.isfinite(a).all():
+        raise _UncertifiedError
+    return a
+
+
+def _t(a: Array) -> Array:
+    return np.swapaxes(a, -1, -2)
+
+
+def _sym(out: Array) -> Array:
+    return _finite(0.5 * (out + _t(out)))
+
+
+def _unit(betas: Array) -> Array:
+    """Each row of β_x (N, 6) over its norm (spatial.unit); _UncertifiedError where the reference would refuse it."""
+    big = np.max(np.abs(betas), axis=1)
+    if not ((big > 1e-150) & (big < 1e150)).all():
+        raise _UncertifiedError
+    return betas / np.sqrt(np.einsum("ij,ij->i", betas, betas))[:, None]
+
+
+def _frobenius(j: Array) -> Array:
+    """K = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) of each 6×n J (N, 6, n), as frobenius_condition takes it."""
+    s = np.linalg.svd(j, compute_uv=False)
+    if s.shape[-1] < 6 or not (s[:, -1] > MEASURE_SINGULAR_RATIO * s[:, 0]).all():
+        raise _UncertifiedError
+    with np.errstate(over="raise", under="ignore"):
+        return np.asarray(np.sqrt(np.sum(s**2, axis=1) * np.sum(s**-2, axis=1)) / 6.0)
+
+
+def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) -> Samples:
+    """The samples' measures; _UncertifiedError (or the reference's error) where the batch cannot vouch for them."""
+    k = states[0].K
+    q = np.array([st.q for st in states])
+    j_e = _stack([st.J_e for st in states])
+    jac = _stack([st.motions.task_jacobian for st in states])
+    betas = _unit(_stack([np.asarray(b, dtype=np.float64).reshape(-1) for b in inputs.beta_x]))
+    if betas.shape[1] != 6:
+        raise _UncertifiedError
+    with np.errstate(all="ignore"):
+        jk = j_e / k
+        free = jk @ _t(j_e)
+        models = {"free": _finite(free)}
+        for model in compliance_models(braced):
+            models[model] = _constrained(states, jk, free, k) if model == "constrained" else _projection(states, k)
+    ci = {key: _finite(np.linalg.norm(np.einsum("ni,nij->nj", betas, c), axis=1)) for key, c in models.items()}
+    st_ = np.linalg.svd(jac[:, :3], compute_uv=False)
+    so_ = np.linalg.svd(jac[:, 3:], compute_uv=False)
+    with np.errstate(over="raise", under="ignore"):
+        prod_t, prod_o = np.prod(st_, axis=1), np.prod(so_, axis=1)
+    series = {
+        "prod_sigma_t": _finite(prod_t),
+        "prod_sigma_o": _finite(prod_o),
+        "sigma_t_min": st_.min(axis=1),
+        "sigma_o_min": so_.min(axis=1),
+        "k": _frobenius(jac),
+        "k_free": _frobenius(j_e),
+        "joint_limit_violation": np.max(
+            np.maximum(0.0, np.maximum(braced.robot.lower - q, q - braced.robot.upper)), axis=1
+        ),
+        "task_error": np.array(inputs.task_error, dtype=np.float64),
+        "joint_step": np.array(inputs.joint_step, dtype=np.float64),
+        "link_clearance": _clearance(states),
+    }
+    contacts = []
+    for i, brace in enumerate(braced.braces):
+        z_b = np.array([st.contacts[i].z_b for st in states])
+        b = np.array([st.contacts[i].b for st in states])
+        n = brace.surface.normal
+        cross = np.stack(
+            [
+                n[1] * z_b[:, 2] - n[2] * z_b[:, 1],
+                n[2] * z_b[:, 0] - n[0] * z_b[:, 2],
+                n[0] * z_b[:, 1] - n[1] * z_b[:, 0],
+            ],
+            axis=1,
+        )
+        contacts.append(
+            ContactSeries(
+                theta_z=np.arctan2(np.linalg.norm(cross, axis=1), z_b @ n),
+                region_radius=np.linalg.norm(b - brace.surface.point, axis=1),
+                surface_distance=np.array([brace.surface.signed_distance(p) for p in b]),
+            )
+        )
+    keys = tuple(inputs.sigma_ratio[0])
+    return Samples(
+        braced=braced,
+        series=series,
+        Ci=ci,
+        sigma_ratio={key: np.array([r[key] for r in inputs.sigma_ratio], dtype=np.float64) for key in keys},
+        contacts=tuple(contacts),
+    )
+
+
+def _constrained(states: Sequence[BracedState], jk: Array, free: Array, k: Array) -> Array:
+    """C_e of every sample, constrained_compliance's formula over each sample's independent rows of G."""
+    cons = [st.constraint for st in states]
+    rows = cons[0].independent
+    if any(c.independent != rows for c in cons):
+        raise _UncertifiedError
+    out = free
+    if rows:
+        idx = list(rows)
+        g = _stack([c.G[idx] for c in cons])
+        d = _stack([np.diag(c.compliance[idx]) for c in cons])
+        m = _finite((g / k) @ _t(g) + d)
+        b = jk @ _t(g)
+        out = out - b @ np.linalg.solve(m, _t(b))
+    return _sym(out)
+
+
+def _projection(states: Sequence[BracedState], k: Array) -> Array:
+    """C_e = S_t1 (I − P) C1 (I − P) S_t1ᵀ + S_t2 C2 S_t2ᵀ of every sample (eq:Ce, the paper's model)."""
+    splits = [st.split for st in states]
+    n1 = splits[0].n1
+    j1 = _stack([s.J1 for s in splits])
+    j2 = _stack([s.J2 for s in splits])
+    t = np.eye(6) - _stack([s.P for s in splits])
+    s1 = _stack([s.S_t1 for s in splits])
+    s2 = _stack([s.S_t2 for s in splits])
+    c1 = (j1 / k[:n1]) @ _t(j1)
+    c1t = t @ c1 @ t
+    c2 = (j2 / k[n1:]) @ _t(j2)
+    return _sym(s1 @ c1t @ _t(s1) + s2 @ c2 @ _t(s2))
+
+
+def _clearance(states: Sequence[BracedState]) -> Array:
+    """Link_clearance of each state, the path at once (inf where its model does not apply)."""
+    try:
+        return link_clearances(states[0].braced, [st.q for st in states])[0]
+    except ContactError:
+        return np.full(len(states), np.inf)

@@ -1,0 +1,95 @@
+"""The measures of a whole path at once equal the per-sample reference, and fail where it fails."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from bracekit import Circle, load_scenario, simulate, solve_start
+from bracekit.errors import InputError
+from bracekit.simulation.path_measures import measure_path, path_ratios
+from bracekit.simulation.samples import Samples, measure
+
+
+def _path(name: str):  # type: ignore[no-untyped-def]
+    sc = load_scenario(name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
+        task = Circle(
+            sc.task.centre, sc.task.radius, sc.task.normal, sc.task.period, sc.task.start_direction, turns=0.1
+        )
+        tr = simulate(sc.braced, sc.strategy("braced_gradient_projection"), task, start.q, sc.dt, sc.beta_x)
+    states = [sc.braced.state(q) for q in tr.q]
+    n = len(states)
+    rng = np.random.default_rng(3)
+    betas = [sc.beta_x(t) for t in tr.t]
+    errors = list(rng.uniform(0, 1e-6, n))
+    ratios = [{"a": float(x), "b": float(2 * x)} for x in rng.uniform(0, 1, n)]
+    steps = list(rng.uniform(0, 1e-2, n))
+    return sc, states, betas, errors, ratios, steps
+
+
+def _assert_equal(batch: Samples, ref: Samples) -> None:
+    a, b = batch.as_dict(), ref.as_dict()
+    assert a.keys() == b.keys()
+    for key in b:
+        np.testing.assert_array_equal(np.isfinite(a[key]), np.isfinite(b[key]), err_msg=key)
+        fin = np.isfinite(b[key])
+        scale = np.maximum(np.abs(b[key][fin]), 1e-300)
+        assert np.all(np.abs(a[key][fin] - b[key][fin]) <= 1e-12 * scale), key
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_the_path_at_once_equals_the_samples_one_by_one(name: str) -> None:
+    sc, states, betas, errors, ratios, steps = _path(name)
+    samples, count, error = measure_path(sc.braced, states, betas, errors, ratios, steps)
+    assert error is None and count == len(states) and samples is not None
+    ref = Samples.stack(sc.braced, [measure(*row) for row in zip(states, betas, errors, ratios, steps, strict=True)])
+    _assert_equal(samples, ref)
+    assert set(samples.Ci) == ({"free", "constrained", "projection"} if name == "paper" else {"free", "constrained"})
+
+
+def test_a_sample_the_reference_refuses_ends_the_path_there_with_its_error() -> None:
+    sc, states, betas, errors, ratios, steps = _path("paper")
+    bad = list(betas)
+    bad[5] = np.zeros(6)  # not a twist: the reference raises InputError at sample 5
+    samples, count, error = measure_path(sc.braced, states, bad, errors, ratios, steps)
+    with pytest.raises(InputError) as ref:
+        measure(states[5], bad[5], errors[5], ratios[5], steps[5])
+    assert count == 5 and isinstance(error, InputError) and str(error) == str(ref.value)
+    assert samples is not None and samples.series["k"].size == 5
+    _assert_equal(
+        samples,
+        Samples.stack(sc.braced, [measure(*r) for r in zip(states[:5], betas, errors, ratios, steps, strict=False)]),
+    )
+
+
+def test_a_refused_first_sample_gives_no_samples() -> None:
+    sc, states, betas, errors, ratios, steps = _path("two-braces")
+    bad = [np.full(6, np.nan), *betas[1:]]
+    samples, count, error = measure_path(sc.braced, states, bad, errors, ratios, steps)
+    assert samples is None and count == 0 and isinstance(error, InputError)
+
+
+def test_no_states_no_samples() -> None:
+    sc = load_scenario("paper")
+    assert measure_path(sc.braced, [], [], [], [], []) == (None, 0, None)
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_the_path_ratios_equal_the_guard_s_ratios(name: str) -> None:
+    from bracekit.simulation.guards import sigma_ratios
+
+    sc, states, *_ = _path(name)
+    space = sc.strategy("braced_gradient_projection").space
+    ref = [sigma_ratios(st, space) for st in states]
+    keys = tuple(ref[0])
+    checked = states[0].motions.inverted(True)
+    known = [{key: r[key] for key in checked} for r in ref]
+    got = path_ratios(states, space, keys, known)
+    assert [tuple(g) for g in got] == [keys] * len(states)
+    for g, r in zip(got, ref, strict=True):
+        assert all(abs(g[key] - r[key]) <= 1e-12 * abs(r[key]) for key in keys)
