@@ -44,3 +44,42 @@ def preloaded_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Pat
 def paper_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Path]:
     """The shipped paper scenario, whole (400 samples per run; about 2 s)."""
     return _run_into(tmp_path_factory.mktemp("paper"), PAPER_TOML.read_text(encoding="utf-8"))
+
+
+XARM_POST = """
+name = "xarm7-post"
+description = "The UFactory xArm7 braced at its forearm on a post"
+[robot]
+urdf = "{urdf}"
+package_dirs = ["{share}"]
+tip = "link_eef"
+[brace]
+link = "link4"
+surface = {{ fraction = 0.3, angle = 90.0 }}
+point = [0.3, 0.0, 0.3]
+normal = [0.0, 0.0, 1.0]
+region_radius = 0.1
+surface_radius = 0.12
+[task]
+type = "circle"
+centre = [0.4, 0.2, 0.5]
+radius = 0.03
+normal = [0.0, 0.0, 1.0]
+start_direction = [1.0, 0.0, 0.0]
+period = 2.0
+space = "position"
+[simulation]
+dt = 0.1
+[start]
+guess = [0.0, 0.3, 0.0, 0.8, 0.0, 0.5, 0.0]
+"""
+
+
+@pytest.fixture(scope="module")
+def xarm_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Path]:
+    """The xArm7 of example-robot-data (its STL meshes) braced at its forearm on a post, a short circle."""
+    from geometry_refs import xarm_share
+
+    share = xarm_share()
+    urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
+    return _run_into(tmp_path_factory.mktemp("xarm"), XARM_POST.format(urdf=urdf, share=share))
