@@ -97,9 +97,11 @@ def default_scale(scene: Scene, frames: RunFrames) -> float:
 def camera_pose(scene: Scene, frames: RunFrames) -> tuple[Array, Array]:
     """(position, look-at) of the initial camera: 20° above, azimuth −60° (the figures' view), all in view.
 
+    In view: the task path, the joints and tip at the first sample, the base frame's origin and the brace points.
+
     The look-at is moved right of the scene's centre so that the scene sits left of the control panel.
     """
-    pts = [scene.path, frames.joints[0, :, :3, 3], frames.tip]
+    pts = [scene.path, frames.joints[0, :, :3, 3], frames.tip, np.zeros((1, 3))]  # (the base frame's origin)
     pts += [b.point[None, :] for b in scene.braces]
     cloud = np.vstack(pts)
     lo, hi = cloud.min(axis=0), cloud.max(axis=0)
