@@ -55,14 +55,14 @@ package_dirs = ["{share}"]
 tip = "link_eef"
 [brace]
 link = "link4"
-surface = {{ fraction = 0.3, angle = 90.0 }}
-point = [0.3, 0.0, 0.3]
+surface = {{ fraction = 0.5, angle = 225.0 }}
+point = [0.3, 0.0, 0.47]
 normal = [0.0, 0.0, 1.0]
-region_radius = 0.1
-surface_radius = 0.12
+region_radius = 0.05
+surface_radius = 0.05
 [task]
 type = "circle"
-centre = [0.4, 0.2, 0.5]
+centre = [0.47, 0.0, 0.28]
 radius = 0.03
 normal = [0.0, 0.0, 1.0]
 start_direction = [1.0, 0.0, 0.0]
@@ -71,7 +71,7 @@ space = "position"
 [simulation]
 dt = 0.1
 [start]
-guess = [0.0, 0.3, 0.0, 0.8, 0.0, 0.5, 0.0]
+guess = [0.0, 0.3, 0.0, 1.27, 0.0, 1.57, 0.0]
 """
 
 
