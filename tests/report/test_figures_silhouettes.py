@@ -16,44 +16,17 @@ import pytest
 from PIL import Image, ImageDraw
 
 from geometry_refs import read_stl, xarm7, xarm_share
+from xarm_post import xarm_post_text
 
 VISUAL = "example-robot-data/robots/xarm_description/meshes/xarm7/visual"
-XARM_POST = """
-name = "xarm7-post"
-[robot]
-urdf = "{urdf}"
-package_dirs = ["{share}"]
-tip = "link_eef"
-[brace]
-link = "link4"
-surface = {{ fraction = 0.5, angle = 225.0 }}
-point = [0.3, 0.0, 0.47]
-normal = [0.0, 0.0, 1.0]
-region_radius = 0.05
-surface_radius = 0.05
-[task]
-type = "circle"
-centre = [0.47, 0.0, 0.28]
-radius = 0.03
-normal = [0.0, 0.0, 1.0]
-start_direction = [1.0, 0.0, 0.0]
-period = 1.0
-space = "position"
-[simulation]
-dt = 0.1
-[start]
-guess = [0.0, 0.3, 0.0, 1.27, 0.0, 1.57, 0.0]
-"""
 
 
 @pytest.fixture(scope="module")
 def xarm_result(tmp_path_factory):
     from bracekit import load_scenario, run_scenario
 
-    share = xarm_share()
-    urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
     path = Path(tmp_path_factory.mktemp("xarm")) / "xarm7.toml"
-    path.write_text(XARM_POST.format(urdf=urdf, share=share), encoding="utf-8")
+    path.write_text(xarm_post_text(), encoding="utf-8")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return run_scenario(load_scenario(path))

@@ -46,40 +46,9 @@ def paper_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Path]:
     return _run_into(tmp_path_factory.mktemp("paper"), PAPER_TOML.read_text(encoding="utf-8"))
 
 
-XARM_POST = """
-name = "xarm7-post"
-description = "The UFactory xArm7 braced at its forearm on a post"
-[robot]
-urdf = "{urdf}"
-package_dirs = ["{share}"]
-tip = "link_eef"
-[brace]
-link = "link4"
-surface = {{ fraction = 0.5, angle = 225.0 }}
-point = [0.3, 0.0, 0.47]
-normal = [0.0, 0.0, 1.0]
-region_radius = 0.05
-surface_radius = 0.05
-[task]
-type = "circle"
-centre = [0.47, 0.0, 0.28]
-radius = 0.03
-normal = [0.0, 0.0, 1.0]
-start_direction = [1.0, 0.0, 0.0]
-period = 2.0
-space = "position"
-[simulation]
-dt = 0.1
-[start]
-guess = [0.0, 0.3, 0.0, 1.27, 0.0, 1.57, 0.0]
-"""
-
-
 @pytest.fixture(scope="module")
 def xarm_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Path]:
     """The xArm7 of example-robot-data (its STL meshes) braced at its forearm on a post, a short circle."""
-    from geometry_refs import xarm_share
+    from xarm_post import xarm_post_text
 
-    share = xarm_share()
-    urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
-    return _run_into(tmp_path_factory.mktemp("xarm"), XARM_POST.format(urdf=urdf, share=share))
+    return _run_into(tmp_path_factory.mktemp("xarm"), xarm_post_text())
