@@ -44,3 +44,11 @@ def preloaded_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Pat
 def paper_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Path]:
     """The shipped paper scenario, whole (400 samples per run; about 2 s)."""
     return _run_into(tmp_path_factory.mktemp("paper"), PAPER_TOML.read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def xarm_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[object, Path]:
+    """The xArm7 of example-robot-data (its STL meshes) braced at its forearm on a post, a short circle."""
+    from xarm_post import xarm_post_text
+
+    return _run_into(tmp_path_factory.mktemp("xarm"), xarm_post_text())

@@ -3,7 +3,8 @@
 Each layer is checked by hiding it: the pixels that change are the layer's, and they must lie where the layer's
 points project with the viewer's camera (computed here with a pinhole model). Requests to any other host than
 the viewer's are refused, so the page is shown to draw offline. Set BRACEKIT_VIEWER_PNG to a path to keep the
-screenshot (docs/images/viewer.png is made so).
+screenshot (docs/images/viewer.png is made so), BRACEKIT_VIEWER_MESH_PNG for the mesh robot's
+(docs/images/viewer-xarm7.png).
 """
 
 from __future__ import annotations
@@ -101,22 +102,15 @@ def _check_layer(
     assert near >= 0.6 * len(drawn), f"{what}: only {near} of {len(drawn)} projected points are drawn"
 
 
-def test_the_page_draws_the_robot_and_the_surface_offline(paper_run) -> None:
+def _screens(viewer, layers: tuple[str, ...], keep: str | None) -> dict[str, np.ndarray]:
+    """Screenshots of the page in Chromium: 'full', then for each layer the page with it hidden ('no_<layer>',
+    shown again after). Requests to any other host than the viewer's are refused and fail the test."""
     from playwright.sync_api import sync_playwright
 
-    from bracekit.viewer.server import FOV, serve
-
-    result, out = paper_run
-    assert result.completed
-    viewer = serve(out, port=0)
     external: list[str] = []
+    shots: dict[str, np.ndarray] = {}
     profile = tempfile.mkdtemp(prefix="bracekit-chromium-")
     try:
-        scene = viewer.scene
-        run = scene.runs[scene.models[0]]["braced_gradient_projection"]
-        from bracekit.viewer.frames import run_frames
-
-        frames = run_frames(scene, run)
         with sync_playwright() as p:
             browser = p.chromium.launch_persistent_context(
                 profile,
@@ -139,34 +133,78 @@ def test_the_page_draws_the_robot_and_the_surface_offline(paper_run) -> None:
                 page.goto(viewer.url)
                 page.add_style_tag(content=".mantine-Notifications-root { display: none !important; }")
                 page.wait_for_selector("canvas", timeout=60_000)  # (the style hides the "software WebGL" notice)
-                full = _settled(page)
-                keep = os.environ.get("BRACEKIT_VIEWER_PNG")
+                shots["full"] = last = _settled(page)
                 if keep:
                     page.screenshot(path=keep)
-                position, look_at = viewer.camera
-                viewer.set_visible("robot", False)
-                no_robot = _settled(page, full)
-                viewer.set_visible("robot", True)
-                restored = _settled(page, no_robot)
-                viewer.set_visible("surface", False)
-                no_surface = _settled(page, restored)
+                for layer in layers:
+                    viewer.set_visible(layer, False)
+                    shots[f"no_{layer}"] = _settled(page, last)
+                    viewer.set_visible(layer, True)
+                    shots[f"with_{layer}"] = last = _settled(page, shots[f"no_{layer}"])
             finally:
                 browser.close()
     finally:
-        viewer.stop()
         shutil.rmtree(profile, ignore_errors=True)
     assert external == [], f"the page asked for other hosts: {external}"
-    # the robot: both ends of every link capsule at the first sample
-    ends = []
+    return shots
+
+
+def test_the_page_draws_the_robot_and_the_surface_offline(paper_run) -> None:
+    from bracekit.viewer.frames import run_frames
+    from bracekit.viewer.server import FOV, serve
+
+    result, out = paper_run
+    assert result.completed
+    viewer = serve(out, port=0)
+    try:
+        scene = viewer.scene
+        frames = run_frames(scene, scene.runs[scene.models[0]]["braced_gradient_projection"])
+        shots = _screens(viewer, ("robot", "surface"), os.environ.get("BRACEKIT_VIEWER_PNG"))
+        position, look_at = viewer.camera
+    finally:
+        viewer.stop()
+    assert not scene.meshes  # the paper's URDF has no collision geometry: capsules
+    # the robot: both ends of every link capsule at the first sample (and the mount under the base)
+    ends = [np.zeros(3)]
     for c in scene.capsules:
         m = frames.joints[0, c.joint - 1]
         ends += [m[:3, :3] @ c.a + m[:3, 3], m[:3, :3] @ c.b + m[:3, 3]]
-    _check_layer(_changed(full, no_robot), _project(np.array(ends), position, look_at, FOV), "robot")
+    _check_layer(_changed(shots["full"], shots["no_robot"]), _project(np.array(ends), position, look_at, FOV), "robot")
     # the surface: its disk's rim bounds the changed pixels; points inside the rim are drawn
+    from bracekit.viewer.bodies import surface_body
     from bracekit.viewer.meshes import circle_points
     from bracekit.viewer.server import drawn_radius
 
     brace = scene.braces[0]
     rim = _project(circle_points(brace.point, brace.normal, drawn_radius(brace), 48), position, look_at, FOV)
     inner = _project(circle_points(brace.point, brace.normal, 0.8 * drawn_radius(brace), 24), position, look_at, FOV)
-    _check_layer(_changed(restored, no_surface), np.vstack([rim, inner]), "surface", drawn=inner)
+    body = surface_body(brace.point, brace.normal, brace.surface_radius, drawn_radius(brace))
+    bottom = circle_points(body.bottom, brace.normal, body.radius, 48)
+    box = np.vstack([rim, _project(bottom, position, look_at, FOV)])  # the surface's body below the disk
+    _check_layer(_changed(shots["with_robot"], shots["no_surface"]), box, "surface", drawn=inner)
+
+
+def test_the_page_draws_a_mesh_robot_where_its_vertices_project(xarm_run) -> None:
+    """The xArm7's STL meshes: hiding the robot changes pixels inside the box of its posed mesh vertices, and
+    near most of the vertices (the link meshes are drawn, not capsules)."""
+    from bracekit.viewer.frames import run_frames
+    from bracekit.viewer.server import FOV, serve
+
+    _, out = xarm_run
+    viewer = serve(out, port=0)
+    try:
+        scene = viewer.scene
+        frames = run_frames(scene, scene.runs[scene.models[0]]["braced_gradient_projection"])
+        shots = _screens(viewer, ("robot",), os.environ.get("BRACEKIT_VIEWER_MESH_PNG"))
+        position, look_at = viewer.camera
+    finally:
+        viewer.stop()
+    assert {m.link for m in scene.meshes} >= {"link_base", "link4", "link7"}
+    posed = []
+    for m in scene.meshes:
+        pose = np.eye(4) if m.joint == 0 else frames.joints[0, m.joint - 1]
+        posed.append(m.vertices.astype(float) @ pose[:3, :3].T + pose[:3, 3])
+    points = np.vstack(posed)
+    pixels = _project(points, position, look_at, FOV)
+    drawn = pixels[:: max(1, len(pixels) // 400)]
+    _check_layer(_changed(shots["full"], shots["no_robot"]), pixels, "xArm7 meshes", margin=8.0, drawn=drawn)

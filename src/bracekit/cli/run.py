@@ -37,6 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from bracekit.report.table import table_markdown
     from bracekit.simulation.run import run_scenario, total_steps
     from bracekit.simulation.scenario import load_scenario
+    from bracekit.viewer.link_meshes import link_meshes
 
     scenario = load_scenario(args.scenario)
     figures = not args.no_figures
@@ -46,7 +47,10 @@ def run(args: argparse.Namespace) -> int:
     with (
         sigterm_as_interrupt(),
         prepare_output(
-            args.out, overwrite=args.overwrite, files=run_files(figures), command=f"bracekit run {args.scenario}"
+            args.out,
+            overwrite=args.overwrite,
+            files=run_files(figures, meshes=bool(link_meshes(scenario.robot))),
+            command=f"bracekit run {args.scenario}",
         ) as plan,
     ):
         bar = None

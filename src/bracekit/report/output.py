@@ -25,12 +25,13 @@ from bracekit.errors import MissingDependencyError
 from bracekit.report.folder import OutputPlan, atomic_directory, prepare_output
 from bracekit.report.swap import MANIFEST
 from bracekit.report.table import table_csv, table_markdown
+from bracekit.viewer.link_meshes import MESH_FILE, link_meshes, save_link_meshes
 from bracekit.viewer.scene import scene_data
 
 if TYPE_CHECKING:
     from bracekit.simulation.run import RunResult
 
-#: Every file `write_run` may write (the first six without figures).
+#: Every file `write_run` may write (the first six without figures; meshes.npz too for a robot with meshes).
 FILES = (
     "summary.json",
     "summary_all_models.json",
@@ -57,9 +58,13 @@ __all__ = [
 ]
 
 
-def run_files(figures: bool = True) -> tuple[str, ...]:
-    """The names of the files `write_run` writes, with or without the figures."""
-    return FILES if figures else FILES[:6]
+def run_files(figures: bool = True, meshes: bool = False) -> tuple[str, ...]:
+    """The names of the files `write_run` writes, with or without the figures and the robot's meshes.
+
+    `meshes`: whether the robot has link meshes to carry (``bool(link_meshes(robot))``).
+    """
+    data = (*FILES[:6], MESH_FILE) if meshes else FILES[:6]
+    return (*data, *FILES[6:]) if figures else data
 
 
 def _clean(value: Any) -> Any:
@@ -104,7 +109,7 @@ def write_run(
     overwrite: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> list[Path]:
-    """Write summary.json, table.md/.csv, trajectories.npz, scene.json and (optionally) Figures 2–4 and the GIF, whole.
+    """Write summary.json, table.md/.csv, trajectories.npz, scene.json (meshes.npz) and Figures 2–4 and the GIF, whole.
 
     Args:
         result: The run to report.
@@ -125,8 +130,12 @@ def write_run(
         ("table.md", lambda p: p.write_text(table_markdown(result.summaries, result.scenario.name), encoding="utf-8")),
         ("table.csv", lambda p: p.write_text(table_csv(result.summaries, result.scenario.name), encoding="utf-8")),
         ("trajectories.npz", lambda p: save_trajectories(result, p)),
-        ("scene.json", lambda p: p.write_text(to_json(scene_data(result)) + "\n", encoding="utf-8")),
     ]
+    meshes = link_meshes(result.scenario.robot)
+    if meshes:  # the robot's meshes travel with the run (scene.json names them)
+        steps.append((MESH_FILE, lambda p: save_link_meshes(meshes, p)))
+    scene = scene_data(result, meshes=bool(meshes))
+    steps.append(("scene.json", lambda p: p.write_text(to_json(scene) + "\n", encoding="utf-8")))
     names = [name for name, _ in steps]
     drawing: ModuleType | None = None
     if figures:

@@ -13,7 +13,6 @@ within a layer the pieces are drawn far to near.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -22,11 +21,12 @@ import pinocchio as pin
 from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.patches import Polygon
-from matplotlib.path import Path as MplPath
 from numpy.typing import NDArray
 
 from bracekit.model.chain import DATA_JOINT_LIMIT
+from bracekit.report.camera import choose_camera
 from bracekit.report.projection import OrthoCamera, capsule_outlines, circle_points, convex_hull
+from bracekit.report.silhouettes import block_pieces, mesh_blocks
 
 if TYPE_CHECKING:
     from bracekit.model.robot import Robot
@@ -127,7 +127,10 @@ class RunScene:
         self.cap_a = np.array([c.a for c in caps], dtype=float).reshape(-1, 3)
         self.cap_b = np.array([c.b for c in caps], dtype=float).reshape(-1, 3)
         self.cap_r = np.array([c.radius for c in caps], dtype=float)
-        self.cap_face = self._capsule_colors()
+        self.cap_face = self._colors(self.cap_joint)
+        #: a mesh robot's blocks (:mod:`bracekit.report.silhouettes`), drawn instead of its capsules
+        self.blocks = mesh_blocks(robot)
+        self.piece_face = self.cap_face if self.blocks is None else self._colors(self.blocks.joint)
         ts = np.linspace(0.0, sc.task.duration, 241)
         self.task_path = np.array([sc.task.position(t) for t in ts])
         self._model = robot.model
@@ -149,14 +152,19 @@ class RunScene:
         first = np.array(robot.model.jointPlacements[1].translation) if robot.model.njoints > 1 else np.zeros(3)
         #: the base: a plate at the world origin and, when joint 1 sits away from it, a column up to joint 1
         self.base_column = (np.zeros(3), first, float(max(self.cap_r[:1].max(initial=0.0), 0.04)))
+        if self.blocks is not None and np.any(self.blocks.joint == 0):  # the base link's own mesh is drawn
+            self.base_column = (np.zeros(3), np.zeros(3), 0.0)
         self.planes = self._planes(ends)
         self.limits = self._limits()
 
     # --- geometry ---------------------------------------------------------------------------------------
-    def _capsule_colors(self) -> list[str]:
-        """Each capsule's fill: its part's light and dark colour, alternating link by link."""
+    def _colors(self, joints: IntArray) -> list[str]:
+        """Each piece's fill: its part's light and dark colour, alternating link by link (the base's: grey)."""
         face = []
-        for j in self.cap_joint:
+        for j in joints:
+            if int(j) == 0:
+                face.append("0.45")
+                continue
             part = next((p for p in self.parts if int(j) in p.joints), None)
             face.append(PART_COLORS[0][0] if part is None else part.colors[part.joints.index(int(j)) % 2])
         return face
@@ -283,13 +291,23 @@ class RunScene:
         return (x1 - x0) / (y1 - y0)
 
     def pieces(self, name: str, k: int) -> tuple[Array, IntArray, IntArray, Array, IntArray]:
-        """The capsules of run `name` at sample k split at the brace planes, in drawing order.
+        """The capsules of run `name` at sample k split at the brace planes (a mesh robot's blocks), in drawing order.
 
         Returns:
-            Screen outlines (p, 2·_CAP_POINTS, 2), the capsule of each piece (p,), and each piece's layer (p,)
-            (2j + 1: in front of the j farthest planes), depth (p,) and drawing order (indices into the first
-            three, far to near within a layer).
+            Screen outlines (p, m, 2), the capsule (block) of each piece (p,), index of its fill in `piece_face`,
+            and each piece's layer (p,) (2j + 1: in front of the j farthest planes), depth (p,) and drawing order
+            (indices into the first three, far to near within a layer).
         """
+        if self.blocks is not None:
+            q = self.runs[name].q[k]
+            if self._data is not None:
+                pin.forwardKinematics(self._model, self._data, q)
+                rot = np.array([m.rotation for m in self._data.oMi])
+                org = np.array([m.translation for m in self._data.oMi])
+            else:
+                pose = self._fk.pose(q)
+                rot, org = pose.rotations, pose.origins
+            return block_pieces(self.blocks, self.planes, self.camera, rot, org)
         a, b = self.capsule_ends(name, k)
         cam = self.camera
         ts = [np.zeros(a.shape[0]), np.ones(a.shape[0])]
@@ -318,58 +336,6 @@ class RunScene:
         outlines = capsule_outlines(cam.project(pa), cam.project(pb), self.cap_r[cap], _CAP_POINTS)
         order = np.lexsort((depth, layer))
         return outlines, cap, layer, depth, order
-
-
-def choose_camera(ends: tuple[Array, Array], radius: Array, task_path: Array) -> OrthoCamera:
-    """The view from the task's side of the robot in which its links overlap least.
-
-    Candidates: azimuths 0°, ±30° and ±60° about the horizontal direction across the robot's long horizontal
-    axis (toward the task's side), elevations 15°, 25° and 35°. Each is scored by the share of the links'
-    drawn area that another link covers, on a few samples (a coarse raster); ties go to 30° toward the task.
-
-    Args:
-        ends: the capsules' end points a and b (N, m, 3), world m, over the samples to judge.
-        radius: the capsules' radii (m,), m.
-        task_path: the task's positions (p, 3), world m.
-    """
-    a, b = ends
-    points = np.concatenate([a, b], axis=1).reshape(-1, 3)
-    xy = points[:, :2] - points[:, :2].mean(axis=0)
-    _, _, vt = np.linalg.svd(xy, full_matrices=False)
-    axis = vt[0]
-    task = task_path[:, :2].mean(axis=0) - points[:, :2].mean(axis=0)
-    if float(axis @ task) < 0.0:
-        axis = -axis  # along the robot toward the task
-    side = np.array([-axis[1], axis[0]])
-    if float(side @ task) < 0.0:
-        side = -side  # the viewer stands on the task's side of the robot
-    base = math.degrees(math.atan2(side[1], side[0]))
-    # the sense in which the azimuth turns toward the task
-    turn = 1.0 if float(side[0] * axis[1] - side[1] * axis[0]) > 0.0 else -1.0
-    samples = np.unique(np.linspace(0, a.shape[0] - 1, 3).astype(int))
-    best: tuple[float, OrthoCamera] | None = None
-    for offset in (30.0, 0.0, 60.0, -30.0, -60.0):
-        for elevation in (25.0, 15.0, 35.0):
-            cam = OrthoCamera(base + turn * offset, elevation)
-            score = float(np.mean([_overlap(cam, a[k], b[k], radius) for k in samples]))
-            score += 0.01 * (abs(offset - 30.0) / 30.0 + abs(elevation - 25.0) / 10.0)
-            if best is None or score < best[0]:
-                best = (score, cam)
-    assert best is not None
-    return best[1]
-
-
-def _overlap(cam: OrthoCamera, a: Array, b: Array, radius: Array, cells: int = 48) -> float:
-    """Share of the capsules' drawn area (summed one by one) that more than one capsule covers, on a raster."""
-    outlines = capsule_outlines(cam.project(a), cam.project(b), radius, 5)
-    lo, hi = outlines.reshape(-1, 2).min(axis=0), outlines.reshape(-1, 2).max(axis=0)
-    gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], cells), np.linspace(lo[1], hi[1], cells))
-    grid = np.column_stack([gx.ravel(), gy.ravel()])
-    count = np.zeros(grid.shape[0], dtype=np.intp)
-    for outline in outlines:
-        count += MplPath(outline).contains_points(grid)
-    total = int(count.sum())
-    return 0.0 if total == 0 else 1.0 - int(np.count_nonzero(count)) / total
 
 
 def _base_disk() -> Array:
@@ -430,7 +396,7 @@ class SceneView:
         task = cam.project(np.vstack([scene.task_path, scene.task_path[:1]]))
         top = 2.0 * len(scene.planes) + 3.0
         (self.task,) = ax.plot(*task.T, color=TASK_COLOR, lw=0.9, ls=(0, (4, 2)), zorder=top - 0.1, animated=animated)
-        slots = scene.cap_r.size * (len(scene.planes) + 1)
+        slots = scene.cap_r.size * (len(scene.planes) + 1) if scene.blocks is None else scene.blocks.joint.size
         self.patches: list[Polygon] = [
             Polygon(np.zeros((3, 2)), closed=True, lw=0.6, animated=animated, visible=False) for _ in range(slots)
         ]
@@ -470,7 +436,7 @@ class SceneView:
             patch = self.patches[slot]
             c = int(cap[i])
             patch.set_xy(outlines[i])
-            patch.set_facecolor(scene.cap_face[c])
+            patch.set_facecolor(scene.piece_face[c])
             patch.set_edgecolor(EDGE_COLOR)
             patch.set_zorder(float(layer[i]) + 0.5 * slot / max(len(order), 1))
             patch.set_visible(True)

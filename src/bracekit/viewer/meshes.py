@@ -1,4 +1,4 @@
-"""Triangle meshes of the scene's shapes (NumPy only): capsules, spheres, disks and circles."""
+"""Triangle meshes of the scene's shapes (NumPy only): capsules, cylinders, boxes, spheres, disks and circles."""
 
 from __future__ import annotations
 
@@ -91,3 +91,34 @@ def segments_of(points: Array) -> Array:
     """A polyline (k×3) as line segments (k−1)×2×3."""
     p = np.asarray(points, dtype=float)
     return np.stack([p[:-1], p[1:]], axis=1)
+
+
+def cylinder_mesh(a: Array, b: Array, radius: float, segments: int = 48) -> tuple[Array, Faces]:
+    """A closed cylinder of axis [a, b] (m), its triangles counter-clockwise seen from outside."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    rot = _frame_z(b - a)
+    angles = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
+    rim = radius * (np.outer(np.cos(angles), rot[:, 0]) + np.outer(np.sin(angles), rot[:, 1]))
+    vertices = np.vstack([a + rim, b + rim, a, b])
+    low, high = 2 * segments, 2 * segments + 1
+    faces = []
+    for j in range(segments):
+        k = (j + 1) % segments
+        faces += [
+            (j, k, segments + k),
+            (j, segments + k, segments + j),
+            (low, k, j),
+            (high, segments + j, segments + k),
+        ]
+    return vertices, np.asarray(faces, dtype=np.uint32)
+
+
+def box_mesh(size: Array) -> tuple[Array, Faces]:
+    """A box of edge lengths `size` (3,), m, centred at the origin, its triangles counter-clockwise from outside."""
+    h = 0.5 * np.asarray(size, dtype=float)
+    vertices = np.array([[x, y, z] for x in (-h[0], h[0]) for y in (-h[1], h[1]) for z in (-h[2], h[2])])
+    faces = [
+        (0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+        (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3),
+    ]  # fmt: skip
+    return vertices, np.asarray(faces, dtype=np.uint32)

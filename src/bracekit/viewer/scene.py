@@ -30,6 +30,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.model.geometry import Capsule
 from bracekit.model.robot import Robot
 from bracekit.model.urdf_numbers import MAX_LENGTH
+from bracekit.viewer.link_meshes import MESH_FILE, LinkMesh, load_link_meshes
 
 if TYPE_CHECKING:
     from bracekit.simulation.run import RunResult
@@ -111,6 +112,7 @@ class Scene:
         compliance_model: the model of summary.json.
         runs: the runs by compliance model, then by strategy (`runs[model][strategy]`).
         gravity, preloads: the statics of the preloaded compliance (gravity on/off, P_i per brace in N).
+        meshes: the robot's link meshes the folder carries (meshes.npz; () when the robot is drawn by its capsules).
     """
 
     name: str
@@ -123,6 +125,7 @@ class Scene:
     runs: dict[str, dict[str, Run]]
     gravity: bool = False
     preloads: tuple[float, ...] = ()
+    meshes: tuple[LinkMesh, ...] = ()
 
     @property
     def models(self) -> tuple[str, ...]:
@@ -141,8 +144,11 @@ def _vec(a: Any) -> list[float]:
     return [float(x) for x in np.asarray(a, dtype=float).reshape(-1)]
 
 
-def scene_data(result: RunResult) -> dict[str, Any]:
-    """The JSON-ready content of scene.json for a run (see the module docstring)."""
+def scene_data(result: RunResult, meshes: bool = False) -> dict[str, Any]:
+    """The JSON-ready content of scene.json for a run (see the module docstring).
+
+    `meshes`: the run folder carries the robot's link meshes (meshes.npz, named by ``robot.meshes``).
+    """
     sc = result.scenario
     robot = sc.robot
     ts = np.linspace(0.0, sc.task.duration, PATH_SAMPLES)
@@ -187,6 +193,7 @@ def scene_data(result: RunResult) -> dict[str, Any]:
                 {"joint": c.joint, "a": _vec(c.a), "b": _vec(c.b), "radius": c.radius, "link": c.link}
                 for c in robot.link_capsules()
             ],
+            **({"meshes": MESH_FILE} if meshes else {}),
         },
         "braces": braces,
         "holding": {
@@ -432,7 +439,15 @@ def load_scene(out_dir: str | os.PathLike[str]) -> Scene:
     folder = Path(os.fspath(out_dir))
     data = _scene_json(folder)
     where = str(folder / SCENE_FILE)
-    robot, capsules = _robot(_object(data.get("robot", {}), f"{where}: robot"))
+    robot_data = _object(data.get("robot", {}), f"{where}: robot")
+    robot, capsules = _robot(robot_data)
+    meshes: tuple[LinkMesh, ...] = ()
+    if "meshes" in robot_data:
+        if robot_data["meshes"] != MESH_FILE:
+            raise InputError(f"{where}: robot.meshes must be {MESH_FILE!r}; {RERUN}")
+        if not (folder / MESH_FILE).is_file():
+            raise InputError(f"{folder} has no {MESH_FILE} (the robot's meshes scene.json names); {RERUN}")
+        meshes = load_link_meshes(folder / MESH_FILE, robot.n)
     braces = data.get("braces")
     if not isinstance(braces, list) or not braces:
         raise InputError(f"{where} names no brace; {RERUN}")
@@ -474,4 +489,5 @@ def load_scene(out_dir: str | os.PathLike[str]) -> Scene:
         runs=runs,
         gravity=gravity,
         preloads=preloads,
+        meshes=meshes,
     )

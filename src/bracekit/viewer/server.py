@@ -22,14 +22,17 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from bracekit.errors import InputError, MissingDependencyError
+from bracekit.viewer.bodies import mount, surface_body
 from bracekit.viewer.frames import RunFrames, run_frames
-from bracekit.viewer.meshes import capsule_mesh, circle_points, disk_mesh, segments_of, sphere_mesh
+from bracekit.viewer.meshes import capsule_mesh, circle_points, cylinder_mesh, disk_mesh, segments_of, sphere_mesh
 from bracekit.viewer.scene import BraceView, Scene, load_scene
 
 Array = NDArray[np.float64]
 
 ROBOT_COLOR = (150, 150, 160)
 SURFACE_COLOR = (205, 185, 150)
+BODY_COLOR = (170, 150, 120)
+MOUNT_COLOR = (90, 90, 100)
 REGION_COLOR = (60, 120, 220)
 PATH_COLOR = (20, 20, 20)
 BRACE_COLOR = (240, 140, 20)
@@ -94,9 +97,11 @@ def default_scale(scene: Scene, frames: RunFrames) -> float:
 def camera_pose(scene: Scene, frames: RunFrames) -> tuple[Array, Array]:
     """(position, look-at) of the initial camera: 20° above, azimuth −60° (the figures' view), all in view.
 
+    In view: the task path, the joints and tip at the first sample, the base frame's origin and the brace points.
+
     The look-at is moved right of the scene's centre so that the scene sits left of the control panel.
     """
-    pts = [scene.path, frames.joints[0, :, :3, 3], frames.tip]
+    pts = [scene.path, frames.joints[0, :, :3, 3], frames.tip, np.zeros((1, 3))]  # (the base frame's origin)
     pts += [b.point[None, :] for b in scene.braces]
     cloud = np.vstack(pts)
     lo, hi = cloud.min(axis=0), cloud.max(axis=0)
@@ -175,14 +180,13 @@ class _Drawing:
         api.set_up_direction("+z")
         for layer in LAYERS:
             n[layer] = api.add_frame(f"/{layer}", show_axes=False)
-        for i, c in enumerate(self.scene.capsules):
-            vertices, faces = capsule_mesh(c.a, c.b, max(c.radius, 0.005))
-            n[f"capsule_{i}"] = api.add_mesh_simple(
-                f"/robot/{i}_{c.link}", vertices, faces, color=ROBOT_COLOR, **NO_SHADOW
-            )
+        self.build_robot()
         for i, b in enumerate(self.scene.braces):
             vertices, faces = disk_mesh(b.point, b.normal, drawn_radius(b))
             api.add_mesh_simple(f"/surface/disk_{i}", vertices, faces, color=SURFACE_COLOR, side="double", **NO_SHADOW)
+            body = surface_body(b.point, b.normal, b.surface_radius, drawn_radius(b))
+            vertices, faces = cylinder_mesh(body.top - 1e-3 * b.normal, body.bottom, body.radius)
+            api.add_mesh_simple(f"/surface/body_{i}", vertices, faces, color=BODY_COLOR, **NO_SHADOW)
             if b.region_radius is not None:
                 lift = b.point + 1e-3 * b.normal
                 vertices, faces = disk_mesh(lift, b.normal, b.region_radius)
@@ -203,6 +207,27 @@ class _Drawing:
             "/ellipsoid/tip", vertices, faces, color=ELLIPSOID_COLOR, opacity=0.6, scale=(0.01, 0.01, 0.01), **NO_SHADOW
         )
         self.set_run(frames, scale)
+
+    def build_robot(self) -> None:
+        """The robot's layer: its link meshes (joint 0's fixed), else its capsules and a mount under the base."""
+        api = self.v.server.scene
+        n = self.v.nodes
+        for i, m in enumerate(self.scene.meshes):
+            node = api.add_mesh_simple(
+                f"/robot/mesh_{i}_{m.link}", m.vertices, m.triangles, color=ROBOT_COLOR, **NO_SHADOW
+            )
+            if m.joint > 0:
+                n[f"mesh_{i}"] = node
+        if self.scene.meshes:
+            return
+        for i, c in enumerate(self.scene.capsules):
+            vertices, faces = capsule_mesh(c.a, c.b, max(c.radius, 0.005))
+            n[f"capsule_{i}"] = api.add_mesh_simple(
+                f"/robot/{i}_{c.link}", vertices, faces, color=ROBOT_COLOR, **NO_SHADOW
+            )
+        base = mount()
+        vertices, faces = cylinder_mesh(base.top, base.bottom, base.radius)
+        api.add_mesh_simple("/robot/mount", vertices, faces, color=MOUNT_COLOR, **NO_SHADOW)
 
     def set_run(self, frames: RunFrames, scale: float) -> None:
         """Redraw the traces of a newly chosen run."""
@@ -230,10 +255,13 @@ class _Drawing:
         n = self.v.nodes
         k = int(np.clip(k, 0, frames.tip.shape[0] - 1))
         with self.v.server.atomic():
-            for i, c in enumerate(self.scene.capsules):
-                m = frames.joints[k, c.joint - 1]
-                n[f"capsule_{i}"].position = m[:3, 3]
-                n[f"capsule_{i}"].wxyz = _wxyz(m[:3, :3])
+            placed = [(f"mesh_{i}", m.joint) for i, m in enumerate(self.scene.meshes) if m.joint > 0]
+            if not self.scene.meshes:
+                placed = [(f"capsule_{i}", c.joint) for i, c in enumerate(self.scene.capsules)]
+            for key, joint in placed:
+                m = frames.joints[k, joint - 1]
+                n[key].position = m[:3, 3]
+                n[key].wxyz = _wxyz(m[:3, :3])
             n["tip_dot"].position = frames.tip[k]
             for i in range(frames.brace_points.shape[1]):
                 n[f"brace_dot_{i}"].position = frames.brace_points[k, i]
@@ -280,7 +308,8 @@ def _legend(scene: Scene, model: str, strategy: str, scale: float, force: float)
         f"Compliance ellipsoid at the tip (magenta): semi-axes = eigenvalues of C_e's force block, drawn at "
         f"**{scale:g} m per m/N** (1 mm/N → {1e-3 * scale * 100:.3g} cm).",
         "",
-        "Grey: links. Tan: surface. Blue: bracing region. Black: task path. Green: tip trace. Orange: brace point "
+        ("Grey: links (the URDF's meshes). " if scene.meshes else "Grey: links (capsules). ")
+        + "Tan: surface and its body. Blue: bracing region. Black: task path. Green: tip trace. Orange: brace point "
         "trace.",
     ]
     if force > 0.0:
