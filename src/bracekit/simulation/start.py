@@ -142,7 +142,7 @@ def solve_start(
         st = braced.state(q)
         hard = [target - st.e, np.array([s.signed_distance(b) for s, b in zip(surfaces, st.b_i, strict=True)])]
         if rot is not None:
-            hard.append(pin.log3(rot @ st.R_e.T))
+            hard.append(_orientation_residual(st.R_e, rot, space))
         soft = [region_weight * (b - s.point) for s, b in zip(surfaces, st.b_i, strict=True)]
         for i, (x_t, y_t) in zip(pads, tangents, strict=False):  # ẑ_b's tangential components: ≈ θ_z, smooth at 0
             z_b = st.contacts[i].z_b
@@ -155,8 +155,8 @@ def solve_start(
     def jacobian(q: Array, conditioned: bool) -> Array:
         st = braced.state(q)
         hard = [-st.J_e[:3], np.einsum("ij,ijk->ik", normals, np.array([j[:3] for j in st.J_b_i]))]
-        if rot is not None:
-            hard.append(-st.J_e[3:])  # first-order (exact at the solution)
+        if rot is not None:  # first-order (exact at the solution)
+            hard.append(-st.J_e[3:] if space.is_pose else -space.selection(st.R_e)[3:, 3:] @ st.J_e[3:])
         soft = [region_weight * j[:3] for j in st.J_b_i]
         for i, (x_t, y_t) in zip(pads, tangents, strict=False):
             c = st.contacts[i]
@@ -187,13 +187,20 @@ def solve_start(
     rotation_target = rot if rot is not None else st.R_e
     # the plane point under each b_i: anchors on the surfaces
     anchors = [(b - s.normal * s.signed_distance(b), r) for s, b, r in zip(surfaces, st.b_i, st.R_b_i, strict=True)]
-    try:
-        st = correct(braced, st.q, target, rotation_target, anchors)
-    except ConvergenceError:
+    try:  # the task's own rows and the contacts: a free orientation row is not corrected
+        st = correct(braced, st.q, target, rotation_target, anchors, space=space)
+    except ConvergenceError as exc:
         every = "the brace" if len(surfaces) == 1 else "every brace"
+        what = str(exc).split("not closed: ", 1)[-1].rsplit(" (residual ", 1)[0]
+        gaps = ", ".join(
+            f"{point_label(braced, i)} {abs(s.signed_distance(b)):.3g} m off its surface"
+            for i, (s, b) in enumerate(zip(surfaces, st.b_i, strict=True))
+        )
         raise ConvergenceError(
-            f"no start configuration puts the tip at {np.round(target, 4).tolist()} m with {every} closed "
-            f"(closest: {np.linalg.norm(target - st.e):.3g} m away); move the task or the surface, or change the guess"
+            f"no start configuration puts the tip at {np.round(target, 4).tolist()} m ({space.describe()}) with "
+            f"{every} closed: the correction did not close {what} (tip {np.linalg.norm(target - st.e):.3g} m away, "
+            f"{gaps}); "
+            "move the task or the surface, or change the guess"
         ) from None
     outside = braces_outside(braced, st)
     if outside:
@@ -227,6 +234,17 @@ def _conditioning_jacobian(braced: BracedRobot, state: BracedState, floor: float
         down = _conditioning_residual(braced.state(state.q - step), floor, space)
         out[:, i] = (up - down) / (2.0 * START_FD_STEP)
     return out
+
+
+def _orientation_residual(rotation: Array, target: Array, space: TaskSpace) -> Array:
+    """The orientation rows of the task (rad): log3(R_d R_eᵀ), the tool axis' 2 rows, or none.
+
+    Pose: all 3; 'position+axis': S ω of :meth:`TaskSpace.error`; 'position': none.
+    """
+    if space.is_pose:
+        return np.asarray(pin.log3(target @ rotation.T))
+    omega = space.error(np.zeros(3), rotation, target)[3:]
+    return np.asarray(space.selection(rotation)[3:, 3:] @ omega)
 
 
 def _finite(value: ArrayLike, shape: tuple[int, ...], what: str) -> Array:

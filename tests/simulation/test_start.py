@@ -1,0 +1,71 @@
+"""Tests of the start solve in the scenario's task space and of what its failures name.
+
+References: Pinocchio's own forward kinematics (a fresh model and data) for the tip and the brace point, and the
+surface's plane written out here.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from bracekit.errors import ConvergenceError
+from bracekit.simulation.run import run_scenario
+from bracekit.simulation.scenario import load_scenario
+from bracekit.simulation.scenario_model import DEFAULT_STRATEGIES
+from bracekit.simulation.start import solve_start
+from geometry_refs import xarm_share
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+PAPER = Path(__file__).resolve().parents[2] / "src/bracekit/simulation/scenarios/paper.toml"
+
+
+def xarm_planar(tmp_path: Path, strategies: tuple[str, ...] = DEFAULT_STRATEGIES) -> Path:
+    """tests/data/xarm7-planar.toml with example-robot-data's xArm7 (skips without the test extra)."""
+    share = xarm_share()
+    urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
+    text = (DATA / "xarm7-planar.toml").read_text(encoding="utf-8")
+    names = ", ".join(f'"{s}"' for s in strategies)
+    path = tmp_path / "xarm7-planar.toml"
+    path.write_text(text.format(urdf=urdf, share=share, strategies=names), encoding="utf-8")
+    return path
+
+
+def test_the_xarm7_planar_guess_starts_in_its_position_task_space(tmp_path: Path) -> None:
+    sc = load_scenario(xarm_planar(tmp_path))
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, space=sc.task_space)
+    model = sc.braced.robot.model  # reference: a fresh Pinocchio pass at the solved q
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, start.q)
+    tip = data.oMf[model.getFrameId("link_eef")].translation
+    brace = data.oMf[model.getFrameId(sc.braced.brace.frame)].translation
+    np.testing.assert_allclose(tip, sc.task.position(0.0), atol=1e-9)
+    assert abs((brace - sc.braced.brace.surface.point) @ np.array([0.0, 0.0, 1.0])) < 1e-9
+
+
+@pytest.mark.slow
+def test_the_xarm7_planar_guess_completes_with_every_gradient_strategy(tmp_path: Path) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = run_scenario(xarm_planar(tmp_path), both_models=False)
+    failures = {name: tr.failure for runs in result.trajectories.values() for name, tr in runs.items()}
+    assert set(failures) == set(DEFAULT_STRATEGIES)
+    assert all(f is None for f in failures.values()), failures
+
+
+def test_a_brace_that_cannot_close_is_blamed_not_the_tip(tmp_path: Path) -> None:
+    text = PAPER.read_text(encoding="utf-8").replace('frame = "brace"', 'link = "link1"\nframe = "pad1"')
+    text = text.replace("theta_z = 0.6", "theta_z = 0.0")
+    path = tmp_path / "link1.toml"
+    path.write_text(text, encoding="utf-8")
+    sc = load_scenario(path)
+    with pytest.raises(ConvergenceError) as info:
+        solve_start(sc.braced, sc.task.position(0.0), sc.guess, space=sc.task_space)
+    message = str(info.value)
+    # reference: link1 is the PUMA's first link, 0.3 m or more above the table (z = −0.30) wherever it turns
+    assert "did not close the contact at 'pad1'" in message and "the tip (" not in message
+    assert "the bracing point 0.3 m off its surface" in message
