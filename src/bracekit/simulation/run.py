@@ -32,6 +32,7 @@ from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.simulation.scenario_model import OPTIMISING
 from bracekit.simulation.start import solve_start
 from bracekit.simulation.trajectory import Trajectory
+from bracekit.simulation.validity import verdict
 from bracekit.statics import effort_limits
 
 Array = NDArray[np.float64]
@@ -63,6 +64,11 @@ class RunResult:
         """Whether every run finished its task."""
         return all(t.completed for runs in self.trajectories.values() for t in runs.values())
 
+    @property
+    def valid(self) -> bool:
+        """Whether every run of every model is valid (:mod:`bracekit.simulation.validity`)."""
+        return all(s["valid"] for out in self.summaries.values() for s in out["strategies"].values())
+
 
 def _summaries(result: RunResult) -> None:
     sc = result.scenario
@@ -75,6 +81,7 @@ def _summaries(result: RunResult) -> None:
                 strategies[name]["braces"] = [b | e for b, e in zip(strategies[name]["braces"], extra, strict=True)]
             if sc.holding.active and tr.braced and tr.q.shape[0] and _has_limits(sc):
                 strategies[name]["actuator_relief"] = relief_summary(sc.braced, tr.q, sc.holding)
+            strategies[name].update(verdict(sc.braced, tr, strategies[name])._asdict())
         out: dict[str, Any] = {
             "scenario": result.scenario.name,
             "compliance_model": model,
