@@ -15,7 +15,7 @@ from bracekit._linalg import show
 from bracekit.compliance.first_order import check_model
 from bracekit.compliance.measures import theta_z
 from bracekit.compliance.preloaded import check_run_model, simulated_model
-from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
+from bracekit.errors import HoldingWarning, InputError, NoRedundancyWarning, PadAxisWarning
 from bracekit.kinematics import BracedState
 from bracekit.kinematics.clearance import geometry_of
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
@@ -119,6 +119,33 @@ def _start_warnings(sc: Scenario, start: BracedState) -> list[str]:
     return lines
 
 
+#: Largest joint difference (rad or m) at which a gradient-projection path counts as minimum norm's own.
+SAME_PATH_TOL = 1e-9
+
+
+def _same_path_note(runs: dict[str, Trajectory]) -> None:
+    """Note a redundant gradient-projection run whose path is braced minimum norm's (∇g ⟂ the null space).
+
+    With a null space (redundancy > 0) gradient projection moves in it unless ∇g is orthogonal to it all along
+    the run: then no weighted term changes along the redundant motion (e.g. the tool's spin about its own axis
+    in 'position+axis'), and the run says so rather than repeat minimum norm silently.
+    """
+    gp, mn = runs.get("braced_gradient_projection"), runs.get("braced_min_norm")
+    if gp is None or mn is None or not gp.redundancy or gp.q.shape != mn.q.shape:
+        return
+    gap = float(np.max(np.abs(gp.q - mn.q))) if gp.q.size else 0.0
+    if gap > SAME_PATH_TOL:
+        return
+    line = (
+        f"braced_gradient_projection: its path is braced minimum norm's (max |Δq| {gap:.1e}) although the "
+        f"{gp.task_space} task leaves {gp.redundancy} redundant motion(s): ∇g is orthogonal to them all along the "
+        "run (no weighted term changes along the redundant motion); weight a term that does, or choose a task "
+        "space that frees another motion"
+    )
+    gp.warnings.append(line)
+    warnings.warn(line, NoRedundancyWarning, stacklevel=3)
+
+
 def _has_limits(sc: Scenario) -> bool:
     """Whether any joint of the scenario's robot has an effort limit (needed for torque ratios)."""
     return bool(np.any(np.isfinite(effort_limits(sc.robot))))
@@ -209,6 +236,8 @@ def run_scenario(
             trajectories[m][name] = tr
             if name not in OPTIMISING:
                 shared[name] = tr
+    for runs in trajectories.values():
+        _same_path_note(runs)
     if model == "preloaded":  # the same runs as the constrained model, C_i of the preloaded compliance
         trajectories["preloaded"] = trajectories["constrained"]
     result = RunResult(sc, start, model, grad, trajectories, start_warnings=start_warnings)
