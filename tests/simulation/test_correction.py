@@ -45,3 +45,19 @@ def test_a_reachable_correction_closes_the_tip_and_the_contact() -> None:
     out = correct(braced, st.q + 0.05, target, st.R_e, anchors)
     np.testing.assert_allclose(out.e, target, atol=1e-10)
     np.testing.assert_allclose(braced.braces[0].surface.normal @ (out.b_i[0] - anchors[0][0]), 0.0, atol=1e-10)
+
+
+def test_a_failure_says_whether_the_task_itself_or_only_the_braced_task_is_singular() -> None:
+    from bracekit.resolution.task_space import TaskSpace
+    from bracekit.simulation.correction import _where
+
+    space = TaskSpace("position")
+    rng = np.random.default_rng(3)
+    task = rng.normal(size=(3, 5))
+    scale = np.ones(4)
+    task_singular = np.vstack([task[:2], task[0] + task[1], rng.normal(size=(1, 5))])  # rank 2 of 3 task rows
+    assert "the task itself is singular" in _where(task_singular, scale, space)
+    braced_singular = np.vstack([task, task[0] - 2.0 * task[2]])  # a contact row the task rows already span
+    text = _where(braced_singular, scale, space)
+    assert "a braced singularity" in text and "the task itself" not in text
+    assert "reduce the time step" in _where(np.vstack([task, rng.normal(size=(1, 5))]), scale, space)

@@ -143,8 +143,7 @@ def correct(
     blame = _blame(braced, res, scale, space)
     raise ConvergenceError(
         f"the pose/contact correction did not converge in {max_iter} iterations; not closed: {blame} "
-        f"(residual {size:.2e} of the robot's reach {scale_len:.3g} m and of 1 rad); reduce the time step or move "
-        "away from singularities"
+        f"(residual {size:.2e} of the robot's reach {scale_len:.3g} m and of 1 rad); {_where(rows, scale, space)}"
     )
 
 
@@ -196,6 +195,33 @@ def _damped_step(
             if np.linalg.norm(t_res / scale) < base:
                 return trial, t_res, t_rows
     return None
+
+
+#: σ_min/σ_max of the scaled rows below which a correction's failure is put down to a singular matrix.
+SINGULAR_ROWS = 1e-6
+
+
+def _where(rows: Array, scale: Array, space: TaskSpace) -> str:
+    """What to do: the task rows S J_e alone singular (the task itself), the task with the contacts, or neither."""
+    scaled = rows / scale[:, None]
+
+    def ratio(m: Array) -> float:
+        s = np.linalg.svd(m, compute_uv=False)
+        return float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
+
+    task = ratio(scaled[: space.rows])
+    if task < SINGULAR_ROWS:
+        return (
+            f"the task itself is singular here (σ_min/σ_max of its rows S J_e {task:.1e}): no motion of the joints "
+            "follows it; move the task away from this pose"
+        )
+    both = ratio(scaled)
+    if both < SINGULAR_ROWS:
+        return (
+            f"the task with the contacts is singular (σ_min/σ_max {both:.1e}) although the task alone is not "
+            f"({task:.1e}): a braced singularity; weight a conditioning term (k) or reduce the time step"
+        )
+    return "reduce the time step or move away from singularities"
 
 
 def _blame(braced: BracedRobot, res: Array, scale: Array, space: TaskSpace) -> str:
