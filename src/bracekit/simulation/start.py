@@ -187,8 +187,8 @@ def solve_start(
     rotation_target = rot if rot is not None else st.R_e
     # the plane point under each b_i: anchors on the surfaces
     anchors = [(b - s.normal * s.signed_distance(b), r) for s, b, r in zip(surfaces, st.b_i, st.R_b_i, strict=True)]
-    try:  # the task's own rows and the contacts: a free orientation row is not corrected
-        st = correct(braced, st.q, target, rotation_target, anchors, space=space)
+    try:
+        st = _polish(braced, st, target, rotation_target, anchors, space)
     except ConvergenceError as exc:
         every = "the brace" if len(surfaces) == 1 else "every brace"
         what = str(exc).split("not closed: ", 1)[-1].rsplit(" (residual ", 1)[0]
@@ -234,6 +234,29 @@ def _conditioning_jacobian(braced: BracedRobot, state: BracedState, floor: float
         down = _conditioning_residual(braced.state(state.q - step), floor, space)
         out[:, i] = (up - down) / (2.0 * START_FD_STEP)
     return out
+
+
+def _polish(
+    braced: BracedRobot,
+    st: BracedState,
+    target: Array,
+    rotation: Array,
+    anchors: list[tuple[Array, Array]],
+    space: TaskSpace,
+) -> BracedState:
+    """The least-squares start polished onto the task's rows and the contacts by the correction.
+
+    The rows the task leaves free are first held where the least-squares solve left them (the full pose with
+    every contact); where those rows make the correction's system singular (a free orientation the task does
+    not need), the correction acts on the task's own rows and the contacts only. Either start meets the task
+    and every contact to the correction's tolerance.
+    """
+    if not space.is_pose:
+        try:
+            return correct(braced, st.q, target, rotation, anchors)
+        except ConvergenceError:
+            pass
+    return correct(braced, st.q, target, rotation, anchors, space=space)
 
 
 def _orientation_residual(rotation: Array, target: Array, space: TaskSpace) -> Array:
