@@ -14,6 +14,7 @@ import pinocchio as pin
 import pytest
 
 from bracekit.errors import ConvergenceError
+from bracekit.simulation import start as start_module
 from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import load_scenario
 from bracekit.simulation.scenario_model import DEFAULT_STRATEGIES
@@ -44,6 +45,27 @@ def test_the_xarm7_planar_guess_starts_in_its_position_task_space(tmp_path: Path
     tip = data.oMf[model.getFrameId("link_eef")].translation
     brace = data.oMf[model.getFrameId(sc.braced.brace.frame)].translation
     np.testing.assert_allclose(tip, sc.task.position(0.0), atol=1e-9)
+    assert abs((brace - sc.braced.brace.surface.point) @ np.array([0.0, 0.0, 1.0])) < 1e-9
+
+
+@pytest.mark.parametrize("scatter", [0.0, 0.01])
+def test_the_xarm7_start_closes_from_a_least_squares_start_off_the_task(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, scatter: float
+) -> None:
+    """The least squares stopped after one evaluation ends 6e-5 m (or 0.01 m) off the task at the planar pose,
+    where the full pose with the contact is a singular 7 × 7 system (σ_min/σ_max of A 2.5e-7): corrected on
+    the pose it does not close; on the task's position rows and the contact it does."""
+    sc = load_scenario(xarm_planar(tmp_path))
+    monkeypatch.setattr(start_module, "START_MAX_NFEV", 1)
+    guess = np.asarray(sc.guess) + scatter * np.random.default_rng(0).normal(size=7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        start = solve_start(sc.braced, sc.task.position(0.0), guess, space=sc.task_space)
+    model = sc.braced.robot.model  # reference: a fresh Pinocchio pass at the solved q
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, start.q)
+    np.testing.assert_allclose(data.oMf[model.getFrameId("link_eef")].translation, sc.task.position(0.0), atol=1e-9)
+    brace = data.oMf[model.getFrameId(sc.braced.brace.frame)].translation
     assert abs((brace - sc.braced.brace.surface.point) @ np.array([0.0, 0.0, 1.0])) < 1e-9
 
 
