@@ -119,8 +119,9 @@ def _start_warnings(sc: Scenario, start: BracedState) -> list[str]:
     return lines
 
 
-#: Largest joint difference (rad or m) at which a gradient-projection path counts as minimum norm's own.
-SAME_PATH_TOL = 1e-9
+#: Largest joint difference (rad or m) at which a gradient-projection path counts as minimum norm's own
+#: (its null-space motion negligible).
+SAME_PATH_TOL = 1e-6
 
 
 def _same_path_note(runs: dict[str, Trajectory]) -> None:
@@ -137,10 +138,10 @@ def _same_path_note(runs: dict[str, Trajectory]) -> None:
     if gap > SAME_PATH_TOL:
         return
     line = (
-        f"braced_gradient_projection: its path is braced minimum norm's (max |Δq| {gap:.1e}) although the "
-        f"{gp.task_space} task leaves {gp.redundancy} redundant motion(s): ∇g is orthogonal to them all along the "
-        "run (no weighted term changes along the redundant motion); weight a term that does, or choose a task "
-        "space that frees another motion"
+        f"braced_gradient_projection: its path is braced minimum norm's (max |Δq| {gap:.1e} rad) although the "
+        f"{gp.task_space} task leaves {gp.redundancy} redundant motion(s): ∇g has (almost) no component along "
+        "them all along the run (no weighted term changes along the redundant motion); weight a term that does, "
+        "or choose a task space that frees another motion"
     )
     gp.warnings.append(line)
     warnings.warn(line, NoRedundancyWarning, stacklevel=3)
