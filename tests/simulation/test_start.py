@@ -91,3 +91,17 @@ def test_a_brace_that_cannot_close_is_blamed_not_the_tip(tmp_path: Path) -> None
     # reference: link1 is the PUMA's first link, 0.3 m or more above the table (z = −0.30) wherever it turns
     assert "did not close the contact at 'pad1'" in message and "the tip (" not in message
     assert "the bracing point 0.3 m off its surface" in message
+
+
+def test_a_failed_start_names_the_joints_at_a_limit_and_a_link_inside_the_post(tmp_path: Path) -> None:
+    from bracekit.simulation.start import _blocked
+
+    sc = load_scenario(xarm_planar(tmp_path))
+    q = np.array(sc.guess, dtype=float)
+    q[1] = sc.braced.robot.lower[1]  # joint 2 at its URDF lower limit
+    text = _blocked(sc.braced, sc.braced.state(q))
+    assert "at a joint limit: joint 2 (joint2)" in text
+    assert "joint 1 " not in text and "joint 3 (joint3)," not in text
+    # at the planar guess the elbow point is inside link3's housing: link 3 starts inside the post
+    inside = _blocked(sc.braced, sc.braced.state(np.array(sc.guess, dtype=float)))
+    assert "at a joint limit" not in inside and "m inside the surface's solid" in inside

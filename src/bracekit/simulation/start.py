@@ -16,8 +16,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from bracekit._linalg import show
-from bracekit.errors import BracekitWarning, ConvergenceError, InputError
+from bracekit.errors import BracekitError, BracekitWarning, ConvergenceError, InputError
 from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics.clearance import link_clearance
 from bracekit.resolution.task_space import POSE, TaskSpace
 from bracekit.simulation.correction import correct
 from bracekit.simulation.guards import braces_outside, point_label, sigma_ratios
@@ -196,6 +197,7 @@ def solve_start(
             f"{point_label(braced, i)} {abs(s.signed_distance(b)):.3g} m off its surface"
             for i, (s, b) in enumerate(zip(surfaces, st.b_i, strict=True))
         )
+        gaps += _blocked(braced, st)
         raise ConvergenceError(
             f"no start configuration puts the tip at {np.round(target, 4).tolist()} m ({space.describe()}) with "
             f"{every} closed: the correction did not close {what} (tip {np.linalg.norm(target - st.e):.3g} m away, "
@@ -233,6 +235,27 @@ def _conditioning_jacobian(braced: BracedRobot, state: BracedState, floor: float
         up = _conditioning_residual(braced.state(state.q + step), floor, space)
         down = _conditioning_residual(braced.state(state.q - step), floor, space)
         out[:, i] = (up - down) / (2.0 * START_FD_STEP)
+    return out
+
+
+#: Distance (rad or m) from a joint limit at which a failed start names the joint as held by its limit.
+AT_LIMIT = 1e-6
+
+
+def _blocked(braced: BracedRobot, st: BracedState) -> str:
+    """What may hold a failed start back: joints at a limit, a link inside the surface's solid ("" if none)."""
+    robot = braced.robot
+    out = ""
+    at = np.flatnonzero((st.q - robot.lower < AT_LIMIT) | (robot.upper - st.q < AT_LIMIT))
+    if at.size:
+        out += "; at a joint limit: " + ", ".join(f"joint {i + 1} ({robot.joint_names[i]})" for i in at)
+    try:
+        clearance, joint = link_clearance(st)
+    except BracekitError:  # the clearance model has one surface as obstacle
+        return out
+    if np.isfinite(clearance) and clearance < 0.0 and 0 <= joint < robot.n:
+        name = robot.joint_names[joint]
+        out += f"; the link of joint {joint + 1} ({name}) {-clearance:.3g} m inside the surface's solid"
     return out
 
 
