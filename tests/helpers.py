@@ -187,7 +187,8 @@ guess = [0.0, 0.6, 0.0, -0.97, 0.0, 1.2, 0.0]
 [compliance]
 beta_x = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0]
 [gradient_projection]
-weights = {{ k = 0.5, Ci = 100.0, {theta}d = 0.01 }}
+# link_3 starts 0.03 m inside the table's disk: the clearance barrier (on by default) would refuse the start
+weights = {{ k = 0.5, Ci = 100.0, {theta}d = 0.01, clearance = 0.0 }}
 [simulation]
 dt = 0.05
 """

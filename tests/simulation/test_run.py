@@ -169,3 +169,29 @@ def test_a_pad_axis_pointing_away_from_the_surface_warns_at_the_start(tmp_path: 
         warnings.simplefilter("error", PadAxisWarning)
         right = run_scenario(_panda_text(tmp_path), both_models=False)  # the shipped sign: no warning
     assert not any("θ_z at the start" in w for w in right.summary["warnings"])
+
+
+def test_a_redundant_gradient_projection_on_minimum_norms_path_says_so(tmp_path: Path) -> None:
+    """iiwa-like arm braced at the forearm, a 4 cm circle in 'position+axis': the one redundant motion is joint 7
+    spinning the tool about its axis, which no weighted term sees (reference: the two runs' joint paths)."""
+    from helpers import iiwa_like_urdf, iiwa_scenario_text
+
+    (tmp_path / "iiwa.urdf").write_text(iiwa_like_urdf(), encoding="utf-8")
+    text = iiwa_scenario_text(True)
+    circle = (
+        'type = "circle"\ncentre = [0.66, 0.0, 0.50]\nradius = 0.04\nnormal = [0.0, 0.0, 1.0]\n'
+        'start_direction = [1.0, 0.0, 0.0]\nperiod = 2.0\nspace = "position+axis"\n'
+    )
+    text = text[: text.index('type = "line"')] + circle + text[text.index("[start]") :]
+    (tmp_path / "s.toml").write_text(text, encoding="utf-8")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = run_scenario(tmp_path / "s.toml", both_models=False)
+    runs = result.trajectories["constrained"]
+    gp, mn = runs["braced_gradient_projection"], runs["braced_min_norm"]
+    assert gp.completed and mn.completed and gp.redundancy == 1
+    gap = float(np.max(np.abs(gp.q - mn.q)))
+    assert gap < 1e-6
+    notes = [w for w in gp.warnings if "its path is braced minimum norm's" in w]
+    assert len(notes) == 1 and f"max |Δq| {gap:.1e} rad" in notes[0]
+    assert not [w for w in mn.warnings if "its path is" in w]

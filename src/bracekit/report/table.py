@@ -82,6 +82,7 @@ def table_rows(summaries: dict[str, dict[str, Any]], paper: bool = True) -> list
                     **{c: values[c] for c in COLUMNS},
                     "Ci_mean_reduction": red,
                     "completed": values["completed"],
+                    "valid": values.get("valid"),
                     **{c: values.get(c) for c in CHECKS},
                 }
             )
@@ -122,14 +123,25 @@ def checks_markdown(summaries: dict[str, dict[str, Any]]) -> list[str]:
         "also the peak joint torque over its effort limit and the load margins (a scale of the listed loads: > 1",
         "holds; – where nothing limits it or it does not apply).",
         "",
-        "| compliance model | strategy | completed | " + " | ".join(CHECKS[k][0] for k in keys) + " |",
-        "|" + "---|" * (len(keys) + 3),
+        "| compliance model | strategy | completed | valid | " + " | ".join(CHECKS[k][0] for k in keys) + " |",
+        "|" + "---|" * (len(keys) + 4),
     ]
+    reasons = []
     for model, name, values in rows:
-        cells = [model, STRATEGY_LABELS.get(name, name), "yes" if values.get("completed") else "no"]
+        label = STRATEGY_LABELS.get(name, name)
+        cells = [model, label, "yes" if values.get("completed") else "no", _check(values.get("valid"), "s")]
         cells += [_check(values.get(k), CHECKS[k][1]) for k in keys]
         lines.append("| " + " | ".join(cells) + " |")
+        reasons += [f"- {model}, {label}: {why}" for why in values.get("invalid_reasons") or ()]
     lines.append("")
+    if reasons:
+        lines += [
+            "Not valid (a run is valid when no link is in an obstacle, every brace stays in its region, the",
+            "braces hold where the statics are on and the joints stay inside their limits):",
+            "",
+            *reasons,
+            "",
+        ]
     return lines
 
 
@@ -163,7 +175,7 @@ def table_markdown(summaries: dict[str, dict[str, Any]], scenario: str = "paper"
 def table_csv(summaries: dict[str, dict[str, Any]], scenario: str = "paper") -> str:
     """Table I and the run checks as CSV (SI units, reductions as fractions; paper rows for the paper scenario)."""
     buf = io.StringIO()
-    fields = ["source", "model", "strategy", *COLUMNS, "Ci_mean_reduction", "completed", *CHECKS]
+    fields = ["source", "model", "strategy", *COLUMNS, "Ci_mean_reduction", "completed", "valid", *CHECKS]
     writer = csv.DictWriter(buf, fieldnames=fields, extrasaction="ignore", lineterminator="\n")
     writer.writeheader()
     for row in table_rows(summaries, scenario == "paper"):

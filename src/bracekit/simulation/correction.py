@@ -100,17 +100,20 @@ def correct(
     length: float | None = None,
     space: TaskSpace = POSE,
 ) -> BracedState:
-    """Minimum-norm Gauss–Newton: the state nearest q with the tip at the pose and every {b_i} on its contact.
+    """Damped Gauss–Newton: the state nearest q with the tip at the pose and every {b_i} on its contact.
 
     With a task space other than the pose only its selected rows are corrected: S(⁰R_e) [p_d − e; ω]
     (:func:`task_error`) with the rows S J_e; the free rows are left where they are. `anchors` None leaves
-    the contacts free (an unbraced run). The step is the minimum-norm one, so dependent contact rows (two
-    braces constraining the same motion) are harmless.
+    the contacts free (an unbraced run). The step is the minimum-norm Gauss–Newton one, so dependent contact
+    rows (two braces constraining the same motion) are harmless; a step that would raise the scaled residual
+    norm is replaced by Levenberg–Marquardt steps (damping λ, scaled rows) with a backtracking line search, so
+    the residual never grows: the correction returns at or below where it started or raises.
 
     Residuals are relative to the problem's scale: positions divided by `length` (m; the robot's
     :func:`reach` if not given), angles by 1 rad. Stops when the relative residual is below `tol`, below
     its round-off (CORRECTION_ROUNDOFF · eps · √n · max(1, ‖q‖∞) · ‖scaled Jacobian‖_F), or when it stops
-    falling below ACCEPT_TOL; raises ConvergenceError otherwise.
+    falling below ACCEPT_TOL; raises ConvergenceError otherwise, naming what did not close (the tip or which
+    contact) and its residual.
     """
     scale_len = reach(braced.robot) if length is None else float(length)
     scale = np.array([scale_len] * 3 + [1.0] * (space.rows - 3))
@@ -119,24 +122,121 @@ def correct(
             scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
     roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
     previous = np.inf
+    st = braced.state(q)
+    res, rows = _rows(st, position, rotation, anchors, space)
     for _ in range(max_iter):
-        st = braced.state(q)
-        if space.is_pose:
-            res = pose_error(st, position, rotation)
-            rows = st.J_e
-        else:
-            sel = space.selection(st.R_e)
-            res, rows = sel @ task_error(st, position, rotation, space), sel @ st.J_e
-        if anchors is not None:
-            res = np.concatenate([res, -contact_residual(st, anchors)])
-            rows = np.vstack([rows, contact_jacobian(st, anchors)])
         size = float(np.max(np.abs(res) / scale))
         floor = roundoff * max(1.0, float(np.max(np.abs(st.q)))) * float(np.linalg.norm(rows / scale[:, None]))
         if size < max(tol, floor) or (size < ACCEPT_TOL and size > 0.5 * previous):
             return st
         previous = size
-        q = q + rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
+        step = rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
+        trial = braced.state(st.q + step)
+        t_res, t_rows = _rows(trial, position, rotation, anchors, space)
+        if np.linalg.norm(t_res / scale) > np.linalg.norm(res / scale) and size >= ACCEPT_TOL:
+            damped = _damped_step(braced, st, res, rows, scale, position, rotation, anchors, space)
+            if damped is None:
+                break
+            trial, t_res, t_rows = damped
+        st, res, rows = trial, t_res, t_rows
+    size = float(np.max(np.abs(res) / scale))
+    blame = _blame(braced, res, scale, space)
     raise ConvergenceError(
-        f"the pose/contact correction did not converge in {max_iter} iterations (residual {size:.2e} of the "
-        f"robot's reach {scale_len:.3g} m and of 1 rad); reduce the time step or move away from singularities"
+        f"the pose/contact correction did not converge in {max_iter} iterations; not closed: {blame} "
+        f"(residual {size:.2e} of the robot's reach {scale_len:.3g} m and of 1 rad); {_where(rows, scale, space)}"
     )
+
+
+#: Damping factors λ/‖J‖² of the Levenberg–Marquardt fallback, tried in order.
+LM_DAMPING = (1e-6, 1e-4, 1e-2, 1.0)
+#: Step fractions of the line search along each damped step.
+LINE_SEARCH = (1.0, 0.5, 0.25, 0.125, 0.0625)
+
+
+def _rows(
+    st: BracedState, position: Array, rotation: Array, anchors: Anchors | None, space: TaskSpace
+) -> tuple[Array, Array]:
+    """The correction's residual (task rows, then −contact residual) and its Jacobian at st."""
+    if space.is_pose:
+        res, rows = pose_error(st, position, rotation), st.J_e
+    else:
+        sel = space.selection(st.R_e)
+        res, rows = sel @ task_error(st, position, rotation, space), sel @ st.J_e
+    if anchors is not None:
+        res = np.concatenate([res, -contact_residual(st, anchors)])
+        rows = np.vstack([rows, contact_jacobian(st, anchors)])
+    return res, rows
+
+
+def _damped_step(
+    braced: BracedRobot,
+    st: BracedState,
+    res: Array,
+    rows: Array,
+    scale: Array,
+    position: Array,
+    rotation: Array,
+    anchors: Anchors | None,
+    space: TaskSpace,
+) -> tuple[BracedState, Array, Array] | None:
+    """A Levenberg–Marquardt step that lowers ‖res / scale‖ (the first λ and line-search fraction that does).
+
+    The step is Jᵀ(J Jᵀ + λ I)⁻¹ r of the scaled rows J = rows / scale and r = res / scale; None if none lowers it.
+    """
+    j, r = rows / scale[:, None], res / scale
+    jjt = j @ j.T
+    base = float(np.linalg.norm(r))
+    size = max(float(np.trace(jjt)), 1e-300)
+    for damping in LM_DAMPING:
+        step = j.T @ np.linalg.solve(jjt + damping * size * np.eye(r.size), r)
+        for fraction in LINE_SEARCH:
+            trial = braced.state(st.q + fraction * step)
+            t_res, t_rows = _rows(trial, position, rotation, anchors, space)
+            if np.linalg.norm(t_res / scale) < base:
+                return trial, t_res, t_rows
+    return None
+
+
+#: σ_min/σ_max of the scaled rows below which a correction's failure is put down to a singular matrix.
+SINGULAR_ROWS = 1e-6
+
+
+def _where(rows: Array, scale: Array, space: TaskSpace) -> str:
+    """What to do: the task rows S J_e alone singular (the task itself), the task with the contacts, or neither."""
+    scaled = rows / scale[:, None]
+
+    def ratio(m: Array) -> float:
+        s = np.linalg.svd(m, compute_uv=False)
+        return float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
+
+    task = ratio(scaled[: space.rows])
+    if task < SINGULAR_ROWS:
+        return (
+            f"the task itself is singular here (σ_min/σ_max of its rows S J_e {task:.1e}): no motion of the joints "
+            "follows it; move the task away from this pose"
+        )
+    both = ratio(scaled)
+    if both < SINGULAR_ROWS:
+        return (
+            f"the task with the contacts is singular (σ_min/σ_max {both:.1e}) although the task alone is not "
+            f"({task:.1e}): a braced singularity; weight a conditioning term (k) or reduce the time step"
+        )
+    return "reduce the time step or move away from singularities"
+
+
+def _blame(braced: BracedRobot, res: Array, scale: Array, space: TaskSpace) -> str:
+    """What did not close: the tip's task rows and/or each contact, with its largest scaled residual."""
+    parts = []
+    task = float(np.max(np.abs(res[: space.rows]) / scale[: space.rows]))
+    if task > ACCEPT_TOL:
+        parts.append(f"the tip ({space.describe()} rows, residual {task:.2e})")
+    start = space.rows
+    for i, x in enumerate(braced.X_i):
+        if start >= res.size:
+            break
+        part = float(np.max(np.abs(res[start : start + x.shape[1]]) / scale[start : start + x.shape[1]]))
+        if part > ACCEPT_TOL:
+            who = "the contact" if len(braced.braces) == 1 else f"the contact of braces[{i}]"
+            parts.append(f"{who} at {braced.braces[i].frame!r} (residual {part:.2e})")
+        start += x.shape[1]
+    return ", ".join(parts) if parts else "none, but the residual stopped falling"

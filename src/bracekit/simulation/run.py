@@ -15,7 +15,7 @@ from bracekit._linalg import show
 from bracekit.compliance.first_order import check_model
 from bracekit.compliance.measures import theta_z
 from bracekit.compliance.preloaded import check_run_model, simulated_model
-from bracekit.errors import HoldingWarning, InputError, PadAxisWarning
+from bracekit.errors import HoldingWarning, InputError, NoRedundancyWarning, PadAxisWarning
 from bracekit.kinematics import BracedState
 from bracekit.kinematics.clearance import geometry_of
 from bracekit.resolution.strategies import GRADIENT_MODES, GradientMode
@@ -32,6 +32,7 @@ from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.simulation.scenario_model import OPTIMISING
 from bracekit.simulation.start import solve_start
 from bracekit.simulation.trajectory import Trajectory
+from bracekit.simulation.validity import verdict
 from bracekit.statics import effort_limits
 
 Array = NDArray[np.float64]
@@ -63,6 +64,11 @@ class RunResult:
         """Whether every run finished its task."""
         return all(t.completed for runs in self.trajectories.values() for t in runs.values())
 
+    @property
+    def valid(self) -> bool:
+        """Whether every run of every model is valid (:mod:`bracekit.simulation.validity`)."""
+        return all(s["valid"] for out in self.summaries.values() for s in out["strategies"].values())
+
 
 def _summaries(result: RunResult) -> None:
     sc = result.scenario
@@ -75,6 +81,7 @@ def _summaries(result: RunResult) -> None:
                 strategies[name]["braces"] = [b | e for b, e in zip(strategies[name]["braces"], extra, strict=True)]
             if sc.holding.active and tr.braced and tr.q.shape[0] and _has_limits(sc):
                 strategies[name]["actuator_relief"] = relief_summary(sc.braced, tr.q, sc.holding)
+            strategies[name].update(verdict(sc.braced, tr, strategies[name])._asdict())
         out: dict[str, Any] = {
             "scenario": result.scenario.name,
             "compliance_model": model,
@@ -110,6 +117,34 @@ def _start_warnings(sc: Scenario, start: BracedState) -> list[str]:
         )
         warnings.warn(lines[-1], PadAxisWarning, stacklevel=3)
     return lines
+
+
+#: Largest joint difference (rad or m) at which a gradient-projection path counts as minimum norm's own
+#: (its null-space motion negligible).
+SAME_PATH_TOL = 1e-6
+
+
+def _same_path_note(runs: dict[str, Trajectory]) -> None:
+    """Note a redundant gradient-projection run whose path is braced minimum norm's (∇g ⟂ the null space).
+
+    With a null space (redundancy > 0) gradient projection moves in it unless ∇g is orthogonal to it all along
+    the run: then no weighted term changes along the redundant motion (e.g. the tool's spin about its own axis
+    in 'position+axis'), and the run says so rather than repeat minimum norm silently.
+    """
+    gp, mn = runs.get("braced_gradient_projection"), runs.get("braced_min_norm")
+    if gp is None or mn is None or not gp.redundancy or gp.q.shape != mn.q.shape:
+        return
+    gap = float(np.max(np.abs(gp.q - mn.q))) if gp.q.size else 0.0
+    if gap > SAME_PATH_TOL:
+        return
+    line = (
+        f"braced_gradient_projection: its path is braced minimum norm's (max |Δq| {gap:.1e} rad) although the "
+        f"{gp.task_space} task leaves {gp.redundancy} redundant motion(s): ∇g has (almost) no component along "
+        "them all along the run (no weighted term changes along the redundant motion); weight a term that does, "
+        "or choose a task space that frees another motion"
+    )
+    gp.warnings.append(line)
+    warnings.warn(line, NoRedundancyWarning, stacklevel=3)
 
 
 def _has_limits(sc: Scenario) -> bool:
@@ -202,6 +237,8 @@ def run_scenario(
             trajectories[m][name] = tr
             if name not in OPTIMISING:
                 shared[name] = tr
+    for runs in trajectories.values():
+        _same_path_note(runs)
     if model == "preloaded":  # the same runs as the constrained model, C_i of the preloaded compliance
         trajectories["preloaded"] = trajectories["constrained"]
     result = RunResult(sc, start, model, grad, trajectories, start_warnings=start_warnings)

@@ -41,6 +41,11 @@ from bracekit.tolerances import MAX_STEPS
 MAX_WRENCHES = 32
 
 Array = NDArray[np.float64]
+#: Weights on by default unless ``[gradient_projection.weights]`` gives them (0 turns one off): the
+#: joint-limit barrier, and with one brace (whose surface is the links' obstacle: the link clearance of
+#: several braces is not defined) the clearance barrier. docs/scenarios.md.
+SAFETY_WEIGHTS = {"clearance": 0.01, "joint_limit_barrier": 0.01}
+
 #: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
 START_THETA_WEIGHT = 0.3
 
@@ -191,7 +196,8 @@ def parse_scenario(
         else {"k": 0.5, "Ci": 100.0, "theta_z": 0.6 if pad_axis else 0.0, "d": 0.01}
     )
     w = gp.table("weights", weight_keys(), default_weights)
-    weights = {k: w.number(k, 0.0) for k in weight_keys()}
+    safety = {k: v for k, v in SAFETY_WEIGHTS.items() if not (several and k == "clearance")}
+    weights = {k: w.number(k, safety.get(k, 0.0)) for k in weight_keys()}
     for k, v in weights.items():
         if v < 0:
             raise ScenarioError(f"'gradient_projection.weights.{k}' must be ≥ 0, got {v}")

@@ -16,8 +16,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from bracekit._linalg import show
-from bracekit.errors import BracekitWarning, ConvergenceError, InputError
+from bracekit.errors import BracekitError, BracekitWarning, ConvergenceError, InputError
 from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics.clearance import link_clearance
 from bracekit.resolution.task_space import POSE, TaskSpace
 from bracekit.simulation.correction import correct
 from bracekit.simulation.guards import braces_outside, point_label, sigma_ratios
@@ -142,7 +143,7 @@ def solve_start(
         st = braced.state(q)
         hard = [target - st.e, np.array([s.signed_distance(b) for s, b in zip(surfaces, st.b_i, strict=True)])]
         if rot is not None:
-            hard.append(pin.log3(rot @ st.R_e.T))
+            hard.append(_orientation_residual(st.R_e, rot, space))
         soft = [region_weight * (b - s.point) for s, b in zip(surfaces, st.b_i, strict=True)]
         for i, (x_t, y_t) in zip(pads, tangents, strict=False):  # ẑ_b's tangential components: ≈ θ_z, smooth at 0
             z_b = st.contacts[i].z_b
@@ -155,8 +156,8 @@ def solve_start(
     def jacobian(q: Array, conditioned: bool) -> Array:
         st = braced.state(q)
         hard = [-st.J_e[:3], np.einsum("ij,ijk->ik", normals, np.array([j[:3] for j in st.J_b_i]))]
-        if rot is not None:
-            hard.append(-st.J_e[3:])  # first-order (exact at the solution)
+        if rot is not None:  # first-order (exact at the solution)
+            hard.append(-st.J_e[3:] if space.is_pose else -space.selection(st.R_e)[3:, 3:] @ st.J_e[3:])
         soft = [region_weight * j[:3] for j in st.J_b_i]
         for i, (x_t, y_t) in zip(pads, tangents, strict=False):
             c = st.contacts[i]
@@ -188,12 +189,20 @@ def solve_start(
     # the plane point under each b_i: anchors on the surfaces
     anchors = [(b - s.normal * s.signed_distance(b), r) for s, b, r in zip(surfaces, st.b_i, st.R_b_i, strict=True)]
     try:
-        st = correct(braced, st.q, target, rotation_target, anchors)
-    except ConvergenceError:
+        st = _polish(braced, st, target, rotation_target, anchors, space)
+    except ConvergenceError as exc:
         every = "the brace" if len(surfaces) == 1 else "every brace"
+        what = str(exc).split("not closed: ", 1)[-1].rsplit(" (residual ", 1)[0]
+        gaps = ", ".join(
+            f"{point_label(braced, i)} {abs(s.signed_distance(b)):.3g} m off its surface"
+            for i, (s, b) in enumerate(zip(surfaces, st.b_i, strict=True))
+        )
+        gaps += _blocked(braced, st)
         raise ConvergenceError(
-            f"no start configuration puts the tip at {np.round(target, 4).tolist()} m with {every} closed "
-            f"(closest: {np.linalg.norm(target - st.e):.3g} m away); move the task or the surface, or change the guess"
+            f"no start configuration puts the tip at {np.round(target, 4).tolist()} m ({space.describe()}) with "
+            f"{every} closed: the correction did not close {what} (tip {np.linalg.norm(target - st.e):.3g} m away, "
+            f"{gaps}); "
+            "move the task or the surface, or change the guess"
         ) from None
     outside = braces_outside(braced, st)
     if outside:
@@ -227,6 +236,61 @@ def _conditioning_jacobian(braced: BracedRobot, state: BracedState, floor: float
         down = _conditioning_residual(braced.state(state.q - step), floor, space)
         out[:, i] = (up - down) / (2.0 * START_FD_STEP)
     return out
+
+
+#: Distance (rad or m) from a joint limit at which a failed start names the joint as held by its limit.
+AT_LIMIT = 1e-6
+
+
+def _blocked(braced: BracedRobot, st: BracedState) -> str:
+    """What may hold a failed start back: joints at a limit, a link inside the surface's solid ("" if none)."""
+    robot = braced.robot
+    out = ""
+    at = np.flatnonzero((st.q - robot.lower < AT_LIMIT) | (robot.upper - st.q < AT_LIMIT))
+    if at.size:
+        out += "; at a joint limit: " + ", ".join(f"joint {i + 1} ({robot.joint_names[i]})" for i in at)
+    try:
+        clearance, joint = link_clearance(st)
+    except BracekitError:  # the clearance model has one surface as obstacle
+        return out
+    if np.isfinite(clearance) and clearance < 0.0 and 0 <= joint < robot.n:
+        name = robot.joint_names[joint]
+        out += f"; the link of joint {joint + 1} ({name}) {-clearance:.3g} m inside the surface's solid"
+    return out
+
+
+def _polish(
+    braced: BracedRobot,
+    st: BracedState,
+    target: Array,
+    rotation: Array,
+    anchors: list[tuple[Array, Array]],
+    space: TaskSpace,
+) -> BracedState:
+    """The least-squares start polished onto the task's rows and the contacts by the correction.
+
+    The rows the task leaves free are first held where the least-squares solve left them (the full pose with
+    every contact); where those rows make the correction's system singular (a free orientation the task does
+    not need), the correction acts on the task's own rows and the contacts only. Either start meets the task
+    and every contact to the correction's tolerance.
+    """
+    if not space.is_pose:
+        try:
+            return correct(braced, st.q, target, rotation, anchors)
+        except ConvergenceError:
+            pass
+    return correct(braced, st.q, target, rotation, anchors, space=space)
+
+
+def _orientation_residual(rotation: Array, target: Array, space: TaskSpace) -> Array:
+    """The orientation rows of the task (rad): log3(R_d R_eᵀ), the tool axis' 2 rows, or none.
+
+    Pose: all 3; 'position+axis': S ω of :meth:`TaskSpace.error`; 'position': none.
+    """
+    if space.is_pose:
+        return np.asarray(pin.log3(target @ rotation.T))
+    omega = space.error(np.zeros(3), rotation, target)[3:]
+    return np.asarray(space.selection(rotation)[3:, 3:] @ omega)
 
 
 def _finite(value: ArrayLike, shape: tuple[int, ...], what: str) -> Array:

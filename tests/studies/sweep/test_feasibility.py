@@ -115,3 +115,11 @@ def test_the_refinement_key_holds_the_feasibility_bounds(tiny_spec: Path) -> Non
     }
     assert len(keys) == 4
     assert refinement_key(spec, cand, 0.2, 0.4) == refinement_key(load_spec(tiny_spec), cand, 0.2, 0.4)
+
+
+def test_a_run_that_is_not_valid_is_not_feasible(tiny_spec: Path) -> None:
+    spec = load_spec(tiny_spec)
+    assert judge(spec, completed(valid=True, invalid_reasons=None))["feasible"]
+    why = "a link passes through the surface's solid: the link of joint 3 (j3) is 0.0100 m inside at t = 1.000 s"
+    row = judge(spec, completed(valid=False, invalid_reasons=why))
+    assert not row["feasible"] and row["failure"] == f"not valid: {why}"

@@ -49,6 +49,8 @@ RESULT_COLUMNS = (
     "completed_min_norm",
     "failure_min_norm",
     "completed",
+    "valid",
+    "invalid_reasons",
     "feasible",
     "failure",
     "warnings",
@@ -131,6 +133,8 @@ def feasibility(spec: SweepSpec, row: dict[str, Any]) -> str | None:
     Uses the spec's current ``[feasibility]`` bounds only, so a row saved by an earlier run is judged again.
     """
     f = spec.feasibility
+    if row.get("valid") is False:
+        return f"not valid: {row.get('invalid_reasons') or 'see the run summary'}"
     k = row.get("k_mean_gp")
     if k is None or not finite(k):
         return "k_mean of gradient projection is not finite"
@@ -224,6 +228,8 @@ def summary_columns(spec: SweepSpec, strategies: dict[str, dict[str, Any]], cont
         "holds": gp.get("holds"),
         "unstable_samples": gp.get("unstable_samples"),
         "completed": bool(gp["completed"]),
+        "valid": gp.get("valid"),
+        "invalid_reasons": "; ".join(gp.get("invalid_reasons") or ()) or None,
     }
     if not gp["completed"]:
         out["feasible"] = False

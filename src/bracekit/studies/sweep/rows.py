@@ -34,8 +34,8 @@ NON_NEGATIVE = ("Ci_mean_free_space", "Ci_mean_min_norm", "Ci_mean_gp", "max_reg
 CONDITION = ("k_mean_min_norm", "k_mean_gp")
 FLAGS = ("completed", "feasible")
 #: True, false or null (a candidate that failed before its runs).
-MAYBE_FLAGS = ("completed_min_norm", "holds")
-TEXTS = ("failure_min_norm", "failure")
+MAYBE_FLAGS = ("completed_min_norm", "holds", "valid")
+TEXTS = ("failure_min_norm", "failure", "invalid_reasons")
 COUNTS = ("unstable_samples", "warnings")
 
 

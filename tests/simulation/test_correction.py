@@ -1,0 +1,63 @@
+"""Tests of the correction's damped steps: it never ends above its starting residual, and names what stays open.
+
+Reference: the residual at the start and at the end written out here from the tip pose (Pinocchio's frame
+placement through BracedState) and the contact plane, scaled as the docstring of ``correct`` says.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from bracekit.errors import ConvergenceError
+from bracekit.simulation.correction import correct, reach
+from bracekit.simulation.scenario import load_scenario
+
+
+def _scaled(braced, q, position, length) -> float:
+    st = braced.state(q)
+    return float(np.max(np.abs(position - st.e)) / length)
+
+
+def test_an_unreachable_tip_raises_naming_the_tip_without_raising_the_residual() -> None:
+    sc = load_scenario("paper")
+    braced = sc.braced
+    st = braced.state(np.asarray(sc.guess, dtype=float))
+    length = reach(braced.robot)
+    target = st.e + np.array([3.0 * length, 0.0, 0.0])  # three reaches away: no configuration closes it
+    before = _scaled(braced, st.q, target, length)
+    with pytest.raises(ConvergenceError) as info:
+        correct(braced, st.q, target, st.R_e, None, space=sc.task_space)
+    message = str(info.value)
+    assert "not closed: the tip (pose rows" in message
+    after = float(re.search(r"\(residual ([0-9.e+-]+) of the robot's reach", message).group(1))
+    assert after <= before * (1 + 1e-2)  # the message rounds to 3 digits
+
+
+def test_a_reachable_correction_closes_the_tip_and_the_contact() -> None:
+    sc = load_scenario("paper")
+    braced = sc.braced
+    st = braced.state(np.asarray(sc.guess, dtype=float))
+    anchors = [(c.b - 0.01 * b.surface.normal, c.R_b) for c, b in zip(st.contacts, braced.braces, strict=True)]
+    target = st.e + np.array([0.02, -0.01, 0.01])
+    out = correct(braced, st.q + 0.05, target, st.R_e, anchors)
+    np.testing.assert_allclose(out.e, target, atol=1e-10)
+    np.testing.assert_allclose(braced.braces[0].surface.normal @ (out.b_i[0] - anchors[0][0]), 0.0, atol=1e-10)
+
+
+def test_a_failure_says_whether_the_task_itself_or_only_the_braced_task_is_singular() -> None:
+    from bracekit.resolution.task_space import TaskSpace
+    from bracekit.simulation.correction import _where
+
+    space = TaskSpace("position")
+    rng = np.random.default_rng(3)
+    task = rng.normal(size=(3, 5))
+    scale = np.ones(4)
+    task_singular = np.vstack([task[:2], task[0] + task[1], rng.normal(size=(1, 5))])  # rank 2 of 3 task rows
+    assert "the task itself is singular" in _where(task_singular, scale, space)
+    braced_singular = np.vstack([task, task[0] - 2.0 * task[2]])  # a contact row the task rows already span
+    text = _where(braced_singular, scale, space)
+    assert "a braced singularity" in text and "the task itself" not in text
+    assert "reduce the time step" in _where(np.vstack([task, rng.normal(size=(1, 5))]), scale, space)
