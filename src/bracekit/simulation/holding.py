@@ -9,7 +9,7 @@ In free space τ = g(q) − J_eᵀ w. Sign conventions: the contact wrench acts 
 positive when pressing; a margin is a scale factor on the listed load (> 1: it holds at that load).
 
 With several braces brace i presses with its own P_i and has its own μ_i: τ0 = g(q) − Σ_i J_b_iᵀ[P_i n̂_i; 0],
-and the response keeps every load contact closed (:func:`~bracekit.statics.stacked.multi_contact_responses`).
+and the response keeps every load contact closed (:func:`~bracekit.statics.contact_responses`).
 A sample's margins are the least over the braces and the loads; each brace also gets its own series.
 """
 
@@ -28,12 +28,12 @@ from bracekit.errors import InputError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot
 from bracekit.statics import (
     actuator_relief,
+    capacity_along,
     effort_limits,
     gravity_torque,
     peak_ratio,
     saturation_scale,
 )
-from bracekit.statics.capacity import multi_capacity_along
 from bracekit.statics.equilibrium import check_friction, check_preload, wrench_list
 
 Array = NDArray[np.float64]
@@ -216,13 +216,13 @@ def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) 
         return {"torque_ratio": ratio0, "torque_ratio_loaded": loaded, "torque_margin": margin}
     count = len(braced.braces)
     preloads = holding.brace_preloads(count)
-    cap = multi_capacity_along(
+    cap = capacity_along(
         braced,
         qs,
         loads,
-        preloads=preloads,
+        preload=preloads,
         gravity=holding.gravity,
-        frictions=holding.brace_frictions(count),
+        friction=holding.brace_frictions(count),
         effort=effort,
     )
     loaded_force = np.max(np.linalg.norm(cap.contact_wrench[..., :3], axis=-1), axis=(1, 2))
