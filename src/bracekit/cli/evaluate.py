@@ -97,37 +97,20 @@ def run(args: argparse.Namespace) -> int:
     beta_w = None if args.beta_w is None else floats(args.beta_w, "--beta-w")
     frame = _stiffness_frame(args)
     holding = _holding(args)
-    if len(frames) > 1 and holding is not None:
-        raise InputError(
-            "--gravity, --preload, --friction and --wrench (statics) are supported for one brace only; give one --brace"
-        )
-    if len(frames) == 1:
-        normal = floats(normals[0], "--normal")
-        report = evaluate(
-            robot,
-            frames[0],
-            q,
-            normal=normal,
-            contact=args.contact,
-            beta_x=beta,
-            holding=holding,
-            beta_w=beta_w,
-            stiffness_frame=frame,
-        )
-    else:
-        vectors = [floats(n, "--normal") for n in normals]
-        if any(v.size != 3 for v in vectors):
-            raise InputError("--normal needs 3 numbers NX,NY,NZ (world)")
-        report = evaluate(
-            robot,
-            frames,
-            q,
-            normal=np.array(vectors) if len(vectors) > 1 else vectors[0],
-            contact=args.contact,
-            beta_x=beta,
-            beta_w=beta_w,
-            stiffness_frame=frame,
-        )
+    vectors = [floats(n, "--normal") for n in normals]
+    if any(v.size != 3 for v in vectors):
+        raise InputError("--normal needs 3 numbers NX,NY,NZ (world)")
+    report = evaluate(
+        robot,
+        frames,
+        q,
+        normal=np.array(vectors) if len(vectors) > 1 else vectors[0],
+        contact=args.contact,
+        beta_x=beta,
+        holding=holding,
+        beta_w=beta_w,
+        stiffness_frame=frame,
+    )
     if args.stiffness_out is not None:
         from bracekit._version import __version__
         from bracekit.report.stiffness_file import write_stiffness_json
@@ -206,10 +189,14 @@ def _scale(x: float | None) -> str:
 
 
 def _statics_text(r: dict[str, Any]) -> str:
-    """The statics lines of evaluate's text output."""
-    mu = "frictionless" if r["friction"] is None else f"μ = {r['friction']:g}"
+    """The statics lines of evaluate's text output (one brace: its keys at the top; several: in ``braces``)."""
+    braces = r.get("braces", [r])
+    contacts = "; ".join(
+        f"preload {b['preload_N']:g} N, " + ("frictionless" if b["friction"] is None else f"μ = {b['friction']:g}")
+        for b in braces
+    )
     lines = [
-        f"statics: gravity {'on' if r['gravity'] else 'off'}, preload {r['preload_N']:g} N, {mu}; "
+        f"statics: gravity {'on' if r['gravity'] else 'off'}, {contacts}; "
         f"peak |τ|/effort unloaded {r['torque_ratio']:.3f}",
         "τ0 [N·m] = " + ", ".join(f"{t:.3g}" for t in r["tau0"]),
     ]
@@ -268,6 +255,8 @@ def _evaluate_braces_text(r: dict[str, Any]) -> str:
         "(constrained)",
         *_directional_text(r),
     ]
+    if "tau0" in r:
+        lines += ["", _statics_text(r)]
     return "\n".join(lines)
 
 
