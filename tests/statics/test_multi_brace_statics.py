@@ -22,7 +22,9 @@ from bracekit.simulation.holding import (
     per_brace_summary,
     relief_summary,
 )
+from bracekit.statics import actuator_relief, actuator_torques
 from bracekit.statics.capacity import capacity_along, effort_limits, load_capacity
+from bracekit.statics.relief import PEAK_RTOL
 from bracekit.statics.stacked import contact_response, contact_responses
 from bracekit.validate.statics import solve_static_equilibrium_multi
 
@@ -222,4 +224,27 @@ def test_free_space_run_and_relief_with_two_braces_against_rnea() -> None:
     rel = relief_summary(braced, Q[None, :], holding)
     assert rel["free_peak_torque_ratio"] == pytest.approx(np.max(np.abs(tau_free) / e), rel=1e-12)
     assert rel["braced_peak_torque_ratio"] == pytest.approx(np.max(np.abs(tau_braced) / e), rel=1e-12)
-    assert rel["best_preload_N"] is None
+    best = rel["best_preload_N"]
+    assert isinstance(best, list) and len(best) == 2 and min(best) >= 0.0
+    assert rel["best_braced_peak_torque_ratio"] <= rel["free_peak_torque_ratio"] + 1e-12
+
+
+def test_relief_lp_of_two_braces_matches_a_brute_force_scan_of_both_preloads() -> None:
+    braced = two_braces()
+    qs = np.array([Q, Q + 0.03, Q - 0.03])
+    w = np.array([[0.0, 0.0, -40.0, 0.0, 0.0, 0.0], [20.0, 0.0, 0.0, 0.0, 2.0, 0.0]])
+    e = effort_limits(braced.robot)
+    relief = actuator_relief(braced, qs, w, gravity=True)
+    assert relief.preloads.shape == (2,)
+    tau, a = actuator_torques(braced, qs, w, gravity=True)
+    # the torques against rnea with each preload as an external force at its b_i
+    forces = [2.0 * b.surface.normal for b in braced.braces]
+    ref = rnea_with_contacts(braced, qs[0], forces) - braced.state(qs[0]).J_e.T @ w[0]
+    np.testing.assert_allclose(tau[0, 0] - 2.0 * a[0].sum(axis=0), ref, atol=1e-10 * np.abs(ref).max())
+    top = 3.0 * max(float(relief.preloads.max()), 20.0)
+    grid = np.linspace(0.0, top, 301)
+    best = min(float(np.max(np.abs(tau - (p1 * a[:, 0] + p2 * a[:, 1])[:, None, :]) / e)) for p1 in grid for p2 in grid)
+    assert relief.braced_peak <= best * (1.0 + PEAK_RTOL) + 1e-12  # the LP is at least as good as the grid
+    assert relief.braced_peak >= best - 2.0 * (grid[1] - grid[0]) * float(np.max(np.abs(a) / e))  # …and near it
+    free = float(np.max(np.abs(tau) / e))
+    assert relief.free_peak == pytest.approx(free, rel=1e-12) and relief.braced_peak <= free

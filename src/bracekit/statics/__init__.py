@@ -18,7 +18,7 @@ from bracekit.statics.capacity import (
     slip_scale,
 )
 from bracekit.statics.equilibrium import ContactResponse, gravity_torque, load_contact_wrenches
-from bracekit.statics.relief import Relief, actuator_relief, actuator_torques
+from bracekit.statics.relief import Relief, actuator_relief, actuator_torques, relief_of
 from bracekit.statics.stacked import ContactResponses, contact_response, contact_responses
 
 __all__ = [
@@ -39,6 +39,7 @@ __all__ = [
     "load_capacity",
     "load_contact_wrenches",
     "peak_ratio",
+    "relief_of",
     "saturation_scale",
     "slip_scale",
 ]
