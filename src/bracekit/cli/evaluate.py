@@ -8,9 +8,15 @@ from typing import Any
 
 import numpy as np
 
+from bracekit._version import __version__
 from bracekit.cli.common import add_limits_flag, floats, joint_values, load_robot, one, pct
+from bracekit.contact import REGISTRY
 from bracekit.errors import InputError
+from bracekit.report.output import to_json
+from bracekit.report.stiffness_file import write_stiffness_json
+from bracekit.simulation.holding import Holding
 from bracekit.simulation.scenario import MAX_WRENCHES
+from bracekit.studies.evaluate import evaluate
 
 
 def add_parser(sub: Any) -> None:
@@ -74,15 +80,11 @@ def add_parser(sub: Any) -> None:
 
 def contact_registry() -> tuple[str, ...]:
     """The names of the registered contact types (the choices of --contact)."""
-    from bracekit.contact import REGISTRY
-
     return tuple(REGISTRY)
 
 
 def run(args: argparse.Namespace) -> int:
     """`bracekit evaluate`: print the braced model at --q (text or --json); the exit code."""
-    from bracekit.studies.evaluate import evaluate
-
     robot, own_brace = load_robot(args)
     robot, frames = _brace_frames(args, robot, own_brace)
     normals = args.normal or ["0,0,1"]
@@ -112,13 +114,8 @@ def run(args: argparse.Namespace) -> int:
         stiffness_frame=frame,
     )
     if args.stiffness_out is not None:
-        from bracekit._version import __version__
-        from bracekit.report.stiffness_file import write_stiffness_json
-
         write_stiffness_json(args.stiffness_out, report.pop("tool_stiffness"), __version__)
     if args.json:
-        from bracekit.report.output import to_json
-
         print(to_json(report))
     else:
         print(_evaluate_text(report) if len(frames) == 1 else _evaluate_braces_text(report))
@@ -167,10 +164,8 @@ def _brace_frames(args: argparse.Namespace, robot: Any, own_brace: str | None) -
     return robot.with_point_frames(frames), names
 
 
-def _holding(args: argparse.Namespace) -> Any:
+def _holding(args: argparse.Namespace) -> Holding | None:
     """The statics of --gravity, --preload, --friction and --wrench (None when none is given)."""
-    from bracekit.simulation.holding import Holding
-
     preload = one(args.preload, "--preload")
     friction = None if args.friction is None else one(args.friction, "--friction")
     if args.wrench and len(args.wrench) > MAX_WRENCHES:
