@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(to_json(report))
     else:
-        print(_evaluate_text(report) if len(frames) == 1 else _evaluate_braces_text(report))
+        print(_evaluate_text(report))
     return 0
 
 
@@ -221,40 +221,6 @@ def _ellipsoid_lines(r: dict[str, Any], models: tuple[tuple[str, str], ...]) -> 
     return lines
 
 
-def _evaluate_braces_text(r: dict[str, Any]) -> str:
-    """The text output of evaluate for several braces (the constrained model)."""
-    lines = [f"robot: {r['n']} joints, tip '{r['tip_frame']}', {len(r['braces'])} braces:"]
-    for i, b in enumerate(r["braces"], start=1):
-        lines.append(
-            f"  {i}. {{b}} '{b['frame']}' at {np.round(b['b'], 4).tolist()} m, normal "
-            f"{np.round(b['normal'], 3).tolist()}, {b['contact']}"
-        )
-    dependent = r["G_dependent_rows"]
-    lines += [
-        f"stacked constraint G: {len(r['G_rows'])} rows, rank {r['G_rank']}, {r['n'] - r['G_rank']} braced motions"
-        + (f"; dependent rows {dependent} dropped" if dependent else ""),
-        f"e = {np.round(r['e'], 4).tolist()} m",
-        f"k (free-space J) = {r['k']:.3f}, k (braced J_e N) = "
-        + ("singular" if r["k_braced"] is None else f"{r['k_braced']:.3f}"),
-        "",
-        "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
-    ]
-    lines += _ellipsoid_lines(r, (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained")))
-    lines += [
-        "",
-        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
-        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
-        f"({pct(r['Ci_reduction_constrained'])} less); no projection model: {r['projection_reason']}",
-        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
-        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
-        "(constrained)",
-        *_directional_text(r),
-    ]
-    if "tau0" in r:
-        lines += ["", _statics_text(r)]
-    return "\n".join(lines)
-
-
 def _directional_text(r: dict[str, Any]) -> list[str]:
     """The lines naming what each directional number measures: c_t (m/N) and β_xᵀCβ_w beside C_i."""
 
@@ -282,7 +248,35 @@ def _directional_text(r: dict[str, Any]) -> list[str]:
 
 
 def _evaluate_text(r: dict[str, Any]) -> str:
-    lines = [
+    """The text output of evaluate: the chain split for one brace, the stacked constraint for several."""
+    one = "braces" not in r
+    lines = _split_text(r) if one else _stacked_text(r)
+    lines += ["", "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):"]
+    models = (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained"))
+    lines += _ellipsoid_lines(r, models + ((("braced, projection", "ellipsoid_projection"),) if one else ()))
+    projection = (
+        f", braced projection {1e3 * r['Ci_projection']:.4f} mm/N ({pct(r['Ci_reduction_projection'])} less)"
+        if one
+        else f"; no projection model: {r['projection_reason']}"
+    )
+    lines += [
+        "",
+        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
+        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
+        f"({pct(r['Ci_reduction_constrained'])} less){projection}",
+        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
+        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
+        "(constrained)",
+        *_directional_text(r),
+    ]
+    if "tau0" in r:
+        lines += ["", _statics_text(r)]
+    return "\n".join(lines)
+
+
+def _split_text(r: dict[str, Any]) -> list[str]:
+    """The head of one brace's text output: the chain split, b, e, θ_z, k and chain 1's braced motions."""
+    return [
         f"robot: {r['n']} joints, chain 1 = {r['n1']} (base → {{b}} '{r['brace_frame']}'), chain 2 = {r['n2']} "
         f"(→ tip '{r['tip_frame']}'); contact {r['contact']}",
         f"b = {np.round(r['b'], 4).tolist()} m, e = {np.round(r['e'], 4).tolist()} m, "
@@ -296,28 +290,23 @@ def _evaluate_text(r: dict[str, Any]) -> str:
             if r["J1_singular"]
             else ""
         ),
-        "",
-        "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
     ]
-    lines += _ellipsoid_lines(
-        r,
-        (
-            ("free space", "ellipsoid_free"),
-            ("braced, constrained", "ellipsoid_constrained"),
-            ("braced, projection", "ellipsoid_projection"),
-        ),
-    )
+
+
+def _stacked_text(r: dict[str, Any]) -> list[str]:
+    """The head of several braces' text output: each brace, the stacked constraint G, e and k."""
+    lines = [f"robot: {r['n']} joints, tip '{r['tip_frame']}', {len(r['braces'])} braces:"]
+    for i, b in enumerate(r["braces"], start=1):
+        lines.append(
+            f"  {i}. {{b}} '{b['frame']}' at {np.round(b['b'], 4).tolist()} m, normal "
+            f"{np.round(b['normal'], 3).tolist()}, {b['contact']}"
+        )
+    dependent = r["G_dependent_rows"]
     lines += [
-        "",
-        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
-        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
-        f"({pct(r['Ci_reduction_constrained'])} less), braced projection {1e3 * r['Ci_projection']:.4f} mm/N "
-        f"({pct(r['Ci_reduction_projection'])} less)",
-        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
-        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
-        "(constrained)",
-        *_directional_text(r),
+        f"stacked constraint G: {len(r['G_rows'])} rows, rank {r['G_rank']}, {r['n'] - r['G_rank']} braced motions"
+        + (f"; dependent rows {dependent} dropped" if dependent else ""),
+        f"e = {np.round(r['e'], 4).tolist()} m",
+        f"k (free-space J) = {r['k']:.3f}, k (braced J_e N) = "
+        + ("singular" if r["k_braced"] is None else f"{r['k_braced']:.3f}"),
     ]
-    if "tau0" in r:
-        lines += ["", _statics_text(r)]
-    return "\n".join(lines)
+    return lines

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -289,29 +290,14 @@ def capacity_along(
 
 
 def load_capacity(
-    braced: BracedRobot,
-    q: ArrayLike,
-    wrenches: ArrayLike,
-    *,
-    preload: float | Sequence[float] = 0.0,
-    gravity: bool = False,
-    friction: float | Sequence[float | None] | None = None,
-    effort: ArrayLike | None = None,
-    geometric: bool = True,
-    brace: int | None = None,
+    braced: BracedRobot, q: ArrayLike, wrenches: ArrayLike, *, brace: int | None = None, **options: Any
 ) -> Capacity:
-    """Brace `brace`'s view of :func:`capacity_along` at one configuration q (n,) (None: the only brace)."""
+    """Brace `brace`'s view of :func:`capacity_along` at one configuration q (n,) (None: the only brace).
+
+    `options` are those of :func:`capacity_along` (preload, gravity, friction, effort, geometric).
+    """
     if not isinstance(braced, BracedRobot):
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
     which = brace_index(brace, len(braced.braces))
     q_row = as_array(q, "the configuration (rad)").reshape(1, -1)
-    return capacity_along(
-        braced,
-        q_row,
-        wrenches,
-        preload=preload,
-        gravity=gravity,
-        friction=friction,
-        effort=effort,
-        geometric=geometric,
-    ).at(0, which)
+    return capacity_along(braced, q_row, wrenches, **options).at(0, which)

@@ -286,26 +286,14 @@ def _check_stable(k_t: Array, a: Array, comp: Array, sample: int) -> None:
         )
 
 
-def contact_response(
-    braced: BracedRobot,
-    q: ArrayLike,
-    *,
-    preload: float | Sequence[float] = 0.0,
-    gravity: bool = False,
-    friction: float | Sequence[float | None] | None = None,
-    geometric: bool = True,
-    brace: int | None = None,
-) -> ContactResponse:
+def contact_response(braced: BracedRobot, q: ArrayLike, *, brace: int | None = None, **options: Any) -> ContactResponse:
     """Brace `brace`'s view of :func:`contact_responses` at one configuration q (n,) (module docstring).
 
-    Args:
-        braced: the braced robot.
-        q: the commanded configuration (n,), rad; every {b_i} is taken to touch its surface there.
-        preload: P ≥ 0 (N), the normal force the surface exerts on b without tool load (or one per brace).
-        gravity: include g(q) (Pinocchio's gravity field of the model).
-        friction: μ ≥ 0; with μ > 0 a frictionless point brace sticks under load (3-D force). None: no friction.
-        geometric: use the tangent stiffness K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q (True) or the joint stiffness K alone.
-        brace: which brace's contact wrench the record holds (from 0); None: the only brace.
+    `q` is the commanded configuration (n,), rad, with every {b_i} on its surface; `brace` which brace's contact
+    wrench the record holds (from 0; None: the only brace); `options` those of :func:`contact_responses`:
+    ``preload`` P ≥ 0 (N, or one per brace), ``gravity``, ``friction`` μ ≥ 0 (with μ > 0 a frictionless point
+    brace sticks under load, a 3-D force; None: no friction) and ``geometric`` (the tangent stiffness
+    K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q, or K alone).
 
     Raises:
         InputError: a negative or non-finite preload or μ, or a configuration that is not n finite numbers.
@@ -317,5 +305,4 @@ def contact_response(
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
     which = brace_index(brace, len(braced.braces))
     q_row = as_array(q, "the configuration (rad)").reshape(1, -1)
-    resp = contact_responses(braced, q_row, preload=preload, gravity=gravity, friction=friction, geometric=geometric)
-    return resp.at(0, which)
+    return contact_responses(braced, q_row, **options).at(0, which)
