@@ -233,22 +233,23 @@ def contact_responses(
             out_joint[s] = sol[:n]
             out_tau0[s] = tau0
             out_q_s[s] = q + tau0 / k
-    if unloaded_rows:
-        warnings.warn(
-            "the contact carries no load along "
-            + ", ".join(f"braces[{i}] row {r}" for i, r in sorted(unloaded_rows))
-            + ": no joint can push {b} there, so those rows get no force",
+    for rows, head, tail, category in (
+        (
+            unloaded_rows,
+            "the contact carries no load along ",
+            ": no joint can push {b} there, so those rows get no force",
             UnloadedContactWarning,
-            stacklevel=2,
-        )
-    if dropped:
-        warnings.warn(
-            "dependent load contacts (two contacts constrain the same motion): "
-            + ", ".join(f"braces[{i}] row {r}" for i, r in sorted(dropped))
-            + " get no force, the rows they depend on carry it",
+        ),
+        (
+            dropped,
+            "dependent load contacts (two contacts constrain the same motion): ",
+            " get no force, the rows they depend on carry it",
             RedundantContactWarning,
-            stacklevel=2,
-        )
+        ),
+    ):
+        if rows:
+            listed = ", ".join(f"braces[{i}] row {r}" for i, r in sorted(rows))
+            warnings.warn(head + listed + tail, category, stacklevel=2)
     torque_gain = -k[None, :, None] * out_joint
     for arr in (out_q_s, out_gain, torque_gain, out_joint):
         if not np.all(np.isfinite(arr)):
