@@ -113,7 +113,7 @@ def brace_index(brace: int | None, count: int) -> int:
 
 def per_brace(values: object, count: int, check: Callable[[object], Any], what: str) -> tuple[Any, ...]:
     """One value for every brace: a single value repeated, or a list of `count` values, each through `check`."""
-    if isinstance(values, (list, tuple, np.ndarray)):
+    if isinstance(values, (list, tuple)) or (isinstance(values, np.ndarray) and values.ndim > 0):
         if len(values) != count:
             raise InputError(f"give {what} for each of the {count} braces (a list of {count}), got {len(values)}")
         return tuple(check(v) for v in values)

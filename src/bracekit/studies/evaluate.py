@@ -289,10 +289,14 @@ def _normals(normal: ArrayLike, count: int) -> list[NDArray[np.float64]]:
     return list(a)
 
 
-def _contacts(contact: str | ContactType | Sequence[str | ContactType], count: int) -> list[ContactType]:
-    """One contact type for each of `count` braces from one type or one per brace."""
+def _contacts(contact: object, count: int) -> list[ContactType]:
+    """One contact type for each of `count` braces from one type or a list with one per brace."""
     if isinstance(contact, str | ContactType):
         return [contact_type(contact)] * count
+    if not isinstance(contact, (list, tuple)):
+        raise InputError(
+            f"contact must be a contact type (or its name) or a list with one per brace, got {show(contact)}"
+        )
     items = list(contact)
     if len(items) != count:
         raise InputError(f"give one contact type or one per brace ({count}), got {len(items)}")
