@@ -47,10 +47,9 @@ ONE = [
 PAPER_PADS = ["--brace", "pad_a", "--brace", "pad_b", "--brace-link", "link3", "--brace-link", "link9"]
 PAPER_PADS += ["--brace-offset", "0.05,0.02,0.1", "--brace-offset", "0,0,0", "--normal", "0.3,-0.2,1"]
 PAPER_PADS += ["--normal", "-1,0.4,0.2"]
-SEVERAL = [["--model", "paper-robot", *PAPER_PADS, "--q", q] for q in Q_PAPER] + [
-    ["--model", "panda", *PANDA_PAD, "--brace-link", "panda_link3", "--brace-offset", "0,0,0.05"]
-    + ["--q", Q_PANDA[1], "--normal", "0,0,1", "--normal", "0,1,0"]
-]
+PANDA_PADS = [*PANDA_PAD, "--brace-link", "panda_link3", "--brace-offset", "0,0,0.05"]
+SEVERAL = [["--model", "paper-robot", *PAPER_PADS, "--q", q] for q in Q_PAPER]
+SEVERAL.append(["--model", "panda", *PANDA_PADS, "--q", Q_PANDA[1], "--normal", "0,0,1", "--normal", "0,1,0"])
 CALL = "import sys; from bracekit.cli.main import main; sys.exit(main(sys.argv[1:]))"
 
 
