@@ -541,7 +541,7 @@ def test_evaluate_text_lists_each_brace(capsys) -> None:
         (["--brace", "brace", "--normal", "0,0,1", "--normal", "1,0,0"], "one --normal for the one brace"),
         (["--brace-link", "link6", "--brace-link", "link8", "--brace-offset", "0,0,0"], "one --brace-offset per"),
         (["--brace-link", "link6", "--brace-link", "link8", "--brace", "a"], "each --brace names one link point"),
-        (["--brace", "brace", "--brace", "flange", "--gravity"], "one brace only"),
+        (["--brace", "brace", "--brace", "flange", "--preload", "-1"], "preload"),
         (["--brace", "brace", "--brace", "flange", "--normal", "0,1", "--normal", "0,0,1"], "3 numbers"),
     ],
 )

@@ -9,7 +9,7 @@ from bracekit.control import ControlStep
 from bracekit.simulation.correction import contact_residual
 from bracekit.simulation.scenario import Scenario, load_scenario
 from bracekit.simulation.start import solve_start
-from bracekit.statics import contact_responses, multi_contact_responses
+from bracekit.statics import contact_responses
 
 
 @cache
@@ -70,7 +70,7 @@ def test_set_point_matches_the_statics_two_braces() -> None:
     sc, q0 = _setup("two-braces")
     step = ControlStep(sc.braced, sc.strategy("braced_min_norm"), 1e-3, preloads=[3.0, 5.0], gravity=True)
     out = step(q0, np.zeros(6))
-    ref = multi_contact_responses(sc.braced, q0, preloads=[3.0, 5.0], gravity=True, geometric=False).q_s[0]
+    ref = contact_responses(sc.braced, q0, preload=[3.0, 5.0], gravity=True, geometric=False).q_s[0]
     assert np.allclose(out.set_point, ref + (out.q_next - q0), atol=1e-12)
 
 

@@ -39,13 +39,14 @@ def test_optimal_preload_matches_a_brute_force_scan(paper, paper_path) -> None:
     relief = actuator_relief(braced, paper_path, WRENCHES, gravity=True)
     tau, a = actuator_torques(braced, paper_path, WRENCHES, gravity=True)
     effort = effort_limits(braced.robot)
-    grid = np.linspace(0.0, 3.0 * max(relief.preload, 50.0), 6001)
-    peaks = np.array([np.max(np.abs(tau - p * a[:, None, :]) / effort) for p in grid])
+    assert relief.preloads.shape == (1,)
+    grid = np.linspace(0.0, 3.0 * max(relief.preloads[0], 50.0), 6001)
+    peaks = np.array([np.max(np.abs(tau - p * a[:, None, 0, :]) / effort) for p in grid])
     near = peaks.min() * (1.0 + PEAK_RTOL)
     assert relief.braced_peak <= near + 1e-12
     assert relief.braced_peak == pytest.approx(peaks.min(), rel=2 * PEAK_RTOL)
     # the smallest preload whose peak is within PEAK_RTOL of the optimum (the grid's first such point)
-    assert relief.preload == pytest.approx(grid[np.argmax(peaks <= near)], abs=2 * (grid[1] - grid[0]))
+    assert relief.preloads[0] == pytest.approx(grid[np.argmax(peaks <= near)], abs=2 * (grid[1] - grid[0]))
     assert relief.braced_peak_unloaded == pytest.approx(relief.free_peak) == pytest.approx(peaks[0])
     assert relief.braced_peak <= relief.free_peak and relief.ratio == relief.braced_peak / relief.free_peak
     np.testing.assert_allclose(relief.braced_peaks.max(), relief.braced_peak)
@@ -54,8 +55,8 @@ def test_optimal_preload_matches_a_brute_force_scan(paper, paper_path) -> None:
 def test_a_bound_on_the_preload_is_respected(paper, paper_path) -> None:
     braced = paper[0]
     free = actuator_relief(braced, paper_path, WRENCHES, gravity=True)
-    capped = actuator_relief(braced, paper_path, WRENCHES, gravity=True, max_preload=0.25 * free.preload)
-    assert capped.preload <= 0.25 * free.preload + 1e-9
+    capped = actuator_relief(braced, paper_path, WRENCHES, gravity=True, max_preload=0.25 * free.preloads[0])
+    assert capped.preloads[0] <= 0.25 * free.preloads[0] + 1e-9
     assert free.braced_peak <= capped.braced_peak <= capped.free_peak
 
 

@@ -110,7 +110,7 @@ def test_the_same_brace_twice_is_dependent_and_leaves_the_one_brace_compliance()
     [
         ({"normal": [[0, 0, 1], [0, 0, 1], [1, 0, 0]]}, InputError, "one per brace"),
         ({"contact": ["frictionless_point"]}, InputError, "one per brace"),
-        ({"holding": Holding(gravity=True)}, InputError, "one brace only"),
+        ({"holding": Holding(preloads=(1.0, 2.0, 3.0))}, InputError, "one preload per brace"),
         ({"normal": [[0, 0, 1], [0, 0, 0]]}, ContactError, "normal"),
     ],
 )
@@ -125,3 +125,42 @@ def test_an_empty_or_non_string_brace_list_is_refused() -> None:
     for frames in ([], ["brace", 3]):
         with pytest.raises(InputError, match="list of frame names"):
             evaluate(_robot(), frames, Q)
+
+
+def _rnea_with_contacts(robot, q: np.ndarray, frames: list[str], forces: list[np.ndarray]) -> np.ndarray:
+    """τ = rnea(q, 0, 0, fext): gravity held against each contact force (world, at b_i) as an external force."""
+    model = robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    pin.updateFramePlacements(model, data)
+    fext = [pin.Force.Zero() for _ in range(model.njoints)]
+    for frame, f in zip(frames, forces, strict=True):
+        fid = model.getFrameId(frame)
+        joint = model.frames[fid].parentJoint
+        world = pin.Force(f, np.cross(data.oMf[fid].translation, f))  # the force at b as a spatial force at 0
+        fext[joint] = fext[joint] + data.oMi[joint].actInv(world)
+    return np.asarray(pin.rnea(model, data, q, np.zeros(model.nv), np.zeros(model.nv), fext), dtype=float)
+
+
+def test_statics_with_two_braces_hold_gravity_and_each_preload_as_rnea_says() -> None:
+    robot = _robot()
+    frames, normals = ["brace", "p2"], np.array([[0.0, 0.0, 1.0], N2])
+    w = np.array([[0.0, 0.0, -15.0, 0.0, 0.0, 0.0], [4.0, -2.0, 0.0, 0.0, 0.3, 0.0]])
+    holding = Holding(gravity=True, wrenches=w, preloads=(6.0, 9.0), frictions=(0.5, None))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = evaluate(robot, frames, Q, normal=normals, holding=holding)
+    forces = [6.0 * normals[0], 9.0 * normals[1]]
+    tau_ref = _rnea_with_contacts(robot, Q, frames, forces)
+    np.testing.assert_allclose(r["tau0"], tau_ref, rtol=0, atol=1e-10 * np.abs(tau_ref).max())
+    np.testing.assert_allclose(r["q_s"], Q + tau_ref / robot.stiffness, rtol=0, atol=1e-12)
+    for brace, f, p, mu in zip(r["braces"], forces, (6.0, 9.0), (0.5, None), strict=True):
+        np.testing.assert_allclose(brace["contact_wrench"][:3], f, atol=1e-12)
+        assert brace["preload_N"] == p and brace["friction"] == mu
+    # the robot's scales are the least over the braces; the frictionless brace has no slip limit
+    lift = np.array([[np.inf if x is None else x for x in b["liftoff"]] for b in r["braces"]])
+    np.testing.assert_array_equal(np.min(lift, axis=0), [np.inf if x is None else x for x in r["liftoff"]])
+    assert r["braces"][1]["slip"] is None and r["slip"] == r["braces"][0]["slip"]
+    from_rnea = np.max(np.abs(tau_ref) / np.where(robot.model.effortLimit > 0, robot.model.effortLimit, np.inf))
+    assert r["torque_ratio"] == pytest.approx(from_rnea, rel=1e-10)
+    assert "C_e_preloaded" in r and r["Ci_preloaded"] > 0.0

@@ -8,9 +8,15 @@ from typing import Any
 
 import numpy as np
 
+from bracekit._version import __version__
 from bracekit.cli.common import add_limits_flag, floats, joint_values, load_robot, one, pct
+from bracekit.contact import REGISTRY
 from bracekit.errors import InputError
+from bracekit.report.output import to_json
+from bracekit.report.stiffness_file import write_stiffness_json
+from bracekit.simulation.holding import Holding
 from bracekit.simulation.scenario import MAX_WRENCHES
+from bracekit.studies.evaluate import evaluate
 
 
 def add_parser(sub: Any) -> None:
@@ -74,15 +80,11 @@ def add_parser(sub: Any) -> None:
 
 def contact_registry() -> tuple[str, ...]:
     """The names of the registered contact types (the choices of --contact)."""
-    from bracekit.contact import REGISTRY
-
     return tuple(REGISTRY)
 
 
 def run(args: argparse.Namespace) -> int:
     """`bracekit evaluate`: print the braced model at --q (text or --json); the exit code."""
-    from bracekit.studies.evaluate import evaluate
-
     robot, own_brace = load_robot(args)
     robot, frames = _brace_frames(args, robot, own_brace)
     normals = args.normal or ["0,0,1"]
@@ -97,48 +99,26 @@ def run(args: argparse.Namespace) -> int:
     beta_w = None if args.beta_w is None else floats(args.beta_w, "--beta-w")
     frame = _stiffness_frame(args)
     holding = _holding(args)
-    if len(frames) > 1 and holding is not None:
-        raise InputError(
-            "--gravity, --preload, --friction and --wrench (statics) are supported for one brace only; give one --brace"
-        )
-    if len(frames) == 1:
-        normal = floats(normals[0], "--normal")
-        report = evaluate(
-            robot,
-            frames[0],
-            q,
-            normal=normal,
-            contact=args.contact,
-            beta_x=beta,
-            holding=holding,
-            beta_w=beta_w,
-            stiffness_frame=frame,
-        )
-    else:
-        vectors = [floats(n, "--normal") for n in normals]
-        if any(v.size != 3 for v in vectors):
-            raise InputError("--normal needs 3 numbers NX,NY,NZ (world)")
-        report = evaluate(
-            robot,
-            frames,
-            q,
-            normal=np.array(vectors) if len(vectors) > 1 else vectors[0],
-            contact=args.contact,
-            beta_x=beta,
-            beta_w=beta_w,
-            stiffness_frame=frame,
-        )
+    vectors = [floats(n, "--normal") for n in normals]
+    if any(v.size != 3 for v in vectors):
+        raise InputError("--normal needs 3 numbers NX,NY,NZ (world)")
+    report = evaluate(
+        robot,
+        frames,
+        q,
+        normal=np.array(vectors) if len(vectors) > 1 else vectors[0],
+        contact=args.contact,
+        beta_x=beta,
+        holding=holding,
+        beta_w=beta_w,
+        stiffness_frame=frame,
+    )
     if args.stiffness_out is not None:
-        from bracekit._version import __version__
-        from bracekit.report.stiffness_file import write_stiffness_json
-
         write_stiffness_json(args.stiffness_out, report.pop("tool_stiffness"), __version__)
     if args.json:
-        from bracekit.report.output import to_json
-
         print(to_json(report))
     else:
-        print(_evaluate_text(report) if len(frames) == 1 else _evaluate_braces_text(report))
+        print(_evaluate_text(report))
     return 0
 
 
@@ -184,10 +164,8 @@ def _brace_frames(args: argparse.Namespace, robot: Any, own_brace: str | None) -
     return robot.with_point_frames(frames), names
 
 
-def _holding(args: argparse.Namespace) -> Any:
+def _holding(args: argparse.Namespace) -> Holding | None:
     """The statics of --gravity, --preload, --friction and --wrench (None when none is given)."""
-    from bracekit.simulation.holding import Holding
-
     preload = one(args.preload, "--preload")
     friction = None if args.friction is None else one(args.friction, "--friction")
     if args.wrench and len(args.wrench) > MAX_WRENCHES:
@@ -206,10 +184,14 @@ def _scale(x: float | None) -> str:
 
 
 def _statics_text(r: dict[str, Any]) -> str:
-    """The statics lines of evaluate's text output."""
-    mu = "frictionless" if r["friction"] is None else f"μ = {r['friction']:g}"
+    """The statics lines of evaluate's text output (one brace: its keys at the top; several: in ``braces``)."""
+    braces = r.get("braces", [r])
+    contacts = "; ".join(
+        f"preload {b['preload_N']:g} N, " + ("frictionless" if b["friction"] is None else f"μ = {b['friction']:g}")
+        for b in braces
+    )
     lines = [
-        f"statics: gravity {'on' if r['gravity'] else 'off'}, preload {r['preload_N']:g} N, {mu}; "
+        f"statics: gravity {'on' if r['gravity'] else 'off'}, {contacts}; "
         f"peak |τ|/effort unloaded {r['torque_ratio']:.3f}",
         "τ0 [N·m] = " + ", ".join(f"{t:.3g}" for t in r["tau0"]),
     ]
@@ -239,38 +221,6 @@ def _ellipsoid_lines(r: dict[str, Any], models: tuple[tuple[str, str], ...]) -> 
     return lines
 
 
-def _evaluate_braces_text(r: dict[str, Any]) -> str:
-    """The text output of evaluate for several braces (the constrained model)."""
-    lines = [f"robot: {r['n']} joints, tip '{r['tip_frame']}', {len(r['braces'])} braces:"]
-    for i, b in enumerate(r["braces"], start=1):
-        lines.append(
-            f"  {i}. {{b}} '{b['frame']}' at {np.round(b['b'], 4).tolist()} m, normal "
-            f"{np.round(b['normal'], 3).tolist()}, {b['contact']}"
-        )
-    dependent = r["G_dependent_rows"]
-    lines += [
-        f"stacked constraint G: {len(r['G_rows'])} rows, rank {r['G_rank']}, {r['n'] - r['G_rank']} braced motions"
-        + (f"; dependent rows {dependent} dropped" if dependent else ""),
-        f"e = {np.round(r['e'], 4).tolist()} m",
-        f"k (free-space J) = {r['k']:.3f}, k (braced J_e N) = "
-        + ("singular" if r["k_braced"] is None else f"{r['k_braced']:.3f}"),
-        "",
-        "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
-    ]
-    lines += _ellipsoid_lines(r, (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained")))
-    lines += [
-        "",
-        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
-        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
-        f"({pct(r['Ci_reduction_constrained'])} less); no projection model: {r['projection_reason']}",
-        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
-        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
-        "(constrained)",
-        *_directional_text(r),
-    ]
-    return "\n".join(lines)
-
-
 def _directional_text(r: dict[str, Any]) -> list[str]:
     """The lines naming what each directional number measures: c_t (m/N) and β_xᵀCβ_w beside C_i."""
 
@@ -298,7 +248,35 @@ def _directional_text(r: dict[str, Any]) -> list[str]:
 
 
 def _evaluate_text(r: dict[str, Any]) -> str:
-    lines = [
+    """The text output of evaluate: the chain split for one brace, the stacked constraint for several."""
+    one = "braces" not in r
+    lines = _split_text(r) if one else _stacked_text(r)
+    lines += ["", "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):"]
+    models = (("free space", "ellipsoid_free"), ("braced, constrained", "ellipsoid_constrained"))
+    lines += _ellipsoid_lines(r, models + ((("braced, projection", "ellipsoid_projection"),) if one else ()))
+    projection = (
+        f", braced projection {1e3 * r['Ci_projection']:.4f} mm/N ({pct(r['Ci_reduction_projection'])} less)"
+        if one
+        else f"; no projection model: {r['projection_reason']}"
+    )
+    lines += [
+        "",
+        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
+        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
+        f"({pct(r['Ci_reduction_constrained'])} less){projection}",
+        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
+        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
+        "(constrained)",
+        *_directional_text(r),
+    ]
+    if "tau0" in r:
+        lines += ["", _statics_text(r)]
+    return "\n".join(lines)
+
+
+def _split_text(r: dict[str, Any]) -> list[str]:
+    """The head of one brace's text output: the chain split, b, e, θ_z, k and chain 1's braced motions."""
+    return [
         f"robot: {r['n']} joints, chain 1 = {r['n1']} (base → {{b}} '{r['brace_frame']}'), chain 2 = {r['n2']} "
         f"(→ tip '{r['tip_frame']}'); contact {r['contact']}",
         f"b = {np.round(r['b'], 4).tolist()} m, e = {np.round(r['e'], 4).tolist()} m, "
@@ -312,28 +290,23 @@ def _evaluate_text(r: dict[str, Any]) -> str:
             if r["J1_singular"]
             else ""
         ),
-        "",
-        "translational compliance ellipsoid (semi-axes in mm/N along world unit axes):",
     ]
-    lines += _ellipsoid_lines(
-        r,
-        (
-            ("free space", "ellipsoid_free"),
-            ("braced, constrained", "ellipsoid_constrained"),
-            ("braced, projection", "ellipsoid_projection"),
-        ),
-    )
+
+
+def _stacked_text(r: dict[str, Any]) -> list[str]:
+    """The head of several braces' text output: each brace, the stacked constraint G, e and k."""
+    lines = [f"robot: {r['n']} joints, tip '{r['tip_frame']}', {len(r['braces'])} braces:"]
+    for i, b in enumerate(r["braces"], start=1):
+        lines.append(
+            f"  {i}. {{b}} '{b['frame']}' at {np.round(b['b'], 4).tolist()} m, normal "
+            f"{np.round(b['normal'], 3).tolist()}, {b['contact']}"
+        )
+    dependent = r["G_dependent_rows"]
     lines += [
-        "",
-        f"compliance index C_i = ‖β_xᵀC_e‖ along β_x = {np.round(r['beta_x'], 3).tolist()}:",
-        f"  free space {1e3 * r['Ci_free']:.4f} mm/N, braced constrained {1e3 * r['Ci_constrained']:.4f} mm/N "
-        f"({pct(r['Ci_reduction_constrained'])} less), braced projection {1e3 * r['Ci_projection']:.4f} mm/N "
-        f"({pct(r['Ci_reduction_projection'])} less)",
-        f"  largest translational compliance (top eigenvalue of C_tt, any direction): free "
-        f"{1e3 * r['max_translational_free']:.4f} mm/N → braced {1e3 * r['max_translational_constrained']:.4f} mm/N "
-        "(constrained)",
-        *_directional_text(r),
+        f"stacked constraint G: {len(r['G_rows'])} rows, rank {r['G_rank']}, {r['n'] - r['G_rank']} braced motions"
+        + (f"; dependent rows {dependent} dropped" if dependent else ""),
+        f"e = {np.round(r['e'], 4).tolist()} m",
+        f"k (free-space J) = {r['k']:.3f}, k (braced J_e N) = "
+        + ("singular" if r["k_braced"] is None else f"{r['k_braced']:.3f}"),
     ]
-    if "tau0" in r:
-        lines += ["", _statics_text(r)]
-    return "\n".join(lines)
+    return lines

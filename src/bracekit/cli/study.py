@@ -10,6 +10,8 @@ import numpy as np
 
 from bracekit.cli.common import add_limits_flag, floats, joint_values, load_robot, pct
 from bracekit.errors import InputError
+from bracekit.report.output import to_json
+from bracekit.studies.brace_location import brace_location_study, brace_pair_study
 
 
 def add_parser(sub: Any) -> None:
@@ -39,9 +41,6 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`bracekit study`: rank bracing points (or second points with --first-brace); the exit code."""
-    from bracekit.report.output import to_json
-    from bracekit.studies.brace_location import brace_location_study
-
     if args.first_brace is not None:
         return _study_pairs(args)
     for flag, value in (("--first-normal", args.first_normal), ("--second-normal", args.second_normal)):
@@ -75,9 +74,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _study_pairs(args: argparse.Namespace) -> int:
     """`bracekit study --first-brace FRAME`: second bracing points ranked with the first brace fixed."""
-    from bracekit.report.output import to_json
-    from bracekit.studies.brace_location import brace_pair_study
-
     if args.normal is not None:
         raise InputError(
             "--normal is for the one-brace study; with --first-brace give --first-normal and --second-normal"

@@ -9,7 +9,7 @@ In free space τ = g(q) − J_eᵀ w. Sign conventions: the contact wrench acts 
 positive when pressing; a margin is a scale factor on the listed load (> 1: it holds at that load).
 
 With several braces brace i presses with its own P_i and has its own μ_i: τ0 = g(q) − Σ_i J_b_iᵀ[P_i n̂_i; 0],
-and the response keeps every load contact closed (:func:`~bracekit.statics.stacked.multi_contact_responses`).
+and the response keeps every load contact closed (:func:`~bracekit.statics.contact_responses`).
 A sample's margins are the least over the braces and the loads; each brace also gets its own series.
 """
 
@@ -27,13 +27,14 @@ from bracekit.compliance.preloaded import loaded_free_space_compliance, preloade
 from bracekit.errors import InputError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot
 from bracekit.statics import (
-    actuator_relief,
+    actuator_torques,
+    capacity_along,
     effort_limits,
     gravity_torque,
     peak_ratio,
+    relief_of,
     saturation_scale,
 )
-from bracekit.statics.capacity import multi_capacity_along
 from bracekit.statics.equilibrium import check_friction, check_preload, wrench_list
 
 Array = NDArray[np.float64]
@@ -216,13 +217,13 @@ def _statics(braced: BracedRobot, qs: Array, holding: Holding, is_braced: bool) 
         return {"torque_ratio": ratio0, "torque_ratio_loaded": loaded, "torque_margin": margin}
     count = len(braced.braces)
     preloads = holding.brace_preloads(count)
-    cap = multi_capacity_along(
+    cap = capacity_along(
         braced,
         qs,
         loads,
-        preloads=preloads,
+        preload=preloads,
         gravity=holding.gravity,
-        frictions=holding.brace_frictions(count),
+        friction=holding.brace_frictions(count),
         effort=effort,
     )
     loaded_force = np.max(np.linalg.norm(cap.contact_wrench[..., :3], axis=-1), axis=(1, 2))
@@ -351,39 +352,22 @@ def holding_summary(measures: dict[str, Array]) -> dict[str, Any]:
 
 
 def relief_summary(braced: BracedRobot, qs: Array, holding: Holding) -> dict[str, Any]:
-    """Actuator relief along a braced run's samples: peak |τ_i|/effort_i free against braced (best preload).
+    """Actuator relief along a braced run's samples: peak |τ_i|/effort_i free against braced (best preloads).
 
     The free-space peak is at the same configurations without the braces; the braced peak with the run's P_i
-    (rigid statics). The best constant preload (LP of :func:`~bracekit.statics.actuator_relief`) is one brace's:
-    with several braces its keys are None (docs/model.md, "Several braces").
+    (rigid statics); the best constant preloads are the LP of :func:`~bracekit.statics.actuator_relief` over
+    every brace. ``best_preload_N`` is P (N) for one brace and the list of P_i for several.
     """
     effort = effort_limits(braced.robot)
-    preloads = holding.brace_preloads(len(braced.braces))
-    free = braced_peak = 0.0
-    for q in qs:
-        st = braced.state(q)
-        g = gravity_torque(braced.robot, q) if holding.gravity else np.zeros(q.size)
-        if len(preloads) > 1:  # one brace: the LP below gives the free-space peak
-            free = max(free, float(np.max(peak_ratio(g[None, :] - holding.loads @ st.J_e, effort))))
-        contact = sum(
-            (p * (j_b[:3].T @ b.surface.normal) for p, b, j_b in zip(preloads, braced.braces, st.J_b_i, strict=True)),
-            np.zeros(q.size),
-        )
-        tau = g[None, :] - holding.loads @ st.J_e - contact[None, :]
-        braced_peak = max(braced_peak, float(np.max(peak_ratio(tau, effort))))
-    out: dict[str, Any] = {
-        "free_peak_torque_ratio": free,
+    tau, a = actuator_torques(braced, qs, holding.wrenches, gravity=holding.gravity)
+    preloads = np.asarray(holding.brace_preloads(len(braced.braces)), dtype=float)
+    braced_peak = float(np.max(peak_ratio(tau - np.einsum("kbn,b->kn", a, preloads)[:, None, :], effort)))
+    rel = relief_of(tau, a, effort)
+    best = [float(p) for p in rel.preloads]
+    return {
+        "free_peak_torque_ratio": float(rel.free_peak),
         "braced_peak_torque_ratio": braced_peak,
-        "best_preload_N": None,
-        "best_braced_peak_torque_ratio": None,
-        "best_relief": None,
+        "best_preload_N": best[0] if len(best) == 1 else best,
+        "best_braced_peak_torque_ratio": float(rel.braced_peak),
+        "best_relief": float(rel.ratio),
     }
-    if len(braced.braces) == 1:  # the LP of one brace's preload
-        rel = actuator_relief(braced, qs, holding.wrenches, gravity=holding.gravity)
-        out |= {
-            "free_peak_torque_ratio": float(rel.free_peak),
-            "best_preload_N": float(rel.preload),
-            "best_braced_peak_torque_ratio": float(rel.braced_peak),
-            "best_relief": float(rel.ratio),
-        }
-    return out

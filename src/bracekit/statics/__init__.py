@@ -8,34 +8,24 @@ saturates. ``relief``: the peak actuator load in free space against braced with 
 from bracekit.statics.capacity import (
     Capacity,
     CapacityAlong,
-    MultiCapacityAlong,
     capacity_along,
     capacity_of,
     effort_limits,
     liftoff_scale,
     load_capacity,
-    multi_capacity_along,
-    multi_capacity_of,
     peak_ratio,
     saturation_scale,
     slip_scale,
 )
-from bracekit.statics.equilibrium import ContactResponse, ContactResponses, gravity_torque, load_contact_wrenches
-from bracekit.statics.relief import Relief, actuator_relief, actuator_torques
-from bracekit.statics.stacked import (
-    MultiContactResponses,
-    contact_response,
-    contact_responses,
-    multi_contact_responses,
-)
+from bracekit.statics.equilibrium import ContactResponse, gravity_torque, load_contact_wrenches
+from bracekit.statics.relief import Relief, actuator_relief, actuator_torques, relief_of
+from bracekit.statics.stacked import ContactResponses, contact_response, contact_responses
 
 __all__ = [
     "Capacity",
     "CapacityAlong",
     "ContactResponse",
     "ContactResponses",
-    "MultiCapacityAlong",
-    "MultiContactResponses",
     "Relief",
     "actuator_relief",
     "actuator_torques",
@@ -48,10 +38,8 @@ __all__ = [
     "liftoff_scale",
     "load_capacity",
     "load_contact_wrenches",
-    "multi_capacity_along",
-    "multi_capacity_of",
-    "multi_contact_responses",
     "peak_ratio",
+    "relief_of",
     "saturation_scale",
     "slip_scale",
 ]

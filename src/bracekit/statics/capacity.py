@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,8 +27,8 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
-from bracekit.statics.equilibrium import ContactResponses, wrench_list
-from bracekit.statics.stacked import MultiContactResponses, contact_responses, multi_contact_responses
+from bracekit.statics.equilibrium import wrench_list
+from bracekit.statics.stacked import ContactResponses, brace_index, contact_responses
 
 Array = NDArray[np.float64]
 
@@ -120,11 +121,11 @@ def saturation_scale(tau0: ArrayLike, d_tau: ArrayLike, effort: Array, scale: Ar
 
 @dataclass(frozen=True, eq=False)
 class Capacity:
-    """Load capacity at one configuration for m listed tool wrenches (scales are dimensionless multipliers).
+    """One brace's view of the load capacity at one configuration for m tool wrenches (dimensionless scales).
 
     Attributes:
-        liftoff: scale of each wrench at which the contact would pull (m,).
-        slip: scale at which the contact force leaves the Coulomb cone (m,); None without μ.
+        liftoff: scale of each wrench at which the brace's contact would pull (m,).
+        slip: scale at which its contact force leaves the Coulomb cone (m,); None without μ.
         torque: scale at which an actuator saturates (m,).
         liftoff_margin, slip_margin, torque_margin: their minima over the wrenches (slip: None without μ).
         peak_unloaded: max_i |τ0_i| / effort_i without tool load (0 if no joint is limited).
@@ -149,7 +150,23 @@ class Capacity:
 
 @dataclass(frozen=True, eq=False)
 class CapacityAlong:
-    """:class:`Capacity` at N configurations: per-wrench fields (N×m), margins and peak_unloaded (N,)."""
+    """Load capacity with B ≥ 1 braces at N configurations for m tool wrenches (scales are dimensionless).
+
+    Attributes:
+        liftoff: scale of each wrench at which the first brace would pull (N×m): the least over the braces.
+        slip: scale at which the first brace's force leaves its Coulomb cone (N×m, the least over the braces
+            with μ); None when no brace has μ.
+        torque: scale at which an actuator saturates (N×m).
+        liftoff_margin, slip_margin, torque_margin: the least over braces and wrenches (N,) (slip: None without μ).
+        peak_unloaded: max_i |τ0_i| / effort_i without tool load (N,).
+        peak_loaded: max_i |τ_i| / effort_i under each wrench at scale 1 (N×m).
+        brace_liftoff, brace_slip: the scales of each brace (N×B×m; slip inf for a brace without μ, None when
+            no brace has μ).
+        brace_liftoff_margin, brace_slip_margin: the least over the wrenches for each brace (N×B).
+        normal_force, tangential_force: f_n and ‖f_t‖ of brace i under each wrench at scale 1 (N×B×m), N.
+        contact_wrench: f_c,i under each wrench at scale 1 (N×B×m×6), N and N·m.
+        frictions: μ_i of each brace (None: no slip limit for it).
+    """
 
     liftoff: Array
     slip: Array | None
@@ -159,166 +176,43 @@ class CapacityAlong:
     torque_margin: Array
     peak_unloaded: Array
     peak_loaded: Array
+    brace_liftoff: Array
+    brace_slip: Array | None
+    brace_liftoff_margin: Array
+    brace_slip_margin: Array | None
     normal_force: Array
     tangential_force: Array
     contact_wrench: Array
+    frictions: tuple[float | None, ...]
 
     def __len__(self) -> int:
         return int(self.liftoff.shape[0])
 
-    def at(self, i: int) -> Capacity:
-        """The capacity at configuration i."""
+    def at(self, i: int, brace: int | None = None) -> Capacity:
+        """Brace `brace`'s view at configuration i (None: the only brace; ContactError with several)."""
+        b = brace_index(brace, len(self.frictions))
+        slip = None if self.brace_slip is None or self.frictions[b] is None else self.brace_slip[i, b]
         return Capacity(
-            liftoff=self.liftoff[i],
-            slip=None if self.slip is None else self.slip[i],
+            liftoff=self.brace_liftoff[i, b],
+            slip=slip,
             torque=self.torque[i],
-            liftoff_margin=float(self.liftoff_margin[i]),
-            slip_margin=None if self.slip_margin is None else float(self.slip_margin[i]),
+            liftoff_margin=float(self.brace_liftoff_margin[i, b]),
+            slip_margin=None if slip is None else float(np.min(slip)),
             torque_margin=float(self.torque_margin[i]),
             peak_unloaded=float(self.peak_unloaded[i]),
             peak_loaded=self.peak_loaded[i],
-            normal_force=self.normal_force[i],
-            tangential_force=self.tangential_force[i],
-            contact_wrench=self.contact_wrench[i],
+            normal_force=self.normal_force[i, b],
+            tangential_force=self.tangential_force[i, b],
+            contact_wrench=self.contact_wrench[i, b],
         )
 
 
 def capacity_of(responses: ContactResponses, wrenches: ArrayLike, effort: Array) -> CapacityAlong:
-    """The capacity from contact responses already computed (N configurations) for wrenches (m×6).
+    """The capacity from contact responses already computed (N configurations, B braces) for wrenches (m×6).
 
-    `effort` (n,) is :func:`effort_limits` (inf: unlimited). The slip limit is evaluated when the responses
-    carry a friction coefficient.
-    """
-    ws = wrench_list(wrenches)
-    nhat = responses.normal
-    d_f = np.einsum("nij,mj->nmi", responses.contact_gain, ws)  # (N, m, 6)
-    d_tau = np.einsum("nij,mj->nmi", responses.torque_gain, ws)  # (N, m, n)
-    f0 = responses.f_c0[:, None, :]
-    fn0 = f0[..., :3] @ nhat  # (N, 1)
-    ft0 = f0[..., :3] - fn0[..., None] * nhat
-    dn = d_f[..., :3] @ nhat  # (N, m)
-    dt = d_f[..., :3] - dn[..., None] * nhat
-    force_scale = np.linalg.norm(d_f[..., :3], axis=-1)
-    liftoff = liftoff_scale(fn0, dn, force_scale)
-    mu = responses.friction
-    slip = None if mu is None else slip_scale(ft0, dt, fn0, dn, mu, force_scale)
-    tau0 = responses.tau0[:, None, :]
-    torque = saturation_scale(tau0, d_tau, effort, np.max(np.abs(d_tau), axis=-1))
-    wrench1 = f0 + d_f
-    normal = wrench1[..., :3] @ nhat
-    return CapacityAlong(
-        liftoff=liftoff,
-        slip=slip,
-        torque=torque,
-        liftoff_margin=np.min(liftoff, axis=1),
-        slip_margin=None if slip is None else np.min(slip, axis=1),
-        torque_margin=np.min(torque, axis=1),
-        peak_unloaded=peak_ratio(responses.tau0, effort),
-        peak_loaded=peak_ratio(tau0 + d_tau, effort),
-        normal_force=normal,
-        tangential_force=np.linalg.norm(wrench1[..., :3] - normal[..., None] * nhat, axis=-1),
-        contact_wrench=wrench1,
-    )
-
-
-def capacity_along(
-    braced: BracedRobot,
-    qs: ArrayLike,
-    wrenches: ArrayLike,
-    *,
-    preload: float = 0.0,
-    gravity: bool = False,
-    friction: float | None = None,
-    effort: ArrayLike | None = None,
-    geometric: bool = True,
-) -> CapacityAlong:
-    """Load capacity at each configuration of `qs` (N×n, e.g. a run's samples) for the tool wrenches (m×6).
-
-    Args:
-        braced: the braced robot.
-        qs: configurations (N×n, rad), each with {b} on the surface.
-        wrenches: tool wrenches [f; m] at e, world axes (m×6, N and N·m).
-        preload: P ≥ 0 (N), the same at every configuration.
-        gravity: include gravity torques.
-        friction: μ ≥ 0 for the slip limit (and a sticking frictionless point); None: no slip limit.
-        effort: actuator limits (n,) instead of the URDF's (:func:`effort_limits`).
-        geometric: use the tangent stiffness in the response (:func:`~bracekit.statics.contact_response`).
-    """
-    if not isinstance(braced, BracedRobot):
-        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    e = effort_limits(braced.robot, effort)
-    ws = wrench_list(wrenches)
-    resp = contact_responses(braced, qs, preload=preload, gravity=gravity, friction=friction, geometric=geometric)
-    return capacity_of(resp, ws, e)
-
-
-def load_capacity(
-    braced: BracedRobot,
-    q: ArrayLike,
-    wrenches: ArrayLike,
-    *,
-    preload: float = 0.0,
-    gravity: bool = False,
-    friction: float | None = None,
-    effort: ArrayLike | None = None,
-    geometric: bool = True,
-) -> Capacity:
-    """:func:`capacity_along` at one configuration q (n,)."""
-    q_row = as_array(q, "the configuration (rad)").reshape(1, -1)
-    return capacity_along(
-        braced,
-        q_row,
-        wrenches,
-        preload=preload,
-        gravity=gravity,
-        friction=friction,
-        effort=effort,
-        geometric=geometric,
-    ).at(0)
-
-
-@dataclass(frozen=True, eq=False)
-class MultiCapacityAlong:
-    """Load capacity with B braces at N configurations for m tool wrenches (scales are dimensionless).
-
-    Attributes:
-        liftoff: scale of each wrench at which brace i would pull (N×B×m).
-        slip: scale at which brace i's force leaves its Coulomb cone (N×B×m; inf for a brace without μ);
-            None when no brace has μ.
-        torque: scale at which an actuator saturates (N×m).
-        liftoff_margin, slip_margin, torque_margin: the least over braces and wrenches (N,) (slip: None without μ).
-        brace_liftoff_margin, brace_slip_margin: the least over the wrenches for each brace (N×B) (slip: None
-            without μ).
-        peak_unloaded: max_i |τ0_i| / effort_i without tool load (N,).
-        peak_loaded: max_i |τ_i| / effort_i under each wrench at scale 1 (N×m).
-        normal_force, tangential_force: f_n and ‖f_t‖ of brace i under each wrench at scale 1 (N×B×m), N.
-        contact_wrench: f_c,i under each wrench at scale 1 (N×B×m×6), N and N·m.
-    """
-
-    liftoff: Array
-    slip: Array | None
-    torque: Array
-    liftoff_margin: Array
-    slip_margin: Array | None
-    torque_margin: Array
-    brace_liftoff_margin: Array
-    brace_slip_margin: Array | None
-    peak_unloaded: Array
-    peak_loaded: Array
-    normal_force: Array
-    tangential_force: Array
-    contact_wrench: Array
-
-    def __len__(self) -> int:
-        return int(self.liftoff.shape[0])
-
-
-def multi_capacity_of(responses: MultiContactResponses, wrenches: ArrayLike, effort: Array) -> MultiCapacityAlong:
-    """The capacity from several-brace responses already computed (N configurations) for wrenches (m×6).
-
-    Each brace gets the lift-off and slip scales of :func:`liftoff_scale` and :func:`slip_scale` on its own
-    contact force f_c,i(s) = f_c0,i + s δf_c,i(w) (slip only for a brace with μ_i); the torque scale is
-    :func:`saturation_scale` of τ(s) = τ0 + s δτ(w).
+    `effort` (n,) is :func:`effort_limits` (inf: unlimited). Each brace gets the lift-off and slip scales of
+    :func:`liftoff_scale` and :func:`slip_scale` on its own contact force f_c,i(s) = f_c0,i + s δf_c,i(w) (slip
+    only for a brace with μ_i); the torque scale is :func:`saturation_scale` of τ(s) = τ0 + s δτ(w).
     """
     ws = wrench_list(wrenches)
     nhat = responses.normals  # (B, 3)
@@ -341,46 +235,69 @@ def multi_capacity_of(responses: MultiContactResponses, wrenches: ArrayLike, eff
     torque = saturation_scale(tau0, d_tau, effort, np.max(np.abs(d_tau), axis=-1))
     wrench1 = f0 + d_f
     normal = np.einsum("nbmi,bi->nbm", wrench1[..., :3], nhat)
-    brace_liftoff = np.min(liftoff, axis=2)
-    brace_slip = None if slip is None else np.min(slip, axis=2)
-    return MultiCapacityAlong(
-        liftoff=liftoff,
-        slip=slip,
+    least_lift = np.min(liftoff, axis=1)
+    least_slip = None if slip is None else np.min(slip, axis=1)
+    return CapacityAlong(
+        liftoff=least_lift,
+        slip=least_slip,
         torque=torque,
-        liftoff_margin=np.min(brace_liftoff, axis=1),
-        slip_margin=None if brace_slip is None else np.min(brace_slip, axis=1),
+        liftoff_margin=np.min(least_lift, axis=1),
+        slip_margin=None if least_slip is None else np.min(least_slip, axis=1),
         torque_margin=np.min(torque, axis=1),
-        brace_liftoff_margin=brace_liftoff,
-        brace_slip_margin=brace_slip,
         peak_unloaded=peak_ratio(responses.tau0, effort),
         peak_loaded=peak_ratio(tau0 + d_tau, effort),
+        brace_liftoff=liftoff,
+        brace_slip=slip,
+        brace_liftoff_margin=np.min(liftoff, axis=2),
+        brace_slip_margin=None if slip is None else np.min(slip, axis=2),
         normal_force=normal,
         tangential_force=np.linalg.norm(wrench1[..., :3] - normal[..., None] * nhat[None, :, None, :], axis=-1),
         contact_wrench=wrench1,
+        frictions=responses.frictions,
     )
 
 
-def multi_capacity_along(
+def capacity_along(
     braced: BracedRobot,
     qs: ArrayLike,
     wrenches: ArrayLike,
     *,
-    preloads: float | Sequence[float] = 0.0,
+    preload: float | Sequence[float] = 0.0,
     gravity: bool = False,
-    frictions: float | Sequence[float | None] | None = None,
+    friction: float | Sequence[float | None] | None = None,
     effort: ArrayLike | None = None,
     geometric: bool = True,
-) -> MultiCapacityAlong:
-    """Load capacity with every brace at each configuration of `qs` (N×n) for the tool wrenches (m×6).
+) -> CapacityAlong:
+    """Load capacity with every brace at each configuration of `qs` (N×n, e.g. a run's samples) for wrenches (m×6).
 
-    Args as :func:`capacity_along`, with one preload P_i and friction μ_i per brace (or one for all)
-    (:func:`~bracekit.statics.stacked.multi_contact_responses`).
+    Args:
+        braced: the braced robot (N ≥ 1 braces).
+        qs: configurations (N×n, rad), each with every {b_i} on its surface.
+        wrenches: tool wrenches [f; m] at e, world axes (m×6, N and N·m).
+        preload: P_i ≥ 0 (N), one for every brace or one per brace, the same at every configuration.
+        gravity: include gravity torques.
+        friction: μ_i ≥ 0 for the slip limit (and a sticking frictionless point), one or one per brace; None: no
+            slip limit.
+        effort: actuator limits (n,) instead of the URDF's (:func:`effort_limits`).
+        geometric: use the tangent stiffness in the response (:func:`~bracekit.statics.contact_responses`).
     """
     if not isinstance(braced, BracedRobot):
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
     e = effort_limits(braced.robot, effort)
     ws = wrench_list(wrenches)
-    resp = multi_contact_responses(
-        braced, qs, preloads=preloads, gravity=gravity, frictions=frictions, geometric=geometric
-    )
-    return multi_capacity_of(resp, ws, e)
+    resp = contact_responses(braced, qs, preload=preload, gravity=gravity, friction=friction, geometric=geometric)
+    return capacity_of(resp, ws, e)
+
+
+def load_capacity(
+    braced: BracedRobot, q: ArrayLike, wrenches: ArrayLike, *, brace: int | None = None, **options: Any
+) -> Capacity:
+    """Brace `brace`'s view of :func:`capacity_along` at one configuration q (n,) (None: the only brace).
+
+    `options` are those of :func:`capacity_along` (preload, gravity, friction, effort, geometric).
+    """
+    if not isinstance(braced, BracedRobot):
+        raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
+    which = brace_index(brace, len(braced.braces))
+    q_row = as_array(q, "the configuration (rad)").reshape(1, -1)
+    return capacity_along(braced, q_row, wrenches, **options).at(0, which)

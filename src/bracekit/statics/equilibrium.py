@@ -47,7 +47,10 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False)
 class ContactResponse:
-    """The preloaded equilibrium at one configuration q and its first-order response to a tool wrench.
+    """One brace's view of the preloaded equilibrium at one configuration q and its first-order load response.
+
+    With several braces the record holds one brace's contact wrench; τ, q_s and δq are those of every brace
+    together (:class:`~bracekit.statics.stacked.ContactResponses`).
 
     Attributes:
         q: the commanded configuration (n,), rad.
@@ -86,45 +89,6 @@ class ContactResponse:
         ws = _wrench_rows(w)
         out = self.tau0 + ws @ self.torque_gain.T
         return out[0] if np.ndim(w) == 1 else out
-
-
-@dataclass(frozen=True, eq=False)
-class ContactResponses:
-    """:class:`ContactResponse` at N configurations, stacked along the first axis (same fields, shapes (N, ...)).
-
-    ``X``, ``normal``, ``preload`` and ``friction`` are shared by every configuration.
-    """
-
-    q: Array
-    q_s: Array
-    tau0: Array
-    f_c0: Array
-    contact_gain: Array
-    torque_gain: Array
-    joint_gain: Array
-    X: Array
-    normal: Array
-    preload: float
-    friction: float | None
-
-    def __len__(self) -> int:
-        return int(self.q.shape[0])
-
-    def at(self, i: int) -> ContactResponse:
-        """The response at configuration i."""
-        return ContactResponse(
-            q=self.q[i],
-            q_s=self.q_s[i],
-            tau0=self.tau0[i],
-            f_c0=self.f_c0[i],
-            contact_gain=self.contact_gain[i],
-            torque_gain=self.torque_gain[i],
-            joint_gain=self.joint_gain[i],
-            X=self.X,
-            normal=self.normal,
-            preload=self.preload,
-            friction=self.friction,
-        )
 
 
 #: The largest tool-wrench component accepted (N, N·m): products of larger ones overflow float64.

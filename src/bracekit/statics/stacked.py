@@ -1,8 +1,8 @@
-"""The preloaded equilibrium with every brace of a braced robot (one or several) and its first-order load response.
+"""The preloaded equilibrium with every brace of a braced robot (N ≥ 1) and its first-order load response.
 
 The conventions and the physics are those of :mod:`bracekit.statics.equilibrium`, with one load contact per
-brace stacked in the KKT system (docs/model.md, "Several braces"). :func:`contact_response` and
-:func:`contact_responses` are one brace's view of it (the records of ``equilibrium``).
+brace stacked in the KKT system (docs/model.md, "Several braces"). :func:`contact_responses` serves any number
+of braces; :func:`contact_response` is one brace's view at one configuration (:class:`ContactResponse`).
 """
 
 from __future__ import annotations
@@ -16,8 +16,9 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from bracekit._linalg import finite_math, show
+from bracekit._linalg import as_array, finite_math, show
 from bracekit.errors import (
+    ContactError,
     InputError,
     NumericalError,
     RedundantContactWarning,
@@ -30,7 +31,6 @@ from bracekit.kinematics.constraint import _independent_rows
 from bracekit.kinematics.hessian import ensure_hessian_layout, frame_hessian
 from bracekit.statics.equilibrium import (
     ContactResponse,
-    ContactResponses,
     _check_size,
     check_friction,
     check_preload,
@@ -42,8 +42,8 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)
-class MultiContactResponses:
-    """The preloaded equilibrium with B braces at N configurations and its first-order response to a tool wrench.
+class ContactResponses:
+    """The preloaded equilibrium with B ≥ 1 braces at N configurations and its first-order response to a tool wrench.
 
     Brace i carries f_c0,i = [P_i n̂_i; 0] without tool load (at b_i, world axes); under a tool wrench w its
     wrench is f_c,i = f_c0,i + contact_gain[:, i] @ w (first order, set points fixed).
@@ -77,26 +77,59 @@ class MultiContactResponses:
     def __len__(self) -> int:
         return int(self.q.shape[0])
 
+    def at(self, i: int, brace: int | None = None) -> ContactResponse:
+        """Brace `brace`'s view at configuration i: its f_c0 and contact gain, the shared τ and q responses.
+
+        `brace` None: the only brace (ContactError with several braces: name the brace, from 0).
+        """
+        b = brace_index(brace, len(self.preloads))
+        return ContactResponse(
+            q=self.q[i],
+            q_s=self.q_s[i],
+            tau0=self.tau0[i],
+            f_c0=self.f_c0[i, b],
+            contact_gain=self.contact_gain[i, b],
+            torque_gain=self.torque_gain[i],
+            joint_gain=self.joint_gain[i],
+            X=self.X[b],
+            normal=self.normals[b].copy(),
+            preload=self.preloads[b],
+            friction=self.frictions[b],
+        )
+
+
+def brace_index(brace: int | None, count: int) -> int:
+    """The index of one brace among `count`: `brace`, or 0 for the only one; ContactError / InputError otherwise."""
+    if brace is None:
+        if count != 1:
+            raise ContactError(
+                f"the response of one brace: this robot has {count} braces, name one with brace=i (from 0)"
+            )
+        return 0
+    if isinstance(brace, bool) or not isinstance(brace, (int, np.integer)) or not 0 <= int(brace) < count:
+        raise InputError(f"brace must be an index from 0 to {count - 1}, got {show(brace)}")
+    return int(brace)
+
 
 def per_brace(values: object, count: int, check: Callable[[object], Any], what: str) -> tuple[Any, ...]:
     """One value for every brace: a single value repeated, or a list of `count` values, each through `check`."""
-    if isinstance(values, (list, tuple, np.ndarray)):
+    if isinstance(values, (list, tuple)) or (isinstance(values, np.ndarray) and values.ndim > 0):
         if len(values) != count:
             raise InputError(f"give {what} for each of the {count} braces (a list of {count}), got {len(values)}")
         return tuple(check(v) for v in values)
     return (check(values),) * count
 
 
-def multi_contact_responses(
+def contact_responses(
     braced: BracedRobot,
     qs: ArrayLike,
     *,
-    preloads: float | Sequence[float] = 0.0,
+    preload: float | Sequence[float] = 0.0,
     gravity: bool = False,
-    frictions: float | Sequence[float | None] | None = None,
+    friction: float | Sequence[float | None] | None = None,
     geometric: bool = True,
-) -> MultiContactResponses:
-    """The preloaded equilibrium and its load response with every brace of `braced` (one or several).
+) -> ContactResponses:
+    """The preloaded equilibrium and its load response with every brace of `braced` (N ≥ 1).
 
     τ0 = g(q) − Σ_i J_b_iᵀ [P_i n̂_i; 0] and q_s = q + K⁻¹ τ0. Under a tool wrench w, with the set points
     fixed and every load contact closed (X_L,i: :func:`load_contact_wrenches` with μ_i), the first-order KKT
@@ -112,9 +145,9 @@ def multi_contact_responses(
     Args:
         braced: the braced robot (any number of braces).
         qs: configurations (N×n, or one (n,)), rad, with every {b_i} on its surface.
-        preloads: P_i ≥ 0 (N): one for every brace or a list with one per brace.
+        preload: P_i ≥ 0 (N): one for every brace or a list with one per brace.
         gravity: include g(q).
-        frictions: μ_i ≥ 0 or None per brace (or one for all); μ_i > 0 makes a frictionless point stick.
+        friction: μ_i ≥ 0 or None per brace (or one for all); μ_i > 0 makes a frictionless point stick.
         geometric: use the tangent stiffness (True) or K alone.
 
     Raises:
@@ -130,8 +163,8 @@ def multi_contact_responses(
             raise InputError(f"{name} must be True or False, got {show(flag)}")
     robot, braces = braced.robot, braced.braces
     count = len(braces)
-    p = per_brace(preloads, count, check_preload, "the preload P_i (N)")
-    mu = per_brace(frictions, count, check_friction, "the friction coefficient μ_i")
+    p = per_brace(preload, count, check_preload, "the preload P_i (N)")
+    mu = per_brace(friction, count, check_friction, "the friction coefficient μ_i")
     q_all = configurations(robot, qs)
     n, samples = robot.n, q_all.shape[0]
     normals = np.array([b.surface.normal for b in braces], dtype=float)
@@ -200,27 +233,28 @@ def multi_contact_responses(
             out_joint[s] = sol[:n]
             out_tau0[s] = tau0
             out_q_s[s] = q + tau0 / k
-    if unloaded_rows:
-        warnings.warn(
-            "the contact carries no load along "
-            + ", ".join(f"braces[{i}] row {r}" for i, r in sorted(unloaded_rows))
-            + ": no joint can push {b} there, so those rows get no force",
+    for rows, head, tail, category in (
+        (
+            unloaded_rows,
+            "the contact carries no load along ",
+            ": no joint can push {b} there, so those rows get no force",
             UnloadedContactWarning,
-            stacklevel=2,
-        )
-    if dropped:
-        warnings.warn(
-            "dependent load contacts (two contacts constrain the same motion): "
-            + ", ".join(f"braces[{i}] row {r}" for i, r in sorted(dropped))
-            + " get no force, the rows they depend on carry it",
+        ),
+        (
+            dropped,
+            "dependent load contacts (two contacts constrain the same motion): ",
+            " get no force, the rows they depend on carry it",
             RedundantContactWarning,
-            stacklevel=2,
-        )
+        ),
+    ):
+        if rows:
+            listed = ", ".join(f"braces[{i}] row {r}" for i, r in sorted(rows))
+            warnings.warn(head + listed + tail, category, stacklevel=2)
     torque_gain = -k[None, :, None] * out_joint
     for arr in (out_q_s, out_gain, torque_gain, out_joint):
         if not np.all(np.isfinite(arr)):
             raise NumericalError("the contact response is not finite; use SI units and moderate values")
-    return MultiContactResponses(
+    return ContactResponses(
         q=q_all,
         q_s=out_q_s,
         tau0=out_tau0,
@@ -253,66 +287,23 @@ def _check_stable(k_t: Array, a: Array, comp: Array, sample: int) -> None:
         )
 
 
-def contact_response(
-    braced: BracedRobot,
-    q: ArrayLike,
-    *,
-    preload: float = 0.0,
-    gravity: bool = False,
-    friction: float | None = None,
-    geometric: bool = True,
-) -> ContactResponse:
-    """The preloaded equilibrium at q and its first-order response to tool wrenches (module docstring).
+def contact_response(braced: BracedRobot, q: ArrayLike, *, brace: int | None = None, **options: Any) -> ContactResponse:
+    """Brace `brace`'s view of :func:`contact_responses` at one configuration q (n,) (module docstring).
 
-    Args:
-        braced: the braced robot.
-        q: the commanded configuration (n,), rad; {b} is taken to touch the surface there.
-        preload: P ≥ 0 (N), the normal force the surface exerts on b without tool load.
-        gravity: include g(q) (Pinocchio's gravity field of the model).
-        friction: μ ≥ 0; with μ > 0 a frictionless point brace sticks under load (3-D force). None: no friction.
-        geometric: use the tangent stiffness K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q (True) or the joint stiffness K alone.
+    `q` is the commanded configuration (n,), rad, with every {b_i} on its surface; `brace` which brace's contact
+    wrench the record holds (from 0; None: the only brace); `options` those of :func:`contact_responses`:
+    ``preload`` P ≥ 0 (N, or one per brace), ``gravity``, ``friction`` μ ≥ 0 (with μ > 0 a frictionless point
+    brace sticks under load, a 3-D force; None: no friction) and ``geometric`` (the tangent stiffness
+    K + ∂g/∂q − ∂(J_bᵀ f_c0)/∂q, or K alone).
 
     Raises:
         InputError: a negative or non-finite preload or μ, or a configuration that is not n finite numbers.
+        ContactError: several braces and no `brace` index.
         NumericalError: the tangent stiffness is not positive definite (gravity or the preload buckles the
             springs), or the result is not finite.
     """
-    return contact_responses(braced, q, preload=preload, gravity=gravity, friction=friction, geometric=geometric).at(0)
-
-
-def contact_responses(
-    braced: BracedRobot,
-    qs: ArrayLike,
-    *,
-    preload: float = 0.0,
-    gravity: bool = False,
-    friction: float | None = None,
-    geometric: bool = True,
-) -> ContactResponses:
-    """:func:`contact_response` at each row of `qs` (N×n, or one configuration (n,)): one brace's view.
-
-    The response of the one brace of `braced` through the stacked response of every brace
-    (:func:`bracekit.statics.stacked.multi_contact_responses`); ContactError with several braces (use that).
-    Directions in which chain 1 cannot push {b} carry no load (dropped, with one UnloadedContactWarning).
-    """
     if not isinstance(braced, BracedRobot):
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
-    braced.split  # noqa: B018  (one brace: ContactError naming the stacked response otherwise)
-    p = check_preload(preload)
-    mu = check_friction(friction)
-    resp = multi_contact_responses(
-        braced, qs, preloads=p, gravity=gravity, frictions=mu, geometric=geometric
-    )
-    return ContactResponses(
-        q=resp.q,
-        q_s=resp.q_s,
-        tau0=resp.tau0,
-        f_c0=resp.f_c0[:, 0],
-        contact_gain=resp.contact_gain[:, 0],
-        torque_gain=resp.torque_gain,
-        joint_gain=resp.joint_gain,
-        X=resp.X[0],
-        normal=resp.normals[0].copy(),
-        preload=p,
-        friction=mu,
-    )
+    which = brace_index(brace, len(braced.braces))
+    q_row = as_array(q, "the configuration (rad)").reshape(1, -1)
+    return contact_responses(braced, q_row, **options).at(0, which)

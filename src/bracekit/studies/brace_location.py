@@ -106,6 +106,16 @@ def _planned(robot: Robot, count: int) -> list[tuple[str, str, int, float, Array
     return planned
 
 
+def _study_inputs(
+    robot: object, q: ArrayLike, points_per_link: object, contact: str | ContactType
+) -> tuple[int, NDArray[np.float64], ContactType]:
+    """(candidates per link, q (n,) rad, contact type) of a study; InputError for a bad input."""
+    if not isinstance(robot, Robot):
+        raise InputError(f"the study needs a bracekit Robot, got {type(robot).__name__}")
+    count = as_count(points_per_link, "points_per_link", low=1, high=MAX_POINTS_PER_LINK)
+    return count, robot.check_q(q), contact_type(contact)
+
+
 def brace_location_study(
     robot: Robot,
     q: ArrayLike,
@@ -128,11 +138,7 @@ def brace_location_study(
         points_per_link: candidates per link, 1 to MAX_POINTS_PER_LINK (1: the middle of the link).
         contact: contact type (name or instance).
     """
-    if not isinstance(robot, Robot):
-        raise InputError(f"the study needs a bracekit Robot, got {type(robot).__name__}")
-    count = as_count(points_per_link, "points_per_link", low=1, high=MAX_POINTS_PER_LINK)
-    qa = robot.check_q(q)
-    kind = contact_type(contact)
+    count, qa, kind = _study_inputs(robot, q, points_per_link, contact)
     n_hat = _plane_normal(normal, "the surface normal")
     beta = _beta(beta_x, n_hat)
     planned = _planned(robot, count)
@@ -248,11 +254,7 @@ def brace_pair_study(
         points_per_link: candidates per link, 1 to MAX_POINTS_PER_LINK (1: the middle of the link).
         contact: contact type of both braces (name or instance).
     """
-    if not isinstance(robot, Robot):
-        raise InputError(f"the study needs a bracekit Robot, got {type(robot).__name__}")
-    count = as_count(points_per_link, "points_per_link", low=1, high=MAX_POINTS_PER_LINK)
-    qa = robot.check_q(q)
-    kind = contact_type(contact)
+    count, qa, kind = _study_inputs(robot, q, points_per_link, contact)
     n_1 = _plane_normal(first_normal, "the first brace's normal")
     n_2 = _plane_normal(second_normal, "the second brace's normal")
     beta = _beta(beta_x, n_1)

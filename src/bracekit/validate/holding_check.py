@@ -269,7 +269,7 @@ def check_one_brace(braced: BracedRobot, what: str) -> None:
     """InputError unless the MuJoCo ``what`` models the brace: one brace of a type MuJoCo models, rigid surface.
 
     The holding and capacity checks follow one brace (several-brace versions are not built: the core's
-    several-brace statics, ``multi_contact_responses`` and ``multi_capacity_along``, are checked by the
+    several-brace statics, ``contact_responses`` and ``capacity_along``, are checked by the
     compliance, preloaded and tracking blocks).
     """
     if len(braced.braces) != 1:

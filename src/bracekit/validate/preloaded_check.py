@@ -25,7 +25,7 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario import Scenario
-from bracekit.statics import multi_contact_responses
+from bracekit.statics import contact_responses
 from bracekit.validate.compliance_check import (
     _config,
     _model_stats,
@@ -53,13 +53,13 @@ def preloaded_tip_compliance(braced: BracedRobot, q: ArrayLike, preload: float, 
 
     The core's one-brace :func:`~bracekit.compliance.preloaded.preloaded_compliance`; where that refuses several
     braces (ContactError), J_e δq/δw of the several-brace statics' first-order response
-    (:func:`bracekit.statics.multi_contact_responses` with the tangent stiffness of gravity and the
+    (:func:`bracekit.statics.contact_responses` with the tangent stiffness of gravity and the
     preloads P_i = ``preload``, every contact closed).
     """
     try:
         return preloaded_compliance(braced, q, preload, gravity=gravity)
     except ContactError:
-        resp = multi_contact_responses(braced, q, preloads=preload, gravity=gravity, geometric=True)
+        resp = contact_responses(braced, q, preload=preload, gravity=gravity, geometric=True)
         return np.asarray(braced.state(q).J_e @ resp.joint_gain[0], dtype=float)
 
 

@@ -53,7 +53,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.simulation.run import RunResult, run_scenario
 from bracekit.simulation.scenario import Scenario
 from bracekit.simulation.simulate import Trajectory
-from bracekit.statics import contact_response, contact_responses, gravity_torque, multi_contact_responses
+from bracekit.statics import contact_response, contact_responses, gravity_torque
 from bracekit.validate.compliance_check import first_order_state
 from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.mjcf import build_mujoco_model
@@ -99,7 +99,7 @@ def _set_points(sc: Scenario, tr: Trajectory, preload: float, gravity: bool) -> 
         try:
             return contact_responses(sc.braced, tr.q, preload=preload, gravity=gravity, geometric=False).q_s
         except ContactError:  # the one-brace statics refuse several braces
-            return multi_contact_responses(sc.braced, tr.q, preloads=preload, gravity=gravity, geometric=False).q_s
+            return contact_responses(sc.braced, tr.q, preload=preload, gravity=gravity, geometric=False).q_s
     k = sc.robot.stiffness
     if not gravity:
         return tr.q.copy()
@@ -272,7 +272,7 @@ def _predicted_contact_forces(
         resp = contact_response(braced, q, preload=preload, gravity=gravity, friction=friction)
         per_brace = [resp.contact_wrench(loads)[:, :3]]
     except ContactError:
-        multi = multi_contact_responses(braced, q, preloads=preload, gravity=gravity, frictions=friction)
+        multi = contact_responses(braced, q, preload=preload, gravity=gravity, friction=friction)
         per_brace = [(multi.f_c0[0, i] + loads @ multi.contact_gain[0, i].T)[:, :3] for i in range(len(braced.braces))]
     out = []
     for f_c, brace in zip(per_brace, braced.braces, strict=True):
