@@ -229,3 +229,21 @@ def scenario_text(**task: float) -> str:
     for key, value in task.items():
         text = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text, count=1)
     return text
+
+
+def solve_planes(model, q0, stiffness, brace_ids, tip_id, surfaces, wrench, *, preload=0.0):  # type: ignore[no-untyped-def]
+    """The nonlinear static solve (bracekit.validate.statics.solve_statics) with bilateral rigid plane contacts.
+
+    One (point, normal) per brace frame id and one preload (N) each, or one for all.
+    """
+    import numpy as np
+
+    from bracekit.validate.plane_contact import PlaneContact
+    from bracekit.validate.statics import solve_statics
+
+    loads = np.broadcast_to(np.asarray(preload, dtype=float), (len(brace_ids),))
+    contacts = [
+        PlaneContact(int(f), np.asarray(pt, dtype=float), np.asarray(nh, dtype=float), float(p))
+        for f, (pt, nh), p in zip(brace_ids, surfaces, loads, strict=True)
+    ]
+    return solve_statics(model, q0, stiffness, tip_id, contacts, np.asarray(wrench, dtype=float))

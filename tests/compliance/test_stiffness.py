@@ -1,7 +1,7 @@
 """The tool stiffness K_x (w = K_x δx) against central differences of the nonlinear static solve.
 
 References (independent of compliance/stiffness.py): `validate.statics.solve_static_equilibrium` (one brace:
-gravity, a dead tool wrench, any contact type, a penalty surface) and `solve_static_equilibrium_multi` (several
+gravity, a dead tool wrench, any contact type, a penalty surface) and `solve_statics` (several
 rigid braces with a preload each): their tip deflection under ±10 mN / ±10 mN·m gives the compliance C_fd,
 whose inverse is the stiffness; and the constrained C_e (eq:Ce) and the preloaded compliance where K_x = C⁻¹.
 """
@@ -19,7 +19,8 @@ from bracekit.contact import Brace, Surface
 from bracekit.errors import InputError, SingularityError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation import load_scenario, solve_start
-from bracekit.validate.statics import solve_static_equilibrium, solve_static_equilibrium_multi
+from bracekit.validate.statics import solve_static_equilibrium
+from helpers import solve_planes
 
 TOOL = np.array([3.0, -2.0, -5.0, 0.3, 0.2, -0.4])  # a dead tool force (N) and moment (N·m)
 H = 1e-2  # the central-difference wrench step, N and N·m
@@ -151,8 +152,8 @@ def test_several_braces_through_the_same_path_match_the_stacked_static_solve(pre
         [(b.surface.point, b.surface.normal) for b in braced.braces],
     )
     cols = [
-        solve_static_equilibrium_multi(*args, H * e, preload=preload).deflection
-        - solve_static_equilibrium_multi(*args, -H * e, preload=preload).deflection
+        solve_planes(*args, H * e, preload=preload).deflection
+        - solve_planes(*args, -H * e, preload=preload).deflection
         for e in np.eye(6)
     ]
     c_fd = np.array(cols).T / (2 * H)

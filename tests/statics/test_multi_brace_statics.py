@@ -1,7 +1,7 @@
 """Statics with several braces against Pinocchio's rnea, the nonlinear several-contact static solve and scans.
 
 References: ``pin.rnea`` with each contact force as an external force on its joint (τ0), central differences
-of :func:`bracekit.validate.statics.solve_static_equilibrium_multi` with the set points fixed (the response),
+of :func:`bracekit.validate.statics.solve_statics` with the set points fixed (the response),
 bisection of that nonlinear solve for the scale at which a brace's normal force reaches zero (lift-off), and the
 one-brace statics of bracekit (one brace's view of the same record).
 """
@@ -26,7 +26,7 @@ from bracekit.statics import actuator_relief, actuator_torques
 from bracekit.statics.capacity import capacity_along, effort_limits, load_capacity
 from bracekit.statics.relief import PEAK_RTOL
 from bracekit.statics.stacked import contact_response, contact_responses
-from bracekit.validate.statics import solve_static_equilibrium_multi
+from helpers import solve_planes
 
 Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
 NORMALS = (np.array([0.3, -0.2, 1.0]), np.array([-1.0, 0.4, 0.2]))
@@ -86,7 +86,7 @@ def test_response_matches_central_differences_of_the_nonlinear_several_contact_s
             w = np.zeros(6)
             w[j] = sign * h
             res.append(
-                solve_static_equilibrium_multi(
+                solve_planes(
                     robot.model,
                     Q,
                     robot.stiffness,
@@ -164,7 +164,7 @@ def test_liftoff_scale_of_a_brace_matches_a_bisection_of_the_nonlinear_solve() -
     surfaces = [(b.surface.point, b.surface.normal) for b in braced.braces]
 
     def normal_force(s: float) -> float:
-        res = solve_static_equilibrium_multi(
+        res = solve_planes(
             robot.model, Q, robot.stiffness, braced.brace_ids, robot.tip_id, surfaces, s * w, preload=preloads
         )
         return float(res.contact_forces[0])

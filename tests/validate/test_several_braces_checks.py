@@ -3,7 +3,7 @@
 References independent of bracekit's compliance: MuJoCo (a sphere contact per brace, gravity, the springs' set
 points) and the nonlinear static solve over both contacts. The first-order models checked are the core's
 several-brace ones: the stacked constrained C_e, the several-brace statics' tangent-stiffness response
-(``multi_contact_responses``) and the sticking contacts' model.
+(``contact_responses``) and the sticking contacts' model.
 """
 
 from __future__ import annotations

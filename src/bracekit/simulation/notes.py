@@ -16,6 +16,7 @@ from bracekit.errors import (
     UnloadedContactWarning,
 )
 from bracekit.kinematics import BracedRobot
+from bracekit.kinematics.clearance import geometry_of
 from bracekit.resolution.strategies import BracedGradientProjection, Strategy
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.guards import point_label
@@ -78,8 +79,7 @@ def run_notes(
     if float(np.min(clearance)) < 0:
         note(
             f"a link passes {-float(np.min(clearance)):.3g} m through the bracing plane into the obstacle (at "
-            f"{int(np.sum(clearance < 0))} of {clearance.size} samples; the obstacle and the link capsules of "
-            "bracekit.kinematics.clearance)",
+            f"{int(np.sum(clearance < 0))} of {clearance.size} samples; the link geometry: {geometry_of(braced)})",
             ClearanceWarning,
         )
     if counts["substeps"]:

@@ -131,7 +131,7 @@ def parse_scenario(
     braced = _braces(brace_ts, robot)
     loads_t = top.table("loads", ("wrenches",), {})
     if several:
-        holding = _holding_braces(robot_t, brace_ts, loads_t)
+        holding = _holding_of(robot_t, brace_ts, loads_t)
     else:
         holding = _holding(robot_t, brace_ts[0], loads_t)
     robot = braced.robot
@@ -411,7 +411,7 @@ def _brace(t: _Table, robot: Robot, default_frame: str = "brace") -> tuple[Robot
         raise ScenarioError(f"'{t.key(key)}': {exc}") from exc
 
 
-def _holding_braces(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> Holding:
+def _holding_of(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> Holding:
     """``[robot] gravity``, ``[loads] wrenches`` and each ``[[brace]]`` table's ``preload`` and ``friction``."""
     preloads: list[float] = []
     frictions: list[float | None] = []

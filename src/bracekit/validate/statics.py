@@ -29,7 +29,6 @@ from bracekit.validate.plane_contact import (
     _checked,
     _Contact,
     _gravity,
-    _per_brace,
     _set_points,
     contact_set_points,
     preload_rest_configuration,
@@ -44,7 +43,6 @@ __all__ = [
     "lagrange_compliance",
     "preload_rest_configuration",
     "solve_static_equilibrium",
-    "solve_static_equilibrium_multi",
     "solve_statics",
 ]
 
@@ -438,35 +436,3 @@ def solve_static_equilibrium(
         model, q0, stiffness, tip_frame_id, [c], wrench, bilateral=bilateral, tol=tol, max_iter=max_iter,
         gravity=gravity, base_wrench=base_wrench, contact=contact,
     )  # fmt: skip
-
-
-def solve_static_equilibrium_multi(
-    model: pin.Model,
-    q0: np.ndarray,
-    stiffness: np.ndarray,
-    brace_frame_ids: Sequence[int],
-    tip_frame_id: int,
-    surfaces: Sequence[tuple[np.ndarray, np.ndarray]],
-    wrench: np.ndarray,
-    *,
-    preload: float | Sequence[float] | np.ndarray = 0.0,
-    constraint_wrenches: Sequence[np.ndarray] | None = None,
-    tol: float = 1e-12,
-    max_iter: int = 50,
-) -> StaticResult:
-    """:func:`solve_statics` with bilateral rigid contacts given as frame ids, (point, normal) and preloads.
-
-    Kept for callers that list the braces this way; new code builds :class:`PlaneContact` records.
-    """
-    ids = [int(f) for f in brace_frame_ids]
-    if len(surfaces) != len(ids):
-        raise InputError(f"give one surface (point, normal) per brace: {len(ids)} braces, {len(surfaces)} surfaces")
-    if constraint_wrenches is not None and len(constraint_wrenches) != len(ids):
-        raise InputError(f"give one constraint-wrench matrix X_i per brace ({len(ids)})")
-    P = _per_brace(preload, len(ids))
-    Xs = [None] * len(ids) if constraint_wrenches is None else list(constraint_wrenches)
-    cs = [
-        PlaneContact(fid, np.asarray(pt, dtype=float), np.asarray(nh, dtype=float), float(p), X)
-        for fid, (pt, nh), p, X in zip(ids, surfaces, P, Xs, strict=True)
-    ]
-    return solve_statics(model, q0, stiffness, tip_frame_id, cs, _wrench(wrench, "wrench"), tol=tol, max_iter=max_iter)
