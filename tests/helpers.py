@@ -231,10 +231,11 @@ def scenario_text(**task: float) -> str:
     return text
 
 
-def solve_planes(model, q0, stiffness, brace_ids, tip_id, surfaces, wrench, *, preload=0.0):  # type: ignore[no-untyped-def]
+def solve_planes(model, q0, stiffness, brace_ids, tip_id, surfaces, wrench, *, preload=0.0, constraint_wrenches=None):  # type: ignore[no-untyped-def]
     """The nonlinear static solve (bracekit.validate.statics.solve_statics) with bilateral rigid plane contacts.
 
-    One (point, normal) per brace frame id and one preload (N) each, or one for all.
+    One (point, normal) per brace frame id, one preload (N) each or one for all, and optionally each contact's
+    constraint wrenches X_i (6×c_i, world axes; default [n̂; 0]).
     """
     import numpy as np
 
@@ -242,8 +243,9 @@ def solve_planes(model, q0, stiffness, brace_ids, tip_id, surfaces, wrench, *, p
     from bracekit.validate.statics import solve_statics
 
     loads = np.broadcast_to(np.asarray(preload, dtype=float), (len(brace_ids),))
+    xs = [None] * len(brace_ids) if constraint_wrenches is None else list(constraint_wrenches)
     contacts = [
-        PlaneContact(int(f), np.asarray(pt, dtype=float), np.asarray(nh, dtype=float), float(p))
-        for f, (pt, nh), p in zip(brace_ids, surfaces, loads, strict=True)
+        PlaneContact(int(f), np.asarray(pt, dtype=float), np.asarray(nh, dtype=float), float(p), x)
+        for f, (pt, nh), p, x in zip(brace_ids, surfaces, loads, xs, strict=True)
     ]
     return solve_statics(model, q0, stiffness, tip_id, contacts, np.asarray(wrench, dtype=float))

@@ -25,10 +25,9 @@ from bracekit.validate.statics import (
     PlaneContact,
     contact_set_points,
     solve_static_equilibrium,
-    solve_static_equilibrium_multi,
     solve_statics,
 )
-from helpers import random_chain_urdf, random_unit
+from helpers import random_chain_urdf, random_unit, solve_planes
 
 pytestmark = pytest.mark.slow  # MuJoCo simulations
 
@@ -156,7 +155,7 @@ def test_several_brace_static_solve_with_one_brace_equals_the_one_brace_solve() 
     braced, q = random_braced(5, [3])
     model, K, ids, tip, surfaces = arguments(braced)
     w = np.array([0.3, 0.1, -0.2, 0.0, 0.02, 0.01])
-    multi = solve_static_equilibrium_multi(model, q, K, ids, tip, surfaces, w, preload=1.0)
+    multi = solve_planes(model, q, K, ids, tip, surfaces, w, preload=1.0)
     one = solve_static_equilibrium(model, q, K, ids[0], tip, *surfaces[0], w, preload=1.0)
     np.testing.assert_allclose(multi.q, one.q, atol=1e-12)
     np.testing.assert_allclose(multi.deflection, one.deflection, atol=1e-12)
@@ -177,9 +176,7 @@ def test_several_brace_inputs_are_checked() -> None:
     model, K, ids, tip, surfaces = arguments(braced)
     off = [(surfaces[0][0] + 1e-3 * surfaces[0][1], surfaces[0][1]), surfaces[1]]
     with pytest.raises(InputError, match="brace point 0 is not on the surface"):
-        solve_static_equilibrium_multi(model, q, K, ids, tip, off, np.zeros(6))
-    with pytest.raises(InputError, match="one surface"):
-        solve_static_equilibrium_multi(model, q, K, ids, tip, surfaces[:1], np.zeros(6))
+        solve_planes(model, q, K, ids, tip, off, np.zeros(6))
     with pytest.raises(InputError, match="preload"):
         plane_contacts(braced, [1.0, -1.0])
     friction = BracedRobot(
