@@ -1,0 +1,146 @@
+"""Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
+
+1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process) seeds the
+   inner level; the task context (the free-space run) is computed on a worker meanwhile.
+2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
+   over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
+3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
+   best links: each one task that runs the place over the whole task and refines its fraction.
+
+The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection. Rows are
+ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.errors import InputError
+from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
+from bracekit.studies.place.outer import refine_place
+from bracekit.studies.place.scenario import Place
+from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
+from bracekit.studies.sweep.refine import usable
+from bracekit.studies.sweep.spec import SweepSpec
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class PlaceSettings:
+    """The search's settings.
+
+    The inner problem's, seeds per link, places refined, evaluations per refinement, the refinement's
+    half-width in fraction.
+    """
+
+    inner: InnerSettings = field(default_factory=InnerSettings)
+    seeds: int = 2
+    top: int = 2
+    refine_evaluations: int = 4
+    half_width: float = 0.05
+
+
+@dataclass
+class PlaceRun:
+    """What a placement did: every inner result, every whole-task row, the best, the timings (s)."""
+
+    spec: SweepSpec
+    settings: PlaceSettings
+    q_ref: Array
+    inner: list[InnerResult]
+    chosen: list[InnerResult]
+    evaluations: list[dict[str, Any]]
+    best: dict[str, Any] | None
+    best_start: InnerResult | None
+    timings: dict[str, float]
+    workers: int = 0
+
+
+def check_spec(spec: SweepSpec) -> list[str]:
+    """The links to place on; InputError for a spec with other axes (a task, stiffness, ...) or no link axis."""
+    other = [a for a in spec.axis_names if a not in ("link", "fraction")]
+    if other:
+        raise InputError(
+            f"bracekit place varies where the brace is only; the spec {spec.name!r} also sweeps {', '.join(other)} "
+            "(remove those axes, or run bracekit sweep)"
+        )
+    axis = spec.axis("link")
+    if axis is None:
+        raise InputError(f"the spec {spec.name!r} has no 'link' axis: list the links to place the pad on")
+    return [str(v) for v in axis.grid()]
+
+
+def seed_fractions(count: int, bounds: tuple[float, float]) -> list[float]:
+    """`count` fractions evenly spread inside `bounds`: the midpoints of equal parts."""
+    lo, hi = bounds
+    return [lo + (hi - lo) * (i + 0.5) / count for i in range(count)]
+
+
+def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
+    """The best successful optimum of each link (least start objective), the `top` best links, best first."""
+    best: dict[str, InnerResult] = {}
+    for r in inner:
+        if r.success and (r.place.link not in best or r.value < best[r.place.link].value):
+            best[r.place.link] = r
+    return sorted(best.values(), key=lambda r: (r.value, r.place.link))[:top]
+
+
+def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
+    """Run both levels on the Dask `client` (see the module)."""
+    began = time.perf_counter()
+    links = check_spec(spec)
+    timings: dict[str, float] = {}
+    futures: list[Any] = []
+    try:
+        q_ref = reference_start(context_scenario(spec, {}))
+        spec_f = client.scatter(spec, broadcast=True, hash=False)
+        ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
+        futures.append(ctx_f)
+        seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, settings.inner.fraction_bounds)]
+        inner_f = [
+            client.submit(optimise_start, spec_f, link, f, q_ref, settings.inner, i, pure=False)
+            for i, (link, f) in enumerate(seeds)
+        ]
+        futures += inner_f
+        inner = list(client.gather(inner_f))
+        timings["inner_s"] = time.perf_counter() - began
+        chosen = choose(inner, settings.top)
+        t1 = time.perf_counter()
+        outer_f = [
+            client.submit(
+                refine_place, spec_f, r.place, r.q, ctx_f, settings.refine_evaluations, settings.half_width, pure=False
+            )
+            for r in chosen
+        ]
+        futures += outer_f
+        groups = client.gather(outer_f)
+        timings["outer_s"] = time.perf_counter() - t1
+    except BaseException:
+        client.cancel(futures)
+        raise
+    evaluations: list[dict[str, Any]] = []
+    best: dict[str, Any] | None = None
+    best_start: InnerResult | None = None
+    for r, rows in zip(chosen, groups, strict=True):
+        for i, row in enumerate(rows):
+            row = {"place": r.seed, "evaluation": i, **row}
+            evaluations.append(row)
+            if usable(row) and (best is None or row["Ci_mean_gp"] < best["Ci_mean_gp"]):
+                best, best_start = row, r
+    timings["total_s"] = time.perf_counter() - began
+    workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
+    return PlaceRun(spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, workers)
+
+
+def best_place(run: PlaceRun) -> tuple[Place, Array] | None:
+    """The best feasible place and its start posture (the inner optimum's), or None when none is feasible."""
+    if run.best is None or run.best_start is None:
+        return None
+    row = run.best
+    return Place(row["link"], float(row["fraction"]), float(np.radians(row["angle_deg"]))), run.best_start.q
