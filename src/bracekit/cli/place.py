@@ -25,7 +25,10 @@ def add_parser(subparsers: Any) -> None:
     pl.add_argument("--seeds", type=int, default=2, help="inner optimisations per link (default 2)")
     pl.add_argument("--top", type=int, default=2, help="places run over the whole task and refined (default 2)")
     pl.add_argument(
-        "--refine", type=int, default=4, help="whole-task runs of each place's fraction refinement (default 4; 0: none)"
+        "--refine",
+        type=int,
+        default=1,
+        help="compass rounds on fraction and angle, one batch of 4 runs each (default 1)",
     )
     pl.add_argument("--objective", choices=("Ci", "ct"), default="Ci", help="inner objective: C_i or c_t (default C_i)")
     pl.add_argument("--no-figures", action="store_true", help="write the tables, summary and best.toml only")
@@ -60,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     spec = load_place_spec(args.source)
     check_spec(spec)
     settings = PlaceSettings(
-        inner=InnerSettings(measure=args.objective), seeds=args.seeds, top=args.top, refine_evaluations=args.refine
+        inner=InnerSettings(measure=args.objective), seeds=args.seeds, top=args.top, refine_rounds=args.refine
     )
     with (
         sigterm_as_interrupt(),

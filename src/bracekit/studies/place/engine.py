@@ -5,7 +5,8 @@
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
-   best links: each one task that runs the place over the whole task and refines its fraction.
+   best links, each run over the whole task (one batch); then ``refine_rounds`` rounds of the compass search from
+   the best feasible one (:func:`.outer.polls`, one batch of whole-task runs per round).
 
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection. Rows are
 ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
@@ -13,6 +14,7 @@ ordered by link and seed (inner) and by place and evaluation (outer), whatever t
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,7 +24,7 @@ from numpy.typing import NDArray
 
 from bracekit.errors import InputError
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
-from bracekit.studies.place.outer import refine_place
+from bracekit.studies.place.outer import evaluate_place, polls
 from bracekit.studies.place.scenario import Place
 from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
 from bracekit.studies.sweep.refine import usable
@@ -35,15 +37,15 @@ Array = NDArray[np.float64]
 class PlaceSettings:
     """The search's settings.
 
-    The inner problem's, seeds per link, places refined, evaluations per refinement, the refinement's
-    half-width in fraction.
+    The inner problem's, seeds per link, places run over the task, compass rounds, the compass's first steps
+    (fraction, angle in rad).
     """
 
     inner: InnerSettings = field(default_factory=InnerSettings)
     seeds: int = 2
     top: int = 2
-    refine_evaluations: int = 4
-    half_width: float = 0.05
+    refine_rounds: int = 1
+    step: tuple[float, float] = (0.05, math.radians(15.0))
 
 
 @dataclass
@@ -91,6 +93,12 @@ def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
     return sorted(best.values(), key=lambda r: (r.value, r.place.link))[:top]
 
 
+def _best(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The feasible row with the least mean C_i of gradient projection (the earliest of equals), or None."""
+    good = [r for r in rows if usable(r)]
+    return min(good, key=lambda r: (r["Ci_mean_gp"], r["evaluation"])) if good else None
+
+
 def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
     """Run both levels on the Dask `client` (see the module)."""
     began = time.perf_counter()
@@ -112,27 +120,37 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
         timings["inner_s"] = time.perf_counter() - began
         chosen = choose(inner, settings.top)
         t1 = time.perf_counter()
-        outer_f = [
-            client.submit(
-                refine_place, spec_f, r.place, r.q, ctx_f, settings.refine_evaluations, settings.half_width, pure=False
-            )
-            for r in chosen
-        ]
-        futures += outer_f
-        groups = client.gather(outer_f)
+        evaluations: list[dict[str, Any]] = []
+        starts: dict[int, InnerResult] = {}
+
+        def batch(places: list[tuple[Place, InnerResult]], stage: str) -> list[dict[str, Any]]:
+            fut = [client.submit(evaluate_place, spec_f, p, r.q, ctx_f, stage, pure=False) for p, r in places]
+            futures.extend(fut)
+            rows = []
+            for (_, r), row in zip(places, client.gather(fut), strict=True):
+                row = {"place": r.seed, "evaluation": len(evaluations), **row}
+                evaluations.append(row)
+                starts[row["evaluation"]] = r
+                rows.append(row)
+            return rows
+
+        batch([(r.place, r) for r in chosen], "task")
+        step = settings.step
+        for _ in range(settings.refine_rounds):
+            best = _best(evaluations)
+            if best is None:
+                break
+            centre = starts[best["evaluation"]]
+            here = Place(best["link"], float(best["fraction"]), math.radians(best["angle_deg"]))
+            rows = batch([(p, centre) for p in polls(here, step, settings.inner.fraction_bounds)], "refine")
+            if not any(usable(r) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
+                step = (0.5 * step[0], 0.5 * step[1])
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:
         client.cancel(futures)
         raise
-    evaluations: list[dict[str, Any]] = []
-    best: dict[str, Any] | None = None
-    best_start: InnerResult | None = None
-    for r, rows in zip(chosen, groups, strict=True):
-        for i, row in enumerate(rows):
-            row = {"place": r.seed, "evaluation": i, **row}
-            evaluations.append(row)
-            if usable(row) and (best is None or row["Ci_mean_gp"] < best["Ci_mean_gp"]):
-                best, best_start = row, r
+    best = _best(evaluations)
+    best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
     return PlaceRun(spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, workers)

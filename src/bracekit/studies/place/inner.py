@@ -57,7 +57,7 @@ class InnerSettings:
     clearance_margin: float = 0.01
     limit_margin: float = 0.1
     fraction_bounds: tuple[float, float] = (0.02, 0.98)
-    maxiter: int = 80
+    maxiter: int = 60
 
 
 @dataclass(frozen=True)
@@ -157,6 +157,17 @@ class StartProblem:
             )
             self._key, self._cache = key, (state, pb, out.value, out.gradient)
         return self._cache
+
+    def value_at(self, q: Array, fraction: float, angle: float) -> float:
+        """The objective at posture q and place (s, φ), without gradients (one kinematics pass per posture)."""
+        key = q.tobytes()
+        if getattr(self, "_vkey", None) != key:
+            self._vkey, self._vstate = key, self.scenario.braced.state(q, hessians=True)
+        state = self._vstate
+        pb = placed_brace(state, self.surface, self.p0, np.array([fraction, angle]), self.rot)
+        zero = np.zeros((6, self.n, 0))
+        m = self.settings.measure
+        return placed_compliance(state.J_e, zero, pb.J_b, zero, self.X, state.K, self.D, self.beta, m).value
 
     def objective(self, x: Array) -> tuple[float, Array]:
         """The objective (scaled to mm/N for SLSQP's tolerances) and its gradient."""

@@ -1,12 +1,12 @@
-"""The outer level: a place over the whole task (simulated like a sweep candidate) and its derivative-free refinement.
+"""The outer level: a place over the whole task (simulated like a sweep candidate) and a derivative-free refinement.
 
 :func:`evaluate_place` runs the place's scenario (:mod:`bracekit.studies.place.scenario`: the start guess the
 inner optimum's posture, the surface through the pad there) with both braced strategies, and judges the row by
 the sweep's feasibility rules (:func:`bracekit.studies.sweep.evaluate.summary_columns`: k of J̃, clearance,
-joint limits, margins, holding). :func:`refine_place` then varies the fraction with SciPy's bounded scalar
-search (``minimize_scalar(method="bounded")``) within ``half_width`` of the inner optimum, the angle and the
-posture kept, every evaluation a whole-task run; an infeasible evaluation counts as
-:data:`bracekit.studies.sweep.refine.PENALTY`. The objective is the mean C_i of gradient projection.
+joint limits, margins, holding). The refinement is a compass search on (s, φ) whose
+trial places (:func:`polls`: s ± h_s, φ ± h_φ, the start posture kept) run as one parallel batch per round
+(:mod:`bracekit.studies.place.engine`): the best feasible trial with a lower mean C_i of gradient projection
+becomes the centre, else the steps halve. Infeasible trials never win.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from bracekit.studies.place.scenario import Place, pad_world, place_data
 from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, single_thread, summary_columns
-from bracekit.studies.sweep.refine import PENALTY, usable
 from bracekit.studies.sweep.spec import SweepSpec
 
 Array = NDArray[np.float64]
@@ -62,24 +61,8 @@ def evaluate_place(spec: SweepSpec, place: Place, q: Array, context: TaskContext
     return row
 
 
-def refine_place(
-    spec: SweepSpec, place: Place, q: Array, context: TaskContext, evaluations: int, half_width: float
-) -> list[dict[str, Any]]:
-    """The place over the whole task, then its fraction refined (see the module): every evaluation's row."""
-    from scipy.optimize import minimize_scalar
-
-    rows = [evaluate_place(spec, place, q, context, "task")]
-    if evaluations < 1:
-        return rows
-
-    def objective(s: float) -> float:
-        row = evaluate_place(spec, place._replace(fraction=float(s)), q, context, "refine")
-        rows.append(row)
-        return float(row["Ci_mean_gp"]) if usable(row) else PENALTY
-
-    low = max(0.02, place.fraction - half_width)
-    high = min(0.98, place.fraction + half_width)
-    if high - low > 1e-6:
-        options = {"maxiter": evaluations, "xatol": 1e-3}
-        minimize_scalar(objective, bounds=(low, high), method="bounded", options=options)
-    return rows
+def polls(place: Place, step: tuple[float, float], bounds: tuple[float, float]) -> list[Place]:
+    """The compass step's trial places: the fraction ± step[0] (inside `bounds`) and the angle ± step[1] (rad)."""
+    lo, hi = bounds
+    out = [place._replace(fraction=f) for f in (place.fraction - step[0], place.fraction + step[0]) if lo <= f <= hi]
+    return out + [place._replace(angle=place.angle + d) for d in (-step[1], step[1])]

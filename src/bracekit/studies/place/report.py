@@ -53,8 +53,8 @@ def summary(run: PlaceRun) -> dict[str, Any]:
         "settings": {
             "seeds_per_link": s.seeds,
             "top": s.top,
-            "refine_evaluations": s.refine_evaluations,
-            "half_width": s.half_width,
+            "refine_rounds": s.refine_rounds,
+            "first_step": {"fraction": s.step[0], "angle_deg": math.degrees(s.step[1])},
             "max_tilt_deg": s.inner.max_tilt_deg,
             "clearance_margin_m": s.inner.clearance_margin,
             "limit_margin_rad": s.inner.limit_margin,
@@ -125,7 +125,7 @@ def surface_figure(run: PlaceRun, path: Path, count: tuple[int, int] = (40, 48))
     lo, hi = run.settings.inner.fraction_bounds
     fractions = np.linspace(lo, hi, count[0])
     angles = np.linspace(-math.pi, math.pi, count[1])
-    values = np.array([[problem.evaluate(np.concatenate([q, [s, a]]))[2] for s in fractions] for a in angles])
+    values = np.array([[problem.value_at(q, s, a) for s in fractions] for a in angles])
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     mesh = ax.pcolormesh(fractions, np.degrees(angles), 1e3 * values, shading="auto", cmap="viridis")
     fig.colorbar(mesh, ax=ax, label=f"{run.settings.inner.measure} at the start (mm/N)")

@@ -1,5 +1,7 @@
-"""What `bracekit place` places on: a sweep spec (its base scenario, link axis, surface and feasibility rules), or a
-scenario, taken as the spec ``{base = SCENARIO, axes = {link = "all"}}`` with the sweep's default rules.
+"""What `bracekit place` places on: a sweep spec, or a scenario taken as a spec.
+
+A spec gives the base scenario, the link axis, the surface and the feasibility rules; a scenario is taken as
+the spec ``{base = SCENARIO, axes = {link = "all"}}`` with the sweep's default rules.
 """
 
 from __future__ import annotations
