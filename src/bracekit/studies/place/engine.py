@@ -5,8 +5,9 @@
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
-   best links, each run over the whole task (one batch); then ``refine_rounds`` rounds of the compass search from
-   the best feasible one (:func:`.outer.polls`, one batch of whole-task runs per round).
+   best links, each run over the whole task (one batch; while none is feasible, the next ``top`` places); then
+   ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
+   of whole-task runs per round).
 
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection. Rows are
 ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
@@ -118,7 +119,8 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
         futures += inner_f
         inner = list(client.gather(inner_f))
         timings["inner_s"] = time.perf_counter() - began
-        chosen = choose(inner, settings.top)
+        ranking = choose(inner, len(links))
+        chosen = ranking[: settings.top]
         t1 = time.perf_counter()
         evaluations: list[dict[str, Any]] = []
         starts: dict[int, InnerResult] = {}
@@ -135,6 +137,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
             return rows
 
         batch([(r.place, r) for r in chosen], "task")
+        while _best(evaluations) is None and len(chosen) < len(ranking):  # none feasible: the next places
+            more = ranking[len(chosen) : len(chosen) + settings.top]
+            chosen += more
+            batch([(r.place, r) for r in more], "task")
         step = settings.step
         for _ in range(settings.refine_rounds):
             best = _best(evaluations)

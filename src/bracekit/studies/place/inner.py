@@ -57,7 +57,7 @@ class InnerSettings:
     clearance_margin: float = 0.01
     limit_margin: float = 0.1
     fraction_bounds: tuple[float, float] = (0.02, 0.98)
-    maxiter: int = 60
+    maxiter: int = 150
 
 
 @dataclass(frozen=True)
