@@ -63,3 +63,16 @@ def test_gradient_against_central_differences(setup: dict[str, Any], measure: st
         dx[k] = H
         fd[k] = (_value(setup, x + dx, measure)[0] - _value(setup, x - dx, measure)[0]) / (2 * H)
     assert np.allclose(grad, fd, rtol=1e-5, atol=1e-9 * np.abs(fd).max())
+
+
+def test_value_without_variables(setup: dict[str, Any]) -> None:
+    """No variables (the figure's values): the same value, an empty gradient."""
+    x = np.concatenate([setup["q"], [0.37, 2.9]])
+    value, _ = _value(setup, x, "Ci")
+    sc, surface, t = setup["scenario"], setup["surface"], setup["template"]
+    state = sc.braced.state(setup["q"], hessians=True)
+    rot = link_axes_in_brace(sc.robot, surface.link, POINT_FRAME)
+    pb = placed_brace(state, surface, surface.point(t.fraction, t.angle), x[-2:], rot)
+    zero = np.zeros((6, sc.robot.n, 0))
+    out = placed_compliance(state.J_e, zero, pb.J_b, zero, sc.braced.X_i[0], state.K, np.zeros(1), sc.beta_x(0.0))
+    assert out.value == value and out.gradient.shape == (0,)

@@ -60,6 +60,6 @@ def placed_compliance(
     at = (J_e.T @ a - g.T @ p_a) / K
     u_e = np.outer(a, bt) + np.outer(b, at)
     u_b = -X @ (np.outer(p_b, at) + np.outer(p_a, bt))
-    mvars = dJ_e.shape[2]
-    grad = u_e.ravel() @ dJ_e.reshape(-1, mvars) + u_b.ravel() @ dJ_b.reshape(-1, mvars)
+    rows, mvars = u_e.size, dJ_e.shape[2]
+    grad = u_e.ravel() @ dJ_e.reshape(rows, mvars) + u_b.ravel() @ dJ_b.reshape(rows, mvars)
     return PlacedCompliance(value, scale * grad)
