@@ -22,7 +22,7 @@ def add_parser(subparsers: Any) -> None:
     pl.add_argument("source", metavar="SCENARIO|SPEC", help="a sweep spec or scenario (TOML file or shipped name)")
     pl.add_argument("--out", type=Path, required=True, help="output folder, written whole at the end")
     pl.add_argument("--workers", type=int, default=1, help="local Dask worker processes (default 1)")
-    pl.add_argument("--seeds", type=int, default=2, help="inner optimisations per link (default 2)")
+    pl.add_argument("--seeds", type=int, default=1, help="inner optimisations per link (default 1)")
     pl.add_argument("--top", type=int, default=2, help="places run over the whole task and refined (default 2)")
     pl.add_argument(
         "--refine",

@@ -32,7 +32,8 @@ class MovingClearance(Clearance):
         if self.mesh is not None:
             raise ValueError("a robot with collision meshes: the moving clearance uses capsules")
 
-    def _values(self, q: Array, point: Array) -> Array:
+    def values(self, q: Array, point: Array) -> Array:
+        """Each link's clearance (J,), m, with the surface through `point` (no gradients)."""
         self._point = point
         return np.array([d.clearance for d in sorted(self.links(q, gradient=False), key=lambda d: d.joint)])
 
@@ -46,6 +47,6 @@ class MovingClearance(Clearance):
         for k in range(3):
             step = np.zeros(3)
             step[k] = STEP
-            db[:, k] = (self._values(q, point + step) - self._values(q, point - step)) / (2.0 * STEP)
+            db[:, k] = (self.values(q, point + step) - self.values(q, point - step)) / (2.0 * STEP)
         self._point = point
         return values, dq, db

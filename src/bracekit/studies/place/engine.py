@@ -43,7 +43,7 @@ class PlaceSettings:
     """
 
     inner: InnerSettings = field(default_factory=InnerSettings)
-    seeds: int = 2
+    seeds: int = 1
     top: int = 2
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))

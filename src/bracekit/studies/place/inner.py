@@ -202,7 +202,9 @@ class StartProblem:
         state, pb, _, _ = self.evaluate(x)
         cos = math.cos(math.radians(self.settings.max_tilt_deg))
         head = np.array([self.k_max - self.k_term.value(state), pb.n @ self.normal - cos])
-        return np.concatenate([head, self.clearance_rows(x)[0]])
+        if x.tobytes() == self._ckey and self._crows is not None:
+            return np.concatenate([head, self._crows[0]])
+        return np.concatenate([head, self.clearance.values(x[: self.n], pb.b) - self.min_clearance])
 
     def inequality_jacobian(self, x: Array) -> Array:
         """∂(inequalities)/∂x."""

@@ -109,7 +109,7 @@ def table_markdown(run: PlaceRun) -> str:
     return "\n".join(lines) + "\n"
 
 
-def surface_figure(run: PlaceRun, path: Path, count: tuple[int, int] = (40, 48)) -> None:
+def surface_figure(run: PlaceRun, path: Path, count: tuple[int, int] = (30, 36)) -> None:
     """The start objective over the best link's surface at the best start posture (fraction × angle)."""
     import matplotlib
 
