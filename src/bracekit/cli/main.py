@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from bracekit._version import __version__
-from bracekit.cli import bench, cobot, evaluate, run, study, sweep, validate, view
+from bracekit.cli import bench, cobot, evaluate, place, run, study, sweep, validate, view
 from bracekit.cli.common import Parser, as_cli, join_negative
 from bracekit.errors import BracekitError, InputError
 
@@ -27,6 +27,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "validate": validate.run,
     "bench": bench.run,
     "sweep": sweep.run,
+    "place": place.run,
     "view": view.run,
     "cobot": cobot.run,
 }
@@ -51,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="bracekit", description="Braced serial robots: kinematics, compliance, redundancy resolution.")
     p.add_argument("--version", action="version", version=f"bracekit {__version__}")
     sub = p.add_subparsers(dest="command", parser_class=Parser, metavar="COMMAND")
-    for module in (evaluate, study, run, validate, bench, sweep, view, cobot):
+    for module in (evaluate, study, run, validate, bench, sweep, place, view, cobot):
         module.add_parser(sub)
     return p
 

@@ -1,0 +1,170 @@
+"""Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
+
+1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process) seeds the
+   inner level; the task context (the free-space run) is computed on a worker meanwhile.
+2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
+   over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
+3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
+   best links, each run over the whole task (one batch; while none is feasible, the next ``top`` places); then
+   ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
+   of whole-task runs per round).
+
+The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection. Rows are
+ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.errors import InputError
+from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
+from bracekit.studies.place.outer import evaluate_place, polls
+from bracekit.studies.place.scenario import Place
+from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
+from bracekit.studies.sweep.refine import usable
+from bracekit.studies.sweep.spec import SweepSpec
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class PlaceSettings:
+    """The search's settings.
+
+    The inner problem's, seeds per link, places run over the task, compass rounds, the compass's first steps
+    (fraction, angle in rad).
+    """
+
+    inner: InnerSettings = field(default_factory=InnerSettings)
+    seeds: int = 1
+    top: int = 2
+    refine_rounds: int = 1
+    step: tuple[float, float] = (0.05, math.radians(15.0))
+
+
+@dataclass
+class PlaceRun:
+    """What a placement did: every inner result, every whole-task row, the best, the timings (s)."""
+
+    spec: SweepSpec
+    settings: PlaceSettings
+    q_ref: Array
+    inner: list[InnerResult]
+    chosen: list[InnerResult]
+    evaluations: list[dict[str, Any]]
+    best: dict[str, Any] | None
+    best_start: InnerResult | None
+    timings: dict[str, float]
+    workers: int = 0
+
+
+def check_spec(spec: SweepSpec) -> list[str]:
+    """The links to place on; InputError for a spec with other axes (a task, stiffness, ...) or no link axis."""
+    other = [a for a in spec.axis_names if a not in ("link", "fraction")]
+    if other:
+        raise InputError(
+            f"bracekit place varies where the brace is only; the spec {spec.name!r} also sweeps {', '.join(other)} "
+            "(remove those axes, or run bracekit sweep)"
+        )
+    axis = spec.axis("link")
+    if axis is None:
+        raise InputError(f"the spec {spec.name!r} has no 'link' axis: list the links to place the pad on")
+    return [str(v) for v in axis.grid()]
+
+
+def seed_fractions(count: int, bounds: tuple[float, float]) -> list[float]:
+    """`count` fractions evenly spread inside `bounds`: the midpoints of equal parts."""
+    lo, hi = bounds
+    return [lo + (hi - lo) * (i + 0.5) / count for i in range(count)]
+
+
+def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
+    """The best successful optimum of each link (least start objective), the `top` best links, best first."""
+    best: dict[str, InnerResult] = {}
+    for r in inner:
+        if r.success and (r.place.link not in best or r.value < best[r.place.link].value):
+            best[r.place.link] = r
+    return sorted(best.values(), key=lambda r: (r.value, r.place.link))[:top]
+
+
+def _best(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The feasible row with the least mean C_i of gradient projection (the earliest of equals), or None."""
+    good = [r for r in rows if usable(r)]
+    return min(good, key=lambda r: (r["Ci_mean_gp"], r["evaluation"])) if good else None
+
+
+def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
+    """Run both levels on the Dask `client` (see the module)."""
+    began = time.perf_counter()
+    links = check_spec(spec)
+    timings: dict[str, float] = {}
+    futures: list[Any] = []
+    try:
+        q_ref = reference_start(context_scenario(spec, {}))
+        spec_f = client.scatter(spec, broadcast=True, hash=False)
+        ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
+        futures.append(ctx_f)
+        seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, settings.inner.fraction_bounds)]
+        inner_f = [
+            client.submit(optimise_start, spec_f, link, f, q_ref, settings.inner, i, pure=False)
+            for i, (link, f) in enumerate(seeds)
+        ]
+        futures += inner_f
+        inner = list(client.gather(inner_f))
+        timings["inner_s"] = time.perf_counter() - began
+        ranking = choose(inner, len(links))
+        chosen = ranking[: settings.top]
+        t1 = time.perf_counter()
+        evaluations: list[dict[str, Any]] = []
+        starts: dict[int, InnerResult] = {}
+
+        def batch(places: list[tuple[Place, InnerResult]], stage: str) -> list[dict[str, Any]]:
+            fut = [client.submit(evaluate_place, spec_f, p, r.q, ctx_f, stage, pure=False) for p, r in places]
+            futures.extend(fut)
+            rows = []
+            for (_, r), row in zip(places, client.gather(fut), strict=True):
+                row = {"place": r.seed, "evaluation": len(evaluations), **row}
+                evaluations.append(row)
+                starts[row["evaluation"]] = r
+                rows.append(row)
+            return rows
+
+        batch([(r.place, r) for r in chosen], "task")
+        while _best(evaluations) is None and len(chosen) < len(ranking):  # none feasible: the next places
+            more = ranking[len(chosen) : len(chosen) + settings.top]
+            chosen += more
+            batch([(r.place, r) for r in more], "task")
+        step = settings.step
+        for _ in range(settings.refine_rounds):
+            best = _best(evaluations)
+            if best is None:
+                break
+            centre = starts[best["evaluation"]]
+            here = Place(best["link"], float(best["fraction"]), math.radians(best["angle_deg"]))
+            rows = batch([(p, centre) for p in polls(here, step, settings.inner.fraction_bounds)], "refine")
+            if not any(usable(r) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
+                step = (0.5 * step[0], 0.5 * step[1])
+        timings["outer_s"] = time.perf_counter() - t1
+    except BaseException:
+        client.cancel(futures)
+        raise
+    best = _best(evaluations)
+    best_start = None if best is None else starts[best["evaluation"]]
+    timings["total_s"] = time.perf_counter() - began
+    workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
+    return PlaceRun(spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, workers)
+
+
+def best_place(run: PlaceRun) -> tuple[Place, Array] | None:
+    """The best feasible place and its start posture (the inner optimum's), or None when none is feasible."""
+    if run.best is None or run.best_start is None:
+        return None
+    row = run.best
+    return Place(row["link"], float(row["fraction"]), float(np.radians(row["angle_deg"]))), run.best_start.q

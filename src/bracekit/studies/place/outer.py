@@ -1,0 +1,68 @@
+"""The outer level: a place over the whole task (simulated like a sweep candidate) and a derivative-free refinement.
+
+:func:`evaluate_place` runs the place's scenario (:mod:`bracekit.studies.place.scenario`: the start guess the
+inner optimum's posture, the surface through the pad there) with both braced strategies, and judges the row by
+the sweep's feasibility rules (:func:`bracekit.studies.sweep.evaluate.summary_columns`: k of J̃, clearance,
+joint limits, margins, holding). The refinement is a compass search on (s, φ) whose
+trial places (:func:`polls`: s ± h_s, φ ± h_φ, the start posture kept) run as one parallel batch per round
+(:mod:`bracekit.studies.place.engine`): the best feasible trial with a lower mean C_i of gradient projection
+becomes the centre, else the steps halve. Infeasible trials never win.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit.errors import BracekitError
+from bracekit.simulation.scenario import parse_scenario
+from bracekit.studies.place.scenario import Place, pad_world, place_data
+from bracekit.studies.place.surface import link_surface
+from bracekit.studies.sweep.context import TaskContext
+from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, single_thread, summary_columns
+from bracekit.studies.sweep.spec import SweepSpec
+
+Array = NDArray[np.float64]
+
+#: The whole-task columns of an evaluation row (the sweep's, without its screening columns).
+TASK_COLUMNS = tuple(c for c in RESULT_COLUMNS if not c.startswith("screen"))
+
+
+def evaluate_place(spec: SweepSpec, place: Place, q: Array, context: TaskContext, stage: str) -> dict[str, Any]:
+    """The whole-task row of a place braced at posture q: the sweep's result columns; never raises a BracekitError."""
+    from bracekit.simulation.run import run_scenario
+
+    single_thread()
+    began = time.perf_counter()
+    row: dict[str, Any] = {"stage": stage, "link": place.link, "fraction": place.fraction}
+    row["angle_deg"] = place.angle_deg
+    row |= dict.fromkeys(TASK_COLUMNS)
+    row |= {"completed": False, "feasible": False, "Ci_mean_free_space": context.free.get("Ci_mean")}
+    try:
+        surface = link_surface(spec.base_scenario().robot, place.link)
+        centre = pad_world(spec, surface, place, q)
+        row["point_x"], row["point_y"], row["point_z"] = (float(x) for x in centre)
+        data = place_data(spec, surface, place, q, centre)
+        sc = parse_scenario(data, base=spec.base_dir, name=data["name"])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = run_scenario(sc, both_models=False)
+    except (BracekitError, ArithmeticError, np.linalg.LinAlgError) as exc:  # numerical failures: in the row
+        row["failure"] = f"{type(exc).__name__}: {exc}"
+        row["wall_s"] = time.perf_counter() - began
+        return row
+    row |= summary_columns(spec, result.summary["strategies"], context)
+    row["warnings"] = len(caught)
+    row["wall_s"] = time.perf_counter() - began
+    return row
+
+
+def polls(place: Place, step: tuple[float, float], bounds: tuple[float, float]) -> list[Place]:
+    """The compass step's trial places: the fraction ± step[0] (inside `bounds`) and the angle ± step[1] (rad)."""
+    lo, hi = bounds
+    out = [place._replace(fraction=f) for f in (place.fraction - step[0], place.fraction + step[0]) if lo <= f <= hi]
+    return out + [place._replace(angle=place.angle + d) for d in (-step[1], step[1])]

@@ -1,0 +1,36 @@
+"""`bracekit place` refuses bad input with one line and exit 2, before any cluster starts or --out is made."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bracekit.cli.main import main
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["no-such-spec"], "no spec or scenario"),
+        (["paper-links", "--workers", "0"], "--workers"),
+        (["paper-links", "--seeds", "0"], "--seeds"),
+        (["paper-links", "--refine", "-1"], "--refine"),
+    ],
+)
+def test_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], words: str) -> None:
+    out = tmp_path / "out"
+    assert main(["place", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and "Traceback" not in err and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
+def test_spec_with_other_axes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = tmp_path / "s.toml"
+    spec.write_text('name = "s"\nbase = "paper"\n[axes]\nlink = ["link2"]\nstiffness = [100.0, 200.0]\n')
+    out = tmp_path / "out"
+    assert main(["place", str(spec), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "stiffness" in err and len(err.splitlines()) == 1
+    assert not out.exists()
