@@ -6,6 +6,9 @@ paper's robot (the nonlinear static solve's deflection along β per newton along
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -78,14 +81,25 @@ def test_c_t_is_what_a_static_probe_measures_on_the_paper_robot() -> None:
     assert abs(r.Ci - probe) > 1e-3 * probe  # the index is not the probe's number
 
 
-@pytest.mark.parametrize("scenario", ["paper", "panda"])
-def test_c_t_is_what_mujoco_measures_along_beta_x(scenario: str) -> None:
+def _scenario(name: str, tmp_path: Path) -> Any:
+    """A shipped scenario, or "xarm7-post": the xArm7 of example-robot-data (its STL meshes) braced on a post."""
+    if name != "xarm7-post":
+        return load_scenario(name)
+    from xarm_post import xarm_post_text
+
+    path = tmp_path / "xarm7-post.toml"
+    path.write_text(xarm_post_text(), encoding="utf-8")
+    return load_scenario(str(path))
+
+
+@pytest.mark.parametrize("scenario", ["paper", "panda", "xarm7-post"])
+def test_c_t_is_what_mujoco_measures_along_beta_x(scenario: str, tmp_path: Path) -> None:
     """MuJoCo's settled tool deflection along β per newton pushed along β (central differences, ±0.1 N) is c_t:
     the first-order c_t to 1 %, the preloaded one (the preload's geometric stiffness) to 0.1 %; C_i is not."""
     mujoco_check = pytest.importorskip("bracekit.validate.mujoco_check")
     from bracekit.compliance import preloaded_compliance
 
-    sc = load_scenario(scenario)
+    sc = _scenario(scenario, tmp_path)
     braced = sc.braced
     q = solve_start(braced, sc.task.position(0.0), sc.guess).q
     robot, surface = braced.robot, braced.brace.surface
