@@ -25,7 +25,7 @@ from bracekit.errors import ContactError, InputError, ModelError
 from bracekit.kinematics.constraint import StackedConstraint, contact_null_space, stacked_constraint
 from bracekit.kinematics.hessian import LWA, ensure_hessian_layout, frame_hessian
 from bracekit.kinematics.motions import BracedMotions, NullMotions, SplitMotions
-from bracekit.kinematics.split import BraceSplit, ChainSplit, several_braces
+from bracekit.kinematics.split import BraceSplit, ChainSplit, split_refused
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.robot import Robot
 
@@ -120,7 +120,7 @@ class BracedRobot:
     def split(self) -> BraceSplit:
         """The paper's chain split at {b} (n1, n2, H, X, P): one brace only, ContactError with several."""
         if len(self.braces) != 1:
-            raise several_braces(len(self.braces))
+            raise split_refused(len(self.braces))
         n1 = self.last_joints[0] + 1
         return BraceSplit(brace=self.braces[0], brace_id=self.brace_ids[0], n1=n1, n2=self.robot.n - n1)
 

@@ -35,7 +35,7 @@ SPLIT_QUANTITIES = "the chain split at {b} (n1, n2, J1, J2, S_t1, S_t2, A, J̃, 
 SPLIT_INSTEAD = "the stacked constraint of the state (state.G, state.N, state.braced_jacobian = J_e N)"
 
 
-def several_braces(count: int, what: str = SPLIT_QUANTITIES) -> ContactError:
+def split_refused(count: int, what: str = SPLIT_QUANTITIES) -> ContactError:
     """The one error for a one-brace quantity asked of a robot with `count` braces."""
     return ContactError(
         f"{what} is defined for one brace; this robot has {count} braces and its chain does not split at one "
