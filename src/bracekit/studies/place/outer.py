@@ -12,18 +12,16 @@ becomes the centre, else the steps halve. Infeasible trials never win.
 from __future__ import annotations
 
 import time
-import warnings
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.errors import BracekitError
-from bracekit.simulation.scenario import parse_scenario
+from bracekit.simulation.scenario import Scenario, parse_scenario
 from bracekit.studies.place.scenario import Place, pad_world, place_data
 from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import TaskContext
-from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, single_thread, summary_columns
+from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, judged_run, single_thread
 from bracekit.studies.sweep.spec import SweepSpec
 
 Array = NDArray[np.float64]
@@ -34,31 +32,20 @@ TASK_COLUMNS = tuple(c for c in RESULT_COLUMNS if not c.startswith("screen"))
 
 def evaluate_place(spec: SweepSpec, place: Place, q: Array, context: TaskContext, stage: str) -> dict[str, Any]:
     """The whole-task row of a place braced at posture q: the sweep's result columns; never raises a BracekitError."""
-    from bracekit.simulation.run import run_scenario
-
     single_thread()
     began = time.perf_counter()
     row: dict[str, Any] = {"stage": stage, "link": place.link, "fraction": place.fraction}
     row["angle_deg"] = place.angle_deg
     row |= dict.fromkeys(TASK_COLUMNS)
     row |= {"completed": False, "feasible": False, "Ci_mean_free_space": context.free.get("Ci_mean")}
-    try:
+
+    def build() -> tuple[Array, Scenario]:
         surface = link_surface(spec.base_scenario().robot, place.link)
         centre = pad_world(spec, surface, place, q)
-        row["point_x"], row["point_y"], row["point_z"] = (float(x) for x in centre)
         data = place_data(spec, surface, place, q, centre)
-        sc = parse_scenario(data, base=spec.base_dir, name=data["name"])
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            result = run_scenario(sc, both_models=False)
-    except (BracekitError, ArithmeticError, np.linalg.LinAlgError) as exc:  # numerical failures: in the row
-        row["failure"] = f"{type(exc).__name__}: {exc}"
-        row["wall_s"] = time.perf_counter() - began
-        return row
-    row |= summary_columns(spec, result.summary["strategies"], context)
-    row["warnings"] = len(caught)
-    row["wall_s"] = time.perf_counter() - began
-    return row
+        return centre, parse_scenario(data, base=spec.base_dir, name=data["name"])
+
+    return judged_run(spec, row, began, context, build)
 
 
 def polls(place: Place, step: tuple[float, float], bounds: tuple[float, float]) -> list[Place]:

@@ -10,9 +10,11 @@ import math
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError
 from bracekit.simulation.scenario import Scenario, parse_scenario
@@ -20,6 +22,8 @@ from bracekit.studies.sweep.candidates import Candidate
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.scenario import candidate_data, point_offset
 from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
+
+Array = NDArray[np.float64]
 
 #: The short names of the strategies in column names.
 SHORT = {"free_space_min_norm": "free_space", "braced_min_norm": "min_norm", "braced_gradient_projection": "gp"}
@@ -180,8 +184,6 @@ def judge(spec: SweepSpec, row: dict[str, Any]) -> dict[str, Any]:
 
 def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> dict[str, Any]:
     """The candidate's row: inputs, C_i and k of each strategy, margins, feasibility and the failure reason."""
-    from bracekit.simulation.run import run_scenario
-
     single_thread()
     began = time.perf_counter()
     row = empty_row(spec, candidate)
@@ -190,10 +192,30 @@ def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskConte
         row["failure"] = context.failure
         row["wall_s"] = time.perf_counter() - began
         return row
+
+    def build() -> tuple[Array, Scenario]:
+        return candidate_point(spec, candidate, context), candidate_scenario(spec, candidate, context)
+
+    return judged_run(spec, row, began, context, build)
+
+
+def judged_run(
+    spec: SweepSpec,
+    row: dict[str, Any],
+    began: float,
+    context: TaskContext,
+    build: Callable[[], tuple[Array, Scenario]],
+) -> dict[str, Any]:
+    """`row` completed by the whole-task run of the scenario `build` gives (with its brace point, m, world).
+
+    The run's result columns, its warnings and wall time; a numerical failure (of building the scenario or of the
+    run) goes into ``failure``, never raised. The sweep's candidates and the placement's places both end here.
+    """
+    from bracekit.simulation.run import run_scenario
+
     try:
-        point = candidate_point(spec, candidate, context)
+        point, sc = build()
         row["point_x"], row["point_y"], row["point_z"] = (float(x) for x in point)
-        sc = candidate_scenario(spec, candidate, context)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             result = run_scenario(sc, both_models=False)
