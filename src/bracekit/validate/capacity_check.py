@@ -22,7 +22,7 @@ from bracekit._linalg import as_array, show
 from bracekit.errors import InputError, MujocoValidationError, StaticSolveError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.holding import Holding
-from bracekit.statics import capacity_of, contact_responses, effort_limits, load_contact_wrenches
+from bracekit.statics import load_contact_wrenches
 from bracekit.validate.holding_check import (
     HOLDING_SETTINGS,
     Array,
@@ -31,6 +31,7 @@ from bracekit.validate.holding_check import (
     _holding_session,
     _settle,
     holding_inputs,
+    predicted_limits,
 )
 from bracekit.validate.session import CHUNK, MujocoSession, captured_warnings
 from bracekit.validate.statics import solve_static_equilibrium
@@ -239,7 +240,7 @@ def mujoco_capacity_ramp(
         NumericalError: bracekit's preloaded equilibrium is unstable.
     """
     qa, w = holding_inputs(braced, q, holding, wrench, "capacity ramp")
-    brace, robot = braced.brace, braced.robot
+    brace = braced.brace
     for value, name, low in (
         (ramp_time, "ramp_time (in damping time constants)", 0.0),
         (impratio, "impratio", 1.0),
@@ -252,12 +253,7 @@ def mujoco_capacity_ramp(
         if not ok or value < low or (low == 0.0 and value <= 0.0):
             raise InputError(f"{name} must be a finite number {'>= 1' if low else '> 0'}, got {show(value)}")
     mu = holding.friction if holding.friction else None
-
-    resps = contact_responses(braced, qa, preload=holding.preload, gravity=holding.gravity, friction=mu)
-    resp = resps.at(0)
-    cap = capacity_of(resps, w[None, :], effort_limits(robot))
-    liftoff = float(cap.liftoff[0, 0])
-    slip = None if cap.slip is None else float(cap.slip[0, 0])
+    resp, liftoff, slip = predicted_limits(braced, qa, holding, w)
     predicted = min(liftoff, np.inf if slip is None else slip)
     if not predicted > 0.0:
         raise MujocoValidationError(

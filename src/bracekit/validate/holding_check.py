@@ -279,6 +279,21 @@ def check_one_brace(braced: BracedRobot, what: str) -> None:
         raise InputError(f"the MuJoCo {what} models a rigid surface; this brace has an environment stiffness")
 
 
+def predicted_limits(
+    braced: BracedRobot, q: Array, holding: Holding, w: Array
+) -> tuple[ContactResponse, float, float | None]:
+    """The first-order prediction at q for the tool wrench w (6,) on the one brace.
+
+    Returns its contact response, the scale at which it lifts off and the scale at which it slips (None when
+    frictionless).
+    """
+    mu = holding.friction if holding.friction else None
+    resps = contact_responses(braced, q, preload=holding.preload, gravity=holding.gravity, friction=mu)
+    cap = capacity_of(resps, w[None, :], effort_limits(braced.robot))
+    slip = None if cap.slip is None else float(cap.slip[0, 0])
+    return resps.at(0), float(cap.liftoff[0, 0]), slip
+
+
 def mujoco_holding_check(
     braced: BracedRobot,
     q: ArrayLike,
@@ -315,19 +330,14 @@ def mujoco_holding_check(
         NumericalError: bracekit's preloaded equilibrium is unstable (from ``contact_responses``).
     """
     qa, w = holding_inputs(braced, q, holding, wrench, "holding check")
-    brace, robot = braced.brace, braced.robot
+    brace = braced.brace
     if not (isinstance(impratio, int | float) and np.isfinite(impratio) and impratio >= 1.0):
         raise InputError(f"impratio must be a finite number >= 1, got {show(impratio)}")
     for value, name in ((timestep, "timestep (s)"), (slip_tol, "slip_tol (m)")):
         if not (isinstance(value, int | float) and np.isfinite(value) and value > 0.0):
             raise InputError(f"{name} must be a finite number > 0, got {show(value)}")
     mu = holding.friction if holding.friction else None
-
-    resps = contact_responses(braced, qa, preload=holding.preload, gravity=holding.gravity, friction=mu)
-    resp = resps.at(0)
-    cap = capacity_of(resps, w[None, :], effort_limits(robot))
-    liftoff = float(cap.liftoff[0, 0])
-    slip = None if cap.slip is None else float(cap.slip[0, 0])
+    resp, liftoff, slip = predicted_limits(braced, qa, holding, w)
     margin = min(liftoff, np.inf if slip is None else slip)
     mode: Outcome | None = None
     if np.isfinite(margin):
