@@ -84,3 +84,24 @@ def test_viewer_frames_put_the_tool_where_mujoco_had_it(folder: Path) -> None:
             tick_motion = np.linalg.norm(e[ticks[keep]] - e[ticks[keep] - 1], axis=1)
             assert np.all(gap <= tick_motion + 1e-8), (name, np.max(gap - tick_motion))
             assert gap.min() < 1e-9 and 0.0 < gap.max() < 1e-4
+
+
+def test_view_serves_the_replay_and_its_slider_moves_the_tool(folder: Path) -> None:
+    pytest.importorskip("viser")
+    from bracekit.viewer.server import serve
+
+    viewer = serve(folder, port=0)
+    try:
+        n = viewer.nodes
+        assert n["model"].value == MODEL and n["strategy"].value == "free_space_min_norm"
+        braced = viewer.scene.runs[MODEL]["braced_min_norm"]
+        with np.load(folder / "series.npz") as series:
+            normal = series["braced_min_norm/normal"][::SAMPLE_TICKS]
+        np.testing.assert_array_equal(braced.measures["contact_force_N"], normal)  # MuJoCo's brace force: the arrow
+        run = viewer.scene.runs[MODEL]["free_space_min_norm"]
+        frames = run_frames(viewer.scene, run)
+        for k in (1, len(run.t) // 2, len(run.t) - 1):
+            n["time"].value = float(run.t[k])
+            np.testing.assert_allclose(n["ellipsoid"].position, frames.tip[k], atol=1e-12)
+    finally:
+        viewer.stop()

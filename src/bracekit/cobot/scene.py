@@ -32,14 +32,16 @@ def replay_samples(run: CobotRun) -> tuple[NDArray[np.float64], NDArray[np.float
 
 
 def cobot_trajectories(result: CobotResult) -> dict[str, Any]:
-    """trajectories.npz's arrays: '<model>/<strategy>/t', '.../q' and the tool and brace series at those ticks."""
+    """trajectories.npz's arrays: '<model>/<strategy>/t', '.../q', the brace's and the worker's force (N) then."""
     arrays: dict[str, Any] = {"joint_names": np.array(result.scenario.base.robot.joint_names)}
     for run in result.runs:
         t, q = replay_samples(run)
         key = f"{MODEL}/{run.strategy}"
         arrays[f"{key}/t"], arrays[f"{key}/q"] = t, q
-        arrays[f"{key}/brace_normal_force"] = run.normal[::SAMPLE_TICKS]
-        arrays[f"{key}/worker_force"] = np.linalg.norm(run.force[::SAMPLE_TICKS], axis=1)
+        # one brace: its normal force is the viewer's contact-force arrow; several: the least of them, by its name
+        force = "contact_force_N" if len(result.scenario.base.braced.braces) == 1 else "brace_normal_force_min_N"
+        arrays[f"{key}/{force}"] = run.normal[::SAMPLE_TICKS]
+        arrays[f"{key}/worker_force_N"] = np.linalg.norm(run.force[::SAMPLE_TICKS], axis=1)
     return arrays
 
 
