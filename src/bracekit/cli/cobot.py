@@ -9,7 +9,7 @@ from typing import Any
 
 from bracekit.cli.common import OUT_HELP, OVERWRITE_HELP, needs, sigterm_as_interrupt
 
-COBOT_FILES = ("summary.json", "table.md", "cobot.png", "series.npz")
+COBOT_FILES = ("summary.json", "table.md", "cobot.png", "series.npz", "trajectories.npz", "scene.json")
 
 
 def add_parser(sub: Any) -> None:
@@ -36,9 +36,13 @@ def run(args: argparse.Namespace) -> int:
     from bracekit.cobot.config import load_cobot
     from bracekit.cobot.report import figure_cobot, table_markdown
     from bracekit.cobot.run import run_cobot
+    from bracekit.cobot.scene import cobot_scene, cobot_trajectories
+    from bracekit.viewer.link_meshes import MESH_FILE, link_meshes, save_link_meshes
 
     sc = load_cobot(args.scenario)
+    meshes = link_meshes(sc.base.robot)  # the robot's meshes travel with the replay (scene.json names them)
     files = COBOT_FILES if not args.no_figures else tuple(f for f in COBOT_FILES if f != "cobot.png")
+    files += (MESH_FILE,) if meshes else ()
     with (
         sigterm_as_interrupt(),
         prepare_output(
@@ -56,6 +60,10 @@ def run(args: argparse.Namespace) -> int:
                 for key in ("t", "force", "e", "e_cmd", "process", "normal", "tangential", "torque", "dwell", "qpos"):
                     series[f"{r.strategy}/{key}"] = getattr(r, key)
             np.savez_compressed(tmp / "series.npz", **series)
+            np.savez_compressed(tmp / "trajectories.npz", **cobot_trajectories(result))  # the replay of `bracekit view`
+            (tmp / "scene.json").write_text(to_json(cobot_scene(result, bool(meshes))) + "\n", encoding="utf-8")
+            if meshes:
+                save_link_meshes(meshes, tmp / MESH_FILE)
             if not args.no_figures:
                 figure_cobot(sc, result.runs, tmp / "cobot.png")
     print(table, end="")

@@ -31,6 +31,8 @@ from bracekit.model.geometry import Capsule
 from bracekit.model.robot import Robot
 from bracekit.model.urdf_numbers import MAX_LENGTH
 from bracekit.viewer.link_meshes import MESH_FILE, LinkMesh, load_link_meshes
+from bracekit.viewer.scene_write import SCENE_FORMAT, SCENE_VERSION, SceneInput, SceneRun, scene_content
+from bracekit.viewer.scene_write import tip_position as _tip
 
 if TYPE_CHECKING:
     from bracekit.simulation.run import RunResult
@@ -39,9 +41,6 @@ Array = NDArray[np.float64]
 
 #: The file name of a run's scene in its output folder.
 SCENE_FILE = "scene.json"
-#: The format tag and version of scene.json.
-SCENE_FORMAT = "bracekit-scene"
-SCENE_VERSION = 1
 #: Samples of the task path stored in scene.json.
 PATH_SAMPLES = 200
 #: Largest distance (m) between a run's stored tip position and the rebuilt robot's before the scene is refused.
@@ -140,76 +139,31 @@ class Scene:
 
 
 # --- writing -------------------------------------------------------------------------------------
-def _vec(a: Any) -> list[float]:
-    return [float(x) for x in np.asarray(a, dtype=float).reshape(-1)]
-
-
 def scene_data(result: RunResult, meshes: bool = False) -> dict[str, Any]:
     """The JSON-ready content of scene.json for a run (see the module docstring).
 
     `meshes`: the run folder carries the robot's link meshes (meshes.npz, named by ``robot.meshes``).
     """
     sc = result.scenario
-    robot = sc.robot
     ts = np.linspace(0.0, sc.task.duration, PATH_SAMPLES)
-    braces = []
-    for b in sc.braced.braces:
-        braces.append(
-            {
-                "frame": b.frame,
-                "point": _vec(b.surface.point),
-                "normal": _vec(b.surface.normal),
-                "tangent": _vec(b.surface.tangent),
-                "contact": b.contact.name if not isinstance(b.contact, str) else b.contact,
-                "region_radius": b.region_radius,
-                "surface_radius": b.surface_radius,
-                "environment_stiffness": b.environment_stiffness,
-                "pad_axis": b.pad_axis,
-            }
-        )
-    checks: dict[str, Any] = {}
-    for model, runs in result.trajectories.items():
-        for name, tr in runs.items():
-            if tr.q.shape[0] == 0:
-                continue
-            ends = [tr.q[0], tr.q[-1]]
-            checks[f"{model}/{name}"] = {
-                "braced": bool(tr.braced),
-                "tip_first_last": [_vec(_tip(robot, q)) for q in ends],
-            }
-    return {
-        "format": SCENE_FORMAT,
-        "version": SCENE_VERSION,
-        "scenario": sc.name,
-        "description": sc.description,
-        "compliance_model": result.compliance_model,
-        "robot": {
-            "name": str(robot.model.name),
-            "pinocchio_model": robot.model.saveToString(),
-            "tip": robot.tip,
-            "stiffness": _vec(robot.stiffness),
-            "joint_names": list(robot.joint_names),
-            "capsules": [
-                {"joint": c.joint, "a": _vec(c.a), "b": _vec(c.b), "radius": c.radius, "link": c.link}
-                for c in robot.link_capsules()
-            ],
-            **({"meshes": MESH_FILE} if meshes else {}),
-        },
-        "braces": braces,
-        "holding": {
-            "gravity": sc.holding.gravity,
-            "preloads": list(sc.holding.brace_preloads(len(sc.braced.braces))),
-        },
-        "task": {"duration": sc.task.duration, "path": [_vec(sc.task.position(float(t))) for t in ts]},
-        "runs": checks,
+    runs = {
+        model: {name: SceneRun(tr.q, bool(tr.braced)) for name, tr in by_name.items()}
+        for model, by_name in result.trajectories.items()
     }
-
-
-def _tip(robot: Robot, q: Array) -> Array:
-    model = robot.model
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, np.asarray(q, dtype=float))
-    return np.array(data.oMf[robot.tip_id].translation)
+    return scene_content(
+        SceneInput(
+            name=sc.name,
+            description=sc.description,
+            compliance_model=result.compliance_model,
+            braced=sc.braced,
+            duration=sc.task.duration,
+            path=np.array([sc.task.position(float(t)) for t in ts]),
+            runs=runs,
+            gravity=sc.holding.gravity,
+            preloads=tuple(sc.holding.brace_preloads(len(sc.braced.braces))),
+            meshes=meshes,
+        )
+    )
 
 
 # --- reading -------------------------------------------------------------------------------------
