@@ -48,7 +48,7 @@ def static_compliance(braced, q, preload: float, gravity: bool, tool: np.ndarray
     """Central differences of the nonlinear static solve's tip deflection (6×6, world axes)."""
     robot, brace = braced.robot, braced.brace
     args = (robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, brace.surface.point, brace.surface.normal)
-    kw = {"preload": preload, "gravity": gravity, "base_wrench": tool, "constraint_wrenches": braced.X}
+    kw = {"preload": preload, "gravity": gravity, "base_wrench": tool, "constraint_wrenches": braced.split.X}
     plus = [solve_static_equilibrium(*args, H * e, **kw).deflection for e in np.eye(6)]
     minus = [solve_static_equilibrium(*args, -H * e, **kw).deflection for e in np.eye(6)]
     return (np.array(plus) - np.array(minus)).T / (2 * H)
