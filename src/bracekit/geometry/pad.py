@@ -171,6 +171,22 @@ def link_axis(robot: Robot, link: str) -> tuple[Array, Array]:
     return inverse[:3, 3].copy(), inverse[:3, :3] @ end + inverse[:3, 3]
 
 
+def link_frame(robot: Robot, link: str, why: str) -> tuple[Array, Array, float, Array, Array]:
+    """(o, axis o' − o, its length (m), the unit axis z, a unit x ⟂ z) of `link`, in the link's frame.
+
+    ContactError (ending with `why`) for a link without length between its joint origins.
+    """
+    o, o_next = link_axis(robot, link)
+    axis = o_next - o
+    length = float(np.linalg.norm(axis))
+    if not length > 1e-9:
+        raise ContactError(f"link {link!r} has no length between its joint origins; {why}")
+    z = axis / length
+    ref = np.eye(3)[0] if abs(z[0]) < 0.99 else np.eye(3)[1]
+    x = ref - z * (z @ ref)
+    return o, axis, length, z, x / np.linalg.norm(x)
+
+
 def pad_on_surface(robot: Robot, link: str, fraction: float, angle: float) -> PadPlacement:
     """The pad on `link`'s surface at `fraction` of its axis and `angle` (degrees) about it (the module's rule)."""
     if not (isinstance(fraction, int | float) and math.isfinite(fraction)):
@@ -178,15 +194,7 @@ def pad_on_surface(robot: Robot, link: str, fraction: float, angle: float) -> Pa
     if not (isinstance(angle, int | float) and math.isfinite(angle)):
         raise ContactError(f"surface.angle must be an angle in degrees, got {angle!r}")
     tri, _ = link_triangles(robot, link)
-    o, o_next = link_axis(robot, link)
-    axis = o_next - o
-    length = float(np.linalg.norm(axis))
-    if not length > 1e-9:
-        raise ContactError(f"link {link!r} has no length between its joint origins; give an offset instead")
-    z = axis / length
-    ref = np.eye(3)[0] if abs(z[0]) < 0.99 else np.eye(3)[1]
-    x = ref - z * (z @ ref)
-    x /= np.linalg.norm(x)
+    o, axis, length, z, x = link_frame(robot, link, "give an offset instead")
     y = np.cross(z, x)
     phi = math.radians(angle)
     out = math.cos(phi) * x + math.sin(phi) * y

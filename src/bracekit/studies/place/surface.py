@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import ContactError
-from bracekit.geometry.pad import link_axis
+from bracekit.geometry.pad import link_frame
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS
 from bracekit.model.robot import Robot
 
@@ -75,15 +75,7 @@ def link_surface(robot: Robot, link: str) -> LinkSurface:
     if any(e.kind == "mesh" and e.link == link for e in robot.geometry):
         raise ContactError(
             f"link {link!r} has collision meshes: the continuous placement parameterises capsule surfaces only; "
-            "use `bracekit sweep` with surface = {fraction, angle} for mesh links"
+            "place a pad on a mesh link with `[brace] surface = {fraction, angle}` in a scenario"
         )
-    o, o_next = link_axis(robot, link)
-    axis = o_next - o
-    length = float(np.linalg.norm(axis))
-    if not length > 1e-9:
-        raise ContactError(f"link {link!r} has no length between its joint origins; it carries no placement")
-    z = axis / length
-    ref = np.eye(3)[0] if abs(z[0]) < 0.99 else np.eye(3)[1]
-    x = ref - z * (z @ ref)
-    x /= np.linalg.norm(x)
+    o, axis, _, z, x = link_frame(robot, link, "it carries no placement")
     return LinkSurface(link, o, axis, x, np.cross(z, x), link_radius(robot, link))
