@@ -266,3 +266,13 @@ def test_tutorial_works_as_printed(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     (snippet,) = [body for _, body in _blocks("tutorial.md", "python")]
     exec(compile(snippet, "docs/tutorial.md", "exec"), {})
     assert "mean C_i" in capsys.readouterr().out
+
+
+def test_no_control_characters_in_the_docs() -> None:
+    """A formula written through a non-raw Python string loses its backslashes (\\t, \\f, \\b become controls)."""
+    bad = []
+    for path in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+            if re.search(r"[\x00-\x08\x0b\x0c\x0e-\x1f]", line):
+                bad.append(f"{path.relative_to(ROOT)}:{number}")
+    assert not bad, "control characters in: " + ", ".join(bad)
