@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from bracekit.compliance import end_effector_compliance, preloaded_compliance
-from bracekit.compliance.stiffness import frame_axes, tool_stiffness
+from bracekit.compliance.stiffness import frame_axes, stiffness_report, tool_stiffness
 from bracekit.contact import Brace, Surface
 from bracekit.errors import InputError, SingularityError, UnstableEquilibriumError
 from bracekit.kinematics import BracedRobot
@@ -194,3 +194,12 @@ def test_several_soft_braces_are_the_inverse_of_the_stacked_compliance() -> None
     k = tool_stiffness(st)
     assert rel(k.K @ end_effector_compliance(st), np.eye(6)) < 1e-9
     assert rel(np.linalg.inv(k.K), end_effector_compliance(braced.state(q))) > 1e-3  # softer than rigid
+
+
+def test_the_export_of_two_braces_with_a_preload_per_brace_inverts_their_preloaded_compliance() -> None:
+    braced, q = two_braces(5.0)
+    report = stiffness_report(braced.state(q), "world", preload=(5.0, 3.0), gravity=True)
+    k = np.array(report["preloaded"]["K"])
+    c = preloaded_compliance(braced, q, (5.0, 3.0), gravity=True)
+    assert rel(k @ c, np.eye(6)) < 1e-9
+    assert report["preloaded"]["inverse_check"] < 1e-9

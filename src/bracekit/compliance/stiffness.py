@@ -288,7 +288,7 @@ def stiffness_report(
 
     ``first_order`` and, with a preload or gravity, ``preloaded`` (each :meth:`ToolStiffness.as_dict`), with
     ``inverse_check`` = ‖K_x C − I‖_F / √6 against the compliance it must invert (the constrained C_e; the
-    preloaded compliance for one brace).
+    preloaded compliance, one preload per brace).
     """
     first = tool_stiffness(state, frame)
     t = twist_rotate(first.R)
@@ -298,8 +298,7 @@ def stiffness_report(
     if gravity or any(_preloads(preload, len(state.braced.braces))):
         loaded = tool_stiffness(state, frame, preload=preload, gravity=gravity)
         out["preloaded"] = loaded.as_dict()
-        if isinstance(state, BracedState):
-            p = _preloads(preload, 1)[0]
-            c = t.T @ preloaded_compliance(state.braced, state.q, p, gravity=gravity) @ t
-            out["preloaded"]["inverse_check"] = float(np.linalg.norm(loaded.K @ c - np.eye(6)) / np.sqrt(6.0))
+        loads = _preloads(preload, len(state.braced.braces))
+        c = t.T @ preloaded_compliance(state.braced, state.q, loads, gravity=gravity) @ t
+        out["preloaded"]["inverse_check"] = float(np.linalg.norm(loaded.K @ c - np.eye(6)) / np.sqrt(6.0))
     return out
