@@ -49,14 +49,16 @@ def test_a_soft_surface_changes_the_deflection(report) -> None:  # type: ignore[
     assert soft[0] > soft[1] > soft[2]
 
 
-def test_mujoco_soft_contact_is_a_spring_of_stiffness_kenv() -> None:
-    # the settled contact force divided by the penetration is k_env (solref of soft_contact_solref)
+@pytest.mark.parametrize("friction", [None, 0.5])
+def test_mujoco_soft_contact_is_a_spring_of_stiffness_kenv(friction: float | None) -> None:
+    # the settled contact force divided by the penetration is k_env (solref of soft_contact_solref), frictionless
+    # (condim 1) and with friction in the elliptic cone (one normal row too)
     sc = load_scenario("paper")
     q = validation_configurations(sc, 1)[0]
     br, robot = sc.braced, sc.robot
     for k_env in (1e3, 1e5):
         contact = PlaneContact(br.brace_id, br.brace.surface.point, br.brace.surface.normal, 2.0, None, k_env)
-        xml = build_mujoco_model(robot.model, q, robot.stiffness, robot.tip_id, [contact])
+        xml = build_mujoco_model(robot.model, q, robot.stiffness, robot.tip_id, [contact], friction=friction)
         m = mujoco.MjModel.from_xml_string(xml)
         d = mujoco.MjData(m)
         d.qpos[:] = q
@@ -70,6 +72,16 @@ def test_mujoco_soft_contact_is_a_spring_of_stiffness_kenv() -> None:
         depth = -float(d.contact[0].dist)
         assert f[0] / depth == pytest.approx(k_env, rel=1e-6)
         assert f[0] == pytest.approx(2.0, rel=1e-6)  # the preload, pressed in by P / k_env at q
+
+
+def test_a_soft_contact_with_friction_in_a_pyramidal_cone_is_refused() -> None:
+    # the pyramid's rows would make the contact stiffer than k_env (6.4x measured at k_env = 1e4, mu = 0.5)
+    sc = load_scenario("paper")
+    q = validation_configurations(sc, 1)[0]
+    br, robot = sc.braced, sc.robot
+    contact = PlaneContact(br.brace_id, br.brace.surface.point, br.brace.surface.normal, 2.0, None, 1e4)
+    with pytest.raises(InputError, match="cone='elliptic'"):
+        build_mujoco_model(robot.model, q, robot.stiffness, robot.tip_id, [contact], friction=0.5, cone="pyramidal")
 
 
 def test_soft_contact_solref_formula() -> None:

@@ -336,6 +336,11 @@ def build_mujoco_model(
         raise InputError(f"friction must be a coefficient μ >= 0, got {friction}")
     if cone not in ("elliptic", "pyramidal"):
         raise InputError(f"cone must be 'elliptic' or 'pyramidal', got {cone!r}")
+    if cone == "pyramidal" and friction and any(c.k_env is not None for c in contacts):
+        raise InputError(
+            "a soft contact (k_env) with friction needs cone='elliptic': its solref is set for one normal row, and "
+            "the pyramid's rows make the contact stiffer than k_env"
+        )
     if not (np.isfinite(impratio) and impratio >= 1.0):
         raise InputError(f"impratio must be a finite number >= 1, got {impratio}")
     normals = [
