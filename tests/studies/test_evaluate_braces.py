@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
+import scipy.linalg
 
 from bracekit import load_model
 from bracekit.compliance.first_order import constrained_compliance, end_effector_compliance
@@ -164,3 +165,22 @@ def test_statics_with_two_braces_hold_gravity_and_each_preload_as_rnea_says() ->
     from_rnea = np.max(np.abs(tau_ref) / np.where(robot.model.effortLimit > 0, robot.model.effortLimit, np.inf))
     assert r["torque_ratio"] == pytest.approx(from_rnea, rel=1e-10)
     assert "C_e_preloaded" in r and r["Ci_preloaded"] > 0.0
+
+
+def test_k_of_two_braces_is_the_condition_number_of_the_braced_tip_jacobian_in_any_basis() -> None:
+    # docs/model.md: with several braces k is √(tr(M) tr(M⁻¹)) / 6 of M = J_e N Nᵀ J_eᵀ, N an orthonormal basis of
+    # the braced motions; the reference takes SciPy's null space of the contact rows from Pinocchio's Jacobians
+    # and turns it by a random rotation (k may not depend on the basis)
+    robot = _robot()
+    r = evaluate(
+        robot, ["brace", "p2"], Q, normal=[[0, 0, 1], N2], contact=["frictionless_point", "point_with_friction"]
+    )
+    model, data = robot.model, robot.model.createData()
+    j_e = pin.computeFrameJacobian(model, data, Q, robot.tip_id, pin.LOCAL_WORLD_ALIGNED)
+    j_1 = pin.computeFrameJacobian(model, data, Q, robot.frame_id("brace"), pin.LOCAL_WORLD_ALIGNED)
+    j_2 = pin.computeFrameJacobian(model, data, Q, robot.frame_id("p2"), pin.LOCAL_WORLD_ALIGNED)
+    null = scipy.linalg.null_space(np.vstack([np.array([0, 0, 1.0]) @ j_1[:3], j_2[:3]]))
+    turn, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(null.shape[1], null.shape[1])))
+    m = j_e @ null @ turn @ turn.T @ null.T @ j_e.T
+    k_ref = np.sqrt(np.trace(m) * np.trace(np.linalg.inv(m))) / 6.0
+    assert r["k_braced"] == pytest.approx(k_ref, rel=1e-10)
