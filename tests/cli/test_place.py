@@ -16,6 +16,8 @@ from bracekit.cli.main import main
         (["paper-links", "--workers", "0"], "--workers"),
         (["paper-links", "--seeds", "0"], "--seeds"),
         (["paper-links", "--refine", "-1"], "--refine"),
+        (["paper-links", "--seeds", "1000000"], "--seeds must be from 1 to 64"),
+        (["paper-links", "--top", "1000000"], "--top must be from 1 to 64"),
     ],
 )
 def test_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], words: str) -> None:
@@ -33,4 +35,14 @@ def test_spec_with_other_axes(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert main(["place", str(spec), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert "stiffness" in err and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
+def test_a_cobot_scenario_is_named_as_such(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    source = tmp_path / "k.toml"
+    source.write_text('name = "k"\nscenario = "panda"\n[admittance]\nmass = 2.0\n')
+    out = tmp_path / "out"
+    assert main(["place", str(source), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "`bracekit cobot` scenario" in err and "'base' = " not in err and len(err.splitlines()) == 1
     assert not out.exists()

@@ -10,6 +10,9 @@ from typing import Any
 from bracekit.cli.common import needs, sigterm_as_interrupt
 from bracekit.errors import InputError
 
+#: Most seeds per link, places refined and refinement rounds (each a batch of optimisations or whole-task runs).
+MAX_PLACE_COUNT = 64
+
 #: Most local Dask worker processes of --workers.
 MAX_WORKERS = 256
 
@@ -49,10 +52,10 @@ def run(args: argparse.Namespace) -> int:
     if not 1 <= args.workers <= MAX_WORKERS:
         raise InputError(f"--workers must be from 1 to {MAX_WORKERS} (local worker processes), got {args.workers}")
     for name in ("seeds", "top"):
-        if getattr(args, name) < 1:
-            raise InputError(f"--{name} must be at least 1, got {getattr(args, name)}")
-    if args.refine < 0:
-        raise InputError(f"--refine must be 0 or more, got {args.refine}")
+        if not 1 <= getattr(args, name) <= MAX_PLACE_COUNT:
+            raise InputError(f"--{name} must be from 1 to {MAX_PLACE_COUNT}, got {getattr(args, name)}")
+    if not 0 <= args.refine <= MAX_PLACE_COUNT:
+        raise InputError(f"--refine must be from 0 to {MAX_PLACE_COUNT}, got {args.refine}")
     from bracekit.report.output import atomic_directory, prepare_output
     from bracekit.studies.place.engine import PlaceSettings, check_spec, run_place
     from bracekit.studies.place.inner import InnerSettings

@@ -32,5 +32,11 @@ def load_place_spec(source: str) -> SweepSpec:
     data = read_toml(path, "spec or scenario")
     if "base" in data:
         return load_spec(path)
+    other = sorted({"admittance", "operator", "process", "control"} & set(data))
+    if other:
+        raise InputError(
+            f"{source!r} is a `bracekit cobot` scenario (it has [{other[0]}]); `bracekit place` takes a place spec "
+            "(a TOML with a 'base' key) or a run scenario"
+        )
     base = os.fspath(path.resolve())
     return parse_spec({"name": f"place-{path.stem}", "base": base, "axes": {"link": "all"}}, base=path.parent)
