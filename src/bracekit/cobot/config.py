@@ -29,7 +29,8 @@ from numpy.typing import NDArray
 from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit.errors import InputError, ScenarioError
-from bracekit.simulation.scenario import Scenario, load_scenario
+from bracekit.simulation.scenario import load_scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.simulation.toml_table import Table
 
 Array = NDArray[np.float64]

@@ -2,7 +2,8 @@
 
 from bracekit.simulation.holding import Holding
 from bracekit.simulation.run import RunResult, run_scenario
-from bracekit.simulation.scenario import Scenario, load_scenario, shipped_scenarios
+from bracekit.simulation.scenario import load_scenario, shipped_scenarios
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.simulation.simulate import Trajectory, simulate, solve_start
 from bracekit.simulation.tasks import Circle, Line, Task, Waypoints
 

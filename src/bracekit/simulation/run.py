@@ -28,8 +28,8 @@ from bracekit.simulation.holding import (
 )
 from bracekit.simulation.loop import simulate
 from bracekit.simulation.samples import compliance_models
-from bracekit.simulation.scenario import Scenario, load_scenario
-from bracekit.simulation.scenario_model import OPTIMISING
+from bracekit.simulation.scenario import load_scenario
+from bracekit.simulation.scenario_model import OPTIMISING, Scenario
 from bracekit.simulation.start import solve_start
 from bracekit.simulation.trajectory import Trajectory
 from bracekit.simulation.validity import verdict

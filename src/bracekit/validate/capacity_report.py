@@ -18,7 +18,7 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.holding import Holding
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.statics import capacity_along, effort_limits
 from bracekit.statics.equilibrium import wrench_list
 from bracekit.validate.capacity_check import RAMP_SETTINGS, mujoco_capacity_ramp

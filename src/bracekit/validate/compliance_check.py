@@ -35,7 +35,7 @@ from bracekit.errors import (
     StaticSolveError,
 )
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.inputs import (
     _TIMESTEPS,

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from bracekit.compliance.first_order import end_effector_compliance
 from bracekit.kinematics import BracedRobot
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.compliance_check import ValidationReport, check_compliance, first_order_state
 from bracekit.validate.inputs import FORCE_DIRECTIONS, _configurations, _positive, _scenario
 from bracekit.validate.table import _rel_err, _stats, aligned, fmt_rel

@@ -15,7 +15,7 @@ from bracekit.errors import (
     MujocoValidationError,
     NumericalError,
 )
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.holding_check import (
     DEFAULT_FRACTIONS,
     FAIL_ABOVE,

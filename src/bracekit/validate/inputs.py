@@ -26,7 +26,8 @@ from bracekit.errors import (
     RegionWarning,
 )
 from bracekit.simulation.run import run_scenario
-from bracekit.simulation.scenario import Scenario, load_scenario
+from bracekit.simulation.scenario import load_scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.simulation.simulate import Trajectory, simulate, solve_start
 from bracekit.validate.contacts import plane_contacts
 

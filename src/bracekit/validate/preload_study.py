@@ -16,7 +16,7 @@ from bracekit.errors import (
     MujocoValidationError,
     StaticSolveError,
 )
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.compliance_check import _config
 from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.inputs import FORCE_DIRECTIONS, _directions, _positive, _scenario, validation_configurations

@@ -24,7 +24,7 @@ from bracekit.errors import (
     NumericalError,
 )
 from bracekit.kinematics import BracedRobot
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.statics import contact_responses
 from bracekit.validate.compliance_check import (
     _config,

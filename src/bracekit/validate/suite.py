@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from bracekit.errors import InputError
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.capacity_report import CapacityValidationReport, run_capacity_validation
 from bracekit.validate.compliance_check import ValidationReport, run_validation
 from bracekit.validate.environment_check import EnvironmentValidationReport, run_environment_validation

@@ -51,7 +51,7 @@ from bracekit.compliance.preloaded import loaded_free_space_compliance, simulate
 from bracekit.errors import ContactError, InputError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.run import RunResult, run_scenario
-from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.simulation.simulate import Trajectory
 from bracekit.statics import contact_response, contact_responses, gravity_torque
 from bracekit.validate.compliance_check import first_order_state

@@ -17,7 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.simulation.scenario import Scenario, parse_scenario
+from bracekit.simulation.scenario import parse_scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.studies.place.scenario import Place, pad_world, place_data
 from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import TaskContext

@@ -16,7 +16,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.simulation.scenario import Scenario, parse_scenario
+from bracekit.simulation.scenario import parse_scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.studies.place.surface import LinkSurface
 from bracekit.studies.sweep.candidates import Candidate, candidate_id
 from bracekit.studies.sweep.scenario import candidate_data

@@ -16,7 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError
-from bracekit.simulation.scenario import Scenario, parse_scenario
+from bracekit.simulation.scenario import parse_scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.simulation.simulate import correct, simulate
 from bracekit.studies.sweep.spec import SweepSpec
 

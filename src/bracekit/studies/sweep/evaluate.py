@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError
-from bracekit.simulation.scenario import Scenario, parse_scenario
+from bracekit.simulation.scenario import parse_scenario
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.studies.sweep.candidates import Candidate
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.scenario import candidate_data, point_offset

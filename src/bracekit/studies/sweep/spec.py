@@ -21,7 +21,8 @@ from bracekit._linalg import show
 from bracekit._version import __version__
 from bracekit.contact import REGISTRY
 from bracekit.errors import InputError
-from bracekit.simulation.scenario import Scenario, parse_scenario, shipped_scenarios
+from bracekit.simulation.scenario import parse_scenario, shipped_scenarios
+from bracekit.simulation.scenario_model import Scenario
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 
 #: Axes a spec may sweep: name → kind ("link": link names, "scalar", "vector": [x, y, z]).
