@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Sequence
+from typing import cast
 
 import coal
 import numpy as np
@@ -163,7 +164,7 @@ class MeshClearance:
         a, b = self._ranges[link]
         m = placements[link]
         centres = self._centres[a:b] @ m[:3, :3].T + m[:3, 3]
-        return np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._radii[a:b, None]
+        return cast(Array, np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._radii[a:b, None])
 
     def _link_bounds(self, placements: Array) -> list[float]:
         """A lower bound (m) of each link's distance from the obstacles (its bounding sphere's)."""

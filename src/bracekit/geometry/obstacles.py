@@ -95,7 +95,7 @@ class Obstacle:
             return float((np.asarray(point) - c) @ n)
         side = math.hypot(x, y) - r_max
         if h <= 0.0 and side <= 0.0:
-            return max(h, side)
+            return float(max(h, side))
         return math.hypot(max(side, 0.0), max(h, 0.0))
 
     def beside(self, points: Array, heads: NDArray[np.intp]) -> Array:

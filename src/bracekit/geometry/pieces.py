@@ -19,7 +19,7 @@ value over the piece at one of them (:mod:`bracekit.geometry.distance` uses that
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import coal
 import numpy as np
@@ -190,7 +190,7 @@ def clip_surface(triangles: Array, pad: Array, pad_radius: float) -> Array:
         )
         tri = np.concatenate([tri[~split], finer], axis=0)
     keep = np.linalg.norm(tri - pad, axis=2).min(axis=1) >= pad_radius
-    return tri[keep]
+    return cast(Array, tri[keep])
 
 
 #: Edge (m) of the cubes that cut a mesh into patches.

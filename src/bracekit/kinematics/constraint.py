@@ -70,7 +70,7 @@ class StackedConstraint:
     @property
     def rank(self) -> int:
         """Rank of G as used for the braced motions: n − (columns of N)."""
-        return self.G.shape[1] - self.N.shape[1]
+        return int(self.G.shape[1] - self.N.shape[1])
 
 
 def stacked_constraint(state: BracedState) -> StackedConstraint:

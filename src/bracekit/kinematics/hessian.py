@@ -9,6 +9,7 @@ the analytic gradients silently wrong.
 from __future__ import annotations
 
 import weakref
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -64,7 +65,7 @@ def ensure_hessian_layout(model: pin.Model, data: pin.Data, frame_ids: tuple[int
 
 
 def _raw_hessian(model: pin.Model, data: pin.Data, frame_id: int) -> Array:
-    return pin.getFrameKinematicHessian(model, data, frame_id, LWA).ravel(order="C")
+    return cast(Array, pin.getFrameKinematicHessian(model, data, frame_id, LWA).ravel(order="C"))
 
 
 def check_hessian_layout(model: pin.Model, frame_id: int, step: float = 1e-6, data: pin.Data | None = None) -> None:

@@ -10,6 +10,7 @@ and Pinocchio's own algorithms on shorter ones (tests compare the two to 1e-12).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -51,7 +52,7 @@ def _rotation(axis: Array, angle: float, aligned: bool) -> Array:
         return r
     x, y, z = axis
     cross = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return c * np.eye(3) + s * cross + (1.0 - c) * np.outer(axis, axis)
+    return cast(Array, c * np.eye(3) + s * cross + (1.0 - c) * np.outer(axis, axis))
 
 
 @dataclass(frozen=True)

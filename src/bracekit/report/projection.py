@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,7 +56,7 @@ class OrthoCamera:
     @property
     def toward(self) -> Array:
         """Unit vector (3,) from the scene toward the viewer, world."""
-        return self.basis[2]
+        return cast(Array, self.basis[2])
 
     def project(self, points: ArrayLike) -> Array:
         """Screen coordinates (…, 2), m, of world points (…, 3), m."""
@@ -63,7 +64,7 @@ class OrthoCamera:
 
     def depth(self, points: ArrayLike) -> Array:
         """Distance toward the viewer (…,), m, of world points (…, 3): larger is nearer, drawn later."""
-        return np.asarray(points, dtype=float) @ self.basis[2]
+        return cast(Array, np.asarray(points, dtype=float) @ self.basis[2])
 
 
 def capsule_outlines(a: ArrayLike, b: ArrayLike, radius: ArrayLike, k: int = 8) -> Array:
@@ -103,7 +104,7 @@ def circle_points(centre: ArrayLike, normal: ArrayLike, radius: float, k: int = 
     u /= np.linalg.norm(u)
     w = np.cross(n, u)
     a = np.linspace(0.0, 2.0 * np.pi, k, endpoint=False)
-    return c + radius * (np.outer(np.cos(a), u) + np.outer(np.sin(a), w))
+    return cast(Array, c + radius * (np.outer(np.cos(a), u) + np.outer(np.sin(a), w)))
 
 
 def ellipsoid_outline(camera: OrthoCamera, centre: ArrayLike, shape: ArrayLike, k: int = 48) -> Array:
@@ -120,7 +121,7 @@ def ellipsoid_outline(camera: OrthoCamera, centre: ArrayLike, shape: ArrayLike, 
     w, v = np.linalg.eigh(p @ p.T)
     half = v * np.sqrt(np.maximum(w, 0.0))
     a = np.linspace(0.0, 2.0 * np.pi, k, endpoint=False)
-    return c + np.column_stack([np.cos(a), np.sin(a)]) @ half.T
+    return cast(Array, c + np.column_stack([np.cos(a), np.sin(a)]) @ half.T)
 
 
 def convex_hull(points: ArrayLike) -> Array:

@@ -19,7 +19,7 @@ constraint (a redundant or unloaded contact) are given once per state, as the re
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -150,7 +150,7 @@ def _unit(betas: Array) -> Array:
     big = np.max(np.abs(betas), axis=1)
     if not ((big > 1e-150) & (big < 1e150)).all():
         raise _UncertifiedError
-    return betas / np.sqrt(np.einsum("ij,ij->i", betas, betas))[:, None]
+    return cast(Array, betas / np.sqrt(np.einsum("ij,ij->i", betas, betas))[:, None])
 
 
 def _frobenius(j: Array) -> Array:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import Literal, cast
 from xml.sax.saxutils import quoteattr
 
 import mujoco
@@ -79,7 +79,7 @@ def _quat_z_to(nhat: np.ndarray) -> np.ndarray:
     if c < -1.0 + 1e-12:
         return np.array([0.0, 1.0, 0.0, 0.0])
     q = np.array([1.0 + c, -nhat[1], nhat[0], 0.0])  # (1 + z·n, z × n)
-    return q / np.linalg.norm(q)
+    return cast(np.ndarray, q / np.linalg.norm(q))
 
 
 def _joint_axis(model: pin.Model, jid: int) -> np.ndarray:
@@ -88,7 +88,7 @@ def _joint_axis(model: pin.Model, jid: int) -> np.ndarray:
     jd = jm.createData()
     jm.calc(jd, np.zeros(1))
     S = np.asarray(jd.S).reshape(6)
-    return S[3:] / np.linalg.norm(S[3:])
+    return cast(np.ndarray, S[3:] / np.linalg.norm(S[3:]))
 
 
 @dataclass(frozen=True)
@@ -244,7 +244,7 @@ def _slowest_time_constant(xml: str, q0: np.ndarray, K: np.ndarray) -> float:
     mujoco.mj_fullM(m, d, M)
     Kh = 1.0 / np.sqrt(K)
     mu = float(np.linalg.eigvalsh(Kh[:, None] * M * Kh[None, :]).max())
-    return 2.0 * np.sqrt(mu)
+    return float(2.0 * np.sqrt(mu))
 
 
 def brace_geom_names(index: int) -> tuple[str, str]:

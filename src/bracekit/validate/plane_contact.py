@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -69,7 +70,7 @@ def _unit(v: np.ndarray, name: str) -> np.ndarray:
         raise InputError(f"{name} must be a finite non-zero 3-vector")
     if abs(nrm - 1.0) > 1e-6:
         raise InputError(f"{name} must be a unit vector (norm {nrm:.6g})")
-    return v / nrm
+    return cast(np.ndarray, v / nrm)
 
 
 def _gravity(model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
@@ -145,7 +146,7 @@ def _set_points(
     tau -= pin.getFrameJacobian(model, data, tip_frame_id, _LWA).T @ base_wrench
     if gravity:
         tau += _gravity(model, data, q0)
-    return q0 + tau / K
+    return cast(np.ndarray, q0 + tau / K)
 
 
 def contact_set_points(

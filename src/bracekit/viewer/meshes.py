@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -77,7 +79,8 @@ def circle_points(centre: Array, normal: Array, radius: float, count: int = 96) 
     """`count` + 1 points of a closed circle (m) about `centre` in the plane of unit `normal`."""
     rot = _frame_z(np.asarray(normal, dtype=float))
     a = np.linspace(0.0, 2 * np.pi, count + 1)
-    return np.asarray(centre, dtype=float) + radius * (np.outer(np.cos(a), rot[:, 0]) + np.outer(np.sin(a), rot[:, 1]))
+    ring = np.asarray(centre, dtype=float) + radius * (np.outer(np.cos(a), rot[:, 0]) + np.outer(np.sin(a), rot[:, 1]))
+    return cast(Array, ring)
 
 
 def disk_mesh(centre: Array, normal: Array, radius: float, count: int = 96) -> tuple[Array, Faces]:

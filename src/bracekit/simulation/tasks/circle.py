@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -74,17 +75,17 @@ class Circle:
     def position(self, t: float) -> Array:
         """Desired tip position p_d(t) (3,), m, world frame."""
         a = self.angle(t)
-        return self.centre + self.radius * (np.cos(a) * self._u + np.sin(a) * self._w)
+        return cast(Array, self.centre + self.radius * (np.cos(a) * self._u + np.sin(a) * self._w))
 
     def velocity(self, t: float) -> Array:
         """Desired tip velocity ṗ_d(t) (3,), m/s, world frame."""
         a, om = self.angle(t), 2.0 * np.pi / self.period
-        return self.radius * om * (-np.sin(a) * self._u + np.cos(a) * self._w)
+        return cast(Array, self.radius * om * (-np.sin(a) * self._u + np.cos(a) * self._w))
 
     def radial(self, t: float) -> Array:
         """Unit vector from the centre to the desired point at t (3,)."""
         a = self.angle(t)
-        return np.cos(a) * self._u + np.sin(a) * self._w
+        return cast(Array, np.cos(a) * self._u + np.sin(a) * self._w)
 
 
 @register_task

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -52,7 +53,7 @@ class Waypoints:
         t = float(np.clip(task_time(t), 0.0, self.duration))
         i = self._segment(t)
         s = (t - self.times[i]) / (self.times[i + 1] - self.times[i])
-        return self.points[i] + s * (self.points[i + 1] - self.points[i])
+        return cast(Array, self.points[i] + s * (self.points[i + 1] - self.points[i]))
 
     def velocity(self, t: float) -> Array:
         """Desired tip velocity ṗ_d(t) (3,), m/s, world frame."""
@@ -60,7 +61,7 @@ class Waypoints:
         if t < 0.0 or t > self.duration:
             return np.zeros(3)
         i = self._segment(t)
-        return (self.points[i + 1] - self.points[i]) / (self.times[i + 1] - self.times[i])
+        return cast(Array, (self.points[i + 1] - self.points[i]) / (self.times[i + 1] - self.times[i]))
 
 
 def Line(start: ArrayLike, end: ArrayLike, duration: float, rotation: ArrayLike | None = None) -> Waypoints:

@@ -18,7 +18,7 @@ n_w = ⁰R_link n(φ) move as ∂b/∂q = J_b(p)[:3], ∂b/∂θ = ⁰R_link ∂
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,7 +59,7 @@ def link_axes_in_brace(robot: Robot, link: str, frame: str) -> Array:
     model = robot.model
     r_b = np.asarray(model.frames[robot.frame_id(frame)].placement.rotation)
     r_l = np.asarray(model.frames[robot.frame_id(link)].placement.rotation)
-    return r_b.T @ r_l
+    return cast(Array, r_b.T @ r_l)
 
 
 def placed_brace(
