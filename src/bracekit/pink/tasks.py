@@ -135,6 +135,8 @@ class ComplianceTask(Task):
         model: the compliance model of C_e (``constrained`` for any number of braces, ``projection`` for one).
     """
 
+    cost: float  # w: always a number here (pink allows a vector or None)
+
     def __init__(
         self,
         braced: BracedRobot,

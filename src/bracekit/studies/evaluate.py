@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -154,7 +154,7 @@ def evaluate(
     ci = {name: None if c is None else compliance_index(c, beta) for name, c in models.items()}
     view = _split_keys(braced, st) if one else _stacked_keys(braced, st)
     j_braced = view["J_braced"] if one else view["braced_jacobian"]
-    measure = (lambda f: f(j_braced)) if one else (lambda f: _measure(f, j_braced))
+    measure: Callable[[Any], Any] = (lambda f: f(j_braced)) if one else (lambda f: _measure(f, j_braced))
     sv = measure(singular_value_measures)
     out = {
         "n": robot.n,

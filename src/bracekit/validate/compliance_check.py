@@ -192,7 +192,7 @@ def _case(
     }
 
 
-def _failed_config(index: int, labelled: list[tuple[str, Array]], scale: Array, exc: Exception) -> list[dict]:
+def _failed_config(index: int, labelled: list[tuple[str, Array]], scale: Array, exc: Exception) -> list[dict[str, Any]]:
     return [
         {
             "config": index,

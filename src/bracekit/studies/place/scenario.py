@@ -55,7 +55,9 @@ def pad_world(spec: SweepSpec, surface: LinkSurface, place: Place, q: Array) -> 
     return np.asarray(placement[:3, 3], dtype=float)
 
 
-def place_data(spec: SweepSpec, surface: LinkSurface, place: Place, q: Array, centre: Array | None = None) -> dict:
+def place_data(
+    spec: SweepSpec, surface: LinkSurface, place: Place, q: Array, centre: Array | None = None
+) -> dict[str, Any]:
     """The TOML data of the place's scenario, braced at posture q (the start guess); see the module."""
     candidate = place_candidate(surface, place)
     if centre is None:

@@ -63,7 +63,7 @@ def probe(scheduler: str, timeout: float) -> str | None:
     import asyncio
 
     from distributed import Security
-    from distributed.comm import connect as comm_connect
+    from distributed.comm.core import connect as comm_connect
 
     async def ask() -> Any:  # with the client's connection arguments (TLS from the Dask config), as Client() does
         comm = await comm_connect(scheduler, timeout=timeout, **Security().get_connection_args("client"))
