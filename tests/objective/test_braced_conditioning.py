@@ -7,6 +7,8 @@ its gradient against central differences of the value, with one brace and with t
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -17,8 +19,10 @@ from bracekit.errors import BarrierError, InputError
 from bracekit.objective import BracedConditioning, central_difference
 from bracekit.objective.braced_conditioning import conditioning_ratio
 from bracekit.resolution.task_space import TaskSpace
+from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import load_scenario
 from bracekit.simulation.start import solve_start
+from helpers import iiwa_like_urdf, iiwa_scenario_text
 
 SPACES = [TaskSpace("pose"), TaskSpace("position"), TaskSpace("position+axis", [1.0, 0.5, 0.2])]
 
@@ -75,3 +79,99 @@ def test_the_barrier_is_zero_above_its_threshold_and_refuses_a_bad_one() -> None
             BracedConditioning(threshold=bad)
     with pytest.raises(BarrierError, match="singular"):
         below._barrier(0.0)
+
+
+#: A task only for loading a scenario at a configuration (a 1 mm circle near the line's end).
+PROBE = (
+    'type = "circle"\ncentre = [0.8, -0.06, 0.62]\nradius = 0.001\nnormal = [0.0, 1.0, 0.0]\n'
+    "start_direction = [1.0, 0.0, 0.0]\nperiod = 4.0\n"
+)
+
+
+def _iiwa(tmp_path: Path, task: str, guess: list[float], weights: str, strategies: str) -> Path:
+    """The iiwa-like arm braced at its forearm (tests/helpers.py) with a position task, given weights."""
+    (tmp_path / "iiwa.urdf").write_text(iiwa_like_urdf(), encoding="utf-8")
+    text = iiwa_scenario_text(True)
+    text = text[: text.index('type = "line"')] + task + 'space = "position"\n' + text[text.index("[start]") :]
+    text = text.replace("guess = [0.0, 0.6, 0.0, -0.97, 0.0, 1.2, 0.0]", f"guess = {guess}")
+    text = text[: text.index("weights = ")] + f"weights = {{ {weights} }}\n" + text[text.index("[simulation]") :]
+    text = text.replace("dt = 0.05\n", f"dt = 0.05\nstrategies = [{strategies}]\n")
+    path = tmp_path / "iiwa.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _ratios(sc: Any, qs: np.ndarray) -> np.ndarray:
+    """σ_min/σ_max of S J_e N along a path, N from SciPy's null space (the joints are equally stiff)."""
+    out = []
+    for q in qs:
+        st = sc.braced.state(q)
+        g = np.vstack([x.T @ c.J_b for x, c in zip(st.X_i, st.contacts, strict=True)])
+        s = np.linalg.svd(sc.task_space.selection(st.R_e) @ st.J_e @ scipy.linalg.null_space(g), compute_uv=False)
+        out.append(s[-1] / s[0])
+    return np.array(out)
+
+
+@pytest.fixture(scope="module")
+def near_singular(tmp_path_factory: pytest.TempPathFactory) -> np.ndarray:
+    """Where braced minimum norm stops on a line up and out (t = 2.8 s): σ_min/σ_max of S J_e N ≈ 0.003."""
+    end = np.round(np.array([0.70, -0.06, 0.50]) + 0.25 * np.array([1.0, 0.0, 1.0]) / np.sqrt(2.0), 4).tolist()
+    task = f'type = "line"\nstart = [0.70, -0.06, 0.50]\nend = {end}\nduration = 4.0\n'
+    path = _iiwa(
+        tmp_path_factory.mktemp("line"), task, [0.0, 0.6, 0.0, -0.97, 0.0, 1.2, 0.0], "k = 0.0", '"braced_min_norm"'
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = run_scenario(path, both_models=False).trajectories["constrained"]["braced_min_norm"]
+    assert not run.completed and "braced singularity" in (run.failure or "")
+    return np.asarray(run.q[-1])
+
+
+def test_the_term_alone_moves_away_from_a_braced_singularity_in_the_null_space(
+    tmp_path: Path, near_singular: np.ndarray
+) -> None:
+    """With ẋ = 0, gradient projection on the barrier alone keeps the task and the contact (rows written here)
+    and raises σ_min/σ_max of S J_e N along q̇ (a central difference of the SciPy ratio)."""
+    sc = load_scenario(
+        _iiwa(
+            tmp_path,
+            PROBE,
+            near_singular.tolist(),
+            "conditioning = 0.01, joint_limit_barrier = 0.0, clearance = 0.0",
+            '"braced_min_norm"',
+        )
+    )
+    assert sc.objective().names == ("conditioning",)
+    st = sc.braced.state(near_singular, hessians=True)
+    qdot = sc.strategy("braced_gradient_projection").velocity(st, np.zeros(6))
+    g = np.vstack([x.T @ c.J_b for x, c in zip(st.X_i, st.contacts, strict=True)])
+    assert np.max(np.abs(g @ qdot)) < 1e-9 and np.max(np.abs(st.J_e[:3] @ qdot)) < 1e-9
+    h = 1e-6
+    rate = (_ratios(sc, [near_singular + h * qdot])[0] - _ratios(sc, [near_singular - h * qdot])[0]) / (2 * h)
+    assert _ratios(sc, [near_singular])[0] < 0.005 and rate > 0.0
+
+
+@pytest.mark.slow
+def test_a_run_held_near_a_braced_singularity_moves_away_with_the_term(
+    tmp_path: Path, near_singular: np.ndarray
+) -> None:
+    """A 1 mm circle at the stopping point: with the barrier (its default weight) σ_min/σ_max of S J_e N rises
+    above the path without it at every later sample, and ends 1.2× higher (the joint-limit barrier in both)."""
+    braced = load_scenario(_iiwa(tmp_path, PROBE, near_singular.tolist(), "k = 0.0", '"braced_min_norm"')).braced
+    tip = braced.state(near_singular).e
+    task = (
+        f'type = "circle"\ncentre = {(tip - [1e-4, 0.0, 0.0]).tolist()}\nradius = 0.0001\n'
+        "normal = [0.0, 1.0, 0.0]\nstart_direction = [1.0, 0.0, 0.0]\nperiod = 4.0\n"
+    )
+    paths = {}
+    for weight in ("0.0", "0.01"):
+        weights = f"joint_limit_barrier = 0.01, clearance = 0.0, conditioning = {weight}"
+        path = _iiwa(tmp_path, task, near_singular.tolist(), weights, '"braced_gradient_projection"')
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            run = run_scenario(path, both_models=False).trajectories["constrained"]["braced_gradient_projection"]
+        assert run.completed, run.failure
+        paths[weight] = _ratios(load_scenario(path), run.q)
+    off, on = paths["0.0"], paths["0.01"]
+    assert off[0] == pytest.approx(on[0], rel=1e-9) and off[0] < 0.006
+    assert np.all(on[1:] > off[1:]) and on[-1] > 1.2 * off[-1]
