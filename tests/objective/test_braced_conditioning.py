@@ -175,3 +175,30 @@ def test_a_run_held_near_a_braced_singularity_moves_away_with_the_term(
     off, on = paths["0.0"], paths["0.01"]
     assert off[0] == pytest.approx(on[0], rel=1e-9) and off[0] < 0.006
     assert np.all(on[1:] > off[1:]) and on[-1] > 1.2 * off[-1]
+
+
+@pytest.mark.parametrize("threshold", [0.01, 0.95], ids=["inactive", "active"])
+@pytest.mark.parametrize("space", SPACES, ids=lambda s: s.kind)
+def test_the_fused_step_with_the_term_equals_the_reference(threshold: float, space: TaskSpace) -> None:
+    """One brace: the fused step skips the term where r > 1.1 r₀ and else takes its reference gradient."""
+    from bracekit.objective import ComplianceIndex, Objective
+    from bracekit.resolution.fused import GradientProjectionStep, numba_available
+    from bracekit.resolution.strategies import BracedGradientProjection
+
+    braced, qs = CASES["one brace"]
+    terms = [ComplianceIndex(np.r_[1.0, 0, 0, 0, 0, 0], "constrained"), BracedConditioning(threshold, space)]
+    strategy = BracedGradientProjection(Objective(terms, [100.0, 0.01]), alpha=-0.7, space=space)
+    step = GradientProjectionStep(braced, strategy, backend="numpy")
+    rng = np.random.default_rng(4)
+    for q in qs:
+        st = braced.state(q, hessians=True)
+        active = terms[1].value(st) > 0.0
+        assert active == (threshold > 0.5)
+        xdot = rng.normal(scale=0.05, size=6)
+        ref = strategy.velocity(st, xdot)
+        np.testing.assert_allclose(step(q, xdot), ref, rtol=1e-10, atol=1e-12 * np.max(np.abs(ref)))
+        assert step.value(q) == pytest.approx(strategy.objective.value(st), rel=1e-13)
+    if numba_available():  # the kernel has no compiled copy of the term: it says so and the NumPy step runs
+        fast = GradientProjectionStep(braced, strategy, backend="numba")
+        why = "term without a compiled copy: conditioning" if space.is_pose else "task space other than the full pose"
+        assert not fast.uses_kernel and fast.fallback_reason == why
