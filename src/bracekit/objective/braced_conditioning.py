@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from bracekit._linalg import as_number
+from bracekit._linalg import as_number, inverse
 from bracekit.compliance.first_order import constrained_compliance
 from bracekit.errors import BarrierError, InputError
 from bracekit.kinematics import BracedState
@@ -119,19 +119,30 @@ class BracedConditioning(Term):
         return self._clearly_inactive(kin)
 
     def _clearly_inactive(self, kin: FusedKinematics) -> bool:
-        """Whether r of one rigid brace, from the fused step's J_e and J_b, exceeds r₀ by 10 %."""
+        """Whether r of one rigid brace, from the fused step's J_e and J_b, exceeds r₀ by 10 %.
+
+        S C_e Sᵀ = S J_e K⁻¹ J_eᵀ Sᵀ − B M⁻¹ Bᵀ with M = G K⁻¹ Gᵀ, B = S J_e K⁻¹ Gᵀ, G = Xᵀ J_b; M⁻¹ by LU,
+        certified by ‖M‖_F ‖M⁻¹‖_F < 1e8 (else the reference decides).
+        """
         if kin.k_env is not None:
             return False
-        with np.errstate(all="ignore"):
-            g = kin.X.T @ kin.jb
-            jk = kin.je * kin.kinv
-            m = (g * kin.kinv) @ g.T
-            if not np.linalg.cond(m) < 1e8:
-                return False
-            b = jk @ g.T
-            c_e = jk @ kin.je.T - b @ np.linalg.solve(m, b.T)
-            r = conditioning_ratio(0.5 * (c_e + c_e.T), self._rows(kin.me[:3, :3]))
-        return bool(r > 1.1 * self.threshold)
+        with np.errstate(all="ignore"):  # an overflow fails the certificate: the reference then decides
+            return self._inactive_rigid(kin)
+
+    def _inactive_rigid(self, kin: FusedKinematics) -> bool:
+        g = kin.X.T.dot(kin.jb)
+        gk = g * kin.kinv
+        m = gk.dot(g.T)
+        m_inv = inverse(m)
+        if m_inv is None or not float(np.vdot(m_inv, m_inv)) * float(np.vdot(m, m)) < 1e16:
+            return False
+        kind = "pose" if self.space is None else self.space.kind
+        sj = kin.je[:3] if kind == "position" else kin.je if kind == "pose" else self._rows(kin.me[:3, :3]).dot(kin.je)
+        sk = sj * kin.kinv
+        bk = sk.dot(g.T)
+        mat = sk.dot(sj.T) - bk.dot(m_inv).dot(bk.T)
+        lam = np.linalg.eigvalsh(0.5 * (mat + mat.T))
+        return bool(lam[-1] > 0.0 and lam[0] > (1.1 * self.threshold) ** 2 * lam[-1])
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> BracedConditioning:
