@@ -21,27 +21,15 @@ from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import load_scenario
 from bracekit.simulation.scenario_model import STRATEGIES
 from bracekit.simulation.start import solve_start
-from geometry_refs import xarm_share
+from geometry_refs import xarm_planar
 from helpers import iiwa_like_urdf, iiwa_scenario_text
 
 pytest.importorskip("qpsolvers")
-DATA = Path(__file__).resolve().parents[1] / "data"
 
 CIRCLE = (
     'type = "circle"\ncentre = [0.66, 0.0, 0.50]\nradius = 0.04\nnormal = [0.0, 0.0, 1.0]\n'
     'start_direction = [1.0, 0.0, 0.0]\nperiod = 4.0\nspace = "{space}"\n'
 )
-
-
-def xarm_planar(tmp_path: Path) -> Path:
-    """tests/data/xarm7-planar.toml with example-robot-data's xArm7, every strategy (skips without the extra)."""
-    share = xarm_share()
-    urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
-    text = (DATA / "xarm7-planar.toml").read_text(encoding="utf-8")
-    names = ", ".join(f'"{s}"' for s in STRATEGIES)
-    path = tmp_path / "xarm7-planar.toml"
-    path.write_text(text.format(urdf=urdf, share=share, strategies=names), encoding="utf-8")
-    return path
 
 
 def _iiwa(tmp_path: Path, space: str) -> Path:
@@ -74,7 +62,7 @@ def _check_every_strategy_completes(out: dict[str, Any]) -> None:
 
 @pytest.mark.slow
 def test_the_xarm7_planar_case_completes_with_every_strategy(tmp_path: Path) -> None:
-    out, said = _run(xarm_planar(tmp_path))
+    out, said = _run(xarm_planar(tmp_path, STRATEGIES))
     _check_every_strategy_completes(out)
     assert any("clearance rows are soft" in s for s in said)  # the fallback is said
     assert out["braced_qp"]["max_region_radius_m"] <= 0.05 + 1e-9  # the region row (minimum norm leaves it)
