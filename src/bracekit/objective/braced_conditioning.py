@@ -99,7 +99,7 @@ class BracedConditioning(Term):
             return np.zeros(state.q.size)
         self._barrier(r)  # BarrierError at r = 0
         d_min, d_max = (self._eigen_gradient(state, c_e, rows.T @ vec[:, i]) for i in (0, -1))
-        dr = 0.5 * r * (d_min / lam[0] - d_max / lam[-1])
+        dr: Array = 0.5 * r * (d_min / float(lam[0]) - d_max / float(lam[-1]))
         return (r * r - r0 * r0) / (r0 * r * r) * dr
 
     def _eigen_gradient(self, state: BracedState, c_e: Array, a: Array) -> Array:
