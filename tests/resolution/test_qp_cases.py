@@ -130,3 +130,88 @@ def test_the_region_row_is_the_rate_of_the_in_plane_radius(tmp_path: Path) -> No
     fd = (radius(q + h * qdot) - radius(q - h * qdot)) / (2 * h)
     assert rows.M[0] @ qdot == pytest.approx(fd, rel=1e-6, abs=1e-9)
     assert rows.v[0] == pytest.approx(10.0 * (brace.region_radius - radius(q)), rel=1e-12)
+
+
+def test_the_region_rows_of_two_braces_are_the_rates_of_their_radii() -> None:
+    """Two braces: a row for each brace beyond half its region's radius, each against a central difference."""
+    sc = load_scenario("two-braces")
+    braces = sc.braced.braces
+
+    def radii(q: np.ndarray) -> list[float]:
+        out = []
+        for brace, b in zip(braces, sc.braced.state(q).b_i, strict=True):
+            n = brace.surface.normal
+            off = b - brace.surface.point
+            out.append(float(np.linalg.norm(off - n * float(n @ off))))
+        return out
+
+    rng = np.random.default_rng(7)
+    seen = set()
+    for _ in range(400):
+        q = np.asarray(sc.guess, dtype=float) + 0.3 * rng.standard_normal(sc.robot.n)
+        r = radii(q)
+        far = [i for i, (ri, b) in enumerate(zip(r, braces, strict=True)) if ri > 0.5 * b.region_radius]
+        rows = region_rows(sc.braced.state(q), 10.0)
+        assert (rows is None) == (not far)
+        if rows is None:
+            continue
+        assert rows.M.shape == (len(far), sc.robot.n)
+        qdot = rng.standard_normal(sc.robot.n)
+        h = 1e-6
+        fd = (np.array(radii(q + h * qdot)) - np.array(radii(q - h * qdot))) / (2 * h)
+        np.testing.assert_allclose(rows.M @ qdot, fd[far], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(rows.v, [10.0 * (braces[i].region_radius - r[i]) for i in far], rtol=1e-12)
+        seen.update(far)
+        if seen == {0, 1}:
+            break
+    assert seen == {0, 1}
+
+
+def test_the_soft_step_of_two_braces_is_the_soft_qp_solved_by_scipy() -> None:
+    """Two braces, where braced minimum norm has taken link 8 inside braces[0]'s solid: the soft step (every
+    clearance row soft) against the same QP in [q̇; s] solved by SciPy's SLSQP from the rows written here."""
+    import dataclasses
+
+    from scipy.optimize import minimize
+
+    from bracekit.resolution.qp import SOFT_CLEARANCE_WEIGHT, clearance_rows
+
+    sc = load_scenario("two-braces")
+    short = dataclasses.replace(sc, strategies=["braced_min_norm"], task=dataclasses.replace(sc.task, turns=0.3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = run_scenario(short, both_models=False).trajectories["constrained"]["braced_min_norm"]
+    q = run.q[int(np.argmin(run.measures["link_clearance"]))]
+    qp = BracedQP(None, dt=0.05, space=sc.task_space)
+    rows = clearance_rows(sc.braced, q, 0.05)
+    assert min(r.clearance for r in rows) < -0.01  # a link inside
+    st = sc.braced.state(q)
+    xdot = np.concatenate([sc.task.velocity(0.0), np.zeros(3)])
+    sets = qp.constraint_sets(st, xdot)
+    n, m = q.size, len(rows)
+    with pytest.warns(ClearanceWarning, match="soft"):
+        qdot = qp._soften(st, sets, np.eye(n), np.zeros(n))
+    assert qdot is not None
+    g = np.vstack([x.T @ c.J_b for x, c in zip(st.X_i, st.contacts, strict=True)])
+    s_j = sc.task_space.selection(st.R_e) @ st.J_e
+    grad = np.array([r.gradient for r in rows])
+    target = np.array([0.5 * (0.002 - r.clearance) / 0.05 for r in rows])
+    vmax = np.asarray(sc.robot.model.velocityLimit)
+    upper = np.minimum(vmax, 0.5 * (sc.robot.upper - q) / 0.05)
+    lower = np.maximum(-vmax, 0.5 * (sc.robot.lower - q) / 0.05)
+    offsets = _plane_offsets(st)
+
+    def cost(x: np.ndarray) -> float:
+        return 0.5 * float(x[:n] @ x[:n]) + 0.5 * SOFT_CLEARANCE_WEIGHT * float(x[n:] @ x[n:])
+
+    cons = [
+        {"type": "eq", "fun": lambda x: g @ x[:n] + 0.5 / 0.05 * offsets},
+        {"type": "eq", "fun": lambda x: s_j @ x[:n] - sc.task_space.selection(st.R_e) @ xdot},
+        {"type": "ineq", "fun": lambda x: grad @ x[:n] + x[n:] - target},
+    ]
+    bounds = list(zip(lower, upper, strict=True)) + [(0.0, None)] * m
+    ref = minimize(cost, np.zeros(n + m), constraints=cons, bounds=bounds, method="SLSQP", options={"ftol": 1e-14})
+    assert ref.success
+    regions = region_rows(st, 0.5 / 0.05)  # left out of the reference: it must not bind there
+    assert regions is None or np.all(regions.M @ ref.x[:n] < regions.v - 1e-6)
+    np.testing.assert_allclose(qdot, ref.x[:n], atol=1e-5 * max(1.0, float(np.max(np.abs(ref.x[:n])))))
