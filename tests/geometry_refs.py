@@ -26,6 +26,17 @@ def xarm_share() -> Path:
     return Path(str(dist.locate_file("cmeel.prefix/share")))
 
 
+def xarm_planar(folder: Path, strategies: tuple[str, ...]) -> Path:
+    """tests/data/xarm7-planar.toml with example-robot-data's xArm7 and `strategies` (skips without the extra)."""
+    share = xarm_share()
+    urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
+    text = (Path(__file__).resolve().parent / "data" / "xarm7-planar.toml").read_text(encoding="utf-8")
+    names = ", ".join(f'"{s}"' for s in strategies)
+    path = folder / "xarm7-planar.toml"
+    path.write_text(text.format(urdf=urdf, share=share, strategies=names), encoding="utf-8")
+    return path
+
+
 def xarm7() -> Robot:
     """The xArm7 with its STL collision meshes, tip link_eef."""
     share = xarm_share()

@@ -50,7 +50,10 @@ def test_scenario_key_sets_the_weight_and_is_refused_when_negative(tmp_path: Pat
     assert sc.weights["joint_limits"] == 0.0  # the paper run is unchanged
     assert "joint_limits" not in sc.objective().names
     paper = shipped_scenarios()["paper"].read_text(encoding="utf-8")
-    old = "weights = { k = 0.5, Ci = 100.0, theta_z = 0.6, d = 0.01, clearance = 0.0, joint_limit_barrier = 0.0 }"
+    old = (
+        "weights = { k = 0.5, Ci = 100.0, theta_z = 0.6, d = 0.01, clearance = 0.0, joint_limit_barrier = 0.0, "
+        "conditioning = 0.0 }"
+    )
     assert old in paper
     path = tmp_path / "limits.toml"
     path.write_text(paper.replace(old, old[:-1] + ", joint_limits = 2.5 }"), encoding="utf-8")

@@ -273,8 +273,9 @@ def test_the_two_brace_scenario_passes_its_joint_limit_weight_to_the_stacked_obj
 
     scenario = load_scenario("two-braces")
     objective = scenario.objective()
-    assert objective.names == ("Ci", "d_0", "d_1", "joint_limit_barrier")
-    assert tuple(objective.weights) == (100.0, 0.2, 0.2, 0.01)
+    # the braced-conditioning barrier is on by default and zero here (σ_min/σ_max of J_e N ≈ 0.3 > r₀ = 0.01)
+    assert objective.names == ("Ci", "d_0", "d_1", "joint_limit_barrier", "conditioning")
+    assert tuple(objective.weights) == (100.0, 0.2, 0.2, 0.01, 0.01)
     q = scenario.guess
     lower, upper = scenario.robot.lower, scenario.robot.upper
     st = scenario.braced.state(q)

@@ -32,6 +32,7 @@ def test_paper_scenario_matches_the_paper_setup() -> None:
         "joint_limit_barrier": 0.0,
         "brace_margin": 0.0,
         "clearance": 0.0,
+        "conditioning": 0.0,
     }
     # radial β_x: unit, in the circle plane, pointing from the centre to the desired point
     for t in (0.0, 5.0, 12.5):

@@ -19,21 +19,14 @@ from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import load_scenario
 from bracekit.simulation.scenario_model import DEFAULT_STRATEGIES
 from bracekit.simulation.start import solve_start
-from geometry_refs import xarm_share
+from geometry_refs import xarm_planar as xarm_planar_scenario
 
-DATA = Path(__file__).resolve().parents[1] / "data"
 PAPER = Path(__file__).resolve().parents[2] / "src/bracekit/simulation/scenarios/paper.toml"
 
 
 def xarm_planar(tmp_path: Path, strategies: tuple[str, ...] = DEFAULT_STRATEGIES) -> Path:
     """tests/data/xarm7-planar.toml with example-robot-data's xArm7 (skips without the test extra)."""
-    share = xarm_share()
-    urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
-    text = (DATA / "xarm7-planar.toml").read_text(encoding="utf-8")
-    names = ", ".join(f'"{s}"' for s in strategies)
-    path = tmp_path / "xarm7-planar.toml"
-    path.write_text(text.format(urdf=urdf, share=share, strategies=names), encoding="utf-8")
-    return path
+    return xarm_planar_scenario(tmp_path, strategies)
 
 
 def test_the_xarm7_planar_guess_starts_in_its_position_task_space(tmp_path: Path) -> None:

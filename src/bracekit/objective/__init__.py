@@ -18,7 +18,7 @@ from bracekit.objective.base import (
 
 # isort: off
 # registration, in the order of eq:objective (α1 k, α2 C_i with c_t beside it, α3 θ_z, α4 d), then further terms
-# (joint limits, joint-limit barrier, brace margin, link clearance): the order of the sum g
+# (joint limits, joint-limit barrier, brace margin, link clearance, braced conditioning): the order of the sum g
 from bracekit.objective.condition_number import ConditionNumber
 from bracekit.objective.compliance_index import ComplianceIndex
 from bracekit.objective.translational_compliance import TranslationalCompliance
@@ -28,6 +28,7 @@ from bracekit.objective.joint_limits import JointLimits
 from bracekit.objective.joint_limit_barrier import JointLimitBarrier
 from bracekit.objective.brace_margin import BraceMargin
 from bracekit.objective.clearance import ClearanceBarrier
+from bracekit.objective.braced_conditioning import BracedConditioning
 
 # isort: on
 
@@ -35,6 +36,7 @@ __all__ = [
     "TERMS",
     "BraceAngle",
     "BraceMargin",
+    "BracedConditioning",
     "ClearanceBarrier",
     "ComplianceIndex",
     "ConditionNumber",

@@ -83,13 +83,14 @@ class TermContext:
     """What a scenario gives a term: the braced robot, β_x (6,), the compliance model and the statics.
 
     ``holding`` is the scenario's :class:`bracekit.simulation.holding.Holding` (gravity, preload, friction,
-    tool wrenches) or None.
+    tool wrenches) or None; ``space`` its :class:`bracekit.resolution.task_space.TaskSpace`, None for the pose.
     """
 
     braced: BracedRobot
     beta_x: Array
     compliance_model: str
     holding: Any = None
+    space: Any = None
 
 
 #: weight key → term class, filled by :func:`register_term` (the keys of ``[gradient_projection.weights]``).

@@ -6,6 +6,7 @@ Per step, in the joint velocities q̇ (n,), rad/s (m/s for a prismatic joint):
     subject to X_iᵀ J_b_i q̇ = −(β/dt) X_iᵀ ρ_i             every brace i                  (contacts)
                S J_e q̇ = S ẋ                                when the task is an equality   (task)
                max(−q̇_max, γ (q_min − q)/dt) ≤ q̇ ≤ min(q̇_max, γ (q_max − q)/dt)     (joint limits)
+               (∂r_i/∂q) q̇ ≤ γ (r_max,i − r_i)/dt            every brace with a region, r_i > r_max,i/2
                (∂c_j/∂q) q̇ ≥ −γ_c max(c_j − c_min, 0)/dt − ε   every link j with c_j < margin (clearance)
 
 S = S(⁰R_e) the task rows of the :class:`~bracekit.resolution.task_space.TaskSpace` and ẋ the tip twist [v; ω]
@@ -14,7 +15,11 @@ wrenches (eq:constraint) and ρ_i = [n̂ n̂ᵀ(b_i − p_i); 0] the offset of b
 β/dt (Baumgarte). q̇_max are the URDF velocity limits, q_min, q_max the position limits, approached at the rate
 γ/dt; c_j is link j's clearance from each brace's surface (m, :mod:`bracekit.kinematics.clearance`) and ∂c_j/∂q
 its gradient: a link at or inside c_min may not go deeper (a step cannot take it out against the task; ε =
-:data:`CLEARANCE_SLACK` absorbs round-off where its row is parallel to a contact's). The link
+:data:`CLEARANCE_SLACK` absorbs round-off where its row is parallel to a contact's). Where that leaves no
+solution (a start with links already inside, which the task and the contacts drive deeper), the clearance rows
+become soft: (∂c_j/∂q) q̇ + s_j ≥ γ_c (c_min − c_j)/dt with s_j ≥ 0 and a cost ½ w_s ‖s‖² (w_s =
+:data:`SOFT_CLEARANCE_WEIGHT`; for a link inside c_min a rate out of it), so the step keeps the links as clear as
+the equalities allow, said by a ClearanceWarning (the run's verdict names a link inside an obstacle). The link
 that carries a pad, the one whose capsule ends at a pad on a joint's origin, and any link whose clearance moves
 only with a pad's normal motion (its row in the span of the contact rows) touch that surface by design and are
 left out for it. g is the objective of eq:objective (its analytic ∂g/∂q, eq:grad_g, or central differences;
@@ -35,6 +40,7 @@ joint limits, clearance) whose addition makes it infeasible; a solution that mis
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, NamedTuple
@@ -43,7 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_number, show
-from bracekit.errors import InputError, MissingDependencyError, NumericalError, SingularityError
+from bracekit.errors import ClearanceWarning, InputError, MissingDependencyError, NumericalError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.clearance import Clearance
 from bracekit.objective import Objective
@@ -60,6 +66,8 @@ QP_SOLVERS = ("daqp", "proxqp")
 CLEARANCE_SLACK = 1e-10
 #: A clearance row with less than this part (relative) off the contact rows is held by the contacts and left out.
 HELD_BY_CONTACT = 1e-4
+#: w_s, the cost (s²/m²) of the rate s (m/s) by which a link inside c_min falls short of leaving, when soft.
+SOFT_CLEARANCE_WEIGHT = 1e4
 #: Relative rank tolerance of the stacked contact rows G.
 CONTACT_RANK_RTOL = 1e-10
 
@@ -134,6 +142,28 @@ def clearance_rows(braced: BracedRobot, q: Array, below: float) -> list[Clearanc
                 name = f"link {link.joint + 1} from braces[{i}]'s surface"
                 out.append(ClearanceRow(name, link.clearance, link.gradient))
     return out
+
+
+def region_rows(state: BracedState, rate: float) -> ConstraintSet | None:
+    """Each brace point b_i kept inside its region: (∂r_i/∂q) q̇ ≤ rate (r_max,i − r_i), r_i = ‖(I − n̂n̂ᵀ)(b_i − p_i)‖.
+
+    `rate` = γ/dt (1/s); only braces with a region and r_i above half of r_max get a row (∂r_i/∂q is undefined at
+    the centre). None when no brace has one.
+    """
+    rows, bounds = [], []
+    for brace, b, j_b in zip(state.braced.braces, state.b_i, state.J_b_i, strict=True):
+        if brace.region_radius is None:
+            continue
+        n = brace.surface.normal
+        off = b - brace.surface.point
+        off = off - n * float(n @ off)
+        r = float(np.linalg.norm(off))
+        if r > 0.5 * brace.region_radius:
+            rows.append((off / r) @ j_b[:3])
+            bounds.append(rate * (brace.region_radius - r))
+    if not rows:
+        return None
+    return ConstraintSet("the brace regions (r_i ≤ r_max)", False, np.array(rows), np.array(bounds))
 
 
 def _free_of_contacts(rows: list[ClearanceRow], g: Array) -> list[ClearanceRow]:
@@ -308,6 +338,9 @@ class BracedQP:
                 np.concatenate([upper[keep_u], -lower[keep_l]]),
             )
         )
+        regions = region_rows(state, self.limit_gain / dt)
+        if regions is not None:
+            sets.append(regions)
         if self.clearance_margin is not None:
             rows = _free_of_contacts(clearance_rows(state.braced, q, float(self.clearance_margin)), contacts.G)
             if rows:
@@ -353,6 +386,44 @@ class BracedQP:
             c -= float(self.task_weight) * s_j.T @ s_x
         qdot = _solve(sets, p, c, self.solver)
         if qdot is None:
-            raise _infeasible(sets, p, c, self.solver)
+            soft = self._soften(state, sets, p, c)
+            if soft is None:
+                raise _infeasible(sets, p, c, self.solver)
+            return soft
         _check(sets, qdot)
         return qdot
+
+    def _soften(self, state: BracedState, sets: list[ConstraintSet], p: Array, c: Array) -> Array | None:
+        """q̇ with every clearance row soft (module docstring), or None without clearance rows.
+
+        Variables [q̇; s]: every other row as before, the clearance rows −(∂c_j/∂q) q̇ − s_j ≤ −γ_c (c_min − c_j)/dt
+        (the hard rows' rate for a link outside c_min, a rate out of it for one inside), s ≥ 0, cost ½ w_s ‖s‖².
+        None also when the QP stays without a solution (the caller names the set).
+        """
+        if self.clearance_margin is None:
+            return None
+        rows = _free_of_contacts(clearance_rows(state.braced, state.q, float(self.clearance_margin)), sets[0].M)
+        if not rows:
+            return None
+        n, m, dt = state.q.size, len(rows), float(self.dt)
+        kept = [s for s in sets if not s.name.startswith("the link clearance")]
+        wide = [ConstraintSet(s.name, s.equality, np.hstack([s.M, np.zeros((s.M.shape[0], m))]), s.v) for s in kept]
+        grad = np.array([r.gradient for r in rows])
+        rate = np.array([self.clearance_gain * (self.clearance_min - r.clearance) / dt for r in rows])
+        wide.append(ConstraintSet("the soft link clearance", False, np.hstack([-grad, -np.eye(m)]), -rate))
+        wide.append(ConstraintSet("the soft slack", False, np.hstack([np.zeros((m, n)), -np.eye(m)]), np.zeros(m)))
+        p_wide = np.zeros((n + m, n + m))
+        p_wide[:n, :n] = p
+        p_wide[n:, n:] = SOFT_CLEARANCE_WEIGHT * np.eye(m)
+        x = _solve(wide, p_wide, np.concatenate([c, np.zeros(m)]), self.solver)
+        if x is None:
+            return None
+        _check(wide, x)
+        short = [r.name for r, slack in zip(rows, x[n:], strict=True) if slack > QP_FEASIBILITY_TOL]
+        warnings.warn(
+            "braced_qp: the task and the contacts drive a link toward the obstacle faster than the clearance rows "
+            f"allow ({', '.join(short) or 'none short in the end'}): the clearance rows are soft at this step",
+            ClearanceWarning,
+            stacklevel=3,
+        )
+        return np.asarray(x[:n], dtype=np.float64)

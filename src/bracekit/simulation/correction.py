@@ -219,7 +219,8 @@ def _where(rows: Array, scale: Array, space: TaskSpace) -> str:
     if both < SINGULAR_ROWS:
         return (
             f"the task with the contacts is singular (σ_min/σ_max {both:.1e}) although the task alone is not "
-            f"({task:.1e}): a braced singularity; weight a conditioning term (k) or reduce the time step"
+            f"({task:.1e}): a braced singularity; raise the braced-conditioning weight (conditioning) where the "
+            "redundancy can steer away, else move the task or the brace, or reduce the time step"
         )
     return "reduce the time step or move away from singularities"
 

@@ -44,7 +44,7 @@ Array = NDArray[np.float64]
 #: Weights on by default unless ``[gradient_projection.weights]`` gives them (0 turns one off): the
 #: joint-limit barrier, and with one brace (whose surface is the links' obstacle: the link clearance of
 #: several braces is not defined) the clearance barrier. docs/scenarios.md.
-SAFETY_WEIGHTS = {"clearance": 0.01, "joint_limit_barrier": 0.01}
+SAFETY_WEIGHTS = {"clearance": 0.01, "joint_limit_barrier": 0.01, "conditioning": 0.01}
 
 #: The start solve's θ_z weight when the brace has a pad axis and gradient projection weights θ_z.
 START_THETA_WEIGHT = 0.3

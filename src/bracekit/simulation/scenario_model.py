@@ -81,7 +81,9 @@ class Scenario:
         A per-brace term (d, θ_z, clearance) stands for one term per brace it applies to, each with the weight.
         """
         beta = self.beta_x(0.0) if beta_x is None else beta_x
-        context = TermContext(self.braced, beta, model or simulated_model(self.compliance_model), self.holding)
+        context = TermContext(
+            self.braced, beta, model or simulated_model(self.compliance_model), self.holding, self.task_space
+        )
         keys = [k for k in weight_keys() if self.weights.get(k, 0.0) > 0]
         kept = [(t, self.weights[k]) for k in keys for t in TERMS[k].terms_from_scenario(context)]
         return Objective([t for t, _ in kept], [w for _, w in kept])
