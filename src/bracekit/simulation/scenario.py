@@ -15,7 +15,6 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit.compliance.preloaded import RUN_MODELS
 from bracekit.contact import REGISTRY, Brace, Surface, contact_type
@@ -33,6 +32,7 @@ from bracekit.simulation.holding import Holding
 from bracekit.simulation.scenario_model import DEFAULT_STRATEGIES, STRATEGIES, Scenario, weight_keys
 from bracekit.simulation.tasks import TASK_SHAPES, Task, radial_of
 from bracekit.simulation.toml_table import Table as _Table
+from bracekit.simulation.toml_table import read_source
 from bracekit.spatial import rotation_with_z
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
@@ -69,27 +69,7 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
         ScenarioError: the file is missing, not TOML, or a key is missing, unknown or malformed (the message
             names the key).
     """
-    shipped = shipped_scenarios()
-    if isinstance(source, str) and source in shipped:
-        path = shipped[source]
-    elif isinstance(source, str | os.PathLike) and isinstance(os.fspath(source), str) and os.fspath(source):
-        path = Path(os.fspath(source))
-    else:
-        raise ScenarioError(
-            f"a scenario must be a .toml path or a shipped name ({', '.join(sorted(shipped))}), got {show(source)}"
-        )
-    try:
-        found = path.is_file()
-    except (OSError, ValueError):  # a name the file system cannot hold
-        found = False
-    if not found:
-        raise ScenarioError(
-            f"scenario not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
-        )
-    try:
-        data = read_toml(path, "scenario")
-    except InputError as exc:
-        raise ScenarioError(str(exc)) from None
+    path, data = read_source(source, shipped_scenarios(), "scenario")
     try:
         return parse_scenario(data, base=path.parent, name=path.stem, source=path)
     except ScenarioError:
