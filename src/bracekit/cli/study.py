@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     if pair:
         return _print_pairs(args, cands, first, second)
     if args.json:
-        print(to_json({"candidates": [_one_brace_keys(c) for c in cands]}))
+        print(to_json({"candidates": [_candidate_json(c, ONE_BRACE_KEYS) for c in cands]}))
         return 0
     print("bracing candidates, best first (C_i in mm/N; k of J̃; fraction along the link to the next joint)")
     head = f"{'link':>10} {'n1':>3} {'frac':>5}  {'point [m]':<26} {'free':>8} {'constr.':>8} {'proj.':>8}"
@@ -80,36 +80,38 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _one_brace_keys(c: BraceCandidate) -> dict[str, Any]:
-    """The JSON keys of a one-brace candidate (n1: the joints that move the point; Ci_free: C_i unbraced)."""
-    return {
-        "link": c.link,
-        "n1": c.joint,
-        "fraction": c.fraction,
-        "point": c.point,
-        "Ci_free": c.Ci_before,
-        "Ci_constrained": c.Ci_constrained,
-        "Ci_projection": c.Ci_projection,
-        "k_braced": c.k_braced,
-        "unloaded": c.unloaded,
-        "reduction": c.reduction,
-    }
+#: The JSON keys of a one-brace candidate and the candidate's field of each (n1: the joints that move the point;
+#: Ci_free: C_i unbraced; reduction: what the brace removes).
+ONE_BRACE_KEYS = (
+    ("link", "link"),
+    ("n1", "joint"),
+    ("fraction", "fraction"),
+    ("point", "point"),
+    ("Ci_free", "Ci_before"),
+    ("Ci_constrained", "Ci_constrained"),
+    ("Ci_projection", "Ci_projection"),
+    ("k_braced", "k_braced"),
+    ("unloaded", "unloaded"),
+    ("reduction", "reduction"),
+)
+#: The JSON keys of a second-brace candidate (Ci_first: the first brace alone; gain: what the second adds).
+PAIR_KEYS = (
+    ("link", "link"),
+    ("joint", "joint"),
+    ("fraction", "fraction"),
+    ("point", "point"),
+    ("Ci_first", "Ci_before"),
+    ("Ci_pair", "Ci_constrained"),
+    ("k_pair", "k_braced"),
+    ("redundant", "redundant"),
+    ("unloaded", "unloaded"),
+    ("gain", "reduction"),
+)
 
 
-def _pair_keys(c: BraceCandidate) -> dict[str, Any]:
-    """The JSON keys of a second-brace candidate (Ci_first: the first brace alone; gain: what the second adds)."""
-    return {
-        "link": c.link,
-        "joint": c.joint,
-        "fraction": c.fraction,
-        "point": c.point,
-        "Ci_first": c.Ci_before,
-        "Ci_pair": c.Ci_constrained,
-        "k_pair": c.k_braced,
-        "redundant": c.redundant,
-        "unloaded": c.unloaded,
-        "gain": c.reduction,
-    }
+def _candidate_json(c: BraceCandidate, keys: tuple[tuple[str, str], ...]) -> dict[str, Any]:
+    """A candidate under the JSON keys of its study (``ONE_BRACE_KEYS`` or ``PAIR_KEYS``)."""
+    return {key: getattr(c, field) for key, field in keys}
 
 
 def _print_pairs(args: argparse.Namespace, cands: list[BraceCandidate], first: Any, second: Any) -> int:
@@ -121,7 +123,7 @@ def _print_pairs(args: argparse.Namespace, cands: list[BraceCandidate], first: A
                 {
                     "first_brace": {"frame": args.first_brace, "normal": first, "Ci": ci_first},
                     "second_normal": second,
-                    "candidates": [_pair_keys(c) for c in cands],
+                    "candidates": [_candidate_json(c, PAIR_KEYS) for c in cands],
                 }
             )
         )

@@ -393,21 +393,7 @@ def _brace(t: _Table, robot: Robot, default_frame: str = "brace") -> tuple[Robot
 
 def _holding_of(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> Holding:
     """``[robot] gravity``, ``[loads] wrenches`` and each ``[[brace]]`` table's ``preload`` and ``friction``."""
-    preloads: list[float] = []
-    frictions: list[float | None] = []
-    for t in tables:
-        preload = t.number("preload", 0.0)
-        if not 0.0 <= preload <= MAX_PRELOAD:
-            raise ScenarioError(
-                f"'{t.key('preload')}' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
-            )
-        friction = t.number("friction") if t.has("friction") else None
-        if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
-            raise ScenarioError(
-                f"'{t.key('friction')}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}"
-            )
-        preloads.append(preload)
-        frictions.append(friction)
+    preloads, frictions = zip(*(_brace_statics(t) for t in tables), strict=True)
     shared = _holding(robot_t, tables[0], loads_t)  # gravity and the loads, checked as for one brace
     return Holding(
         gravity=shared.gravity,
@@ -417,19 +403,25 @@ def _holding_of(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> Holdi
     )
 
 
+def _brace_statics(t: _Table) -> tuple[float, float | None]:
+    """A brace table's ``preload`` P (N, default 0) and ``friction`` μ (None when not given), range-checked."""
+    preload = t.number("preload", 0.0)
+    if not 0.0 <= preload <= MAX_PRELOAD:
+        raise ScenarioError(
+            f"'{t.key('preload')}' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
+        )
+    friction = t.number("friction") if t.has("friction") else None
+    if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
+        raise ScenarioError(f"'{t.key('friction')}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")
+    return preload, friction
+
+
 def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
     """``[robot] gravity``, ``[brace] preload`` and ``friction``, ``[loads] wrenches``: what the brace must hold."""
     gravity = robot_t.raw("gravity", False)
     if not isinstance(gravity, bool):
         raise ScenarioError(f"'robot.gravity' must be true or false, got {show(gravity)}")
-    preload = brace_t.number("preload", 0.0)
-    if not 0.0 <= preload <= MAX_PRELOAD:
-        raise ScenarioError(
-            f"'brace.preload' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
-        )
-    friction = brace_t.number("friction") if brace_t.has("friction") else None
-    if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
-        raise ScenarioError(f"'brace.friction' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")
+    preload, friction = _brace_statics(brace_t)
     wrenches = loads_t.points("wrenches", 6) if loads_t.has("wrenches") else None
     if wrenches is not None and len(wrenches) > MAX_WRENCHES:
         raise ScenarioError(f"'loads.wrenches' lists {len(wrenches)} wrenches; give at most {MAX_WRENCHES}")

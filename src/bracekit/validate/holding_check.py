@@ -38,7 +38,7 @@ from typing import Any, Literal, NamedTuple
 
 import mujoco
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from bracekit._linalg import as_array, show
 from bracekit.errors import InputError, MujocoValidationError
@@ -46,6 +46,7 @@ from bracekit.kinematics import BracedRobot
 from bracekit.simulation.holding import Holding
 from bracekit.statics import ContactResponse, ContactResponses, capacity_of, contact_responses, effort_limits
 from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.inputs import Array
 from bracekit.validate.mjcf import build_mujoco_model
 from bracekit.validate.session import MujocoSession, captured_warnings
 
@@ -60,7 +61,6 @@ __all__ = [
     "mujoco_holding_check",
 ]
 
-Array = NDArray[np.float64]
 Outcome = Literal["held", "slipped", "lifted_off"]
 
 #: Below this fraction of the predicted margin the brace must hold in MuJoCo.
