@@ -92,6 +92,41 @@ class TermContext:
     holding: Any = None
 
 
+class JointTerm(Term):
+    """A term of the joint values q alone (no contact kinematics): its value and gradient from q.
+
+    Subclasses implement :meth:`of_q` and :meth:`gradient_of_q`; the term then serves a BracedState and the
+    fused step alike (an extra gradient added to the step's accumulator).
+    """
+
+    def of_q(self, q: Array) -> float:
+        """The term's value at the joint values q (n,)."""
+        raise NotImplementedError
+
+    def gradient_of_q(self, q: Array) -> Array:
+        """∂value/∂q (n,) at q."""
+        raise NotImplementedError
+
+    def value(self, state: BracedState) -> float:
+        """The term's value at the state's q."""
+        return self.of_q(state.q)
+
+    def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,) at the state's q (it needs no Hessians)."""
+        return self.gradient_of_q(state.q)
+
+    def fused_value(self, kin: FusedKinematics) -> float | None:
+        """The value at the fused step's joint values (None when it has none)."""
+        return None if kin.q is None else self.of_q(kin.q)
+
+    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to the fused step's accumulator; False when the step has no q."""
+        if kin.q is None:
+            return False
+        out.add_extra(weight * self.gradient_of_q(kin.q))
+        return True
+
+
 #: weight key → term class, filled by :func:`register_term` (the keys of ``[gradient_projection.weights]``).
 TERMS: dict[str, type[Term]] = {}
 
