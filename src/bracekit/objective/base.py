@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_number, show
+from bracekit._registry import Registry
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot, BracedState
 
@@ -128,15 +129,9 @@ class JointTerm(Term):
 
 
 #: weight key → term class, filled by :func:`register_term` (the keys of ``[gradient_projection.weights]``).
-TERMS: dict[str, type[Term]] = {}
-
-
-def register_term(cls: type[Term]) -> type[Term]:
-    """Class decorator: make a term available to scenarios under its ``key``."""
-    if not cls.key or cls.key in TERMS:
-        raise InputError(f"objective term {cls.__name__} needs a unique weight key, got {show(cls.key)}")
-    TERMS[cls.key] = cls
-    return cls
+TERMS: Registry[type[Term]] = Registry("objective term", "key", "weight key")
+#: Class decorator: make a term available to scenarios under its ``key``.
+register_term = TERMS.register
 
 
 def hessians(state: BracedState) -> tuple[Array, tuple[Array, ...]]:
