@@ -29,13 +29,13 @@ from bracekit.validate.holding_check import (
     HOLDING_SETTINGS,
     Array,
     Outcome,
-    _finite,
     _holding_session,
     common_friction,
     holding_inputs,
     predicted_limits,
     settle_unloaded,
 )
+from bracekit.validate.holding_records import _finite
 from bracekit.validate.session import CHUNK, MujocoSession, captured_warnings
 from bracekit.validate.statics import solve_statics
 
