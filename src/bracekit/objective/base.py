@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -91,6 +91,24 @@ class TermContext:
     beta_x: Array
     compliance_model: str
     holding: Any = None
+
+
+class BraceTerm(Term):
+    """A term of one brace (its ``brace``, from 0).
+
+    A scenario's weight stands for one term per brace that has what the term measures
+    (:meth:`terms_from_scenario`); :meth:`from_scenario` is the first of them.
+    """
+
+    @classmethod
+    def terms_from_scenario(cls, context: TermContext) -> tuple[Self, ...]:
+        """One term per brace that has what it measures (InputError when none has)."""
+        raise NotImplementedError
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> Self:
+        """The term of the first brace that has what it measures (its weight key is ``key``)."""
+        return cls.terms_from_scenario(context)[0]
 
 
 class JointTerm(Term):
