@@ -639,3 +639,30 @@ def test_the_preloaded_model_runs_with_two_braces_and_a_preload(capsys, tmp_path
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["compliance_model"] == "preloaded"
     assert summary["strategies"]["braced_gradient_projection"]["completed"]
+
+
+@pytest.mark.slow
+def test_validate_two_braces_reports_every_block_and_skips_none(capsys, tmp_path: Path) -> None:
+    pytest.importorskip("mujoco")
+    args = ["validate", "two-braces", "--configs", "1", "--tracking-points", "1", "--out", str(tmp_path / "v")]
+    code, out, _ = _run(args, capsys)
+    assert code == 0 and "not checked" not in out
+    for heading in (
+        "MuJoCo vs static solve",  # the statics: the first-order models against the nonlinear static solve
+        "Validation of the preloaded compliance",
+        "Validation of the holding statics in MuJoCo, scenario 'two-braces'",
+        "Lift-off and slip scales under a slow load ramp in MuJoCo, scenario 'two-braces'",
+        "Tracking check in MuJoCo, scenario 'two-braces'",
+    ):
+        assert heading in out
+    data = json.loads((tmp_path / "v" / "validation.json").read_text())
+    assert "skipped" not in data
+    holding, capacity = data["holding"], data["capacity"]
+    assert holding["holding"]["preloads_N"] == [5.0, 5.0]
+    s = holding["summary"]
+    assert s["margin_cases"] > 0 and s["margin_agree"] == s["margin_cases"] and s["force_max_rel_err"] < 0.02
+    # each wrench fails a different brace first, and MuJoCo fails that brace
+    firsts = {c["ramp"]["brace"] for c in capacity["cases"] if c["variant"] == "scenario"}
+    assert firsts == {0, 1}
+    assert all(c["ramp"]["mujoco_brace"] == c["ramp"]["brace"] for c in capacity["cases"] if c["status"] == "ok")
+    assert capacity["counts"]["disagrees"] == 0 and capacity["max_rel_err"] < 0.05

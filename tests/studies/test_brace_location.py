@@ -16,7 +16,7 @@ from bracekit.compliance.measures import frobenius_condition
 from bracekit.contact import Brace, Surface
 from bracekit.errors import ContactError, FrameNotFoundError
 from bracekit.kinematics import BracedRobot
-from bracekit.studies.brace_location import brace_location_study, brace_pair_study
+from bracekit.studies.brace_location import brace_location_study
 from bracekit.validate.statics import lagrange_compliance
 
 Q = np.array([0.0, 0.194, -2.598, 0.0, -0.737, -2.498, -1.898, 3.142, 2.106, 2.438, 0.867])
@@ -26,7 +26,7 @@ def test_candidates_match_the_kkt_equilibrium_of_a_brace_at_their_point() -> Non
     robot = load_model("paper-robot")
     cands = brace_location_study(robot, Q, points_per_link=2)
     assert 2 <= len(cands) <= 2 * (robot.n - 1)  # coincident candidates (zero-length links) are dropped
-    keys = [(c.n1, tuple(np.round(c.point, 9))) for c in cands]
+    keys = [(c.joint, tuple(np.round(c.point, 9))) for c in cands]
     assert len(keys) == len(set(keys))
     model, data = robot.model, robot.model.createData()
     pin.forwardKinematics(model, data, Q)
@@ -41,18 +41,18 @@ def test_candidates_match_the_kkt_equilibrium_of_a_brace_at_their_point() -> Non
         v_point = j_joint[:3] - np.cross(c.point, j_joint[3:].T).T  # v at the point, world axes
         a = v_point.T @ n_hat
         if np.linalg.norm(a) < 1e-9:
-            assert c.unloaded and c.Ci_constrained == pytest.approx(c.Ci_free, rel=1e-9)
+            assert c.unloaded and c.Ci_constrained == pytest.approx(c.Ci_before, rel=1e-9)
             continue
         c_true = lagrange_compliance(j_e, robot.stiffness, a[:, None])
         assert c.Ci_constrained == pytest.approx(np.linalg.norm(beta @ c_true), rel=1e-8)
-        assert c.Ci_constrained <= c.Ci_free * (1 + 1e-12)
+        assert c.Ci_constrained <= c.Ci_before * (1 + 1e-12)
     values = [c.Ci_constrained for c in cands]
     assert values == sorted(values)
 
 
 def test_bracing_nearer_the_tip_stiffens_the_tip_more_on_the_paper_robot() -> None:
     cands = brace_location_study(load_model("paper-robot"), Q, points_per_link=1)
-    by_n1 = {c.n1: c.Ci_constrained for c in cands}
+    by_n1 = {c.joint: c.Ci_constrained for c in cands}
     assert by_n1[10] < by_n1[6] < by_n1[3]
 
 
@@ -103,7 +103,7 @@ def test_study_on_a_200_joint_chain_completes_and_matches_the_kkt_equilibrium() 
     j_e = pin.getFrameJacobian(model, data, robot.tip_id, pin.LOCAL_WORLD_ALIGNED)
     beta = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
     for c in cands[:: max(1, len(cands) // 8)]:  # a sample along the ranking
-        j_joint = pin.getJointJacobian(model, data, c.n1, pin.WORLD)
+        j_joint = pin.getJointJacobian(model, data, c.joint, pin.WORLD)
         a = (j_joint[:3] - np.cross(c.point, j_joint[3:].T).T).T @ beta[:3]
         c_true = lagrange_compliance(j_e, robot.stiffness, a[:, None])
         assert c.Ci_constrained == pytest.approx(np.linalg.norm(beta @ c_true), rel=1e-7)
@@ -153,8 +153,8 @@ def _kkt_compliance(j_e: np.ndarray, k: np.ndarray, a: np.ndarray) -> np.ndarray
 def test_pair_candidates_match_the_constrained_compliance_and_a_kkt_solve_with_both_braces() -> None:
     robot = load_model("paper-robot")
     n_1, n_2 = np.array([0.0, 0.0, 1.0]), np.array([0.0, -1.0, 0.0])
-    cands = brace_pair_study(robot, Q, "brace", first_normal=n_1, second_normal=n_2, points_per_link=2)
-    values = [c.Ci_pair for c in cands]
+    cands = brace_location_study(robot, Q, fixed=[("brace", n_1)], normal=n_2, points_per_link=2)
+    values = [c.Ci_constrained for c in cands]
     assert len(cands) >= robot.n - 1 and values == sorted(values)
     model, data = robot.model, robot.model.createData()
     pin.forwardKinematics(model, data, Q)
@@ -166,19 +166,19 @@ def test_pair_candidates_match_the_constrained_compliance_and_a_kkt_solve_with_b
     a_1 = _point_constraint(model, data, frame.parentJoint, b_1, n_1)
     beta = np.concatenate([n_1, np.zeros(3)])
     c_first = _kkt_compliance(j_e, robot.stiffness, a_1[:, None])
-    assert cands[0].Ci_first == pytest.approx(np.linalg.norm(beta @ c_first), rel=1e-10)
+    assert cands[0].Ci_before == pytest.approx(np.linalg.norm(beta @ c_first), rel=1e-10)
     checked = 0
     for c in cands:
-        assert c.gain == pytest.approx(1.0 - c.Ci_pair / c.Ci_first, abs=1e-15)
+        assert c.reduction == pytest.approx(1.0 - c.Ci_constrained / c.Ci_before, abs=1e-15)
         a_2 = _point_constraint(model, data, c.joint, c.point, n_2)
         w = np.column_stack([a_1, a_2]) / np.sqrt(robot.stiffness)[:, None]
         s = np.linalg.svd(w, compute_uv=False)
         if c.unloaded or c.redundant:  # the candidate's row is dropped: the first brace alone
             assert s[-1] < 1e-6 * s[0] or np.linalg.norm(a_2) < 1e-9
-            assert c.Ci_pair == pytest.approx(c.Ci_first, rel=1e-10)
+            assert c.Ci_constrained == pytest.approx(c.Ci_before, rel=1e-10)
             continue
         c_true = _kkt_compliance(j_e, robot.stiffness, np.column_stack([a_1, a_2]))
-        assert c.Ci_pair == pytest.approx(np.linalg.norm(beta @ c_true), rel=1e-10)
+        assert c.Ci_constrained == pytest.approx(np.linalg.norm(beta @ c_true), rel=1e-10)
         assert beta @ c_true @ beta <= beta @ c_first @ beta * (1 + 1e-12)  # a second brace never softens β_x
         checked += 1
     assert checked >= len(cands) // 2
@@ -187,8 +187,8 @@ def test_pair_candidates_match_the_constrained_compliance_and_a_kkt_solve_with_b
         two = robot.with_point_frame("second", c.link, offset)
         braced = BracedRobot(two, [Brace("brace", Surface(b_1, n_1)), Brace("second", Surface(c.point, n_2))])
         c_e = end_effector_compliance(braced.state(Q), "constrained")
-        assert c.Ci_pair == pytest.approx(compliance_index(c_e, beta), rel=1e-10)
-        assert c.k_pair == pytest.approx(frobenius_condition(braced.state(Q).braced_jacobian), rel=1e-10)
+        assert c.Ci_constrained == pytest.approx(compliance_index(c_e, beta), rel=1e-10)
+        assert c.k_braced == pytest.approx(frobenius_condition(braced.state(Q).braced_jacobian), rel=1e-10)
 
 
 def test_a_second_brace_on_the_first_braces_own_point_is_marked_redundant_without_warnings() -> None:
@@ -197,11 +197,13 @@ def test_a_second_brace_on_the_first_braces_own_point_is_marked_redundant_withou
     robot = robot.with_point_frame("first", "link6", offset)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        cands = brace_pair_study(robot, Q, "first", first_normal=(0, 0, 2), second_normal=(0, 0, 1), points_per_link=1)
+        cands = brace_location_study(robot, Q, fixed=[("first", (0, 0, 2))], normal=(0, 0, 1), points_per_link=1)
     own = [c for c in cands if c.link == "link6"]
     assert len(own) == 1 and own[0].redundant and not own[0].unloaded
-    assert own[0].Ci_pair == pytest.approx(own[0].Ci_first, rel=1e-12) and own[0].gain == pytest.approx(0, abs=1e-12)
-    assert any(not c.redundant and c.gain is not None and c.gain > 0.5 for c in cands)  # link10 near the tip
+    assert own[0].Ci_constrained == pytest.approx(own[0].Ci_before, rel=1e-12) and own[0].reduction == pytest.approx(
+        0, abs=1e-12
+    )
+    assert any(not c.redundant and c.reduction is not None and c.reduction > 0.5 for c in cands)  # link10 near the tip
 
 
 @pytest.mark.parametrize(
@@ -218,9 +220,12 @@ def test_a_second_brace_on_the_first_braces_own_point_is_marked_redundant_withou
     ],
 )
 def test_pair_study_refuses_bad_arguments_with_one_line_input_errors(kwargs: dict, error: type) -> None:
-    args = {"robot": load_model("paper-robot"), "q": Q, "first_frame": "brace", **kwargs}
+    args = {"robot": load_model("paper-robot"), "q": Q, "first_frame": "brace", "first_normal": (0, 0, 1), **kwargs}
+    args["fixed"] = [(args.pop("first_frame"), args.pop("first_normal"))]
+    if "second_normal" in args:
+        args["normal"] = args.pop("second_normal")
     with pytest.raises(error) as info:
-        brace_pair_study(**args)
+        brace_location_study(**args)
     assert isinstance(info.value, InputError) and "\n" not in str(info.value)
 
 
@@ -231,10 +236,12 @@ def test_study_cli_ranks_second_braces_in_json_and_text(capsys: pytest.CaptureFi
     argv = ["study", "--model", "paper-robot", "--q", QS, "--first-brace", "brace", "--second-normal", "0,-1,0"]
     assert main([*argv, "--points-per-link", "2", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    api = brace_pair_study(load_model("paper-robot"), Q, "brace", second_normal=(0, -1, 0), points_per_link=2)
-    assert [c["Ci_pair"] for c in out["candidates"]] == pytest.approx([c.Ci_pair for c in api], rel=1e-12)
-    assert [c["gain"] for c in out["candidates"]] == pytest.approx([c.gain for c in api], rel=1e-9, abs=1e-15)
-    assert out["first_brace"]["frame"] == "brace" and out["first_brace"]["Ci"] == pytest.approx(api[0].Ci_first)
+    api = brace_location_study(
+        load_model("paper-robot"), Q, fixed=[("brace", (0, 0, 1))], normal=(0, -1, 0), points_per_link=2
+    )
+    assert [c["Ci_pair"] for c in out["candidates"]] == pytest.approx([c.Ci_constrained for c in api], rel=1e-12)
+    assert [c["gain"] for c in out["candidates"]] == pytest.approx([c.reduction for c in api], rel=1e-9, abs=1e-15)
+    assert out["first_brace"]["frame"] == "brace" and out["first_brace"]["Ci"] == pytest.approx(api[0].Ci_before)
     assert out["second_normal"] == [0.0, -1.0, 0.0]
     assert main(argv) == 0
     text = capsys.readouterr().out
@@ -259,3 +266,51 @@ def test_study_cli_refuses_bad_pair_flags_with_one_error_line(
     captured = capsys.readouterr()
     lines = captured.err.strip().splitlines()
     assert captured.out == "" and len(lines) == 1 and lines[0].startswith("bracekit: error:") and fragment in lines[0]
+
+
+def test_one_study_for_a_brace_alone_keeps_the_paper_s_split_measures() -> None:
+    """A set of one brace: n1, the projection model and k of J̃ of the chain split; with a fixed brace: none."""
+    robot = load_model("paper-robot")
+    alone = brace_location_study(robot, Q, points_per_link=1)
+    for c in alone[:3]:
+        offset = c.fraction * np.asarray(robot.model.jointPlacements[c.joint + 1].translation)
+        braced = BracedRobot(robot.with_point_frame("c", c.link, offset), Brace("c", Surface(c.point, (0, 0, 1))))
+        st = braced.state(Q)
+        beta = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+        assert braced.split.n1 == c.joint and c.redundant is False
+        assert c.Ci_projection == pytest.approx(compliance_index(end_effector_compliance(st, "projection"), beta))
+        assert c.k_braced == pytest.approx(frobenius_condition(st.split.J_braced), rel=1e-12)
+    paired = brace_location_study(robot, Q, fixed=[("brace", (0, 0, 1))], points_per_link=1)
+    assert all(c.Ci_projection is None for c in paired)  # the projection model needs one brace's chain split
+
+
+def test_candidates_added_to_two_fixed_braces_match_a_kkt_solve_with_three_braces() -> None:
+    robot = load_model("paper-robot")
+    robot = robot.with_point_frame("wall", "link9", np.zeros(3))
+    n_1, n_w, n_c = np.array([0.0, 0.0, 1.0]), np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    cands = brace_location_study(robot, Q, fixed=[("brace", n_1), ("wall", n_w)], normal=n_c, points_per_link=2)
+    model, data = robot.model, robot.model.createData()
+    pin.forwardKinematics(model, data, Q)
+    pin.computeJointJacobians(model, data, Q)
+    pin.updateFramePlacements(model, data)
+    j_e = pin.getFrameJacobian(model, data, robot.tip_id, pin.LOCAL_WORLD_ALIGNED)
+    fixed = [
+        _point_constraint(
+            model, data, model.frames[model.getFrameId(f)].parentJoint, data.oMf[model.getFrameId(f)].translation, n
+        )
+        for f, n in (("brace", n_1), ("wall", n_w))
+    ]
+    beta = np.concatenate([n_1, np.zeros(3)])
+    c_two = _kkt_compliance(j_e, robot.stiffness, np.column_stack(fixed))
+    assert cands[0].Ci_before == pytest.approx(np.linalg.norm(beta @ c_two), rel=1e-10)
+    checked = 0
+    for c in cands:
+        if c.unloaded or c.redundant:
+            assert c.Ci_constrained == pytest.approx(c.Ci_before, rel=1e-9)
+            continue
+        a = np.column_stack([*fixed, _point_constraint(model, data, c.joint, c.point, n_c)])
+        assert c.Ci_constrained == pytest.approx(
+            np.linalg.norm(beta @ _kkt_compliance(j_e, robot.stiffness, a)), rel=1e-9
+        )
+        checked += 1
+    assert checked >= len(cands) // 2

@@ -75,17 +75,18 @@ def test_mjcf_has_the_coulomb_cone_friction_gravity_and_the_statics_set_points(s
 def test_unloaded_contact_force_is_the_preload_with_no_tangential_force(down: HoldingCheck) -> None:
     assert down.unloaded_normal_rel_err < 0.02
     assert down.unloaded_tangential < 0.01 * 20.0
-    assert down.preload == 20.0 and down.friction == 0.5 and down.gravity
+    assert down.preloads == (20.0,) and down.friction == 0.5 and down.gravity
 
 
 def test_loaded_contact_force_and_torques_match_the_first_order_response_below_the_margin(down: HoldingCheck) -> None:
     held = [c for c in down.cases if c.fraction is not None and c.fraction <= 0.5]
     assert len(held) == 2
     for c in held:
-        assert c.outcome == "held"
+        (b,) = c.braces
+        assert c.outcome == "held" and b.outcome == "held" and c.failed_braces == ()
         assert c.rel_err < 0.01 and c.torque_rel_err < 0.01
-        assert abs(c.mujoco_normal - c.predicted_normal) < 0.01 * c.predicted_normal
-        assert abs(c.mujoco_tangential - c.predicted_tangential) < 0.02 * c.predicted_tangential + 0.05
+        assert abs(b.mujoco_normal - b.predicted_normal) < 0.01 * b.predicted_normal
+        assert abs(b.mujoco_tangential - b.predicted_tangential) < 0.02 * b.predicted_tangential + 0.05
     # the first-order error grows with the load (second order in s): the larger scale is further off
     assert held[1].rel_err > held[0].rel_err
 
@@ -99,8 +100,9 @@ def test_mujoco_and_first_order_forces_match_the_nonlinear_sticking_statics(setu
         case.wrench, preload=20.0, gravity=True, constraint_wrenches=load_contact_wrenches(sc.braced.brace, 0.5),
     )  # fmt: skip
     f_exact = exact.contact_wrench[:3]
-    mj_err = np.linalg.norm(case.mujoco_force - f_exact) / np.linalg.norm(f_exact)
-    first_err = np.linalg.norm(case.predicted_force - f_exact) / np.linalg.norm(f_exact)
+    (b,) = case.braces
+    mj_err = np.linalg.norm(b.mujoco_force - f_exact) / np.linalg.norm(f_exact)
+    first_err = np.linalg.norm(b.predicted_force - f_exact) / np.linalg.norm(f_exact)
     assert mj_err < 0.005 and first_err < 0.01
 
 
@@ -115,8 +117,8 @@ def test_mujoco_slips_only_beyond_the_predicted_slip_margin(setup: dict, down: H
     assert all(c.outcome == "held" and c.agrees for c in below)
     assert all(c.outcome == "slipped" and c.agrees for c in above)
     # sticking creeps a little; slipping moves b by far more
-    assert max(c.slip_displacement for c in below) < 0.1 * min(c.slip_displacement for c in above)
-    assert max(c.cone_ratio for c in below) < 1.0
+    assert max(c.braces[0].slip_displacement for c in below) < 0.1 * min(c.braces[0].slip_displacement for c in above)
+    assert max(c.braces[0].cone_ratio for c in below) < 1.0
     # at 0.8× the margin the first-order contact force is still within a few %
     assert max(c.rel_err for c in below) < 0.04
 
@@ -126,11 +128,13 @@ def test_frictionless_brace_lifts_off_only_beyond_the_predicted_liftoff_margin(s
     chk = mujoco_holding_check(sc.braced, setup["q"], Holding(gravity=True, preload=20.0), [0.0, 0.0, 10.0, 0, 0, 0])
     assert chk.mode == "lifted_off" and chk.slip_margin is None
     for c in chk.cases:
+        (b,) = c.braces
         if c.fraction <= HOLD_BELOW + 1e-9:
-            assert c.outcome == "held" and c.mujoco_normal > 0.0
+            assert c.outcome == "held" and b.mujoco_normal > 0.0
         else:
-            assert c.outcome == "lifted_off" and c.mujoco_normal == 0.0 and c.predicted_normal < 0.0
-    lightly = chk.cases[0]
+            assert c.outcome == "lifted_off" and b.mujoco_normal == 0.0 and b.predicted_normal < 0.0
+            assert c.failed_braces == (0,)
+    lightly = chk.cases[0].braces[0]
     assert abs(lightly.mujoco_normal - lightly.predicted_normal) < 0.01 * lightly.predicted_normal
 
 
@@ -142,9 +146,12 @@ def test_holding_validation_report_is_json_and_agrees(setup: dict) -> None:
     assert s["margin_cases"] == 4 and s["margin_agree"] == 4 and s["margin_disagreements"] == []
     assert s["unloaded_normal_max_rel_err"] < 0.02 and s["force_max_rel_err"] < 0.02
     assert js["holding"] == {
+        "source": "the scenario's holding statics",
         "gravity": True,
         "preload_N": 20.0,
+        "preloads_N": [20.0],
         "friction": 0.5,
+        "frictions": [0.5],
         "wrenches": [[0.0, 0.0, -10.0, 0.0, 0.0, 0.0], [10.0, 0.0, 0.0, 0.0, 0.0, 0.0]],
     }
     assert "4 of 4 agree" in report.table_text()

@@ -85,6 +85,17 @@ def needs(module: str, extra: str, what: str) -> None:
         raise MissingDependencyError(f"{what} needs {module}, which is not installed: pip install 'bracekit[{extra}]'")
 
 
+def needs_sweep_extra(command: str, figures: bool) -> None:
+    """The optional packages of a Dask command (``bracekit sweep``, ``bracekit place``): the 'sweep' extra.
+
+    Dask's distributed and pyarrow always; matplotlib when the command draws figures.
+    """
+    needs("distributed", "sweep", command)
+    needs("pyarrow", "sweep", command)
+    if figures:
+        needs("matplotlib", "sweep", f"{command} with figures (or pass --no-figures)")
+
+
 @contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
     """SIGTERM and SIGHUP raise KeyboardInterrupt while a command runs: it cleans up like Ctrl-C (exit 130)."""

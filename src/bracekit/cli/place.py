@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bracekit.cli.common import needs, sigterm_as_interrupt
+from bracekit.cli.common import needs_sweep_extra, sigterm_as_interrupt
 from bracekit.errors import InputError
 
 #: Most seeds per link, places refined and refinement rounds (each a batch of optimisations or whole-task runs).
@@ -44,11 +44,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run `bracekit place`; 0 when it finished (even with no feasible place: the table says why), 1 then too."""
-    needs("distributed", "sweep", "bracekit place")
-    needs("pyarrow", "sweep", "bracekit place")
     figures = not args.no_figures
-    if figures:
-        needs("matplotlib", "sweep", "bracekit place with figures (or pass --no-figures)")
+    needs_sweep_extra("bracekit place", figures)
     if not 1 <= args.workers <= MAX_WORKERS:
         raise InputError(f"--workers must be from 1 to {MAX_WORKERS} (local worker processes), got {args.workers}")
     for name in ("seeds", "top"):

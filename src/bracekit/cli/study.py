@@ -11,7 +11,7 @@ import numpy as np
 from bracekit.cli.common import add_limits_flag, floats, joint_values, load_robot, pct
 from bracekit.errors import InputError
 from bracekit.report.output import to_json
-from bracekit.studies.brace_location import brace_location_study, brace_pair_study
+from bracekit.studies.brace_location import BraceCandidate, brace_location_study
 
 
 def add_parser(sub: Any) -> None:
@@ -41,22 +41,30 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`bracekit study`: rank bracing points (or second points with --first-brace); the exit code."""
-    if args.first_brace is not None:
-        return _study_pairs(args)
+    pair = args.first_brace is not None
+    if pair and args.normal is not None:
+        raise InputError(
+            "--normal is for the one-brace study; with --first-brace give --first-normal and --second-normal"
+        )
     for flag, value in (("--first-normal", args.first_normal), ("--second-normal", args.second_normal)):
-        if value is not None:
+        if not pair and value is not None:
             raise InputError(f"{flag} needs --first-brace FRAME (the brace the second points are added to)")
     robot, _ = load_robot(args)
-    beta = None if args.beta_x is None else floats(args.beta_x, "--beta-x")
+    first = floats("0,0,1" if args.first_normal is None else args.first_normal, "--first-normal")
+    normal = floats("0,0,1" if args.normal is None else args.normal, "--normal")
+    second = first if args.second_normal is None else floats(args.second_normal, "--second-normal")
     cands = brace_location_study(
         robot,
         joint_values(args, robot),
-        normal=floats("0,0,1" if args.normal is None else args.normal, "--normal"),
-        beta_x=beta,
+        normal=second if pair else normal,
+        fixed=[(args.first_brace, first)] if pair else [],
+        beta_x=None if args.beta_x is None else floats(args.beta_x, "--beta-x"),
         points_per_link=args.points_per_link,
     )
+    if pair:
+        return _print_pairs(args, cands, first, second)
     if args.json:
-        print(to_json({"candidates": [c.__dict__ | {"reduction": c.reduction} for c in cands]}))
+        print(to_json({"candidates": [_candidate_json(c, ONE_BRACE_KEYS) for c in cands]}))
         return 0
     print("bracing candidates, best first (C_i in mm/N; k of J̃; fraction along the link to the next joint)")
     head = f"{'link':>10} {'n1':>3} {'frac':>5}  {'point [m]':<26} {'free':>8} {'constr.':>8} {'proj.':>8}"
@@ -65,40 +73,57 @@ def run(args: argparse.Namespace) -> int:
         k = "singular" if c.k_braced is None else f"{c.k_braced:8.2f}"
         note = "  (no load: chain 1 cannot push b)" if c.unloaded else ""
         print(
-            f"{c.link:>10} {c.n1:>3} {c.fraction:5.2f}  {np.round(c.point, 3).tolist()!s:<26} "
-            f"{1e3 * c.Ci_free:8.3f} {1e3 * c.Ci_constrained:8.3f} {1e3 * c.Ci_projection:8.3f} "
+            f"{c.link:>10} {c.joint:>3} {c.fraction:5.2f}  {np.round(c.point, 3).tolist()!s:<26} "
+            f"{1e3 * c.Ci_before:8.3f} {1e3 * c.Ci_constrained:8.3f} {1e3 * (c.Ci_projection or 0.0):8.3f} "
             f"{pct(c.reduction):>7} {k:>8}{note}"
         )
     return 0
 
 
-def _study_pairs(args: argparse.Namespace) -> int:
+#: The JSON keys of a one-brace candidate and the candidate's field of each (n1: the joints that move the point;
+#: Ci_free: C_i unbraced; reduction: what the brace removes).
+ONE_BRACE_KEYS = (
+    ("link", "link"),
+    ("n1", "joint"),
+    ("fraction", "fraction"),
+    ("point", "point"),
+    ("Ci_free", "Ci_before"),
+    ("Ci_constrained", "Ci_constrained"),
+    ("Ci_projection", "Ci_projection"),
+    ("k_braced", "k_braced"),
+    ("unloaded", "unloaded"),
+    ("reduction", "reduction"),
+)
+#: The JSON keys of a second-brace candidate (Ci_first: the first brace alone; gain: what the second adds).
+PAIR_KEYS = (
+    ("link", "link"),
+    ("joint", "joint"),
+    ("fraction", "fraction"),
+    ("point", "point"),
+    ("Ci_first", "Ci_before"),
+    ("Ci_pair", "Ci_constrained"),
+    ("k_pair", "k_braced"),
+    ("redundant", "redundant"),
+    ("unloaded", "unloaded"),
+    ("gain", "reduction"),
+)
+
+
+def _candidate_json(c: BraceCandidate, keys: tuple[tuple[str, str], ...]) -> dict[str, Any]:
+    """A candidate under the JSON keys of its study (``ONE_BRACE_KEYS`` or ``PAIR_KEYS``)."""
+    return {key: getattr(c, field) for key, field in keys}
+
+
+def _print_pairs(args: argparse.Namespace, cands: list[BraceCandidate], first: Any, second: Any) -> int:
     """`bracekit study --first-brace FRAME`: second bracing points ranked with the first brace fixed."""
-    if args.normal is not None:
-        raise InputError(
-            "--normal is for the one-brace study; with --first-brace give --first-normal and --second-normal"
-        )
-    robot, _ = load_robot(args)
-    first = floats("0,0,1" if args.first_normal is None else args.first_normal, "--first-normal")
-    second = first if args.second_normal is None else floats(args.second_normal, "--second-normal")
-    beta = None if args.beta_x is None else floats(args.beta_x, "--beta-x")
-    cands = brace_pair_study(
-        robot,
-        joint_values(args, robot),
-        args.first_brace,
-        first_normal=first,
-        second_normal=second,
-        beta_x=beta,
-        points_per_link=args.points_per_link,
-    )
-    ci_first = cands[0].Ci_first if cands else None
+    ci_first = cands[0].Ci_before if cands else None
     if args.json:
         print(
             to_json(
                 {
                     "first_brace": {"frame": args.first_brace, "normal": first, "Ci": ci_first},
                     "second_normal": second,
-                    "candidates": [c.__dict__ | {"gain": c.gain} for c in cands],
+                    "candidates": [_candidate_json(c, PAIR_KEYS) for c in cands],
                 }
             )
         )
@@ -111,11 +136,11 @@ def _study_pairs(args: argparse.Namespace) -> int:
     )
     print(f"{'link':>10} {'joint':>5} {'frac':>5}  {'point [m]':<26} {'pair':>8} {'gain':>7} {'k(J_e N)':>9}")
     for c in cands:
-        k = "singular" if c.k_pair is None else f"{c.k_pair:9.2f}"
+        k = "singular" if c.k_braced is None else f"{c.k_braced:9.2f}"
         note = "  (redundant: adds no constraint to the first brace)" if c.redundant else ""
         note += "  (no load: no joint can push the point along the normal)" if c.unloaded else ""
         print(
             f"{c.link:>10} {c.joint:>5} {c.fraction:5.2f}  {np.round(c.point, 3).tolist()!s:<26} "
-            f"{1e3 * c.Ci_pair:8.3f} {pct(c.gain):>7} {k:>9}{note}"
+            f"{1e3 * c.Ci_constrained:8.3f} {pct(c.reduction):>7} {k:>9}{note}"
         )
     return 0

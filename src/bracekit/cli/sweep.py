@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from bracekit._linalg import show
-from bracekit.cli.common import needs, sigterm_as_interrupt
+from bracekit.cli.common import needs_sweep_extra, sigterm_as_interrupt
 from bracekit.errors import InputError
 
 #: Most local Dask worker processes of --workers.
@@ -42,11 +42,8 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run `bracekit sweep`; the exit code (0 when the sweep finished, whatever its candidates' feasibility)."""
-    needs("distributed", "sweep", "bracekit sweep")
-    needs("pyarrow", "sweep", "bracekit sweep")
     figures = not args.no_figures
-    if figures:
-        needs("matplotlib", "sweep", "bracekit sweep with figures (or pass --no-figures)")
+    needs_sweep_extra("bracekit sweep", figures)
     if args.limit is not None and args.limit < 1:
         raise InputError(f"--limit must be at least 1, got {args.limit}")
     if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:

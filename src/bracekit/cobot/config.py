@@ -26,12 +26,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit.errors import InputError, ScenarioError
 from bracekit.simulation.scenario import load_scenario
 from bracekit.simulation.scenario_model import Scenario
-from bracekit.simulation.toml_table import Table
+from bracekit.simulation.toml_table import Table, read_source
 
 Array = NDArray[np.float64]
 
@@ -105,16 +104,7 @@ def shipped_cobots() -> dict[str, Path]:
 
 def load_cobot(source: str | os.PathLike[str]) -> CobotScenario:
     """Read a cobot scenario: a shipped name ('panda-cobot') or a TOML path; ScenarioError naming a bad key."""
-    shipped = shipped_cobots()
-    path = shipped[source] if isinstance(source, str) and source in shipped else Path(os.fspath(source))
-    if not path.is_file():
-        raise ScenarioError(
-            f"cobot scenario not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(shipped)}"
-        )
-    try:
-        data = read_toml(path, "cobot scenario")
-    except InputError as exc:
-        raise ScenarioError(str(exc)) from None
+    path, data = read_source(source, shipped_cobots(), "cobot scenario")
     try:
         return parse_cobot(data, path)
     except ScenarioError:

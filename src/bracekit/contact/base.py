@@ -7,7 +7,7 @@ its maths in its own file and registers its TOML/CLI name with :func:`register`.
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
+from abc import ABC
 from typing import ClassVar
 
 import numpy as np
@@ -24,24 +24,49 @@ def columns(*cols: tuple[Array, Array]) -> Array:
     return np.array([np.concatenate(c) for c in cols]).T
 
 
+def axis_columns(frame: Array, linear: str, angular: str) -> Array:
+    """[a; 0] for each tangent-frame axis a named in ``linear``, then [0; a] for each in ``angular`` (6×k).
+
+    Axes are named "x", "y", "z" (x̂_t, ŷ_t, ẑ_t = n̂: the columns of ``frame``), in that order.
+    """
+    zero = np.zeros(3)
+    return columns(*((frame[:, _AXIS[a]], zero) for a in linear), *((zero, frame[:, _AXIS[a]]) for a in angular))
+
+
+_AXIS = {"x": 0, "y": 1, "z": 2}
+
+
+def _others(axes: str) -> str:
+    """The tangent-frame axes not in ``axes``, in order."""
+    return "".join(a for a in "xyz" if a not in axes)
+
+
 class ContactType(ABC):
     """A contact type: which twists of {b} the contact allows (H) and which wrenches it transmits (X).
 
-    Subclasses set ``name`` (the TOML and CLI name) and ``l`` (the number of allowable twist directions) and
-    implement :meth:`H` and :meth:`X` for a tangent frame (3×3, columns x̂_t, ŷ_t, ẑ_t = n̂, world axes).
-    Instances carry no state: two instances of one type are equal.
+    Subclasses set ``name`` (the TOML and CLI name), ``l`` (the number of allowable twist directions) and the
+    tangent-frame axes along which {b} slides (``slides``) and about which it turns (``turns``), from which
+    :meth:`H` and :meth:`X` follow for a tangent frame (3×3, columns x̂_t, ŷ_t, ẑ_t = n̂, world axes); a
+    contact that is not a selection of those axes overrides :meth:`H` and :meth:`X` instead. Instances carry no
+    state: two instances of one type are equal.
     """
 
     name: ClassVar[str]
     l: ClassVar[int]
+    #: Tangent-frame axes ("x", "y", "z" = n̂) along which {b} may slide, and about which it may turn.
+    slides: ClassVar[str] = ""
+    turns: ClassVar[str] = ""
 
-    @abstractmethod
     def H(self, frame: Array) -> Array:
-        """Allowable twists of {b} (6×l), world axes, eq:constraint."""
+        """Allowable twists of {b} (6×l), world axes, eq:constraint: the slides, then the turns."""
+        return axis_columns(frame, self.slides, self.turns)
 
-    @abstractmethod
     def X(self, frame: Array) -> Array:
-        """Constraint wrenches (6×(6−l)), world axes, reciprocal to H: Hᵀ X = 0."""
+        """Constraint wrenches (6×(6−l)), world axes, reciprocal to H (Hᵀ X = 0).
+
+        A force along each axis {b} cannot slide along, then a moment about each axis it cannot turn about.
+        """
+        return axis_columns(frame, _others(self.slides), _others(self.turns))
 
     def load_wrenches(self, frame: Array, friction: float | None) -> Array:
         """The wrenches the contact transmits under a load with Coulomb friction μ (6×c), world axes.

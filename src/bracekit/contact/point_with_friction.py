@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import numpy as np
-
-from bracekit.contact.base import Array, ContactType, columns, register
+from bracekit.contact.base import ContactType, register
 
 
 @register
@@ -13,16 +11,8 @@ class PointWithFriction(ContactType):
 
     name = "point_with_friction"
     l = 3
-
-    def H(self, frame: Array) -> Array:
-        """Allowable twists of {b} (6×l), world axes, for the tangent frame `frame` (eq:constraint)."""
-        zero = np.zeros(3)
-        return columns((zero, frame[:, 0]), (zero, frame[:, 1]), (zero, frame[:, 2]))
-
-    def X(self, frame: Array) -> Array:
-        """Constraint wrenches (6×(6−l)), world axes, reciprocal to H (Hᵀ X = 0)."""
-        zero = np.zeros(3)
-        return columns((frame[:, 0], zero), (frame[:, 1], zero), (frame[:, 2], zero))
+    slides = ""
+    turns = "xyz"
 
 
 POINT_WITH_FRICTION = PointWithFriction()

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -308,26 +308,12 @@ class Robot:
         for name, fid, local in placed:
             parent = model.frames[fid]
             model.addFrame(pin.Frame(name, parent.parentJoint, fid, parent.placement * local, pin.FrameType.OP_FRAME))
-        return Robot(
-            model=model,
-            tip=self.tip,
-            stiffness=self.stiffness,
-            off_chain=self.off_chain,
-            collisions=self.collisions,
-            geometry=self.geometry,
-        )
+        return replace(self, model=model)
 
     def with_stiffness(self, stiffness: float | Sequence[float] | ArrayLike) -> Robot:
         """A copy of this robot with other joint stiffnesses (N·m/rad)."""
         k = _as_stiffness(stiffness, self.joint_names)
-        return Robot(
-            model=self.model,
-            tip=self.tip,
-            stiffness=k,
-            off_chain=self.off_chain,
-            collisions=self.collisions,
-            geometry=self.geometry,
-        )
+        return replace(self, stiffness=k)
 
     def link_capsules(self, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[Capsule, ...]:
         """Each moving link as capsules in its joint's frame: the URDF's collision geometry or the default capsule.

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_number, show
+from bracekit._registry import Registry
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot, BracedState
 
@@ -93,16 +94,63 @@ class TermContext:
     space: Any = None
 
 
+class BraceTerm(Term):
+    """A term of one brace (its ``brace``, from 0).
+
+    A scenario's weight stands for one term per brace that has what the term measures
+    (:meth:`terms_from_scenario`); :meth:`from_scenario` is the first of them.
+    """
+
+    @classmethod
+    def terms_from_scenario(cls, context: TermContext) -> tuple[Self, ...]:
+        """One term per brace that has what it measures (InputError when none has)."""
+        raise NotImplementedError
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> Self:
+        """The term of the first brace that has what it measures (its weight key is ``key``)."""
+        return cls.terms_from_scenario(context)[0]
+
+
+class JointTerm(Term):
+    """A term of the joint values q alone (no contact kinematics): its value and gradient from q.
+
+    Subclasses implement :meth:`of_q` and :meth:`gradient_of_q`; the term then serves a BracedState and the
+    fused step alike (an extra gradient added to the step's accumulator).
+    """
+
+    def of_q(self, q: Array) -> float:
+        """The term's value at the joint values q (n,)."""
+        raise NotImplementedError
+
+    def gradient_of_q(self, q: Array) -> Array:
+        """∂value/∂q (n,) at q."""
+        raise NotImplementedError
+
+    def value(self, state: BracedState) -> float:
+        """The term's value at the state's q."""
+        return self.of_q(state.q)
+
+    def gradient(self, state: BracedState) -> Array:
+        """∂value/∂q (n,) at the state's q (it needs no Hessians)."""
+        return self.gradient_of_q(state.q)
+
+    def fused_value(self, kin: FusedKinematics) -> float | None:
+        """The value at the fused step's joint values (None when it has none)."""
+        return None if kin.q is None else self.of_q(kin.q)
+
+    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
+        """Add weight · ∂value/∂q to the fused step's accumulator; False when the step has no q."""
+        if kin.q is None:
+            return False
+        out.add_extra(weight * self.gradient_of_q(kin.q))
+        return True
+
+
 #: weight key → term class, filled by :func:`register_term` (the keys of ``[gradient_projection.weights]``).
-TERMS: dict[str, type[Term]] = {}
-
-
-def register_term(cls: type[Term]) -> type[Term]:
-    """Class decorator: make a term available to scenarios under its ``key``."""
-    if not cls.key or cls.key in TERMS:
-        raise InputError(f"objective term {cls.__name__} needs a unique weight key, got {show(cls.key)}")
-    TERMS[cls.key] = cls
-    return cls
+TERMS: Registry[type[Term]] = Registry("objective term", "key", "weight key")
+#: Class decorator: make a term available to scenarios under its ``key``.
+register_term = TERMS.register
 
 
 def hessians(state: BracedState) -> tuple[Array, tuple[Array, ...]]:

@@ -11,13 +11,13 @@ from bracekit._linalg import angle_between, cross3, cross3_list
 from bracekit.compliance.measures import theta_z
 from bracekit.errors import InputError
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.objective.base import Array, Term, TermContext, register_term
+from bracekit.objective.base import Array, BraceTerm, TermContext, register_term
 from bracekit.objective.fused import FusedGradient, FusedKinematics
 
 
 @register_term
 @dataclass(frozen=True)
-class BraceAngle(Term):
+class BraceAngle(BraceTerm):
     """θ_z (eq:theta), rad. Its gradient is 0 where θ_z = 0 (a cone point).
 
     Defined only for a brace with a pad axis (``Brace.pad_axis``); InputError otherwise.
@@ -63,11 +63,6 @@ class BraceAngle(Term):
         """(kind, parameters) of the numba kernel's compiled copy of this term (the fused step's one brace)."""
         _check_pad_axis(braced, self.brace)
         return ("theta_z", [weight]) if self.brace == 0 else None
-
-    @classmethod
-    def from_scenario(cls, context: TermContext) -> BraceAngle:
-        """The term of the first brace with a pad axis (its weight key is ``key``)."""
-        return cls.terms_from_scenario(context)[0]
 
     @classmethod
     def terms_from_scenario(cls, context: TermContext) -> tuple[BraceAngle, ...]:

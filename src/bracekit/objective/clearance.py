@@ -18,11 +18,10 @@ import numpy as np
 
 from bracekit._linalg import as_number
 from bracekit.errors import BarrierError, InputError
-from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.clearance import Clearance, LinkDistance
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS
-from bracekit.objective.base import Array, Term, TermContext, register_term
-from bracekit.objective.fused import FusedGradient, FusedKinematics
+from bracekit.objective.base import Array, JointTerm, TermContext, register_term
 
 #: Margin δ of the barrier (m): links farther than this from the obstacle add nothing.
 DEFAULT_MARGIN = 0.10
@@ -30,7 +29,7 @@ DEFAULT_MARGIN = 0.10
 
 @register_term
 @dataclass(frozen=True, eq=False)
-class ClearanceBarrier(Term):
+class ClearanceBarrier(JointTerm):
     """Σ_links φ(c_link), φ(c) = (δ − c)² / (δ c) below the margin δ (m), 0 above; dimensionless.
 
     The obstacle is the surface of brace `brace` (a solid below its plane, of its obstacle radius); the links
@@ -78,35 +77,18 @@ class ClearanceBarrier(Term):
                 )
         return found
 
-    def _value(self, q: Array) -> float:
+    def of_q(self, q: Array) -> float:
+        """Σ (δ − d)² / (δ d) over the links within the margin δ at q (n,)."""
         delta = self.margin
         return float(sum((delta - d.clearance) ** 2 / (delta * d.clearance) for d in self._links(q, False)))
 
-    def _gradient(self, q: Array) -> Array:
+    def gradient_of_q(self, q: Array) -> Array:
+        """∂value/∂q (n,), exact (point Jacobians at the capsules' least points)."""
         delta = self.margin
         out = np.zeros(q.size)
         for d in self._links(q, True):
             out += (d.clearance**2 - delta**2) / (delta * d.clearance**2) * d.gradient
         return out
-
-    def value(self, state: BracedState) -> float:
-        """The term's value at the state (the class docstring gives it)."""
-        return self._value(state.q)
-
-    def gradient(self, state: BracedState) -> Array:
-        """∂value/∂q (n,), exact (point Jacobians at the capsules' least points)."""
-        return self._gradient(state.q)
-
-    def fused_value(self, kin: FusedKinematics) -> float | None:
-        """The value at the fused step's q (the same as :meth:`value`); None without q."""
-        return None if kin.q is None else self._value(kin.q)
-
-    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
-        """Add weight · ∂value/∂q to the fused step's accumulator (as an extra gradient); False without q."""
-        if kin.q is None:
-            return False
-        out.add_extra(weight * self._gradient(kin.q))
-        return True
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> ClearanceBarrier:

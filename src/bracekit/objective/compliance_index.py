@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Self
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -24,24 +25,47 @@ from bracekit.objective.compliance_gradient import bilinear_gradient
 from bracekit.objective.fused import FusedGradient, FusedKinematics
 
 
-@register_term
 @dataclass(frozen=True)
-class ComplianceIndex(Term):
-    """C_i = ‖β_xᵀ C_e‖ (eq:compliance_index) for a fixed unit twist β_x (6,) and a compliance model; m/N."""
+class DirectionalTerm(Term):
+    """A term of the tip compliance C_e along the task's twist β_x (6,) under a compliance model (C_i, c_t).
+
+    Subclasses say which directions they take (:meth:`direction`: a unit twist for C_i, a translation for c_t);
+    β_x follows the task's (:meth:`with_beta_x`) and a scenario makes the term from its β_x and compliance model.
+    """
 
     beta_x: Array
     model: ComplianceModel = "constrained"
-    name: str = "Ci"
-    key = "Ci"
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "beta_x", unit6(self.beta_x, "beta_x"))
+        object.__setattr__(self, "beta_x", self.direction(self.beta_x))
         check_model(self.model)
 
-    def with_beta_x(self, beta_x: ArrayLike) -> ComplianceIndex:
-        """The term with β_x replaced by a new unit twist (6,)."""
-        return replace(self, beta_x=as_array(beta_x, "beta_x", finite=False))  # made a unit twist by __post_init__
+    def direction(self, beta_x: Array) -> Array:
+        """β_x as the term takes it (6,); InputError for a direction it does not take."""
+        raise NotImplementedError
+
+    def with_beta_x(self, beta_x: ArrayLike) -> Self:
+        """The term with β_x replaced (checked by :meth:`direction`)."""
+        return replace(self, beta_x=as_array(beta_x, "beta_x", finite=False))
+
+    @classmethod
+    def from_scenario(cls, context: TermContext) -> Self:
+        """The term as a scenario configures it (its weight key is ``key``)."""
+        return cls(context.beta_x, check_model(context.compliance_model))
+
+
+@register_term
+@dataclass(frozen=True)
+class ComplianceIndex(DirectionalTerm):
+    """C_i = ‖β_xᵀ C_e‖ (eq:compliance_index) for a fixed unit twist β_x (6,) and a compliance model; m/N."""
+
+    name: str = "Ci"
+    key = "Ci"
+
+    def direction(self, beta_x: Array) -> Array:
+        """β_x scaled to a unit twist (6,)."""
+        return unit6(beta_x, "beta_x")
 
     def value(self, state: BracedState) -> float:
         """The term's value at the state (the class docstring gives its units)."""
@@ -105,8 +129,3 @@ class ComplianceIndex(Term):
         if braced.split.brace.environment_stiffness is not None and self.model != "projection":
             return None  # the kernel's T C1 Tᵀ form needs a rigid environment
         return "Ci", [*self.beta_x.tolist(), weight, float(self.model == "projection")]
-
-    @classmethod
-    def from_scenario(cls, context: TermContext) -> ComplianceIndex:
-        """The term as a scenario configures it (its weight key is ``key``)."""
-        return cls(context.beta_x, check_model(context.compliance_model))

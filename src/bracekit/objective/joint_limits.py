@@ -13,14 +13,12 @@ import numpy as np
 
 from bracekit._linalg import as_array
 from bracekit.errors import InputError
-from bracekit.kinematics import BracedState
-from bracekit.objective.base import Array, Term, TermContext, register_term
-from bracekit.objective.fused import FusedGradient, FusedKinematics
+from bracekit.objective.base import Array, JointTerm, TermContext, register_term
 
 
 @register_term
 @dataclass(frozen=True)
-class JointLimits(Term):
+class JointLimits(JointTerm):
     """Σ_i ((q_i − q̄_i) / (q_max,i − q_min,i))² over the joints with finite `lower` and `upper` (n,).
 
     Dimensionless. A joint with an infinite lower or upper limit does not contribute.
@@ -70,25 +68,6 @@ class JointLimits(Term):
         index, span = self._index, self._span  # type: ignore[attr-defined]
         out[index] = 2.0 * (q[index] - self._centre) / (span * span)  # type: ignore[attr-defined]
         return out
-
-    def value(self, state: BracedState) -> float:
-        """The term's value at the state (the class docstring gives its units)."""
-        return self.of_q(state.q)
-
-    def gradient(self, state: BracedState) -> Array:
-        """∂value/∂q (n,), exact (it needs no Hessians)."""
-        return self.gradient_of_q(state.q)
-
-    def fused_value(self, kin: FusedKinematics) -> float | None:
-        """The value at the fused step's joint values (None when it has none)."""
-        return None if kin.q is None else self.of_q(kin.q)
-
-    def fused_gradient(self, kin: FusedKinematics, weight: float, out: FusedGradient) -> bool:
-        """Add weight · ∂value/∂q to the fused step's accumulator; True when done here."""
-        if kin.q is None:
-            return False
-        out.add_extra(weight * self.gradient_of_q(kin.q))
-        return True
 
     @classmethod
     def from_scenario(cls, context: TermContext) -> JointLimits:

@@ -11,13 +11,13 @@ from bracekit._linalg import as_array, as_number
 from bracekit.compliance.measures import region_barrier
 from bracekit.errors import BarrierError, InputError
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.objective.base import Array, Term, TermContext, register_term
+from bracekit.objective.base import Array, BraceTerm, TermContext, register_term
 from bracekit.objective.fused import FusedGradient, FusedKinematics
 
 
 @register_term
 @dataclass(frozen=True)
-class RegionBarrier(Term):
+class RegionBarrier(BraceTerm):
     """d of a circular region of radius r_max (m) about `centre` (3,) for brace `brace`; BarrierError at r ≥ r_max.
 
     With several braces a scenario's weight d stands for one such term per brace with a region (d_i, named
@@ -92,11 +92,6 @@ class RegionBarrier(Term):
         if self.brace != 0:
             return None
         return "d", [*self.centre.tolist(), float(self.r_max), weight]
-
-    @classmethod
-    def from_scenario(cls, context: TermContext) -> RegionBarrier:
-        """The term of the first brace with a region (its weight key is ``key``)."""
-        return cls.terms_from_scenario(context)[0]
 
     @classmethod
     def terms_from_scenario(cls, context: TermContext) -> tuple[RegionBarrier, ...]:

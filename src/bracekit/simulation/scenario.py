@@ -15,7 +15,6 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit.compliance.preloaded import RUN_MODELS
 from bracekit.contact import REGISTRY, Brace, Surface, contact_type
@@ -33,6 +32,7 @@ from bracekit.simulation.holding import Holding
 from bracekit.simulation.scenario_model import DEFAULT_STRATEGIES, STRATEGIES, Scenario, weight_keys
 from bracekit.simulation.tasks import TASK_SHAPES, Task, radial_of
 from bracekit.simulation.toml_table import Table as _Table
+from bracekit.simulation.toml_table import read_source
 from bracekit.spatial import rotation_with_z
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 from bracekit.tolerances import MAX_STEPS
@@ -69,27 +69,7 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
         ScenarioError: the file is missing, not TOML, or a key is missing, unknown or malformed (the message
             names the key).
     """
-    shipped = shipped_scenarios()
-    if isinstance(source, str) and source in shipped:
-        path = shipped[source]
-    elif isinstance(source, str | os.PathLike) and isinstance(os.fspath(source), str) and os.fspath(source):
-        path = Path(os.fspath(source))
-    else:
-        raise ScenarioError(
-            f"a scenario must be a .toml path or a shipped name ({', '.join(sorted(shipped))}), got {show(source)}"
-        )
-    try:
-        found = path.is_file()
-    except (OSError, ValueError):  # a name the file system cannot hold
-        found = False
-    if not found:
-        raise ScenarioError(
-            f"scenario not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
-        )
-    try:
-        data = read_toml(path, "scenario")
-    except InputError as exc:
-        raise ScenarioError(str(exc)) from None
+    path, data = read_source(source, shipped_scenarios(), "scenario")
     try:
         return parse_scenario(data, base=path.parent, name=path.stem, source=path)
     except ScenarioError:
@@ -413,21 +393,7 @@ def _brace(t: _Table, robot: Robot, default_frame: str = "brace") -> tuple[Robot
 
 def _holding_of(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> Holding:
     """``[robot] gravity``, ``[loads] wrenches`` and each ``[[brace]]`` table's ``preload`` and ``friction``."""
-    preloads: list[float] = []
-    frictions: list[float | None] = []
-    for t in tables:
-        preload = t.number("preload", 0.0)
-        if not 0.0 <= preload <= MAX_PRELOAD:
-            raise ScenarioError(
-                f"'{t.key('preload')}' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
-            )
-        friction = t.number("friction") if t.has("friction") else None
-        if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
-            raise ScenarioError(
-                f"'{t.key('friction')}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}"
-            )
-        preloads.append(preload)
-        frictions.append(friction)
+    preloads, frictions = zip(*(_brace_statics(t) for t in tables), strict=True)
     shared = _holding(robot_t, tables[0], loads_t)  # gravity and the loads, checked as for one brace
     return Holding(
         gravity=shared.gravity,
@@ -437,19 +403,25 @@ def _holding_of(robot_t: _Table, tables: list[_Table], loads_t: _Table) -> Holdi
     )
 
 
+def _brace_statics(t: _Table) -> tuple[float, float | None]:
+    """A brace table's ``preload`` P (N, default 0) and ``friction`` μ (None when not given), range-checked."""
+    preload = t.number("preload", 0.0)
+    if not 0.0 <= preload <= MAX_PRELOAD:
+        raise ScenarioError(
+            f"'{t.key('preload')}' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
+        )
+    friction = t.number("friction") if t.has("friction") else None
+    if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
+        raise ScenarioError(f"'{t.key('friction')}' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")
+    return preload, friction
+
+
 def _holding(robot_t: _Table, brace_t: _Table, loads_t: _Table) -> Holding:
     """``[robot] gravity``, ``[brace] preload`` and ``friction``, ``[loads] wrenches``: what the brace must hold."""
     gravity = robot_t.raw("gravity", False)
     if not isinstance(gravity, bool):
         raise ScenarioError(f"'robot.gravity' must be true or false, got {show(gravity)}")
-    preload = brace_t.number("preload", 0.0)
-    if not 0.0 <= preload <= MAX_PRELOAD:
-        raise ScenarioError(
-            f"'brace.preload' must be a force in [0, {MAX_PRELOAD:g}] N (the brace pressing), got {preload:g}"
-        )
-    friction = brace_t.number("friction") if brace_t.has("friction") else None
-    if friction is not None and not 0.0 <= friction <= MAX_FRICTION:
-        raise ScenarioError(f"'brace.friction' must be a coefficient μ in [0, {MAX_FRICTION:g}], got {friction:g}")
+    preload, friction = _brace_statics(brace_t)
     wrenches = loads_t.points("wrenches", 6) if loads_t.has("wrenches") else None
     if wrenches is not None and len(wrenches) > MAX_WRENCHES:
         raise ScenarioError(f"'loads.wrenches' lists {len(wrenches)} wrenches; give at most {MAX_WRENCHES}")

@@ -1,19 +1,26 @@
-"""A TOML table being read for a scenario: typed values, its path in messages, unknown keys refused."""
+"""A TOML table being read for a scenario: typed values, its path in messages, unknown keys refused.
+
+:func:`read_source` opens the TOML files of scenarios, cobot scenarios and sweep specs: a shipped name or a path.
+"""
 
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._io import read_toml
 from bracekit._linalg import show
-from bracekit.errors import ScenarioError
+from bracekit.errors import InputError, ScenarioError
 
 Array = NDArray[np.float64]
 
-__all__ = ["Table"]
+__all__ = ["Table", "read_source"]
 
 
 class Table:
@@ -109,3 +116,36 @@ def _float(v: object) -> float | None:
     except OverflowError:
         return None
     return x if math.isfinite(x) else None
+
+
+def read_source(
+    source: object,
+    shipped: Mapping[str, Path],
+    what: str,
+    error: type[InputError] = ScenarioError,
+    folder: Path | None = None,
+) -> tuple[Path, dict[str, Any]]:
+    """The path and TOML data of ``source``: a shipped name (a key of ``shipped``) or a .toml path.
+
+    A relative path is taken from ``folder`` when given (else from the working directory). ``what`` names the
+    file in messages ("scenario", "sweep spec", …); a missing, unreadable or non-TOML file raises ``error``
+    with one line naming it and the shipped names.
+    """
+    names = ", ".join(sorted(shipped))
+    if isinstance(source, str) and source in shipped:
+        path = shipped[source]
+    elif isinstance(source, str | os.PathLike) and isinstance(os.fspath(source), str) and os.fspath(source):
+        path = Path(os.fspath(source))
+        path = path if folder is None or path.is_absolute() else folder / path
+    else:
+        raise error(f"a {what} must be a .toml path or a shipped name ({names}), got {show(source)}")
+    try:
+        found = path.is_file()
+    except (OSError, ValueError):  # a name the file system cannot hold
+        found = False
+    if not found:
+        raise error(f"{what} not found: {show(str(source), 200)}; give a .toml file or one of: {names}")
+    try:
+        return path, read_toml(path, what)
+    except InputError as exc:
+        raise error(str(exc)) from None

@@ -63,19 +63,7 @@ class Trajectory:
         return {
             "Ci_mean": float(np.mean(ci)) if finite else None,
             "Ci_min": float(np.min(ci)) if finite else None,
-            "prod_sigma_t_mean": float(np.mean(m["prod_sigma_t"])),
-            "prod_sigma_o_mean": float(np.mean(m["prod_sigma_o"])),
-            "sigma_t_min": float(np.min(m["sigma_t_min"])),
-            "sigma_o_min": float(np.min(m["sigma_o_min"])),
-            "k_mean": float(np.mean(m["k"])),
-            "k_free_mean": float(np.mean(m["k_free"])),
-            "theta_z_max_rad": float(np.max(m["theta_z"])),
-            "max_task_error_m": float(np.max(m["task_error"])),
-            "max_contact_violation_m": float(np.max(m["contact_violation"])),
-            "max_region_radius_m": float(np.max(m["region_radius"])),
-            "min_surface_distance_m": float(np.min(m["surface_distance"])),
-            "max_joint_limit_violation_rad": float(np.max(m["joint_limit_violation"])),
-            "max_joint_step_rad": float(np.max(m["joint_step"])),
+            **{key: float(reduce(m[name])) for key, reduce, name in _SERIES},
             "min_link_clearance_m": _finite_or_none(float(np.min(m["link_clearance"]))),
             "steps": self.steps,
             "substeps": self.substeps,
@@ -84,6 +72,24 @@ class Trajectory:
             "task_space": self.task_space,
             "redundancy": self.redundancy,
         } | ({} if self.braces is None else {"braces": self.braces})
+
+
+#: Table I and the run checks: (summary key, reduction over the run, measure series), in the summary's order.
+_SERIES = (
+    ("prod_sigma_t_mean", np.mean, "prod_sigma_t"),
+    ("prod_sigma_o_mean", np.mean, "prod_sigma_o"),
+    ("sigma_t_min", np.min, "sigma_t_min"),
+    ("sigma_o_min", np.min, "sigma_o_min"),
+    ("k_mean", np.mean, "k"),
+    ("k_free_mean", np.mean, "k_free"),
+    ("theta_z_max_rad", np.max, "theta_z"),
+    ("max_task_error_m", np.max, "task_error"),
+    ("max_contact_violation_m", np.max, "contact_violation"),
+    ("max_region_radius_m", np.max, "region_radius"),
+    ("min_surface_distance_m", np.min, "surface_distance"),
+    ("max_joint_limit_violation_rad", np.max, "joint_limit_violation"),
+    ("max_joint_step_rad", np.max, "joint_step"),
+)
 
 
 def _finite_or_none(value: float) -> float | None:

@@ -46,7 +46,27 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)
-class ContactResponse:
+class LoadResponse:
+    """The preloaded equilibrium and its first-order response to a tool wrench w: what every view of it holds.
+
+    Attributes (one configuration; :class:`~bracekit.statics.stacked.ContactResponses` stacks them over N
+    configurations and B braces):
+        q: the commanded configuration, rad; q_s: spring set points q + K⁻¹ τ0, rad.
+        tau0: actuator torques without tool load, N·m; f_c0: contact wrench without tool load, N and N·m.
+        contact_gain, torque_gain, joint_gain: δf_c, δτ and δq per unit tool wrench (first order).
+    """
+
+    q: Array
+    q_s: Array
+    tau0: Array
+    f_c0: Array
+    contact_gain: Array
+    torque_gain: Array
+    joint_gain: Array
+
+
+@dataclass(frozen=True, eq=False)
+class ContactResponse(LoadResponse):
     """One brace's view of the preloaded equilibrium at one configuration q and its first-order load response.
 
     With several braces the record holds one brace's contact wrench; τ, q_s and δq are those of every brace
@@ -66,13 +86,6 @@ class ContactResponse:
         friction: μ, or None when no friction coefficient was given.
     """
 
-    q: Array
-    q_s: Array
-    tau0: Array
-    f_c0: Array
-    contact_gain: Array
-    torque_gain: Array
-    joint_gain: Array
     X: Array
     normal: Array
     preload: float

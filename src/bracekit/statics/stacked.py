@@ -31,6 +31,7 @@ from bracekit.kinematics.constraint import _independent_rows
 from bracekit.kinematics.hessian import ensure_hessian_layout, frame_hessian
 from bracekit.statics.equilibrium import (
     ContactResponse,
+    LoadResponse,
     _check_size,
     check_friction,
     check_preload,
@@ -42,7 +43,7 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)
-class ContactResponses:
+class ContactResponses(LoadResponse):
     """The preloaded equilibrium with B ≥ 1 braces at N configurations and its first-order response to a tool wrench.
 
     Brace i carries f_c0,i = [P_i n̂_i; 0] without tool load (at b_i, world axes); under a tool wrench w its
@@ -62,13 +63,6 @@ class ContactResponses:
         frictions: μ_i of each brace, None where none was given.
     """
 
-    q: Array
-    q_s: Array
-    tau0: Array
-    f_c0: Array
-    contact_gain: Array
-    torque_gain: Array
-    joint_gain: Array
     X: tuple[Array, ...]
     normals: Array
     preloads: tuple[float, ...]

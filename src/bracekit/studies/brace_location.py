@@ -2,12 +2,15 @@
 
 At a fixed configuration q, candidate bracing points are placed along each link (on the segment from the
 link's joint to the next joint), a plane with the given normal is put through each point, and the tip's
-compliance index C_i along β_x is evaluated for the free robot and both braced models. Units: m, m/N.
+compliance index C_i along β_x is evaluated with the candidate added to a set of braces already in place (none:
+the candidate alone, against the free robot; one: where to put a second brace). One study serves every set.
+Units: m, m/N.
 """
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,27 +41,34 @@ MAX_POINTS_PER_LINK = 50
 
 @dataclass(frozen=True)
 class BraceCandidate:
-    """One candidate bracing point and what bracing there does to the tip.
+    """One candidate bracing point, braced together with the study's fixed braces (none: the point alone).
 
-    ``link`` is the link that carries the point, ``fraction`` its place on the segment to the next
-    joint (0 = at the joint), ``point`` its world position (m). ``Ci_*`` in m/N; ``k_braced`` is k of J̃
-    (None if J̃ is singular there); ``unloaded`` tells that the contact carries no load from chain 1.
+    ``link`` carries the point, ``joint`` is the number of joints that move it (base to that link; for one
+    brace the paper's n1), ``fraction`` its place on the segment to the next joint (0 = at the joint),
+    ``point`` its world position (m). ``Ci_before`` is C_i without the candidate: the fixed braces' stacked
+    constrained C_i, or the free robot's when there are none; ``Ci_constrained`` the stacked constrained C_i
+    with the candidate added (m/N, or the units of β_x's rows). ``Ci_projection``: the paper's projection
+    model (eq:Ce with C̃1), for a set of one brace only (None otherwise: it needs the chain split).
+    ``k_braced``: k of the braced task Jacobian, J̃ for one brace and J_e N for several (None where singular).
+    ``redundant``: the candidate's constraint rows depend on the fixed braces' (its rows are dropped, so
+    C_i is unchanged). ``unloaded``: no joint can push the point along the normal.
     """
 
     link: str
-    n1: int
+    joint: int
     fraction: float
     point: Array
-    Ci_free: float
+    Ci_before: float
     Ci_constrained: float
-    Ci_projection: float
+    Ci_projection: float | None
     k_braced: float | None
+    redundant: bool
     unloaded: bool
 
     @property
     def reduction(self) -> float | None:
-        """1 − C_i(constrained) / C_i(free); None when the free compliance along β_x is zero."""
-        return None if self.Ci_free <= 1e-15 else 1.0 - self.Ci_constrained / self.Ci_free
+        """1 − C_i,constrained / C_i,before: what the candidate adds; None when C_i,before is zero."""
+        return None if self.Ci_before <= 1e-15 else 1.0 - self.Ci_constrained / self.Ci_before
 
 
 def _links(model: pin.Model) -> dict[int, str]:
@@ -121,156 +131,50 @@ def brace_location_study(
     q: ArrayLike,
     *,
     normal: ArrayLike = (0.0, 0.0, 1.0),
+    fixed: Sequence[tuple[str, ArrayLike]] = (),
     beta_x: ArrayLike | None = None,
     points_per_link: int = 3,
     contact: str | ContactType = "frictionless_point",
 ) -> list[BraceCandidate]:
-    """Candidates on every link that has at least one joint between it and the tip, best (lowest C_i) first.
+    """Where to brace, with the braces of ``fixed`` already in place: candidates along the robot, best first.
 
-    Candidates that coincide with one already listed (same point, same chain split) are dropped. The robot's
-    kinematics are evaluated once for all candidates (their frames are added to one copy of the model).
-
-    Args:
-        robot: the robot, at configuration q (n,).
-        q: joint values, chain order.
-        normal: normal of the bracing plane put through each candidate (world; its length does not matter).
-        beta_x: twist of the compliance index (6,); [n̂; 0] by default.
-        points_per_link: candidates per link, 1 to MAX_POINTS_PER_LINK (1: the middle of the link).
-        contact: contact type (name or instance).
-    """
-    count, qa, kind = _study_inputs(robot, q, points_per_link, contact)
-    n_hat = _plane_normal(normal, "the surface normal")
-    beta = _beta(beta_x, n_hat)
-    planned = _planned(robot, count)
-    frames = robot.with_point_frames([(name, link, offset, None) for name, link, _, _, offset in planned])
-    ids = [frames.tip_id] + [frames.frame_id(p[0]) for p in planned]
-    kinematics = frames.frame_kinematics(qa, ids)
-    tip, j_e = kinematics[0]
-    out: list[BraceCandidate] = []
-    seen: dict[int, list[Array]] = {}
-    ci_free: float | None = None
-    for (name, link, j, f, _), (placement, j_b) in zip(planned, kinematics[1:], strict=True):
-        b = placement[:3, 3]  # the candidate point in world coordinates
-        if any(np.linalg.norm(p - b) < 1e-9 for p in seen.get(j, ())):
-            continue
-        seen.setdefault(j, []).append(b)
-        braced = BracedRobot(frames, Brace(name, Surface(b, n_hat), kind))
-        st = braced.state_from_kinematics(qa, [(tip, j_e), (placement, j_b)])
-        if ci_free is None:  # the free robot is the same for every candidate
-            ci_free = compliance_index(free_space_compliance(st), beta)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", UnloadedContactWarning)
-            c_con = end_effector_compliance(st, "constrained")
-        try:
-            k_b: float | None = frobenius_condition(st.split.J_braced)
-        except SingularityError:
-            k_b = None
-        out.append(
-            BraceCandidate(
-                link=link,
-                n1=braced.split.n1,
-                fraction=f,
-                point=b,
-                Ci_free=ci_free,
-                Ci_constrained=compliance_index(c_con, beta),
-                Ci_projection=compliance_index(end_effector_compliance(st, "projection"), beta),
-                k_braced=k_b,
-                unloaded=any(issubclass(w.category, UnloadedContactWarning) for w in caught),
-            )
-        )
-    return sorted(out, key=lambda c: c.Ci_constrained)
-
-
-@dataclass(frozen=True)
-class BracePairCandidate:
-    """One candidate second bracing point, braced together with a fixed first brace.
-
-    ``link`` carries the point, ``joint`` is the number of joints that move it (base to that link),
-    ``fraction`` its place on the segment to the next joint (0 = at the joint), ``point`` its world position
-    (m). ``Ci_first`` is C_i of the first brace alone and ``Ci_pair`` the stacked constrained C_i with both
-    braces (m/N, or the units of β_x's rows); ``k_pair`` is k of J_e N (None where J_e N is singular).
-    ``redundant``: the candidate's constraint rows depend on the first brace's (it adds no constraint; its
-    rows are dropped, so C_i,pair = C_i,first). ``unloaded``: no joint can push the point along the normal.
-    """
-
-    link: str
-    joint: int
-    fraction: float
-    point: Array
-    Ci_first: float
-    Ci_pair: float
-    k_pair: float | None
-    redundant: bool
-    unloaded: bool
-
-    @property
-    def gain(self) -> float | None:
-        """1 − C_i,pair / C_i,first: what the second brace adds; None when C_i,first is zero."""
-        return None if self.Ci_first <= 1e-15 else 1.0 - self.Ci_pair / self.Ci_first
-
-
-def _stacked(braced: BracedRobot, q: Array, kinematics: list[tuple[Array, Array]]) -> BracedState:
-    """The stacked state of `braced` at q from (⁰M, J) of the tip and of each brace, in brace order."""
-    return braced.state_from_kinematics(q, kinematics)
-
-
-def _k(state: BracedState) -> float | None:
-    """The condition number k of J_e N; None where it is singular (fewer than 6 braced motions, or σ_min ≈ 0)."""
-    try:
-        return frobenius_condition(state.braced_jacobian)
-    except SingularityError:
-        return None
-
-
-def brace_pair_study(
-    robot: Robot,
-    q: ArrayLike,
-    first_frame: str,
-    *,
-    first_normal: ArrayLike = (0.0, 0.0, 1.0),
-    second_normal: ArrayLike = (0.0, 0.0, 1.0),
-    beta_x: ArrayLike | None = None,
-    points_per_link: int = 3,
-    contact: str | ContactType = "frictionless_point",
-) -> list[BracePairCandidate]:
-    """Where to put a second brace, given a first one: candidates along the robot, best (lowest C_i,pair) first.
-
-    The first brace is frame `first_frame` of the model on the plane through it with normal `first_normal`.
-    Candidate second points are placed as in :func:`brace_location_study` (the same points, coincident ones
-    dropped), each on its own plane through the point with normal `second_normal`. For each candidate,
-    C_i,pair = ‖β_xᵀ C_e‖ with C_e the stacked constrained compliance of both braces
-    (:func:`~bracekit.compliance.first_order.constrained_compliance`, first brace's rows first). A candidate whose
-    rows depend on the first brace's is kept and marked ``redundant`` (its RedundantContactWarning is not
-    repeated); candidates the model refuses (a frame it cannot brace, a non-finite G) are left out. The
-    kinematics are evaluated once for all candidates.
+    Candidate points are placed on every link that has at least one joint between it and the tip
+    (``points_per_link`` on the segment to the next joint; coincident ones dropped), each on its own plane
+    through the point with normal ``normal``. Each candidate is braced together with the fixed braces (each a
+    model frame on the plane through it with its normal) and ranked by the stacked constrained C_i =
+    ‖β_xᵀ C_e‖ (:func:`~bracekit.compliance.first_order.end_effector_compliance`, the fixed braces' rows
+    first), lowest first. A candidate whose rows depend on the fixed braces' is kept and marked ``redundant``;
+    candidates the model refuses (a frame it cannot brace, a non-finite G) are left out. The kinematics are
+    evaluated once for all candidates (their frames are added to one copy of the model).
 
     Args:
         robot: the robot (n joints).
         q: joint values (n,), chain order.
-        first_frame: frame of the first brace {b_1} (a frame of a link with a joint between it and the tip).
-        first_normal: normal of the first brace's plane (world; its length does not matter).
-        second_normal: normal of every candidate's plane (world).
-        beta_x: twist of the compliance index (6,); [n̂_1; 0] (the first normal) by default.
+        normal: normal of every candidate's plane (world; its length does not matter).
+        fixed: the braces in place, (frame name, plane normal) each; none: the candidates alone.
+        beta_x: twist of the compliance index (6,); [n̂; 0] of the first fixed brace's normal (of ``normal``
+            without fixed braces) by default.
         points_per_link: candidates per link, 1 to MAX_POINTS_PER_LINK (1: the middle of the link).
-        contact: contact type of both braces (name or instance).
+        contact: contact type of every brace (name or instance).
     """
     count, qa, kind = _study_inputs(robot, q, points_per_link, contact)
-    n_1 = _plane_normal(first_normal, "the first brace's normal")
-    n_2 = _plane_normal(second_normal, "the second brace's normal")
-    beta = _beta(beta_x, n_1)
-    if not isinstance(first_frame, str):
-        raise InputError(f"first_frame must be a frame name (a string), got {type(first_frame).__name__}")
-    BracedRobot(robot, Brace(first_frame, Surface(np.zeros(3), n_1), kind))  # a frame the model can brace
+    n_c = _plane_normal(normal, "the surface normal")
+    held = _fixed(robot, fixed, kind)
+    beta = _beta(beta_x, held[0].surface.normal if held else n_c)
     planned = _planned(robot, count)
     frames = robot.with_point_frames([(name, link, offset, None) for name, link, _, _, offset in planned])
-    ids = [frames.tip_id, frames.frame_id(first_frame)] + [frames.frame_id(p[0]) for p in planned]
+    ids = [frames.tip_id] + [frames.frame_id(b.frame) for b in held] + [frames.frame_id(p[0]) for p in planned]
     kinematics = frames.frame_kinematics(qa, ids)
-    first = Brace(first_frame, Surface(kinematics[1][0][:3, 3], n_1), kind)
-    alone = _stacked(BracedRobot(frames, [first]), qa, kinematics[:2])
-    ci_first = compliance_index(end_effector_compliance(alone, "constrained"), beta)
-    out: list[BracePairCandidate] = []
+    first = [
+        Brace(b.frame, Surface(kin[0][:3, 3], b.surface.normal), kind)
+        for b, kin in zip(held, kinematics[1 : 1 + len(held)], strict=True)
+    ]
+    base = kinematics[: 1 + len(first)]
+    ci_before: float | None = None
+    out: list[BraceCandidate] = []
     seen: dict[int, list[Array]] = {}
-    for (name, link, j, f, _), kin in zip(planned, kinematics[2:], strict=True):
+    last = f"braces[{len(first)}]"  # the candidate's label in the constraint's warnings
+    for (name, link, j, f, _), kin in zip(planned, kinematics[len(base) :], strict=True):
         b = kin[0][:3, 3]  # the candidate point in world coordinates
         if any(np.linalg.norm(p - b) < 1e-9 for p in seen.get(j, ())):
             continue
@@ -278,24 +182,69 @@ def brace_pair_study(
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                braced = BracedRobot(frames, [first, Brace(name, Surface(b, n_2), kind)])
-                st = _stacked(braced, qa, [*kinematics[:2], kin])
-                ci_pair = compliance_index(end_effector_compliance(st, "constrained"), beta)
+                braced = BracedRobot(frames, [*first, Brace(name, Surface(b, n_c), kind)])
+                st = braced.state_from_kinematics(qa, [*base, kin])
+                ci = compliance_index(end_effector_compliance(st, "constrained"), beta)
             except (ContactError, NumericalError):
                 continue
-        # labels in the warnings are "braces[i] (frame ...)": braces[1] is the candidate
-        about = [w for w in caught if "braces[1]" in str(w.message)]
+        if ci_before is None:  # the same for every candidate
+            ci_before = _ci_before(st, frames, first, base, beta)
+        about = [w for w in caught if last in str(w.message) or "braces[" not in str(w.message)]
         out.append(
-            BracePairCandidate(
+            BraceCandidate(
                 link=link,
                 joint=j,
                 fraction=f,
                 point=b,
-                Ci_first=ci_first,
-                Ci_pair=ci_pair,
-                k_pair=_k(st),
+                Ci_before=ci_before,
+                Ci_constrained=ci,
+                Ci_projection=_projection(st, beta),
+                k_braced=_k(st),
                 redundant=any(issubclass(w.category, RedundantContactWarning) for w in about),
                 unloaded=any(issubclass(w.category, UnloadedContactWarning) for w in about),
             )
         )
-    return sorted(out, key=lambda c: c.Ci_pair)
+    return sorted(out, key=lambda c: c.Ci_constrained)
+
+
+def _fixed(robot: Robot, fixed: object, kind: ContactType) -> list[Brace]:
+    """The fixed braces (frame, plane normal) as Braces on a plane through the origin; InputError if malformed."""
+    if not isinstance(fixed, (list, tuple)):
+        raise InputError(f"fixed must be a list of (frame name, normal) pairs, got {type(fixed).__name__}")
+    out = []
+    for i, item in enumerate(fixed):
+        if not (isinstance(item, (list, tuple)) and len(item) == 2 and isinstance(item[0], str)):
+            raise InputError(f"fixed[{i}] must be a (frame name, normal) pair, got {item!r}")
+        out.append(Brace(item[0], Surface(np.zeros(3), _plane_normal(item[1], f"the normal of fixed[{i}]")), kind))
+    if out:
+        BracedRobot(robot, out)  # frames the model can brace
+    return out
+
+
+def _ci_before(
+    state: BracedState, frames: Robot, first: list[Brace], base: list[tuple[Array, Array]], beta: Array
+) -> float:
+    """C_i without the candidate (``state``: with it).
+
+    The fixed braces' stacked constrained C_i, or the free robot's without fixed braces.
+    """
+    if not first:
+        return compliance_index(free_space_compliance(state), beta)
+    alone = BracedRobot(frames, first).state_from_kinematics(state.q, base)
+    return compliance_index(end_effector_compliance(alone, "constrained"), beta)
+
+
+def _projection(state: BracedState, beta: Array) -> float | None:
+    """C_i of the paper's projection model for a set of one brace; None for several (it needs the chain split)."""
+    try:
+        return compliance_index(end_effector_compliance(state, "projection"), beta)
+    except ContactError:
+        return None
+
+
+def _k(state: BracedState) -> float | None:
+    """The condition number k of the braced task Jacobian (J̃ for one brace, J_e N for several); None if singular."""
+    try:
+        return frobenius_condition(state.motions.task_jacobian)
+    except SingularityError:
+        return None

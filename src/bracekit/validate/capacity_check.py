@@ -10,7 +10,7 @@ to a stated multiple and must hold. Units: N, N·m, m; world axes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import mujoco
@@ -23,18 +23,21 @@ from bracekit.errors import InputError, MujocoValidationError, StaticSolveError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.holding import Holding
 from bracekit.statics import load_contact_wrenches
+from bracekit.statics.stacked import brace_index
+from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.holding_check import (
     HOLDING_SETTINGS,
     Array,
     Outcome,
-    _finite,
     _holding_session,
-    _settle,
+    common_friction,
     holding_inputs,
     predicted_limits,
+    settle_unloaded,
 )
+from bracekit.validate.holding_records import _finite
 from bracekit.validate.session import CHUNK, MujocoSession, captured_warnings
-from bracekit.validate.statics import solve_static_equilibrium
+from bracekit.validate.statics import solve_statics
 
 __all__ = ["RAMP_SETTINGS", "CapacityRamp", "mujoco_capacity_ramp", "static_capacity_scale"]
 
@@ -74,16 +77,20 @@ class CapacityRamp:
     Attributes:
         q: the commanded configuration (n,), rad.
         wrench: w (6,), [f; m] at the tip, world axes (N, N·m).
-        preload: P (N). friction: μ or None (frictionless: lift-off only). gravity: whether gravity was on.
+        preloads: P_i of each brace (N). friction: μ or None (frictionless: lift-off only). gravity: whether
+            gravity was on.
         mode: the predicted failure tested, ``lifted_off`` or ``slipped``; ``held`` for a wrench that neither
             lifts off nor slips at any scale (ramped to ``stop_scale``).
-        liftoff_margin, slip_margin: first-order scales of lift-off and slip (inf: never; slip None without μ).
+        brace: the brace predicted to fail first (the one of ``mode``).
+        liftoff_margin, slip_margin: first-order scales of lift-off and slip, the least over the braces (inf:
+            never; slip None without μ).
         predicted_scale: the first-order scale of ``mode`` (:func:`bracekit.statics.capacity_of`; inf: holds).
         static_scale: the scale of ``mode`` in the nonlinear rigid statics (None if the solve failed).
         static_message: why the static scale is missing, else None.
         mujoco_scale: s at MuJoCo's first event along the ramp (None: no event before ``stop_scale``).
         mujoco_outcome: that event: ``lifted_off`` (contact open or normal force 0) or ``slipped`` (the
             contact force reached the Coulomb cone); None without an event (``held`` for a ``held`` mode).
+        mujoco_brace: the brace of MuJoCo's first event (None without one).
         slide_scale: with μ, s at which the tangential displacement of b exceeded ``slide_tol`` (None: never).
         creep: tangential displacement of b at the event, or at the end of the ramp without one (m).
         rel_err: |predicted_scale − mujoco_scale| / mujoco_scale (None without a MuJoCo scale).
@@ -94,10 +101,11 @@ class CapacityRamp:
 
     q: Array
     wrench: Array
-    preload: float
+    preloads: tuple[float, ...]
     friction: float | None
     gravity: bool
     mode: Outcome
+    brace: int
     liftoff_margin: float
     slip_margin: float | None
     predicted_scale: float
@@ -105,6 +113,7 @@ class CapacityRamp:
     static_message: str | None
     mujoco_scale: float | None
     mujoco_outcome: Outcome | None
+    mujoco_brace: int | None
     slide_scale: float | None
     creep: float
     rel_err: float | None
@@ -120,10 +129,12 @@ class CapacityRamp:
         return {
             "q": self.q.tolist(),
             "wrench": self.wrench.tolist(),
-            "preload_N": self.preload,
+            "preload_N": self.preloads[self.brace],
+            "preloads_N": list(self.preloads),
             "friction": self.friction,
             "gravity": self.gravity,
             "mode": self.mode,
+            "brace": self.brace,
             "liftoff_margin": _finite(self.liftoff_margin),
             "slip_margin": None if self.slip_margin is None else _finite(self.slip_margin),
             "predicted_scale": _finite(self.predicted_scale),
@@ -131,6 +142,7 @@ class CapacityRamp:
             "static_message": self.static_message,
             "mujoco_scale": self.mujoco_scale,
             "mujoco_outcome": self.mujoco_outcome,
+            "mujoco_brace": self.mujoco_brace,
             "agrees": self.mujoco_outcome == self.mode,
             "slide_scale": self.slide_scale,
             "creep_m": self.creep,
@@ -144,43 +156,68 @@ class CapacityRamp:
         }
 
 
-def static_capacity_scale(
-    braced: BracedRobot, q: ArrayLike, holding: Holding, wrench: ArrayLike, mode: Outcome, guess: float
-) -> float:
-    """The scale s of ``wrench`` at which the nonlinear rigid statics lift off or slip (``mode``).
+def _load_statics(braced: BracedRobot, q: Array, holding: Holding, w: Array) -> list[Array]:
+    """Each brace's contact force (3,) in the nonlinear rigid statics under the tool wrench w (N, world axes).
 
-    The chain has bracekit's set points (gravity and the preload P n̂ at q) and a bilateral load contact X_L
-    (:func:`bracekit.statics.load_contact_wrenches`: the sticking point with μ, else [n̂; 0]);
-    :func:`~bracekit.validate.statics.solve_static_equilibrium` gives its contact force f_c(s) under s·w. The
-    scale is the root of f_n(s) (``lifted_off``) or μ f_n(s) − ‖f_t(s)‖ (``slipped``), bracketed from
-    ``guess`` (e.g. the first-order scale) and found by Brent's method to 1e-7 relative.
+    The chain has bracekit's set points (gravity and each P_i n̂_i at q) and a bilateral load contact X_L,i per
+    brace (:func:`bracekit.statics.load_contact_wrenches`: the sticking point with μ_i, else [n̂_i; 0]),
+    solved over every contact at once (:func:`~bracekit.validate.statics.solve_statics`).
+    """
+    robot = braced.robot
+    count = len(braced.braces)
+    frictions = holding.brace_frictions(count)
+    contacts = [
+        replace(c, X=load_contact_wrenches(brace, mu if mu else None))
+        for c, brace, mu in zip(
+            plane_contacts(braced, list(holding.brace_preloads(count)), environment=False), braced.braces, frictions,
+            strict=True,
+        )
+    ]  # fmt: skip
+    res = solve_statics(robot.model, q, robot.stiffness, robot.tip_id, contacts, w, gravity=holding.gravity)
+    return [np.asarray(f[:3], dtype=float) for f in res.contact_wrenches]
+
+
+def _margin_of(f: Array, nhat: Array, mode: Outcome, mu: float | None) -> float:
+    """f_n (``lifted_off``) or μ f_n − ‖f_t‖ (``slipped``) of one contact force f (N)."""
+    fn = float(f @ nhat)
+    if mode == "lifted_off":
+        return fn
+    assert mu is not None
+    return mu * fn - float(np.linalg.norm(f - fn * nhat))
+
+
+def static_capacity_scale(
+    braced: BracedRobot,
+    q: ArrayLike,
+    holding: Holding,
+    wrench: ArrayLike,
+    mode: Outcome,
+    guess: float,
+    brace: int | None = None,
+) -> float:
+    """The scale s of ``wrench`` at which brace ``brace`` lifts off or slips (``mode``) in the nonlinear statics.
+
+    Every brace stays in contact with its load contact X_L,i (:func:`_load_statics`); the scale is the root of
+    f_n,i(s) (``lifted_off``) or μ_i f_n,i(s) − ‖f_t,i(s)‖ (``slipped``) of brace i = ``brace`` (None: the only
+    brace), bracketed from ``guess`` (e.g. the first-order scale) and found by Brent's method to 1e-7 relative.
 
     Raises:
         InputError: bad inputs, or ``slipped`` without friction.
         StaticSolveError: a static solve fails, or no sign change up to 8 × ``guess``.
     """
-    robot, brace = braced.robot, braced.brace
-    qa = robot.check_q(q)
+    qa = braced.robot.check_q(q)
     w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(6)
-    mu = holding.friction if holding.friction else None
+    i = brace_index(brace, len(braced.braces))
+    mu_i = holding.brace_frictions(len(braced.braces))[i]
+    mu = mu_i if mu_i else None
     if mode == "slipped" and mu is None:
         raise InputError("a slip scale needs a friction coefficient μ > 0 in the holding")
     if not (np.isfinite(guess) and guess > 0.0):
         raise InputError(f"guess must be a finite scale > 0, got {show(guess)}")
-    nhat = brace.surface.normal
-    x_l = load_contact_wrenches(brace, mu)
+    nhat = braced.braces[i].surface.normal
 
     def margin(s: float) -> float:
-        res = solve_static_equilibrium(
-            robot.model, qa, robot.stiffness, braced.brace_id, robot.tip_id, brace.surface.point, nhat, s * w,
-            preload=holding.preload, gravity=holding.gravity, constraint_wrenches=x_l,
-        )  # fmt: skip
-        f = res.contact_wrench[:3]
-        fn = float(f @ nhat)
-        if mode == "lifted_off":
-            return fn
-        assert mu is not None
-        return mu * fn - float(np.linalg.norm(f - fn * nhat))
+        return _margin_of(_load_statics(braced, qa, holding, s * w)[i], nhat, mode, mu)
 
     lo, hi = 0.0, float(guess)
     g_hi = margin(hi)
@@ -240,7 +277,6 @@ def mujoco_capacity_ramp(
         NumericalError: bracekit's preloaded equilibrium is unstable.
     """
     qa, w = holding_inputs(braced, q, holding, wrench, "capacity ramp")
-    brace = braced.brace
     for value, name, low in (
         (ramp_time, "ramp_time (in damping time constants)", 0.0),
         (impratio, "impratio", 1.0),
@@ -252,15 +288,15 @@ def mujoco_capacity_ramp(
         ok = isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
         if not ok or value < low or (low == 0.0 and value <= 0.0):
             raise InputError(f"{name} must be a finite number {'>= 1' if low else '> 0'}, got {show(value)}")
-    mu = holding.friction if holding.friction else None
-    resp, liftoff, slip = predicted_limits(braced, qa, holding, w)
-    predicted = min(liftoff, np.inf if slip is None else slip)
+    mu = common_friction(braced, holding)
+    pred = predicted_limits(braced, qa, holding, w)
+    predicted, brace = pred.margin, pred.brace
     if not predicted > 0.0:
         raise MujocoValidationError(
-            f"bracekit's statics say the brace fails without load under the wrench {show(w)} (scale {predicted:g})"
+            f"bracekit's statics say brace {brace} fails without load under the wrench {show(w)} (scale {predicted:g})"
         )
     unbreakable = not np.isfinite(predicted)
-    mode: Outcome = "held" if unbreakable else ("lifted_off" if liftoff <= predicted else "slipped")
+    mode: Outcome = pred.mode or "held"
 
     static_scale: float | None = None
     static_message: str | None = None
@@ -268,40 +304,41 @@ def mujoco_capacity_ramp(
         static_message = _static_holds(braced, qa, holding, w, float(hold_scale))
     elif static:
         try:
-            static_scale = static_capacity_scale(braced, qa, holding, w, mode, predicted)
+            static_scale = static_capacity_scale(braced, qa, holding, w, mode, predicted, brace)
         except StaticSolveError as exc:
             static_message = str(exc)
 
-    nhat = brace.surface.normal
-    sim = _holding_session(braced, qa, holding, resp.q_s, timestep, impratio)
+    count = len(braced.braces)
+    sim = _holding_session(braced, qa, holding, pred.responses.q_s[0], timestep, impratio)
     with captured_warnings(sim.messages):
-        _settle(sim, np.zeros(6), "unloaded settling")
-        _, ncon = sim.contact_force()
-        if ncon == 0 and holding.preload > 0.0:
-            raise MujocoValidationError("no sphere–surface contact under the preload: does b lie on the surface at q?")
+        settle_unloaded(sim, holding, count)
         target, stop = (float(hold_scale),) * 2 if unbreakable else (float(predicted), 2.0 * float(predicted))
-        ramp = _ramp(sim, w, target, stop, float(ramp_time), mu, nhat, float(cone_tol), float(slide_tol))
-    s_mj, outcome, slide, creep, rate, stop, steps = ramp
+        normals = pred.responses.normals
+        ramp = _ramp(sim, w, target, stop, float(ramp_time), mu, normals, float(cone_tol), float(slide_tol))
+    s_mj, outcome, mj_brace, slide, creep, rate, stop, steps = ramp
     if unbreakable and outcome is None:
         outcome = "held"  # ramped to hold_scale × w without an event
 
     def rel(x: float | None) -> float | None:
         return None if x is None or s_mj is None else abs(x - s_mj) / s_mj
 
+    slip = pred.slip
     return CapacityRamp(
         q=qa.copy(),
         wrench=w.copy(),
-        preload=float(holding.preload),
+        preloads=holding.brace_preloads(count),
         friction=mu,
         gravity=bool(holding.gravity),
         mode=mode,
-        liftoff_margin=liftoff,
-        slip_margin=slip,
+        brace=brace,
+        liftoff_margin=float(np.min(pred.liftoff)),
+        slip_margin=None if slip is None else float(np.min(slip)),
         predicted_scale=float(predicted),
         static_scale=static_scale,
         static_message=static_message,
         mujoco_scale=s_mj,
         mujoco_outcome=outcome,
+        mujoco_brace=mj_brace,
         slide_scale=slide,
         creep=creep,
         rel_err=rel(float(predicted)),
@@ -319,25 +356,24 @@ _EDGE_TOL = 0.01
 
 
 def _static_holds(braced: BracedRobot, q: Array, holding: Holding, w: Array, scale: float) -> str:
-    """Whether the nonlinear rigid statics (sticking load contact) still hold at ``scale`` × w, in words."""
-    robot, brace = braced.robot, braced.brace
-    mu = holding.friction if holding.friction else None
-    nhat = brace.surface.normal
+    """Whether the nonlinear rigid statics (sticking load contacts) still hold every brace at ``scale`` × w."""
+    frictions = holding.brace_frictions(len(braced.braces))
     try:
-        res = solve_static_equilibrium(
-            robot.model, q, robot.stiffness, braced.brace_id, robot.tip_id, brace.surface.point, nhat, scale * w,
-            preload=holding.preload, gravity=holding.gravity, constraint_wrenches=load_contact_wrenches(brace, mu),
-        )  # fmt: skip
+        forces = _load_statics(braced, q, holding, scale * w)
     except StaticSolveError as exc:
         return f"nonlinear statics at {scale:g} x w: {exc}"
-    f = res.contact_wrench[:3]
-    fn = float(f @ nhat)
-    ft = float(np.linalg.norm(f - fn * nhat))
-    if fn <= 0.0:
-        return f"nonlinear statics lift off below {scale:g} x w (normal force {fn:.3g} N there)"
-    if mu is not None and ft > mu * fn:
-        return f"nonlinear statics slip below {scale:g} x w (|f_t| / f_n = {ft / fn:.3g} > mu there)"
-    return f"nonlinear statics hold at {scale:g} x w (f_n = {fn:.4g} N, |f_t| = {ft:.3g} N)"
+    held = []
+    for i, (f, brace, mu) in enumerate(zip(forces, braced.braces, frictions, strict=True)):
+        nhat = brace.surface.normal
+        fn = float(f @ nhat)
+        ft = float(np.linalg.norm(f - fn * nhat))
+        name = f"brace {i} "
+        if fn <= 0.0:
+            return f"nonlinear statics lift off {name}below {scale:g} x w (normal force {fn:.3g} N there)"
+        if mu and ft > mu * fn:
+            return f"nonlinear statics slip {name}below {scale:g} x w (|f_t| / f_n = {ft / fn:.3g} > mu there)"
+        held.append(f"brace {i}: f_n = {fn:.4g} N, |f_t| = {ft:.3g} N")
+    return f"nonlinear statics hold at {scale:g} x w ({'; '.join(held)})"
 
 
 def _ramp(
@@ -347,24 +383,27 @@ def _ramp(
     stop: float,
     ramp_time: float,
     mu: float | None,
-    nhat: Array,
+    normals: Array,
     cone_tol: float,
     slide_tol: float,
-) -> tuple[float | None, Outcome | None, float | None, float, float, float, int]:
-    """The load ramp of :func:`mujoco_capacity_ramp`: (scale, outcome, slide scale, creep, rate, stop, steps).
+) -> tuple[float | None, Outcome | None, int | None, float | None, float, float, float, int]:
+    """The load ramp of :func:`mujoco_capacity_ramp`: (scale, outcome, brace, slide scale, creep, rate, stop, steps).
 
-    s grows at the rate that reaches ``target`` after ``ramp_time`` τ and the ramp ends past ``stop``.
+    s grows at the rate that reaches ``target`` after ``ramp_time`` τ and the ramp ends past ``stop``. Every
+    brace (its normal n̂_i a row of ``normals``) is watched; the first to lift off or slip is named.
     """
     m, d = sim.m, sim.d
     dt = float(m.opt.timestep)
     rate = target / (ramp_time * sim.tau)
-    b0 = sim.b_point()
+    count = normals.shape[0]
+    b0 = [sim.b_point(i) for i in range(count)]
     scale: float | None = None
     outcome: Outcome | None = None
+    brace: int | None = None
     slide: float | None = None
     creep = 0.0
     steps = 0
-    last_ratio = 0.0  # ‖f_t‖/f_n of the last chunk in contact
+    last_ratio = np.zeros(count)  # ‖f_t‖/f_n of each brace in the last chunk in contact
     while True:
         s = rate * steps * dt
         if s > stop:
@@ -376,25 +415,37 @@ def _ramp(
         steps += CHUNK
         sim.check(f"the load ramp (scale {s:.3g})")
         s_now = rate * steps * dt
-        f, ncon = sim.contact_force()
-        fn = float(f @ nhat)
-        db = sim.b_point() - b0
-        disp = float(np.linalg.norm(db - (db @ nhat) * nhat))
+        events = [_watch(sim, i, normals[i], b0[i], mu, last_ratio) for i in range(count)]
         if outcome is None:
-            creep = disp
-        if ncon == 0 or fn <= 0.0:
+            creep = max(disp for disp, _, _ in events)
+        lost = [i for i, (_, open_, _) in enumerate(events) if open_]
+        if lost:
             if outcome is None:
                 # a contact lost at the edge of its cone slid off within one chunk: that is a slip
-                sliding = mu is not None and last_ratio >= (1.0 - _EDGE_TOL) * mu
-                scale, outcome = s_now, "slipped" if sliding else "lifted_off"
+                i = lost[0]
+                sliding = mu is not None and last_ratio[i] >= (1.0 - _EDGE_TOL) * mu
+                scale, outcome, brace = s_now, "slipped" if sliding else "lifted_off", i
             break
         if mu is None:
             continue
-        ft = float(np.linalg.norm(f - fn * nhat))
-        last_ratio = ft / fn
-        if outcome is None and (ft >= (1.0 - cone_tol) * mu * fn or disp > slide_tol):
-            scale, outcome = s_now, "slipped"
-        if disp > slide_tol:
+        for i, (disp, _, ratio) in enumerate(events):
+            last_ratio[i] = ratio
+            if outcome is None and (ratio >= (1.0 - cone_tol) * mu or disp > slide_tol):
+                scale, outcome, brace = s_now, "slipped", i
+        if max(disp for disp, _, _ in events) > slide_tol:
             slide = s_now
             break
-    return scale, outcome, slide, creep, rate, stop, steps
+    return scale, outcome, brace, slide, creep, rate, stop, steps
+
+
+def _watch(
+    sim: MujocoSession, i: int, nhat: Array, b0: Array, mu: float | None, last_ratio: Array
+) -> tuple[float, bool, float]:
+    """Brace i now: tangential displacement of b_i (m), whether its contact is open, ‖f_t‖/f_n (or the last)."""
+    f, ncon = sim.contact_force(i)
+    fn = float(f @ nhat)
+    db = sim.b_point(i) - b0
+    disp = float(np.linalg.norm(db - (db @ nhat) * nhat))
+    if ncon == 0 or fn <= 0.0:
+        return disp, True, float(last_ratio[i])
+    return disp, False, float(np.linalg.norm(f - fn * nhat)) / fn if mu is not None else 0.0

@@ -22,9 +22,8 @@ from bracekit.simulation.scenario_model import Scenario
 from bracekit.statics import capacity_along, effort_limits
 from bracekit.statics.equilibrium import wrench_list
 from bracekit.validate.capacity_check import RAMP_SETTINGS, mujoco_capacity_ramp
-from bracekit.validate.holding_check import (
-    HOLDING_SETTINGS,
-)
+from bracekit.validate.holding_check import HOLDING_SETTINGS
+from bracekit.validate.holding_report import holding_record, scenario_holding
 from bracekit.validate.inputs import Array, _configurations, _positive, _scenario
 from bracekit.validate.table import _stats, aligned, fmt_rel
 
@@ -98,12 +97,23 @@ class CapacityValidationReport:
             f"no predicted limit, {cnt['failed']} failed",
             "",
         ]
-        cols = ("config", "wrench", "contact", "mode", "first order", "nonlinear", "MuJoCo", "error", "error (nl)")
+        cols = (
+            "config",
+            "wrench",
+            "contact",
+            "mode",
+            "brace",
+            "first order",
+            "nonlinear",
+            "MuJoCo",
+            "error",
+            "error (nl)",
+        )
         rows = []
         for c in self.cases:
             r = c["ramp"]
             if r is None:
-                rows.append((str(c["config"]), str(c["wrench_index"]), c["variant"], c["status"], *("–",) * 5))
+                rows.append((str(c["config"]), str(c["wrench_index"]), c["variant"], c["status"], *("–",) * 6))
                 continue
 
             def num(x: float | None) -> str:
@@ -120,6 +130,7 @@ class CapacityValidationReport:
                     str(c["wrench_index"]),
                     c["variant"],
                     r["mode"],
+                    str(r["brace"]),
                     "∞" if r["mode"] == "held" else num(r["predicted_scale"]),
                     "∞"
                     if r["mode"] == "held" and (r["static_message"] or "").startswith("nonlinear statics hold")
@@ -172,11 +183,12 @@ def _capacity_entry(
         if r.static_message is not None:
             entry["message"] += f"; {r.static_message}"
         return entry
-    if r.mujoco_outcome != r.mode:
+    if r.mujoco_outcome != r.mode or r.mujoco_brace != r.brace:
         entry["status"] = "disagrees"
         what = "did not fail" if r.mujoco_outcome is None else f"{r.mujoco_outcome.replace('_', ' ')}"
         entry["message"] = (
-            f"bracekit predicts {r.mode.replace('_', ' ')} first, MuJoCo {what} up to s = {r.stop_scale:.4g}"
+            f"bracekit predicts brace {r.brace} {r.mode.replace('_', ' ')} first, MuJoCo {what}"
+            f"{'' if r.mujoco_brace is None else f' at brace {r.mujoco_brace}'} up to s = {r.stop_scale:.4g}"
         )
     elif r.static_message is not None:
         entry["message"] = f"nonlinear statics: {r.static_message}"
@@ -190,6 +202,7 @@ def run_capacity_validation(
     wrenches: ArrayLike | None = None,
     frictionless_liftoff: bool = True,
     ramp_time: float = RAMP_SETTINGS["ramp_time_tau"],
+    holding: Holding | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> CapacityValidationReport:
     """Check bracekit's lift-off and slip scales against MuJoCo under a slow load ramp.
@@ -211,14 +224,18 @@ def run_capacity_validation(
             [loads] wrenches.
         frictionless_liftoff: also check lift-off without friction where friction pre-empts it.
         ramp_time: time for s to reach the predicted scale, in damping time constants τ (> 0).
+        holding: the holding statics to check instead of the scenario's (e.g.
+            :func:`~bracekit.validate.holding_report.default_holding`).
         progress: called with 1 after each wrench.
 
     Raises:
         InputError: bad scenario (no preload), configs, wrenches or ramp_time; no wrenches to check.
     """
     sc = _scenario(scenario)
-    h = sc.holding
-    if not h.preload > 0.0:
+    h = scenario_holding(sc, holding)
+    count = len(sc.braced.braces)
+    preloads = list(h.brace_preloads(count))
+    if not max(preloads) > 0.0:
         raise InputError(
             f"scenario '{sc.name}' has no preload: set [brace] preload (N) > 0 so that the brace can carry a load"
         )
@@ -232,18 +249,20 @@ def run_capacity_validation(
     if not isinstance(frictionless_liftoff, bool):
         raise InputError(f"frictionless_liftoff must be True or False, got {show(frictionless_liftoff)}")
     qs = _configurations(sc, configs)
-    mu = h.friction if h.friction else None
-    bare = Holding(gravity=h.gravity, preload=h.preload)
+    frictions = [m if m else None for m in h.brace_frictions(count)]
+    bare = Holding(gravity=h.gravity, preloads=tuple(preloads))
     report = CapacityValidationReport(
         scenario=sc.name,
-        holding={"gravity": h.gravity, "preload_N": h.preload, "friction": h.friction, "wrenches": ws.tolist()},
+        holding=holding_record(h, count, ws, holding is None),
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={**HOLDING_SETTINGS, **RAMP_SETTINGS, "ramp_time_tau": ramp_time},
     )
     effort = effort_limits(sc.robot)
     for i, q in enumerate(qs):
         try:
-            cap = capacity_along(sc.braced, q, ws, preload=h.preload, gravity=h.gravity, friction=mu, effort=effort)
+            cap = capacity_along(
+                sc.braced, q, ws, preload=preloads, gravity=h.gravity, friction=frictions, effort=effort
+            )
         except NumericalError as exc:
             report.cases.extend(
                 {
@@ -262,7 +281,7 @@ def run_capacity_validation(
             liftoff = float(cap.liftoff[0, j])
             slip = np.inf if cap.slip is None else float(cap.slip[0, j])
             report.cases.append(_capacity_entry(sc.braced, q, h, w, i, j, "scenario", ramp_time))
-            if frictionless_liftoff and mu is not None and np.isfinite(liftoff) and slip < liftoff:
+            if frictionless_liftoff and any(frictions) and np.isfinite(liftoff) and slip < liftoff:
                 report.cases.append(_capacity_entry(sc.braced, q, bare, w, i, j, "frictionless", ramp_time))
             if progress is not None:
                 progress(1)

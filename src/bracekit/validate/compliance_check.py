@@ -244,8 +244,33 @@ def _status_counts(cases: list[dict[str, Any]]) -> dict[str, int]:
     return {s: sum(c["status"] == s for c in cases) for s in ("ok", "contact_opened", "failed")}
 
 
+class DeflectionCases:
+    """What the compliance and preloaded reports share over their load ``cases``.
+
+    The references' agreement, the case counts and the record of how the cases were made (settings,
+    configurations, the cases).
+    """
+
+    scenario: str
+    configurations: list[list[float]]
+    settings: dict[str, Any]
+    cases: list[dict[str, Any]]
+
+    def mujoco_vs_static(self) -> dict[str, float | int | None]:
+        """Agreement of the two references on every case where both ran (opened contacts included)."""
+        return _references_agree(self.cases)
+
+    def counts(self) -> dict[str, int]:
+        """Number of cases per status."""
+        return _status_counts(self.cases)
+
+    def record(self) -> dict[str, Any]:
+        """The JSON record of the cases: ``settings``, ``configurations`` and ``cases``."""
+        return {"settings": self.settings, "configurations": self.configurations, "cases": self.cases}
+
+
 @dataclass
-class ValidationReport:
+class ValidationReport(DeflectionCases):
     """Result of :func:`run_validation`.
 
     ``cases``: one JSON-able dict per (configuration, load): ``config`` (index), ``label``, ``wrench`` [f; m]
@@ -267,14 +292,6 @@ class ValidationReport:
     def model_stats(self, model: str) -> dict[str, float | int | None]:
         """Median and max relative error of a model vs MuJoCo and vs the static solve (closed-contact cases)."""
         return _model_stats(self._ok(), model)
-
-    def mujoco_vs_static(self) -> dict[str, float | int | None]:
-        """Agreement of the two references on every case where both ran (opened contacts included)."""
-        return _references_agree(self.cases)
-
-    def counts(self) -> dict[str, int]:
-        """Number of cases per status."""
-        return _status_counts(self.cases)
 
     def summary(self) -> dict[str, Any]:
         """{median, max, n} of the constrained model vs the static solve and MuJoCo, and of the references; counts."""
@@ -307,9 +324,7 @@ class ValidationReport:
             "n_ok": self.counts()["ok"],
             "n_opened": self.counts()["contact_opened"],
             "n_failed": self.counts()["failed"],
-            "settings": self.settings,
-            "configurations": self.configurations,
-            "cases": self.cases,
+            **self.record(),
         }
 
     def table_text(self) -> str:

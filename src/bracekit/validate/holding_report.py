@@ -15,6 +15,7 @@ from bracekit.errors import (
     MujocoValidationError,
     NumericalError,
 )
+from bracekit.simulation.holding import Holding
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.holding_check import (
     DEFAULT_FRACTIONS,
@@ -25,8 +26,13 @@ from bracekit.validate.holding_check import (
 )
 from bracekit.validate.inputs import Array, _configurations, _positive, _scenario
 from bracekit.validate.table import _stats, fmt_rel
+from bracekit.validate.tracking import DEFAULT_FRICTION, DEFAULT_PRELOAD
 
-__all__ = ["HoldingValidationReport", "run_holding_validation"]
+__all__ = ["DEFAULT_WRENCHES", "HoldingValidationReport", "default_holding", "run_holding_validation"]
+
+#: Tool wrenches of the holding and capacity blocks for a scenario without [loads] wrenches: a 10 N pull along
+#: +z and a 10 N drag along +x (N, N·m, world axes, at the tip); scaled to each brace's margin by the checks.
+DEFAULT_WRENCHES = ((0.0, 0.0, 10.0, 0.0, 0.0, 0.0), (10.0, 0.0, 0.0, 0.0, 0.0, 0.0))
 
 
 @dataclass
@@ -105,7 +111,8 @@ class HoldingValidationReport:
         tang = "n/a" if s["unloaded_tangential_max_N"] is None else f"{s['unloaded_tangential_max_N']:.2g} N"
         lines = [
             f"Validation of the holding statics in MuJoCo, scenario '{self.scenario}'",
-            f"gravity {'on' if h['gravity'] else 'off'}, preload P = {h['preload_N']:g} N, friction μ = {mu}; "
+            f"{h['source']}: gravity {'on' if h['gravity'] else 'off'}, preload P = "
+            f"{', '.join(f'{p:g}' for p in h['preloads_N'])} N, friction μ = {mu}; "
             f"{len(self.configurations)} configuration(s), {len(self.checks)} check(s): {cnt['ok']} ran, "
             f"{cnt['failed']} failed",
             f"unloaded normal force vs P: median {fmt_rel(s['unloaded_normal_median_rel_err'])}, "
@@ -131,6 +138,7 @@ def run_holding_validation(
     configs: int | Sequence[ArrayLike] = 1,
     *,
     fractions: Sequence[float] = DEFAULT_FRACTIONS,
+    holding: Holding | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> HoldingValidationReport:
     """Check the scenario's holding statics (``sc.holding``: gravity, preload, friction, wrenches) in MuJoCo.
@@ -141,22 +149,19 @@ def run_holding_validation(
     About 1 s of wall time per wrench and configuration (plus solving the configurations).
 
     Args:
-        scenario: a Scenario, a shipped name or a TOML path; frictionless point contact, rigid surface, and a
-            holding that is active ([robot] gravity, [brace] preload or friction, or [loads] wrenches).
+        scenario: a Scenario, a shipped name or a TOML path (one brace or several); contact types MuJoCo
+            models, rigid surfaces, and a holding that is active ([robot] gravity, [brace] preload or friction,
+            or [loads] wrenches) unless ``holding`` is given.
         configs: number of configurations (:func:`validation_configurations`) or the configurations.
         fractions: fractions of the predicted margin to load each wrench to.
+        holding: the holding statics to check instead of the scenario's (e.g. :func:`default_holding`).
         progress: called with 1 after each check.
 
     Raises:
         InputError: bad scenario, a scenario without holding statics, bad configs or fractions.
     """
     sc = _scenario(scenario)
-    h = sc.holding
-    if not h.active:
-        raise InputError(
-            f"scenario '{sc.name}' has no holding statics to check: set [robot] gravity, [brace] preload or "
-            "friction, or [loads] wrenches"
-        )
+    h = scenario_holding(sc, holding)
     fr = [_positive(f, "each fraction of the margin", "", zero_ok=True) for f in fractions]
     if not fr:
         raise InputError("fractions must hold at least one fraction of the margin")
@@ -164,12 +169,7 @@ def run_holding_validation(
     wrenches: list[Array] = [np.zeros(6)] if h.wrenches is None else list(h.wrenches)
     report = HoldingValidationReport(
         scenario=sc.name,
-        holding={
-            "gravity": h.gravity,
-            "preload_N": h.preload,
-            "friction": h.friction,
-            "wrenches": None if h.wrenches is None else h.wrenches.tolist(),
-        },
+        holding=holding_record(h, len(sc.braced.braces), h.wrenches, holding is None),
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={**HOLDING_SETTINGS, "fractions_of_margin": fr, "hold_below": HOLD_BELOW, "fail_above": FAIL_ABOVE},
     )
@@ -185,3 +185,46 @@ def run_holding_validation(
             if progress is not None:
                 progress(1)
     return report
+
+
+def default_holding(sc: Scenario) -> Holding:
+    """The holding statics the checks use for a scenario without any (the tracking check's preload and μ).
+
+    The scenario's gravity, each brace pressed with P = 5 N and friction μ = 0.8, and :data:`DEFAULT_WRENCHES`.
+    """
+    count = len(sc.braced.braces)
+    return Holding(
+        gravity=sc.holding.gravity,
+        preloads=(DEFAULT_PRELOAD,) * count,
+        frictions=(DEFAULT_FRICTION,) * count,
+        wrenches=np.array(DEFAULT_WRENCHES),
+    )
+
+
+def scenario_holding(sc: Scenario, holding: Holding | None) -> Holding:
+    """``holding``, else the scenario's holding statics; InputError when neither is given."""
+    if holding is not None:
+        if not isinstance(holding, Holding):
+            raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
+        return holding
+    if not sc.holding.active:
+        raise InputError(
+            f"scenario '{sc.name}' has no holding statics to check: set [robot] gravity, [brace] preload or "
+            "friction, or [loads] wrenches"
+        )
+    return sc.holding
+
+
+def holding_record(h: Holding, count: int, wrenches: ArrayLike | None, from_scenario: bool) -> dict[str, Any]:
+    """The reports' record of the holding checked: gravity, P_i, μ_i, the wrenches and where they come from."""
+    preloads = h.brace_preloads(count)
+    frictions = h.brace_frictions(count)
+    return {
+        "source": "the scenario's holding statics" if from_scenario else "the checks' own holding statics",
+        "gravity": h.gravity,
+        "preload_N": max(preloads),
+        "preloads_N": list(preloads),
+        "friction": frictions[0],
+        "frictions": list(frictions),
+        "wrenches": None if wrenches is None else np.asarray(wrenches, dtype=float).tolist(),
+    }

@@ -92,6 +92,26 @@ def _joint_axis(model: pin.Model, jid: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class _Chain:
+    """The spring-jointed chain of an MJCF and its contact options.
+
+    model, q0 (rad), K (N·m/rad), the set points ``rest`` (rad), the tip frame, the contacts' sphere radius (m),
+    gravity, and μ, MuJoCo's cone and impratio.
+    """
+
+    model: pin.Model
+    q0: np.ndarray
+    K: np.ndarray
+    rest: np.ndarray
+    tip_frame_id: int
+    sphere_radius: float
+    gravity: bool
+    friction: float | None
+    cone: str
+    impratio: float
+
+
+@dataclass(frozen=True)
 class _ContactGeoms:
     """One sphere–plane contact of the MJCF: {b_i}'s frame, its plane, geom names and collision bit."""
 
@@ -125,26 +145,16 @@ def soft_contact_solref(k_env: float, inverse_weight: float, impedance: float = 
     return s, 2.0 * float(np.sqrt(s))
 
 
-def _mjcf_contacts(
-    model: pin.Model,
-    q0: np.ndarray,
-    K: np.ndarray,
-    rest: np.ndarray,
-    contacts: list[_ContactGeoms],
-    tip_frame_id: int,
-    sphere_radius: float,
-    gravity: bool,
-    damping_time: float,
-    timestep: float,
-    friction: float | None = None,
-    cone: str = "pyramidal",
-    impratio: float = 1.0,
-) -> str:
+def _mjcf_contacts(chain: _Chain, contacts: list[_ContactGeoms], damping_time: float, timestep: float) -> str:
     """MJCF text: the spring-jointed chain, a sphere per contact on {b_i}'s body and its plane in the world.
 
     Sphere i has contype = bit_i and plane i conaffinity = bit_i (all other bits 0), so each sphere only
     collides with its own plane.
     """
+    model, q0, K, rest, tip_frame_id = chain.model, chain.q0, chain.K, chain.rest, chain.tip_frame_id
+    sphere_radius, gravity, friction, cone, impratio = (
+        chain.sphere_radius, chain.gravity, chain.friction, chain.cone, chain.impratio,
+    )  # fmt: skip
     tjid = model.frames[tip_frame_id].parentJoint
     data = model.createData()
     pin.framesForwardKinematics(model, data, q0)
@@ -361,10 +371,8 @@ def build_mujoco_model(
         k = _stiffness(c.k_env)
         plane = pt if k is None else pt + nh * (c.preload / k)  # a soft surface is pressed in by P / k_env at q0
         geoms.append(_ContactGeoms(int(c.frame_id), plane, nh, *brace_geom_names(i), 1 << i, k))
-    return _assemble(
-        model, q0, K, rest, geoms, int(tip_frame_id), sphere_radius, gravity, damping_time, timestep, friction, cone,
-        impratio,
-    )  # fmt: skip
+    chain = _Chain(model, q0, K, rest, int(tip_frame_id), sphere_radius, gravity, friction, cone, impratio)
+    return _assemble(chain, geoms, damping_time, timestep)
 
 
 def _stiffness(k_env: float | None) -> float | None:
@@ -373,31 +381,16 @@ def _stiffness(k_env: float | None) -> float | None:
     return None if k_env is None else float(k_env)
 
 
-def _assemble(
-    model: pin.Model,
-    q0: np.ndarray,
-    K: np.ndarray,
-    rest: np.ndarray,
-    contacts: list[_ContactGeoms],
-    tip_frame_id: int,
-    sphere_radius: float,
-    gravity: bool,
-    damping_time: float | None,
-    timestep: float | None,
-    friction: float | None = None,
-    cone: str = "pyramidal",
-    impratio: float = 1.0,
-) -> str:
+def _assemble(chain: _Chain, contacts: list[_ContactGeoms], damping_time: float | None, timestep: float | None) -> str:
     """The MJCF in two passes: a rigid draft gives τ and each sphere body's inverse weight A, then the final text.
 
     A soft contact (k_env set) gets :func:`soft_contact_solref` and solimp "d d 0.001"; the default timestep
     resolves its time constant 1/√s (s = k_env (1 − d) A) with 10 steps.
     """
     rigid = [replace(c, solref=_SOLREF, solimp=_SOLIMP) for c in contacts]
-    draft = _mjcf_contacts(model, q0, K, rest, rigid, tip_frame_id, sphere_radius, gravity, 0.0, _MAX_TIMESTEP,
-                           friction, cone, impratio)  # fmt: skip
+    draft = _mjcf_contacts(chain, rigid, 0.0, _MAX_TIMESTEP)
     if damping_time is None:
-        damping_time = _slowest_time_constant(draft, q0, K)
+        damping_time = _slowest_time_constant(draft, chain.q0, chain.K)
     soft: list[_ContactGeoms] = []
     fastest = np.inf
     m = mujoco.MjModel.from_xml_string(draft) if any(c.k_env is not None for c in contacts) else None
@@ -414,5 +407,4 @@ def _assemble(
         timestep = min(_MAX_TIMESTEP, damping_time / 20.0, fastest / 10.0)
     if not (damping_time > 0.0 and timestep > 0.0):
         raise InputError("damping_time and timestep must be > 0 s")
-    return _mjcf_contacts(model, q0, K, rest, soft, tip_frame_id, sphere_radius, gravity, damping_time, timestep,
-                          friction, cone, impratio)  # fmt: skip
+    return _mjcf_contacts(chain, soft, damping_time, timestep)

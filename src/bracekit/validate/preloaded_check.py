@@ -26,13 +26,7 @@ from bracekit.errors import (
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.statics import contact_responses
-from bracekit.validate.compliance_check import (
-    _config,
-    _model_stats,
-    _references,
-    _references_agree,
-    _status_counts,
-)
+from bracekit.validate.compliance_check import DeflectionCases, _config, _model_stats, _references
 from bracekit.validate.inputs import (
     DEFAULT_DIRECTIONS,
     MUJOCO_SETTINGS,
@@ -68,7 +62,7 @@ PRELOADED_MODELS = ("preloaded", "constrained")
 
 
 @dataclass
-class PreloadedValidationReport:
+class PreloadedValidationReport(DeflectionCases):
     """Result of :func:`run_preloaded_validation`.
 
     ``cases``: one JSON-able dict per (configuration, preload, load): ``config``, ``preload_N``, ``label``,
@@ -92,14 +86,6 @@ class PreloadedValidationReport:
         """
         ok = [c for c in self.cases if c["status"] == "ok" and (preload is None or c["preload_N"] == preload)]
         return _model_stats(ok, model)
-
-    def mujoco_vs_static(self) -> dict[str, float | int | None]:
-        """Agreement of the two references on every case where both ran."""
-        return _references_agree(self.cases)
-
-    def counts(self) -> dict[str, int]:
-        """Number of cases per status."""
-        return _status_counts(self.cases)
 
     def by_preload(self) -> list[dict[str, Any]]:
         """Per preload P (N): the statistics of both models and the case counts."""
@@ -134,9 +120,7 @@ class PreloadedValidationReport:
             ),
             "mujoco_vs_static": self.mujoco_vs_static(),
             "counts": self.counts(),
-            "settings": self.settings,
-            "configurations": self.configurations,
-            "cases": self.cases,
+            **self.record(),
         }
 
     def table_text(self) -> str:

@@ -5,14 +5,15 @@
 * ``compliance`` (:func:`~bracekit.validate.runner.run_validation`): the first-order models against MuJoCo and
   the nonlinear static solve (every brace);
 * ``preloaded`` (:func:`~bracekit.validate.runner.run_preloaded_validation`): with gravity and preloads;
-* ``holding`` and ``capacity`` (scenarios with holding statics / a preload and wrenches): the contact forces,
-  lift-off and slip in MuJoCo;
+* ``holding`` and ``capacity``: the contact forces, lift-off and slip of every brace in MuJoCo, with the
+  scenario's holding statics, or for a scenario without any with the checks' own
+  (:func:`~bracekit.validate.holding_report.default_holding`);
 * ``tracking`` (:func:`~bracekit.validate.tracking.run_tracking_validation`): the strategies' runs in MuJoCo;
 * ``environment_stiffness`` (:func:`~bracekit.validate.environment_check.run_environment_validation`).
 
-A block a scenario cannot have (no holding statics) is left out; a block whose MuJoCo check is not built for
-the scenario (the holding and capacity checks follow one brace, the tracking check rigid surfaces) is listed
-in ``skipped`` with the reason. :func:`~bracekit.validate.verdict.validation_verdict` judges the result.
+A block whose MuJoCo check does not model the scenario (a brace on a compliant surface, braces with different
+μ) is listed in ``skipped`` with the reason; the capacity block needs a preload and tool wrenches.
+:func:`~bracekit.validate.verdict.validation_verdict` judges the result.
 """
 
 from __future__ import annotations
@@ -27,8 +28,8 @@ from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.capacity_report import CapacityValidationReport, run_capacity_validation
 from bracekit.validate.compliance_check import ValidationReport, run_validation
 from bracekit.validate.environment_check import EnvironmentValidationReport, run_environment_validation
-from bracekit.validate.holding_check import check_one_brace
-from bracekit.validate.holding_report import HoldingValidationReport, run_holding_validation
+from bracekit.validate.holding_check import check_braces
+from bracekit.validate.holding_report import HoldingValidationReport, default_holding, run_holding_validation
 from bracekit.validate.inputs import _scenario, path_samples
 from bracekit.validate.preloaded_check import PreloadedValidationReport, run_preloaded_validation
 from bracekit.validate.tracking import TrackingReport, run_tracking_validation
@@ -117,22 +118,16 @@ def run_checks(
     report = run_validation(sc, configs=configs, progress=progress)
     qs = report.configurations
     suite = ValidationSuite(compliance=report, preloaded=run_preloaded_validation(sc, configs=qs))
-    h = sc.holding
-    one_brace: str | None = None
+    h = sc.holding if sc.holding.active else default_holding(sc)
+    own = None if sc.holding.active else h
     try:
-        check_one_brace(sc.braced, "holding and capacity checks")
+        check_braces(sc.braced, h, "holding and capacity checks")
     except InputError as exc:
-        one_brace = str(exc)
-    if h.active:
-        if one_brace is None:
-            suite.holding = run_holding_validation(sc, configs=qs)
-        else:
-            suite.skipped["holding"] = one_brace
-    if h.preload > 0.0 and h.wrenches is not None:
-        if one_brace is None:
-            suite.capacity = run_capacity_validation(sc, configs=qs)
-        else:
-            suite.skipped["capacity"] = one_brace
+        suite.skipped["holding"] = suite.skipped["capacity"] = str(exc)
+    else:
+        suite.holding = run_holding_validation(sc, configs=qs, holding=own)
+        if max(h.brace_preloads(len(sc.braced.braces))) > 0.0 and h.wrenches is not None:
+            suite.capacity = run_capacity_validation(sc, configs=qs, holding=own)
     if tracking_points > 0:
         rigid = all(b.environment_stiffness is None for b in sc.braced.braces)
         if rigid:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import as_array, as_number
+from bracekit._registry import Registry
 from bracekit.errors import InputError
 
 Array = NDArray[np.float64]
@@ -83,15 +84,9 @@ class TaskShape:
 
 
 #: ``[task] type`` → shape, filled by :func:`register_task`.
-TASK_SHAPES: dict[str, type[TaskShape]] = {}
-
-
-def register_task(cls: type[TaskShape]) -> type[TaskShape]:
-    """Class decorator: make a task shape available to scenarios under its ``kind``."""
-    if not cls.kind or cls.kind in TASK_SHAPES:
-        raise InputError(f"task shape {cls.__name__} needs a unique kind, got {cls.kind!r}")
-    TASK_SHAPES[cls.kind] = cls
-    return cls
+TASK_SHAPES: Registry[type[TaskShape]] = Registry("task shape", "kind", "kind")
+#: Class decorator: make a task shape available to scenarios under its ``kind``.
+register_task = TASK_SHAPES.register
 
 
 def radial_of(task: object) -> Callable[[float], Array] | None:
@@ -134,5 +129,3 @@ def in_plane(n: Array, s: Array) -> Array | None:
 def task_time(t: float) -> float:
     """A time (s) as a float; InputError unless it is a finite number."""
     return t if type(t) is float and math.isfinite(t) else as_number(t, "the time t", unit="s")
-
-

@@ -16,13 +16,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from bracekit._io import read_toml
 from bracekit._linalg import show
 from bracekit._version import __version__
 from bracekit.contact import REGISTRY
 from bracekit.errors import InputError
 from bracekit.simulation.scenario import parse_scenario, shipped_scenarios
 from bracekit.simulation.scenario_model import Scenario
+from bracekit.simulation.toml_table import read_source
 from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 
 #: Axes a spec may sweep: name → kind ("link": link names, "scalar", "vector": [x, y, z]).
@@ -207,21 +207,7 @@ def load_spec(source: str | os.PathLike[str]) -> SweepSpec:
     Raises:
         SpecError: the file is missing or not TOML, or a key is missing, unknown or malformed (named).
     """
-    shipped = shipped_specs()
-    if isinstance(source, str) and source in shipped:
-        path = shipped[source]
-    elif isinstance(source, str | os.PathLike) and os.fspath(source):
-        path = Path(os.fspath(source))
-    else:
-        raise SpecError(f"a sweep spec must be a .toml path or a shipped name ({', '.join(sorted(shipped))})")
-    if not path.is_file():
-        raise SpecError(
-            f"sweep spec not found: {show(str(source), 200)}; give a .toml file or one of: {', '.join(sorted(shipped))}"
-        )
-    try:
-        data = read_toml(path, "sweep spec")
-    except InputError as exc:
-        raise SpecError(str(exc)) from None
+    path, data = read_source(source, shipped_specs(), "sweep spec", SpecError)
     return parse_spec(data, base=path.parent, name=path.stem, source=path)
 
 
@@ -266,16 +252,10 @@ def _base(value: Any, base: Path) -> tuple[Path, dict[str, Any], Path]:
     """The base scenario's TOML path, data and folder (relative paths are from the spec's folder)."""
     if not isinstance(value, str) or not value:
         raise SpecError(f"'base' must be a scenario: a shipped name or a .toml path, got {show(value)}")
-    shipped = shipped_scenarios()
-    path = shipped[value] if value in shipped else (Path(value) if Path(value).is_absolute() else base / value)
-    if not path.is_file():
-        raise SpecError(
-            f"'base' = {show(value)}: no such scenario; give a .toml path or one of: {', '.join(sorted(shipped))}"
-        )
     try:
-        data = read_toml(path, "base scenario")
-    except InputError as exc:
-        raise SpecError(f"'base' = {show(value)} cannot be read: {exc}") from None
+        path, data = read_source(value, shipped_scenarios(), "base scenario", SpecError, folder=base)
+    except SpecError as exc:
+        raise SpecError(f"'base' = {show(value)}: {exc}") from None
     return path, data, path.parent
 
 

@@ -1,0 +1,62 @@
+"""What the MuJoCo holding and capacity checks take and refuse, before any simulation (no MuJoCo run)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import bracekit as bk
+from bracekit.errors import InputError
+from bracekit.simulation.holding import Holding
+from bracekit.validate.holding_check import check_braces, common_friction, predicted_limits
+from bracekit.validate.holding_report import DEFAULT_WRENCHES, default_holding, scenario_holding
+from bracekit.validate.runner import validation_configurations
+
+
+@pytest.fixture(scope="module")
+def two() -> bk.Scenario:
+    return bk.load_scenario("two-braces")
+
+
+def test_a_scenario_without_holding_statics_gets_the_checks_own_for_every_brace(two: bk.Scenario) -> None:
+    assert not two.holding.active
+    h = default_holding(two)
+    assert h.brace_preloads(2) == (5.0, 5.0) and h.brace_frictions(2) == (0.8, 0.8) and not h.gravity
+    np.testing.assert_array_equal(h.wrenches, np.array(DEFAULT_WRENCHES))
+    with pytest.raises(InputError, match="no holding statics"):
+        scenario_holding(two, None)
+    assert scenario_holding(two, h) is h
+
+
+def test_the_checks_refuse_by_name_what_their_mujoco_model_cannot_hold(two: bk.Scenario) -> None:
+    braced = two.braced
+    check_braces(braced, default_holding(two), "holding check")
+    assert common_friction(braced, Holding(preloads=(5.0, 5.0))) is None
+    with pytest.raises(InputError, match=r"same friction; the braces have μ = 0\.8, 0\.5"):
+        check_braces(braced, Holding(preloads=(5.0, 5.0), frictions=(0.8, 0.5)), "holding check")
+    soft = bk.BracedRobot(braced.robot, [braced.braces[0], replace(braced.braces[1], environment_stiffness=1e4)])
+    with pytest.raises(InputError, match="rigid surfaces; brace 1 has an environment stiffness"):
+        check_braces(soft, default_holding(two), "capacity ramp")
+
+
+def test_the_first_brace_to_fail_is_the_least_of_every_brace_s_own_limits(two: bk.Scenario) -> None:
+    """Each brace's lift-off and slip scale against its own force f_c0,i + s δf_c,i from the responses."""
+    q = validation_configurations(two, 1)[0]
+    w = np.array(DEFAULT_WRENCHES[0])
+    pred = predicted_limits(two.braced, q, default_holding(two), w)
+    assert pred.liftoff.shape == (2,) and pred.slip is not None and pred.slip.shape == (2,)
+    for i in range(2):
+        r = pred.response(i)
+        n = r.normal
+        for s, kind in ((pred.liftoff[i], "lift"), (pred.slip[i], "slip")):
+            if not np.isfinite(s):
+                continue
+            f = r.contact_wrench(s * w)[:3]
+            fn = float(f @ n)
+            ft = float(np.linalg.norm(f - fn * n))
+            # at its own scale brace i sits on its own limit: f_n = 0, or ‖f_t‖ = μ f_n
+            assert (abs(fn) if kind == "lift" else abs(ft - 0.8 * fn)) < 1e-9 * max(1.0, abs(fn))
+    assert pred.margin == min(np.min(pred.liftoff), np.min(pred.slip))
+    assert pred.brace == int(np.argmin(np.minimum(pred.liftoff, pred.slip))) and pred.mode == "slipped"
