@@ -1,0 +1,174 @@
+"""The broad phase of the mesh clearance, compiled (internal, numba).
+
+:func:`screen` bounds every (piece, obstacle) pair of one configuration and settles those it can exactly, so that
+coal's narrow phase runs only on the pairs whose lower bound is below the least value found
+(:mod:`bracekit.geometry.distance` gives the rules; this kernel is their loop over all pieces at once).
+
+Obstacle kinds: 0 the surface's solid with a radius (the disk of radius r_max about c and the body below it),
+1 the half-space below the surface's plane, 2 any other convex solid, bounded by its bounding sphere.
+
+For a piece with bounding sphere (centre p, radius r): its distance from the surface's solid is at least
+s(p) − r and at most s(p) + r (s the solid's signed distance, 1-Lipschitz; a point of the piece lies within r
+of p), and at least |p − o| − R − r from another obstacle's sphere (o, R). A polytope with an extreme point
+inside the surface's solid, or with all of them over the disk (or any polytope and the half-space), is settled
+exactly: its value is its extreme points' least signed distance. A polytope across the rim is left to coal with
+its bound raised to its least height and to the separating axis through its nearest extreme point v: the unit
+u = (cos θ r̂_v, sin θ n̂) in the plane's radial and normal directions with (cos θ, sin θ) ∝ (ρ_v − r_max, h_v),
+along which the solid reaches r_max cos θ; the piece is at least min_k uᵀv_k − r_max cos θ away. When that equals
+v's own distance, v is the nearest point and the piece is settled there too.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
+
+#: obstacle kinds
+DISK, HALFSPACE, SPHERE = 0, 1, 2
+#: A piece whose lower bound is within this (m) of its nearest extreme point's distance is settled at that point.
+SETTLED = 1e-12
+
+
+@_jit
+def _signed(x, y, h, r_max):  # pragma: no cover - compiled
+    """Signed distance (m) of a point at plane coordinates (x, y, h) from the disk's solid of radius r_max."""
+    side = math.sqrt(x * x + y * y) - r_max
+    if h <= 0.0 and side <= 0.0:
+        return max(h, side)
+    a = max(side, 0.0)
+    b = max(h, 0.0)
+    return math.sqrt(a * a + b * b)
+
+
+@_jit
+def _keep(best, piece, obstacle, point, s, value, p, o, m, local):  # pragma: no cover - compiled
+    """Record `value` of piece p and obstacle o at the extreme point `local` (joint frame) as link s's best."""
+    best[s] = value
+    piece[s], obstacle[s] = p, o
+    for i in range(3):
+        point[s, i] = m[i, 0] * local[0] + m[i, 1] * local[1] + m[i, 2] * local[2] + m[i, 3]
+
+
+@_jit
+def screen(
+    place, slot, centres, radii, offsets, points, kinds, origins, axes, r_max, held, shared
+):  # pragma: no cover - compiled
+    """Bound and settle the pairs of one configuration.
+
+    Args:
+        place: (J, 4, 4) placements of the link joints' frames.
+        slot: (P,) each piece's link (0 … J − 1).
+        centres: (P, 3) the pieces' bounding spheres' centres in their joints' frames, m.
+        radii: (P,) their radii, m.
+        offsets: (P + 1,) piece i's extreme points are points[offsets[i]:offsets[i + 1]] (none for a primitive).
+        points: (N, 3) the extreme points in their joints' frames, m.
+        kinds: (O,) obstacle kinds.
+        origins: (O, 3) the surface's point c or the sphere's centre, m.
+        axes: (O, 3, 3) the plane's axes as columns (x, y, n̂).
+        r_max: (O,) the disk's radius or the sphere's radius, m (0 for the half-space).
+        held: (J,) the value each link must come below to count (m); with `shared`, held[0] for all links.
+        shared: one value held for all links (the least clearance), else one per link.
+
+    Returns:
+        (best (J,), its piece (J,), its obstacle (J,), its point (J, 3) world, m: the least settled value of each
+        link (inf: none below held); candidates (M, 2) int (piece, obstacle) and their bounds (M,) for coal.)
+    """
+    npieces = centres.shape[0]
+    nobs = kinds.shape[0]
+    nlinks = place.shape[0]
+    lower = np.empty((npieces, nobs))
+    cap = held.copy()
+    world = np.empty(3)
+    for p in range(npieces):
+        m = place[slot[p]]
+        for i in range(3):
+            world[i] = m[i, 0] * centres[p, 0] + m[i, 1] * centres[p, 1] + m[i, 2] * centres[p, 2] + m[i, 3]
+        s = 0 if shared else slot[p]
+        for o in range(nobs):
+            dx = world[0] - origins[o, 0]
+            dy = world[1] - origins[o, 1]
+            dz = world[2] - origins[o, 2]
+            if kinds[o] == SPHERE:
+                lower[p, o] = math.sqrt(dx * dx + dy * dy + dz * dz) - r_max[o] - radii[p]
+                continue
+            h = dx * axes[o, 0, 2] + dy * axes[o, 1, 2] + dz * axes[o, 2, 2]
+            if kinds[o] == HALFSPACE:
+                d = h
+            else:
+                x = dx * axes[o, 0, 0] + dy * axes[o, 1, 0] + dz * axes[o, 2, 0]
+                y = dx * axes[o, 0, 1] + dy * axes[o, 1, 1] + dz * axes[o, 2, 1]
+                d = _signed(x, y, h, r_max[o])
+            lower[p, o] = d - radii[p]
+            if d + radii[p] < cap[s]:
+                cap[s] = d + radii[p]
+    best = np.full(nlinks, math.inf)
+    best_piece = np.full(nlinks, -1, dtype=np.int64)
+    best_obstacle = np.full(nlinks, -1, dtype=np.int64)
+    best_point = np.zeros((nlinks, 3))
+    pairs = np.empty((npieces * nobs, 2), dtype=np.int64)
+    bounds = np.empty(npieces * nobs)
+    count = 0
+    local = np.empty((points.shape[0], 3))
+    for p in range(npieces):
+        s = 0 if shared else slot[p]
+        m = place[slot[p]]
+        lo, hi = offsets[p], offsets[p + 1]
+        for o in range(nobs):
+            if lower[p, o] >= min(cap[s], best[s]):
+                continue
+            if kinds[o] == SPHERE or hi == lo:
+                pairs[count, 0], pairs[count, 1] = p, o
+                bounds[count] = lower[p, o]
+                count += 1
+                continue
+            least, at, low, over, mx, my = math.inf, lo, math.inf, True, 0.0, 0.0
+            for k in range(lo, hi):
+                for i in range(3):
+                    world[i] = (
+                        m[i, 0] * points[k, 0] + m[i, 1] * points[k, 1] + m[i, 2] * points[k, 2] + m[i, 3]
+                    ) - origins[o, i]
+                x = world[0] * axes[o, 0, 0] + world[1] * axes[o, 1, 0] + world[2] * axes[o, 2, 0]
+                y = world[0] * axes[o, 0, 1] + world[1] * axes[o, 1, 1] + world[2] * axes[o, 2, 1]
+                h = world[0] * axes[o, 0, 2] + world[1] * axes[o, 1, 2] + world[2] * axes[o, 2, 2]
+                local[k, 0], local[k, 1], local[k, 2] = x, y, h
+                mx += x
+                my += y
+                if kinds[o] == HALFSPACE:
+                    value = h
+                else:
+                    value = _signed(x, y, h, r_max[o])
+                    if math.sqrt(x * x + y * y) > r_max[o]:
+                        over = False
+                if value < least:
+                    least, at = value, k
+                low = min(low, h)
+            if least <= 0.0 or over:  # settled: its extreme points' least signed distance
+                if least < best[s]:
+                    _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
+                continue
+            # beside the disk: the separating axis through the nearest extreme point v, u = (cos θ r̂_v, sin θ n̂)
+            # with (cos θ, sin θ) ∝ (ρ_v − r_max, h_v); the solid reaches r_max cos θ along u, so the piece is at
+            # least min_k uᵀk − r_max cos θ away, which is v's own distance when v is its nearest point
+            rx, ry, rh = local[at, 0], local[at, 1], local[at, 2]
+            rho = math.sqrt(rx * rx + ry * ry)
+            bound = max(lower[p, o], low)
+            if rho > r_max[o] and least > 0.0:
+                ct, st = (rho - r_max[o]) / least, max(rh, 0.0) / least
+                ux, uy = ct * rx / rho, ct * ry / rho
+                along = math.inf
+                for k in range(lo, hi):
+                    along = min(along, ux * local[k, 0] + uy * local[k, 1] + st * local[k, 2])
+                bound = max(bound, along - r_max[o] * ct)
+                if bound >= least - SETTLED:  # v is the nearest point: settled
+                    if least < best[s]:
+                        _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
+                    continue
+            if bound < min(cap[s], best[s]):
+                pairs[count, 0], pairs[count, 1] = p, o
+                bounds[count] = bound
+                count += 1
+    return best, best_piece, best_obstacle, best_point, pairs[:count], bounds[:count]
