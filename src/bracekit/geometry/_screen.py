@@ -45,6 +45,30 @@ def _signed(x, y, h, r_max):  # pragma: no cover - compiled
 
 
 @_jit
+def _outward(point, o, kinds, origins, axes, r_max, out):  # pragma: no cover - compiled
+    """∇ of the surface solid o's signed distance (unit, world) at a point (3,) into out (3,)."""
+    if kinds[o] == HALFSPACE:
+        for i in range(3):
+            out[i] = axes[o, i, 2]
+        return
+    dx, dy, dz = point[0] - origins[o, 0], point[1] - origins[o, 1], point[2] - origins[o, 2]
+    x = dx * axes[o, 0, 0] + dy * axes[o, 1, 0] + dz * axes[o, 2, 0]
+    y = dx * axes[o, 0, 1] + dy * axes[o, 1, 1] + dz * axes[o, 2, 1]
+    h = dx * axes[o, 0, 2] + dy * axes[o, 1, 2] + dz * axes[o, 2, 2]
+    rho = math.sqrt(x * x + y * y)
+    rx, ry = (x / rho, y / rho) if rho > 0.0 else (0.0, 0.0)
+    side = rho - r_max[o]
+    if h <= 0.0 and side <= 0.0:
+        gx, gy, gz = (0.0, 0.0, 1.0) if h >= side else (rx, ry, 0.0)
+    else:
+        a, b = max(side, 0.0), max(h, 0.0)
+        d = math.sqrt(a * a + b * b)
+        gx, gy, gz = (a * rx / d, a * ry / d, b / d) if d > 0.0 else (0.0, 0.0, 1.0)
+    for i in range(3):
+        out[i] = axes[o, i, 0] * gx + axes[o, i, 1] * gy + axes[o, i, 2] * gz
+
+
+@_jit
 def _keep(best, piece, obstacle, point, s, value, p, o, m, local):  # pragma: no cover - compiled
     """Record `value` of piece p and obstacle o at the extreme point `local` (joint frame) as link s's best."""
     best[s] = value
@@ -54,8 +78,42 @@ def _keep(best, piece, obstacle, point, s, value, p, o, m, local):  # pragma: no
 
 
 @_jit
+def _sphere(m, centre, radius, o, kinds, origins, axes, r_max):  # pragma: no cover - compiled
+    """(Lower, upper bound) of the distance (m) of a ball (centre in the frame placed at m) from obstacle o.
+
+    The upper bound is inf for an obstacle known only by its bounding sphere.
+    """
+    dx = m[0, 0] * centre[0] + m[0, 1] * centre[1] + m[0, 2] * centre[2] + m[0, 3] - origins[o, 0]
+    dy = m[1, 0] * centre[0] + m[1, 1] * centre[1] + m[1, 2] * centre[2] + m[1, 3] - origins[o, 1]
+    dz = m[2, 0] * centre[0] + m[2, 1] * centre[1] + m[2, 2] * centre[2] + m[2, 3] - origins[o, 2]
+    if kinds[o] == SPHERE:
+        return math.sqrt(dx * dx + dy * dy + dz * dz) - r_max[o] - radius, math.inf
+    h = dx * axes[o, 0, 2] + dy * axes[o, 1, 2] + dz * axes[o, 2, 2]
+    if kinds[o] == HALFSPACE:
+        return h - radius, h + radius
+    x = dx * axes[o, 0, 0] + dy * axes[o, 1, 0] + dz * axes[o, 2, 0]
+    y = dx * axes[o, 0, 1] + dy * axes[o, 1, 1] + dz * axes[o, 2, 1]
+    d = _signed(x, y, h, r_max[o])
+    return d - radius, d + radius
+
+
+@_jit
 def screen(
-    place, slot, centres, radii, offsets, points, kinds, origins, axes, r_max, held, shared
+    place,
+    slot,
+    centres,
+    radii,
+    groups,
+    group_centres,
+    group_radii,
+    offsets,
+    points,
+    kinds,
+    origins,
+    axes,
+    r_max,
+    held,
+    shared,
 ):  # pragma: no cover - compiled
     """Bound and settle the pairs of one configuration.
 
@@ -64,6 +122,9 @@ def screen(
         slot: (P,) each piece's link (0 … J − 1).
         centres: (P, 3) the pieces' bounding spheres' centres in their joints' frames, m.
         radii: (P,) their radii, m.
+        groups: (G + 1,) group g holds the pieces groups[g]:groups[g + 1] (of one link).
+        group_centres: (G, 3) the groups' bounding spheres' centres (joint frames), m.
+        group_radii: (G,) their radii, m.
         offsets: (P + 1,) piece i's extreme points are points[offsets[i]:offsets[i + 1]] (none for a primitive).
         points: (N, 3) the extreme points in their joints' frames, m.
         kinds: (O,) obstacle kinds.
@@ -75,36 +136,23 @@ def screen(
 
     Returns:
         (best (J,), its piece (J,), its obstacle (J,), its point (J, 3) world, m: the least settled value of each
-        link (inf: none below held); candidates (M, 2) int (piece, obstacle) and their bounds (M,) for coal.)
+        link (inf: none below held); candidates (M, 2) int (piece, obstacle) and their bounds (M,) for coal; the
+        unit normal of the solid at each best point (J, 3), world, from the obstacle toward the link.)
     """
     npieces = centres.shape[0]
+    ngroups = group_radii.shape[0]
     nobs = kinds.shape[0]
     nlinks = place.shape[0]
-    lower = np.empty((npieces, nobs))
     cap = held.copy()
     world = np.empty(3)
-    for p in range(npieces):
-        m = place[slot[p]]
-        for i in range(3):
-            world[i] = m[i, 0] * centres[p, 0] + m[i, 1] * centres[p, 1] + m[i, 2] * centres[p, 2] + m[i, 3]
-        s = 0 if shared else slot[p]
+    near = np.empty((ngroups, nobs))
+    for g in range(ngroups):  # the groups' bounds, and the least upper bound
+        k = slot[groups[g]]
+        s = 0 if shared else k
         for o in range(nobs):
-            dx = world[0] - origins[o, 0]
-            dy = world[1] - origins[o, 1]
-            dz = world[2] - origins[o, 2]
-            if kinds[o] == SPHERE:
-                lower[p, o] = math.sqrt(dx * dx + dy * dy + dz * dz) - r_max[o] - radii[p]
-                continue
-            h = dx * axes[o, 0, 2] + dy * axes[o, 1, 2] + dz * axes[o, 2, 2]
-            if kinds[o] == HALFSPACE:
-                d = h
-            else:
-                x = dx * axes[o, 0, 0] + dy * axes[o, 1, 0] + dz * axes[o, 2, 0]
-                y = dx * axes[o, 0, 1] + dy * axes[o, 1, 1] + dz * axes[o, 2, 1]
-                d = _signed(x, y, h, r_max[o])
-            lower[p, o] = d - radii[p]
-            if d + radii[p] < cap[s]:
-                cap[s] = d + radii[p]
+            low, up = _sphere(place[k], group_centres[g], group_radii[g], o, kinds, origins, axes, r_max)
+            near[g, o] = low
+            cap[s] = min(cap[s], up)
     best = np.full(nlinks, math.inf)
     best_piece = np.full(nlinks, -1, dtype=np.int64)
     best_obstacle = np.full(nlinks, -1, dtype=np.int64)
@@ -112,63 +160,77 @@ def screen(
     pairs = np.empty((npieces * nobs, 2), dtype=np.int64)
     bounds = np.empty(npieces * nobs)
     count = 0
-    local = np.empty((points.shape[0], 3))
+    widest = 0
     for p in range(npieces):
-        s = 0 if shared else slot[p]
-        m = place[slot[p]]
-        lo, hi = offsets[p], offsets[p + 1]
+        widest = max(widest, offsets[p + 1] - offsets[p])
+    local = np.empty((widest, 3))  # one piece's points in plane coordinates
+    first = np.empty(ngroups)
+    for g in range(ngroups):
+        first[g] = near[g].min()
+    for g in np.argsort(first):  # the nearest groups first: the least value found prunes the others
+        j = slot[groups[g]]
+        s = 0 if shared else j
+        m = place[j]
         for o in range(nobs):
-            if lower[p, o] >= min(cap[s], best[s]):
+            if near[g, o] >= min(cap[s], best[s]):
                 continue
-            if kinds[o] == SPHERE or hi == lo:
-                pairs[count, 0], pairs[count, 1] = p, o
-                bounds[count] = lower[p, o]
-                count += 1
-                continue
-            least, at, low, over, mx, my = math.inf, lo, math.inf, True, 0.0, 0.0
-            for k in range(lo, hi):
-                for i in range(3):
-                    world[i] = (
-                        m[i, 0] * points[k, 0] + m[i, 1] * points[k, 1] + m[i, 2] * points[k, 2] + m[i, 3]
-                    ) - origins[o, i]
-                x = world[0] * axes[o, 0, 0] + world[1] * axes[o, 1, 0] + world[2] * axes[o, 2, 0]
-                y = world[0] * axes[o, 0, 1] + world[1] * axes[o, 1, 1] + world[2] * axes[o, 2, 1]
-                h = world[0] * axes[o, 0, 2] + world[1] * axes[o, 1, 2] + world[2] * axes[o, 2, 2]
-                local[k, 0], local[k, 1], local[k, 2] = x, y, h
-                mx += x
-                my += y
-                if kinds[o] == HALFSPACE:
-                    value = h
-                else:
-                    value = _signed(x, y, h, r_max[o])
-                    if math.sqrt(x * x + y * y) > r_max[o]:
-                        over = False
-                if value < least:
-                    least, at = value, k
-                low = min(low, h)
-            if least <= 0.0 or over:  # settled: its extreme points' least signed distance
-                if least < best[s]:
-                    _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
-                continue
-            # beside the disk: the separating axis through the nearest extreme point v, u = (cos θ r̂_v, sin θ n̂)
-            # with (cos θ, sin θ) ∝ (ρ_v − r_max, h_v); the solid reaches r_max cos θ along u, so the piece is at
-            # least min_k uᵀk − r_max cos θ away, which is v's own distance when v is its nearest point
-            rx, ry, rh = local[at, 0], local[at, 1], local[at, 2]
-            rho = math.sqrt(rx * rx + ry * ry)
-            bound = max(lower[p, o], low)
-            if rho > r_max[o] and least > 0.0:
-                ct, st = (rho - r_max[o]) / least, max(rh, 0.0) / least
-                ux, uy = ct * rx / rho, ct * ry / rho
-                along = math.inf
+            for p in range(groups[g], groups[g + 1]):
+                lower, up = _sphere(m, centres[p], radii[p], o, kinds, origins, axes, r_max)
+                cap[s] = min(cap[s], up)
+                if lower >= min(cap[s], best[s]):
+                    continue
+                lo, hi = offsets[p], offsets[p + 1]
+                if kinds[o] == SPHERE or hi == lo:
+                    pairs[count, 0], pairs[count, 1] = p, o
+                    bounds[count] = lower
+                    count += 1
+                    continue
+                least, at, low, over, mx, my = math.inf, lo, math.inf, True, 0.0, 0.0
                 for k in range(lo, hi):
-                    along = min(along, ux * local[k, 0] + uy * local[k, 1] + st * local[k, 2])
-                bound = max(bound, along - r_max[o] * ct)
-                if bound >= least - SETTLED:  # v is the nearest point: settled
+                    for i in range(3):
+                        world[i] = (
+                            m[i, 0] * points[k, 0] + m[i, 1] * points[k, 1] + m[i, 2] * points[k, 2] + m[i, 3]
+                        ) - origins[o, i]
+                    x = world[0] * axes[o, 0, 0] + world[1] * axes[o, 1, 0] + world[2] * axes[o, 2, 0]
+                    y = world[0] * axes[o, 0, 1] + world[1] * axes[o, 1, 1] + world[2] * axes[o, 2, 1]
+                    h = world[0] * axes[o, 0, 2] + world[1] * axes[o, 1, 2] + world[2] * axes[o, 2, 2]
+                    local[k - lo, 0], local[k - lo, 1], local[k - lo, 2] = x, y, h
+                    mx += x
+                    my += y
+                    if kinds[o] == HALFSPACE:
+                        value = h
+                    else:
+                        value = _signed(x, y, h, r_max[o])
+                        if math.sqrt(x * x + y * y) > r_max[o]:
+                            over = False
+                    if value < least:
+                        least, at = value, k
+                    low = min(low, h)
+                if least <= 0.0 or over:  # settled: its extreme points' least signed distance
                     if least < best[s]:
                         _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
                     continue
-            if bound < min(cap[s], best[s]):
-                pairs[count, 0], pairs[count, 1] = p, o
-                bounds[count] = bound
-                count += 1
-    return best, best_piece, best_obstacle, best_point, pairs[:count], bounds[:count]
+                # beside the disk: the separating axis through the nearest extreme point v (module docstring)
+                rx, ry, rh = local[at - lo, 0], local[at - lo, 1], local[at - lo, 2]
+                rho = math.sqrt(rx * rx + ry * ry)
+                bound = max(lower, low)
+                if rho > r_max[o] and least > 0.0:
+                    ct, st = (rho - r_max[o]) / least, max(rh, 0.0) / least
+                    ux, uy = ct * rx / rho, ct * ry / rho
+                    along = math.inf
+                    for k in range(lo, hi):
+                        along = min(along, ux * local[k - lo, 0] + uy * local[k - lo, 1] + st * local[k - lo, 2])
+                    bound = max(bound, along - r_max[o] * ct)
+                    if bound >= least - SETTLED:  # v is the nearest point: settled
+                        if least < best[s]:
+                            _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
+                        continue
+                if bound < min(cap[s], best[s]):
+                    pairs[count, 0], pairs[count, 1] = p, o
+                    bounds[count] = bound
+                    count += 1
+    best_normal = np.zeros((nlinks, 3))
+    for s in range(nlinks):
+        if best_obstacle[s] >= 0:
+            _outward(best_point[s], best_obstacle[s], kinds, origins, axes, r_max, best_normal[s])
+    return best, best_piece, best_obstacle, best_point, pairs[:count], bounds[:count], best_normal

@@ -25,6 +25,7 @@ own motion along the surface does not change d to first order).
 
 from __future__ import annotations
 
+import itertools
 import math
 import weakref
 from collections.abc import Sequence
@@ -118,8 +119,16 @@ class MeshClearance:
                 near |= np.linalg.norm(tri - pad, axis=2).min(axis=1) < radius + PATCH * math.sqrt(3.0)
             pieces.extend(triangle_pieces(element.joint, element.link, tri[near]))
             pieces.extend(patch_pieces(element.joint, element.link, tri[~near]))
-        pieces.sort(key=lambda p: p.joint)
+        pieces, groups = _grouped(pieces)
         self.pieces: tuple[Piece, ...] = tuple(pieces)
+        #: groups of nearby pieces of one link, each piece range [groups[g], groups[g + 1]) with a bounding sphere
+        self._groups = np.array(groups, dtype=np.intp)
+        spheres = [
+            _enclosing(np.array([p.centre for p in pieces[a:b]]), np.array([p.radius for p in pieces[a:b]]))
+            for a, b in itertools.pairwise(groups)
+        ]
+        self._group_centres = np.array([c for c, _ in spheres], dtype=float).reshape(-1, 3)
+        self._group_radii = np.array([r for _, r in spheres], dtype=float)
         joints = sorted({p.joint for p in pieces})
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
@@ -206,6 +215,9 @@ class MeshClearance:
             self._slot,
             self._centres,
             self._radii,
+            self._groups,
+            self._group_centres,
+            self._group_radii,
             self._offsets,
             self._points,
             self._kinds,
@@ -218,11 +230,11 @@ class MeshClearance:
 
     def _settled(self, found: tuple[Array, ...], s: int, gradient: bool) -> Best | None:
         """The pair the broad phase settled for slot `s` (distance, piece, witness, normal or None), or None."""
-        best, piece, obstacle, point = found[0], found[1], found[2], found[3]
+        best, piece, point = found[0], found[1], found[3]
         if not math.isfinite(best[s]):
             return None
         witness = point[s]
-        normal = self.obstacles[int(obstacle[s])].gradient(witness) if gradient else None
+        normal = found[6][s] if gradient else None
         return float(best[s]), int(piece[s]), witness, normal
 
     # --- the clearances -----------------------------------------------------------------------
@@ -282,6 +294,41 @@ class MeshClearance:
             if (value, self._joints[s] - 1) < (low, link):
                 low, link = value, self._joints[s] - 1
         return low, link
+
+
+#: Pieces per group of the broad phase (at most).
+GROUP = 16
+
+
+def _grouped(pieces: list[Piece]) -> tuple[list[Piece], list[int]]:
+    """The pieces by link, each link's split in halves across its widest spread until at most GROUP a group.
+
+    Returns the pieces in group order and the groups' starts (with the end).
+    """
+    out: list[Piece] = []
+    starts = [0]
+
+    def split(chunk: list[Piece]) -> None:
+        centres = np.array([p.centre for p in chunk]).reshape(-1, 3)
+        if len(chunk) <= GROUP:
+            out.extend(chunk)
+            starts.append(len(out))
+            return
+        axis = int(np.argmax(np.ptp(centres, axis=0)))
+        order = np.argsort(centres[:, axis], kind="stable")
+        half = len(chunk) // 2
+        split([chunk[i] for i in order[:half]])
+        split([chunk[i] for i in order[half:]])
+
+    for joint in sorted({p.joint for p in pieces}):
+        split([p for p in pieces if p.joint == joint])
+    return out, starts
+
+
+def _enclosing(centres: Array, radii: Array) -> tuple[Array, float]:
+    """A sphere (centre (3,), radius m) holding the spheres (centres (k, 3), radii (k,))."""
+    centre = 0.5 * (np.min(centres - radii[:, None], axis=0) + np.max(centres + radii[:, None], axis=0))
+    return centre, float(np.max(np.linalg.norm(centres - centre, axis=1) + radii))
 
 
 def _screened(obstacles: Sequence[Obstacle]) -> tuple[NDArray[np.int64], Array, Array, Array]:
