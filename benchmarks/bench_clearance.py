@@ -5,12 +5,12 @@ Run from a clone with the test extra (example-robot-data) installed::
     python benchmarks/bench_clearance.py
 
 The xArm7 is braced at its forearm (link4, the pad on its surface at fraction 0.3, angle 90°) on a post under
-the pad; the samples are configurations within ±`spread` rad of the start, where every link is clear. Both
-geometries are timed side by side in one process (best of five rounds): ``Clearance.minimum`` (what each sample
-of a run records) and ``Clearance.links`` with gradients below the barrier's margin (what a gradient-projection
-step with the clearance term asks). The capsules are what the same robot got before collision meshes were read
-(default capsules, the braced link left out). Timings depend on the machine and its load. ``bracekit bench``
-(part "core") prints the same rows (:func:`add_to`).
+the pad; the samples are configurations within ±`spread` rad of the start. Both geometries are timed in one
+process, in turn (least of the rounds): ``Clearance.minimum`` (what each sample of a run records) and
+``Clearance.links`` with gradients below the barrier's margin (what a gradient-projection step with the clearance
+term asks). The capsules are what the same robot got before collision meshes were read (default capsules, the
+braced link left out). Timings are the process's CPU time (less sensitive to the machine's load than wall time).
+``bracekit bench`` (part "core") prints the same rows (:func:`add_to`).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.metadata
 import sys
+import time
 import timeit
 from pathlib import Path
 from typing import Any
@@ -77,10 +78,10 @@ def clearance_benchmarks(quick: bool = False, spread: float = 0.02, samples: int
     for _ in range(repeat):  # the geometries in turn, so that a change of the machine's load hits both
         for name, c in clearances.items():
             times.setdefault(f"{name}_minimum", []).append(
-                timeit.timeit(lambda c=c: [c.minimum(q) for q in qs], number=rounds)
+                timeit.Timer(lambda c=c: [c.minimum(q) for q in qs], timer=time.process_time).timeit(rounds)
             )
             times.setdefault(f"{name}_links", []).append(
-                timeit.timeit(lambda c=c: [c.links(q, True, 0.1) for q in qs], number=rounds)
+                timeit.Timer(lambda c=c: [c.links(q, True, 0.1) for q in qs], timer=time.process_time).timeit(rounds)
             )
     for key, values in times.items():
         out[f"clearance_{key}_us"] = min(values) * 1e6 / (rounds * samples)

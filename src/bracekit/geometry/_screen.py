@@ -11,11 +11,12 @@ For a piece with bounding sphere (centre p, radius r): its distance from the sur
 s(p) − r and at most s(p) + r (s the solid's signed distance, 1-Lipschitz; a point of the piece lies within r
 of p), and at least |p − o| − R − r from another obstacle's sphere (o, R). A polytope with an extreme point
 inside the surface's solid, or with all of them over the disk (or any polytope and the half-space), is settled
-exactly: its value is its extreme points' least signed distance. A polytope across the rim is left to coal with
-its bound raised to its least height and to the separating axis through its nearest extreme point v: the unit
-u = (cos θ r̂_v, sin θ n̂) in the plane's radial and normal directions with (cos θ, sin θ) ∝ (ρ_v − r_max, h_v),
-along which the solid reaches r_max cos θ; the piece is at least min_k uᵀv_k − r_max cos θ away. When that equals
-v's own distance, v is the nearest point and the piece is settled there too.
+exactly: its value is its extreme points' least signed distance. A polytope beside the disk (every extreme point
+outside the solid, some not over the disk) starts from its nearest extreme point: Frank–Wolfe steps on the convex
+distance D = |(max(ρ − r_max, 0), max(h, 0))| over its hull move to a nearer point x, and the separating axis
+u = ∇D(x) bounds the piece below (the solid reaches r_max |u_xy| along u; the piece is at least
+min_k uᵀv_k − r_max |u_xy| away). When the bound meets D(x) (within SETTLED) x is the nearest point and the piece
+is settled there; else it is left to coal with the bound raised to its least height and that axis's bound.
 """
 
 from __future__ import annotations
@@ -26,14 +27,18 @@ import numpy as np
 from numba import njit
 
 _jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
+_inline = njit(cache=True, fastmath=False, error_model="numpy", nogil=True, inline="always")
 
 #: obstacle kinds
 DISK, HALFSPACE, SPHERE = 0, 1, 2
-#: A piece whose lower bound is within this (m) of its nearest extreme point's distance is settled at that point.
-SETTLED = 1e-12
+#: A piece whose lower bound is within this (m) of the distance of a point of it is settled at that point (a tenth
+#: of coal's GJK tolerance, bracekit.geometry.distance.GJK_TOLERANCE).
+SETTLED = 1e-10
+#: Frank–Wolfe steps toward a piece's nearest point before coal is left to find it.
+ITERATIONS = 8
 
 
-@_jit
+@_inline
 def _signed(x, y, h, r_max):  # pragma: no cover - compiled
     """Signed distance (m) of a point at plane coordinates (x, y, h) from the disk's solid of radius r_max."""
     side = math.sqrt(x * x + y * y) - r_max
@@ -68,6 +73,69 @@ def _outward(point, o, kinds, origins, axes, r_max, out):  # pragma: no cover - 
         out[i] = axes[o, i, 0] * gx + axes[o, i, 1] * gy + axes[o, i, 2] * gz
 
 
+@_inline
+def _away(x, y, h, r_max):  # pragma: no cover - compiled
+    """(D, ∇D (3,)) of a point at plane coordinates (x, y, h) outside the disk's solid: its distance and direction."""
+    rho = math.sqrt(x * x + y * y)
+    a, b = max(rho - r_max, 0.0), max(h, 0.0)
+    d = math.sqrt(a * a + b * b)
+    if d == 0.0:
+        return 0.0, 0.0, 0.0, 1.0
+    if a == 0.0:
+        return d, 0.0, 0.0, 1.0
+    return d, a * x / (rho * d), a * y / (rho * d), b / d
+
+
+@_jit
+def _nearest(local, count, start, r_max, stop):  # pragma: no cover - compiled
+    """(D, x, y, h, bound): a point of a polytope near the disk's solid and a lower bound of its distance.
+
+    The polytope is the hull of local[:count] (plane coordinates, all outside the solid); the search stops once
+    the bound reaches `stop` (m, what the link holds: the piece cannot count). Frank–Wolfe on the
+    convex D = |(max(ρ − r_max, 0), max(h, 0))| from the vertex `start`, each step's length by golden section;
+    its gap closes on the separating axis u = ∇D(x): the solid reaches r_max |u_xy| along u (u_h ≥ 0), so the
+    polytope is at least min_k uᵀv_k − r_max |u_xy| away, which equals D(x) when x is the nearest point.
+    """
+    x, y, h = local[start, 0], local[start, 1], local[start, 2]
+    value, ux, uy, uh = _away(x, y, h, r_max)
+    bound = -math.inf
+    for _ in range(ITERATIONS):
+        if value <= 0.0:
+            break
+        along, k = math.inf, 0
+        for i in range(count):
+            v = ux * local[i, 0] + uy * local[i, 1] + uh * local[i, 2]
+            if v < along:
+                along, k = v, i
+        bound = max(bound, along - r_max * math.sqrt(ux * ux + uy * uy))
+        if bound >= value - SETTLED or bound >= stop:  # settled, or no nearer than what is held
+            break
+        dx, dy, dh = local[k, 0] - x, local[k, 1] - y, local[k, 2] - h
+        lo, hi = 0.0, 1.0  # golden section for the least D on [x, v_k]
+        g = 0.5 * (math.sqrt(5.0) - 1.0)
+        t1, t2 = hi - g * (hi - lo), lo + g * (hi - lo)
+        f1 = _away(x + t1 * dx, y + t1 * dy, h + t1 * dh, r_max)[0]
+        f2 = _away(x + t2 * dx, y + t2 * dy, h + t2 * dh, r_max)[0]
+        for _ in range(60):
+            if f1 <= f2:
+                hi, t2, f2 = t2, t1, f1
+                t1 = hi - g * (hi - lo)
+                f1 = _away(x + t1 * dx, y + t1 * dy, h + t1 * dh, r_max)[0]
+            else:
+                lo, t1, f1 = t1, t2, f2
+                t2 = lo + g * (hi - lo)
+                f2 = _away(x + t2 * dx, y + t2 * dy, h + t2 * dh, r_max)[0]
+            if hi - lo < 1e-12:
+                break
+        t = t1 if f1 <= f2 else t2
+        step = _away(x + t * dx, y + t * dy, h + t * dh, r_max)
+        if not step[0] < value:
+            break
+        x, y, h = x + t * dx, y + t * dy, h + t * dh
+        value, ux, uy, uh = step
+    return value, x, y, h, bound
+
+
 @_jit
 def _keep(best, piece, obstacle, point, s, value, p, o, m, local):  # pragma: no cover - compiled
     """Record `value` of piece p and obstacle o at the extreme point `local` (joint frame) as link s's best."""
@@ -77,15 +145,15 @@ def _keep(best, piece, obstacle, point, s, value, p, o, m, local):  # pragma: no
         point[s, i] = m[i, 0] * local[0] + m[i, 1] * local[1] + m[i, 2] * local[2] + m[i, 3]
 
 
-@_jit
-def _sphere(m, centre, radius, o, kinds, origins, axes, r_max):  # pragma: no cover - compiled
-    """(Lower, upper bound) of the distance (m) of a ball (centre in the frame placed at m) from obstacle o.
+@_inline
+def _sphere(place, j, cx, cy, cz, radius, o, kinds, origins, axes, r_max):  # pragma: no cover - compiled
+    """(Lower, upper bound) of the distance (m) of a ball (centre (cx, cy, cz) in link j's frame) from obstacle o.
 
     The upper bound is inf for an obstacle known only by its bounding sphere.
     """
-    dx = m[0, 0] * centre[0] + m[0, 1] * centre[1] + m[0, 2] * centre[2] + m[0, 3] - origins[o, 0]
-    dy = m[1, 0] * centre[0] + m[1, 1] * centre[1] + m[1, 2] * centre[2] + m[1, 3] - origins[o, 1]
-    dz = m[2, 0] * centre[0] + m[2, 1] * centre[1] + m[2, 2] * centre[2] + m[2, 3] - origins[o, 2]
+    dx = place[j, 0, 0] * cx + place[j, 0, 1] * cy + place[j, 0, 2] * cz + place[j, 0, 3] - origins[o, 0]
+    dy = place[j, 1, 0] * cx + place[j, 1, 1] * cy + place[j, 1, 2] * cz + place[j, 1, 3] - origins[o, 1]
+    dz = place[j, 2, 0] * cx + place[j, 2, 1] * cy + place[j, 2, 2] * cz + place[j, 2, 3] - origins[o, 2]
     if kinds[o] == SPHERE:
         return math.sqrt(dx * dx + dy * dy + dz * dz) - r_max[o] - radius, math.inf
     h = dx * axes[o, 0, 2] + dy * axes[o, 1, 2] + dz * axes[o, 2, 2]
@@ -150,7 +218,8 @@ def screen(
         k = slot[groups[g]]
         s = 0 if shared else k
         for o in range(nobs):
-            low, up = _sphere(place[k], group_centres[g], group_radii[g], o, kinds, origins, axes, r_max)
+            c = group_centres
+            low, up = _sphere(place, k, c[g, 0], c[g, 1], c[g, 2], group_radii[g], o, kinds, origins, axes, r_max)
             near[g, o] = low
             cap[s] = min(cap[s], up)
     best = np.full(nlinks, math.inf)
@@ -166,7 +235,9 @@ def screen(
     local = np.empty((widest, 3))  # one piece's points in plane coordinates
     first = np.empty(ngroups)
     for g in range(ngroups):
-        first[g] = near[g].min()
+        first[g] = math.inf
+        for o in range(nobs):
+            first[g] = min(first[g], near[g, o])
     for g in np.argsort(first):  # the nearest groups first: the least value found prunes the others
         j = slot[groups[g]]
         s = 0 if shared else j
@@ -175,7 +246,8 @@ def screen(
             if near[g, o] >= min(cap[s], best[s]):
                 continue
             for p in range(groups[g], groups[g + 1]):
-                lower, up = _sphere(m, centres[p], radii[p], o, kinds, origins, axes, r_max)
+                c = centres
+                lower, up = _sphere(place, j, c[p, 0], c[p, 1], c[p, 2], radii[p], o, kinds, origins, axes, r_max)
                 cap[s] = min(cap[s], up)
                 if lower >= min(cap[s], best[s]):
                     continue
@@ -210,21 +282,17 @@ def screen(
                     if least < best[s]:
                         _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
                     continue
-                # beside the disk: the separating axis through the nearest extreme point v (module docstring)
-                rx, ry, rh = local[at - lo, 0], local[at - lo, 1], local[at - lo, 2]
-                rho = math.sqrt(rx * rx + ry * ry)
-                bound = max(lower, low)
-                if rho > r_max[o] and least > 0.0:
-                    ct, st = (rho - r_max[o]) / least, max(rh, 0.0) / least
-                    ux, uy = ct * rx / rho, ct * ry / rho
-                    along = math.inf
-                    for k in range(lo, hi):
-                        along = min(along, ux * local[k - lo, 0] + uy * local[k - lo, 1] + st * local[k - lo, 2])
-                    bound = max(bound, along - r_max[o] * ct)
-                    if bound >= least - SETTLED:  # v is the nearest point: settled
-                        if least < best[s]:
-                            _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
-                        continue
+                # beside the disk: Frank–Wolfe from the nearest extreme point, its gap closed by a separating axis
+                value, x, y, h, axis = _nearest(local, hi - lo, at - lo, r_max[o], min(cap[s], best[s]))
+                bound = max(lower, low, axis)
+                cap[s] = min(cap[s], value)  # a point of the piece: its distance is at most this
+                if bound >= value - SETTLED:  # the nearest point found: settled
+                    if value < best[s]:
+                        best[s] = value
+                        best_piece[s], best_obstacle[s] = p, o
+                        for i in range(3):
+                            best_point[s, i] = origins[o, i] + axes[o, i, 0] * x + axes[o, i, 1] * y + axes[o, i, 2] * h
+                    continue
                 if bound < min(cap[s], best[s]):
                     pairs[count, 0], pairs[count, 1] = p, o
                     bounds[count] = bound

@@ -151,22 +151,30 @@ class MeshClearance:
 
     # --- configuration ------------------------------------------------------------------------
     def _placements(self, qa: Array, gradient: bool) -> tuple[Array, list[Array] | None]:
-        """(⁰M of each link joint's frame (J, 4, 4); their LOCAL_WORLD_ALIGNED Jacobians (6×n) or None)."""
+        """(⁰M of each link joint's frame (J, 4, 4); their LOCAL_WORLD_ALIGNED Jacobians (6×n) or None).
+
+        With this object's own Pinocchio data (creating one costs as much as a pass) the Jacobians are read later,
+        only for the links that need them (:meth:`_jacobian`): the list is then empty.
+        """
         robot = self.braced.robot
         if self._data is None:
             kin = robot.frame_kinematics(qa, self._frames)
             return np.array([m for m, _ in kin]).reshape(-1, 4, 4), [j for _, j in kin] if gradient else None
-        model, data = robot.model, self._data  # this object's own data (creating one costs as much as a pass)
+        model, data = robot.model, self._data
         if gradient:
             pin.computeJointJacobians(model, data, qa)
         else:
             pin.forwardKinematics(model, data, qa)
         pin.updateFramePlacements(model, data)
         placements = np.array([data.oMf[f].homogeneous for f in self._frames]).reshape(-1, 4, 4)
-        if not gradient:
-            return placements, None
+        return placements, [] if gradient else None
+
+    def _jacobian(self, jacs: list[Array], s: int) -> Array:
+        """Link slot s's LOCAL_WORLD_ALIGNED joint Jacobian (6×n) after :meth:`_placements` with gradients."""
+        if jacs:
+            return jacs[s]
         lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-        return placements, [pin.getFrameJacobian(model, data, f, lwa) for f in self._frames]
+        return np.asarray(pin.getFrameJacobian(self.braced.robot.model, self._data, self._frames[s], lwa))
 
     def _pair(self, piece: int, obstacle: int, placement: Array) -> tuple[float, Array, Array]:
         """(Signed distance m, witness point on the link (3,), unit normal from the obstacle to the link (3,))."""
@@ -267,7 +275,7 @@ class MeshClearance:
                 continue
             grad = np.zeros(0)
             if jacs is not None and best[3] is not None:
-                grad = _point_row(best[3], best[2] - placements[s, :3, 3], jacs[s])
+                grad = _point_row(best[3], best[2] - placements[s, :3, 3], self._jacobian(jacs, s))
             value = best[0]
             out.append((self._joints[s] - 1, value, grad))
         return out
