@@ -50,6 +50,8 @@ from bracekit.geometry.pieces import (
 )
 from bracekit.kinematics.braced import BracedRobot
 from bracekit.model.chain import DATA_JOINT_LIMIT
+from bracekit.model.geometry import Capsule
+from bracekit.spatial import rotation_with_z
 
 Array = NDArray[np.float64]
 #: GJK's and EPA's tolerance (m): coal's default (1e-6) leaves d noisy at 1e-9 m (blurring ∂d/∂q); much below
@@ -81,6 +83,8 @@ class MeshClearance:
         elements: the robot's collision elements (``Robot.geometry``); those fixed to the base are left out.
         obstacles: further obstacles of the environment.
         pad_radius: radius (m) of each pad's exempt neighbourhood; None: each brace's ``pad_radius``.
+        surfaces: whether the braces' surface solids are obstacles (False: `obstacles` only, for capsules whose
+            surface clearance is the capsule rule's).
     """
 
     def __init__(
@@ -89,13 +93,14 @@ class MeshClearance:
         elements: Sequence[CollisionElement],
         obstacles: Sequence[Obstacle] = (),
         pad_radius: float | None = None,
+        surfaces: bool = True,
     ) -> None:
         robot = braced.robot
         model = robot.model
         self.braced = braced
         depth = _depth(braced)
-        self.obstacles: tuple[Obstacle, ...] = tuple(
-            surface_obstacle(b.surface, b.obstacle_radius, depth) for b in braced.braces
+        self.obstacles: tuple[Obstacle, ...] = (
+            tuple(surface_obstacle(b.surface, b.obstacle_radius, depth) for b in braced.braces) if surfaces else ()
         ) + tuple(obstacles)
         pads: dict[int, list[tuple[Array, float]]] = {}
         for brace, fid in zip(braced.braces, braced.brace_ids, strict=True):
@@ -371,6 +376,22 @@ def _plane_axes(n: Array) -> Array:
 
 #: collision element → its pieces on a link that carries no pad (they do not depend on the brace): built once
 _FREE: weakref.WeakKeyDictionary[CollisionElement, list[Piece]] = weakref.WeakKeyDictionary()
+
+
+def capsule_elements(capsules: Sequence[Capsule]) -> list[CollisionElement]:
+    """Capsules (segment [a, b] grown by a radius, joint frame) as collision elements (a sphere where a = b)."""
+    out = []
+    for c in capsules:
+        axis = np.asarray(c.b, dtype=float) - np.asarray(c.a, dtype=float)
+        length = float(np.linalg.norm(axis))
+        place = np.eye(4)
+        place[:3, 3] = 0.5 * (np.asarray(c.a, dtype=float) + np.asarray(c.b, dtype=float))
+        if length <= 1e-12:
+            out.append(CollisionElement(c.link, c.joint, place, "sphere", (float(c.radius),)))
+            continue
+        place[:3, :3] = rotation_with_z(axis / length, "a capsule's axis")
+        out.append(CollisionElement(c.link, c.joint, place, "capsule", (float(c.radius), length)))
+    return out
 
 
 def _free_pieces(element: CollisionElement) -> list[Piece]:

@@ -4,7 +4,8 @@ The surface solid is the one of :mod:`bracekit.kinematics.clearance`: with a rad
 (``Brace.obstacle_radius``, a table top or a post) the disk of radius r_max about the surface's point c and the
 body below it, a coal Cylinder of radius r_max whose top face is the disk and whose height reaches far below
 anything the robot can touch; without a radius the half-space below the plane (coal's Halfspace). Further
-obstacles are boxes, cylinders and meshes (a mesh as its convex hull) at a pose in the base frame.
+obstacles are boxes, cylinders, spheres and meshes (a mesh as its convex hull) at a pose in the base frame
+(a scenario's ``[[obstacle]]`` tables, :mod:`bracekit.geometry.obstacle_tables`).
 
 Each obstacle gives a lower bound of the signed distance of a point (1-Lipschitz, ≤ the signed distance), so a
 ball of radius r about a point p is at least bound(p) − r away: the broad phase of :mod:`bracekit.geometry.distance`.
@@ -177,6 +178,14 @@ def cylinder_obstacle(name: str, radius: float, length: float, pose: Array | Non
     place = _posed(pose)
     bound = float(np.hypot(radius, length / 2.0))
     return Obstacle(name, coal.Cylinder(float(radius), float(length)), place, place[:3, 3].copy(), bound)
+
+
+def sphere_obstacle(name: str, radius: float, pose: Array | None = None) -> Obstacle:
+    """A sphere of `radius` (m) centred at `pose`'s origin (4×4, base frame)."""
+    if not (np.isfinite(radius) and radius > 0):
+        raise InputError(f"{name}: a sphere needs a positive radius (m), got {radius!r}")
+    place = _posed(pose)
+    return Obstacle(name, coal.Sphere(float(radius)), place, place[:3, 3].copy(), float(radius))
 
 
 def mesh_obstacle(name: str, vertices: Array, pose: Array | None = None) -> Obstacle:
