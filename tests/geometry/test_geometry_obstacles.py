@@ -185,3 +185,47 @@ def test_a_bad_obstacle_is_one_clear_line(tmp_path: Path, obstacle: str, message
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert message.split("'")[0] in done.stderr
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_the_run_folder_and_figures_draw_each_obstacle(tmp_path: Path) -> None:
+    """scene.json carries the box's corners (the viewer draws them); Fig. 2's panels draw its projected hull."""
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Polygon
+
+    from bracekit import run_scenario
+    from bracekit.report.figure_common import _scene
+    from bracekit.report.scene import SceneView
+    from bracekit.viewer import load_scene
+
+    text = "[[obstacle]]\nbox = { size = [0.2, 0.1, 0.3] }\nposition = [0.3, 0.5, 0.15]\nrpy = [0.0, 0.0, 0.4]\n"
+    path = _paper_with(tmp_path, text)
+    out = tmp_path / "out"
+    done = subprocess.run(
+        [sys.executable, "-m", "bracekit", "run", str(path), "--out", str(out)], capture_output=True, text=True
+    )
+    assert done.returncode in (0, 1), done.stderr[-2000:]
+    scene = load_scene(out)
+    ((name, vertices, faces),) = scene.obstacles
+    rotation = pin.rpy.rpyToMatrix(0.0, 0.0, 0.4)
+    corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.05, 0.05) for z in (-0.15, 0.15)])
+    expected = corners @ rotation.T + [0.3, 0.5, 0.15]
+    assert name == "obstacle[1]" and len(faces) == 12
+    assert np.allclose(np.sort(vertices, axis=0), np.sort(expected, axis=0), atol=1e-9)
+
+    result = run_scenario(load_scenario(path))
+    figure_scene = _scene(result)
+    ax = plt.figure().add_subplot()
+    SceneView(ax, figure_scene, "braced_gradient_projection")
+    hull = figure_scene.camera.project(expected)
+    drawn = [p.get_xy() for p in ax.patches if isinstance(p, Polygon) and p.get_zorder() == 0.6]
+    assert len(drawn) == 1
+    outline = drawn[0][:-1] if np.allclose(drawn[0][0], drawn[0][-1]) else drawn[0]
+    # every projected corner on or inside the outline, every outline point a projected corner
+    assert all(np.min(np.linalg.norm(hull - p, axis=1)) < 1e-9 for p in outline)
+    assert len(outline) >= 4
+    plt.close("all")

@@ -20,6 +20,7 @@ from typing import Any
 import coal
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import ConvexHull
 
 from bracekit.contact.surface import Surface
 from bracekit.errors import InputError
@@ -195,3 +196,31 @@ def mesh_obstacle(name: str, vertices: Array, pose: Array | None = None) -> Obst
     centre = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
     radius = float(np.sqrt(np.max(np.sum((verts - centre) ** 2, axis=1))))
     return Obstacle(name, hull(verts, name), place, place[:3, :3] @ centre + place[:3, 3], radius)
+
+
+def obstacle_mesh(obstacle: Obstacle) -> tuple[Array, NDArray[np.int64]]:
+    """A further obstacle's surface as triangles for drawing: vertices (k, 3), m, base frame, and faces (t, 3).
+
+    Boxes, cylinders and spheres tessellated as the braced link's primitives are (48 segments), a mesh as its
+    convex hull (what the clearance counts). The bracing surface's solid is drawn by the viewer and figures
+    themselves (:mod:`bracekit.viewer.bodies`).
+    """
+    from bracekit.geometry.collision import CollisionElement
+    from bracekit.geometry.pieces import surface_triangles
+
+    shape = obstacle.shape
+    name = type(shape).__name__
+    if name == "Box":
+        element = CollisionElement(obstacle.name, 0, obstacle.placement, "box", tuple(2.0 * h for h in shape.halfSide))
+    elif name == "Cylinder":
+        size = (float(shape.radius), float(2.0 * shape.halfLength))
+        element = CollisionElement(obstacle.name, 0, obstacle.placement, "cylinder", size)
+    elif name == "Sphere":
+        element = CollisionElement(obstacle.name, 0, obstacle.placement, "sphere", (float(shape.radius),))
+    else:  # a mesh's hull: coal's Convex
+        points = np.array([shape.points(i) for i in range(shape.num_points)], dtype=float).reshape(-1, 3)
+        world = points @ obstacle.placement[:3, :3].T + obstacle.placement[:3, 3]
+        return world, np.asarray(ConvexHull(world).simplices, dtype=np.int64)
+    triangles = surface_triangles(element).reshape(-1, 3)
+    vertices, faces = np.unique(np.round(triangles, 12), axis=0, return_inverse=True)
+    return vertices, faces.reshape(-1, 3).astype(np.int64)
