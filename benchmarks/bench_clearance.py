@@ -5,11 +5,12 @@ Run from a clone with the test extra (example-robot-data) installed::
     python benchmarks/bench_clearance.py
 
 The xArm7 is braced at its forearm (link4, the pad on its surface at fraction 0.3, angle 90°) on a post under
-the pad; the samples are configurations within ±`spread` rad of the start, where every link is clear. Both
-geometries are timed side by side in one process (best of five rounds): ``Clearance.minimum`` (what each sample
-of a run records) and ``Clearance.links`` with gradients below the barrier's margin (what a gradient-projection
-step with the clearance term asks). The capsules are what the same robot got before collision meshes were read
-(default capsules, the braced link left out). Timings depend on the machine and its load.
+the pad; the samples are configurations within ±`spread` rad of the start. Both geometries are timed in one
+process, in turn (least of the rounds): ``Clearance.minimum`` (what each sample of a run records) and
+``Clearance.links`` with gradients below the barrier's margin (what a gradient-projection step with the clearance
+term asks). The capsules are what the same robot got before collision meshes were read (default capsules, the
+braced link left out). Timings are the process's CPU time (less sensitive to the machine's load than wall time).
+``bracekit bench`` (part "core") prints the same rows (:func:`add_to`).
 """
 
 from __future__ import annotations
@@ -17,8 +18,10 @@ from __future__ import annotations
 import dataclasses
 import importlib.metadata
 import sys
+import time
 import timeit
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -45,29 +48,77 @@ def _braced(robot: Robot, pad_robot: Robot) -> BracedRobot:
     return BracedRobot(braced, Brace("brace", surface, region_radius=0.1, surface_radius=0.12))
 
 
-def main(spread: float = 0.02, samples: int = 20) -> None:
-    """Print µs per sample for both geometries."""
+def _xarm7() -> Robot | None:
+    """The xArm7 with its STL meshes from example-robot-data, or None without the test extra."""
     try:
         share = Path(str(importlib.metadata.distribution("example-robot-data").locate_file("cmeel.prefix/share")))
     except importlib.metadata.PackageNotFoundError:
-        sys.exit("install the test extra (example-robot-data) to run this benchmark")
+        return None
     urdf = share / "example-robot-data/robots/xarm_description/urdf/xarm7.urdf"
-    meshes = Robot.from_urdf(urdf, tip="link_eef", package_dirs=[share])
+    return Robot.from_urdf(urdf, tip="link_eef", package_dirs=[share])
+
+
+def clearance_benchmarks(quick: bool = False, spread: float = 0.02, samples: int = 20) -> dict[str, Any]:
+    """µs per sample of both geometries (keys ``clearance_{capsules,meshes}_{minimum,links}_us``), or why skipped."""
+    meshes = _xarm7()
+    if meshes is None:
+        return {"clearance_skipped": "example-robot-data not installed: pip install 'bracekit[test]'"}
     capsules = dataclasses.replace(meshes, geometry=(), collisions=())  # what it was before meshes were read
     rng = np.random.default_rng(2)
     qs = [Q0 + rng.uniform(-spread, spread, 7) for _ in range(samples)]
-    for robot in (capsules, meshes):
+    rounds, repeat = (2, 3) if quick else (5, 7)
+    clearances = {}
+    out: dict[str, Any] = {}
+    for name, robot in (("capsules", capsules), ("meshes", meshes)):
         braced = _braced(robot, meshes)
-        clearance = Clearance(braced)
-        best = min(clearance.minimum(q)[0] for q in qs)
-        rounds = 5
-        minimum = min(timeit.repeat(lambda c=clearance: [c.minimum(q) for q in qs], number=rounds, repeat=5))
-        links = min(timeit.repeat(lambda c=clearance: [c.links(q, True, 0.1) for q in qs], number=rounds, repeat=5))
-        per = 1e6 / (rounds * samples)
-        print(
-            f"{geometry_of(braced)}: minimum {minimum * per:.0f} µs/sample, links with ∂/∂q below 0.1 m "
-            f"{links * per:.0f} µs/sample (least clearance over the samples {best:.4f} m)"
+        clearances[name] = clearance = Clearance(braced)
+        out[f"clearance_{name}_geometry"] = geometry_of(braced)
+        out[f"clearance_{name}_least_m"] = min(clearance.minimum(q)[0] for q in qs)
+    times: dict[str, list[float]] = {}
+    for _ in range(repeat):  # the geometries in turn, so that a change of the machine's load hits both
+        for name, c in clearances.items():
+            times.setdefault(f"{name}_minimum", []).append(
+                timeit.Timer(lambda c=c: [c.minimum(q) for q in qs], timer=time.process_time).timeit(rounds)
+            )
+            times.setdefault(f"{name}_links", []).append(
+                timeit.Timer(lambda c=c: [c.links(q, True, 0.1) for q in qs], timer=time.process_time).timeit(rounds)
+            )
+    for key, values in times.items():
+        out[f"clearance_{key}_us"] = min(values) * 1e6 / (rounds * samples)
+    return out
+
+
+def clearance_table(res: dict[str, Any]) -> str:
+    """The rows of :func:`clearance_benchmarks`' result for ``bracekit bench``'s table."""
+    if "clearance_skipped" in res:
+        return f"link clearance per sample: skipped ({res['clearance_skipped']})"
+    rows = [
+        "| link clearance per sample (xArm7 on a post) | least value | µs | ∂/∂q below 0.1 m, µs |",
+        "|---|---|---|---|",
+    ]
+    for name in ("capsules", "meshes"):
+        rows.append(
+            f"| {res[f'clearance_{name}_geometry']} | {res[f'clearance_{name}_least_m']:.4f} m "
+            f"| {res[f'clearance_{name}_minimum_us']:.0f} | {res[f'clearance_{name}_links_us']:.0f} |"
         )
+    return "\n".join(rows)
+
+
+def add_to(results: dict[str, Any], quick: bool, parts: tuple[str, ...]) -> None:
+    """With the part "core": the clearance per sample into `results` and its rows at the end of its table."""
+    if "core" not in parts:
+        return
+    found = clearance_benchmarks(quick)
+    results.update(found)
+    results["table"] = "\n\n".join(t for t in (results.get("table", ""), clearance_table(found)) if t)
+
+
+def main() -> None:
+    """Print µs per sample for both geometries."""
+    found = clearance_benchmarks()
+    if "clearance_skipped" in found:
+        sys.exit("install the test extra (example-robot-data) to run this benchmark")
+    print(clearance_table(found))
 
 
 if __name__ == "__main__":

@@ -50,13 +50,19 @@ def test_the_xarm7_tutorial_runs_as_printed(tmp_path: Path) -> None:
     done = subprocess.run(["bash", "-c", script], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
 
-    # the quoted output: the geometry line of summary.json and the constrained rows of table.md
+    # the quoted output: the geometry line of summary.json, the constrained rows of table.md and their checks
     out = tmp_path / "xarm7-out"
-    geometry, rows = (body.strip() for _, body in _blocks("text"))
-    assert json.loads((out / "summary.json").read_text())["geometry"] == geometry
+    geometry, rows, checks = (body.strip() for _, body in _blocks("text"))
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["geometry"] == geometry
     table = (out / "table.md").read_text(encoding="utf-8").splitlines()
-    for row in rows.splitlines():
+    for row in [*rows.splitlines(), *checks.splitlines()]:
         assert row in table, row
+    # a valid braced run with the clearance barrier on: every link out of the post, the brace in its region
+    runs = summary["strategies"]
+    assert runs["braced_min_norm"]["valid"] and runs["braced_gradient_projection"]["valid"]
+    assert not runs["free_space_min_norm"]["valid"]  # it does not know the post
+    assert "clearance = 0.0" not in PAGE.read_text(encoding="utf-8")
     assert (out / "meshes.npz").is_file() and (out / "fig2_film_strip.png").is_file()
 
     # `bracekit view`: the command parses and its folder opens with the arm's meshes

@@ -42,7 +42,7 @@ def _on_triangles(point: np.ndarray, tri: np.ndarray, tol: float = 1e-9) -> np.n
     return unit[on]
 
 
-@pytest.mark.parametrize(("fraction", "angle"), [(0.3, 90.0), (0.2, 0.0), (0.35, 200.0), (0.5, 300.0)])
+@pytest.mark.parametrize(("fraction", "angle"), [(0.3, 90.0), (0.2, 0.0), (0.35, 200.0), (0.25, 300.0)])
 def test_a_surface_pad_lies_on_the_mesh_with_the_inward_normal(robot: Robot, fraction, angle) -> None:
     pad = pad_on_surface(robot, "link4", fraction, angle)
     mesh = read_stl(next(e.source for e in robot.geometry if e.link == "link4"))  # link frame = joint frame here
@@ -97,3 +97,15 @@ def test_without_collision_geometry_the_pad_sits_on_the_default_capsule() -> Non
     # the tessellated capsule (48 segments) is within r (1 − cos(π/48)) of the round one
     assert np.linalg.norm(radial) == pytest.approx(DEFAULT_LINK_RADIUS, abs=DEFAULT_LINK_RADIUS * 2.2e-3)
     np.testing.assert_allclose(pad.axis, -radial / np.linalg.norm(radial), atol=0.07)
+
+
+def test_the_angles_about_the_forearm_near_its_wrist_give_distinct_pads(robot: Robot) -> None:
+    """At fraction 0.5 the line through the surface's centroid leaves link4 (its housing bends away from it):
+    the rays start from the cross-section's centroid, so each angle gives its own pad on the STL surface."""
+    mesh = read_stl(next(e.source for e in robot.geometry if e.link == "link4"))
+    pads = [pad_on_surface(robot, "link4", 0.5, float(a)) for a in range(0, 180, 15)]
+    for pad in pads:
+        assert len(_on_triangles(pad.point, mesh)) >= 1
+    points = np.array([p.point for p in pads])
+    gaps = np.linalg.norm(points[:, None] - points[None], axis=2)[np.triu_indices(len(points), 1)]
+    assert gaps.min() > 1e-3  # no two of the twelve angles give the same pad

@@ -38,6 +38,7 @@ def run(args: argparse.Namespace) -> int:
     module = _bench_module()
     parts = tuple(args.only) if args.only else module.PARTS
     results = module.run_benchmarks(quick=args.quick, parts=parts, compare=args.compare)
+    module._sibling("bench_clearance").add_to(results, args.quick, parts)  # link clearance per sample
     print(json.dumps(results, indent=2) if args.json else results.get("table", ""))
     return 0
 

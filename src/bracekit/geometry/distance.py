@@ -5,16 +5,16 @@ pieces (:mod:`bracekit.geometry.pieces`) and the obstacles (:mod:`bracekit.geome
 ``distance`` (GJK, and EPA in penetration) with a DistanceRequest. The braced link counts like any other link,
 with the surface within ``Brace.pad_radius`` of its pad left out (the pad touches the surface by design).
 
-Exact shortcut: a polytope piece over the surface's disk (its extreme points all over it; any piece for the
-half-space) is its extreme points' least height away (h is linear), and one with an extreme point inside the
-solid gets the deepest one's signed distance; these are computed for many pieces at once, coal for the others.
-Coal's answer is checked (outside, its witness must be at the distance it reports); where GJK or EPA fail on a
-thin piece its triangles are sampled instead.
-
-Broad phase: each piece's bounding sphere gives a lower bound of its distance from each obstacle
-(``Obstacle.bound(centre) − radius``, raised to the piece's least height where the shortcut does not apply);
-pieces are searched in the order of their bounds and only while the bound is below the least distance found
-(of their link, or of all links for :meth:`MeshClearance.minimum`).
+Broad phase (:mod:`bracekit.geometry._screen`, compiled, all pieces at once): each piece's bounding sphere gives
+a lower and, for the surface's solid, an upper bound of its distance; a pair whose lower bound is not below the
+least upper bound (or the least value found, or the asked `below`) is never computed. A polytope piece over the
+surface's disk (its extreme points all over it; any piece for the half-space) is its extreme points' least height
+away (h is linear), one with an extreme point inside the solid gets the deepest one's signed distance, and one
+beside the disk whose nearest extreme point lies on a separating axis is that point's distance: these are exact
+without coal. Coal runs on the pairs left, in the order of their bounds, only while the bound is below the least
+value found (of their link, or of all links for :meth:`MeshClearance.minimum`). Coal's answer is checked
+(outside, its witness must be at the distance it reports); where GJK or EPA fail on a thin piece its triangles
+are sampled instead. The values are those of coal over every pair (tests/geometry compares them).
 
 Gradient: coal gives the witness points p₁ (on the link) and p₂ (on the obstacle) and the unit normal ν from
 the link toward the obstacle; with n = −ν (from the obstacle to the link)
@@ -25,10 +25,11 @@ own motion along the surface does not change d to first order).
 
 from __future__ import annotations
 
+import itertools
 import math
 import weakref
 from collections.abc import Sequence
-from typing import cast
+from typing import Any
 
 import coal
 import numpy as np
@@ -36,6 +37,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from bracekit.errors import InputError, NumericalError
+from bracekit.geometry._screen import DISK, HALFSPACE, SPHERE, screen
 from bracekit.geometry.collision import CollisionElement
 from bracekit.geometry.obstacles import Obstacle, surface_obstacle
 from bracekit.geometry.pieces import (
@@ -49,6 +51,8 @@ from bracekit.geometry.pieces import (
 )
 from bracekit.kinematics.braced import BracedRobot
 from bracekit.model.chain import DATA_JOINT_LIMIT
+from bracekit.model.geometry import Capsule
+from bracekit.spatial import rotation_with_z
 
 Array = NDArray[np.float64]
 #: GJK's and EPA's tolerance (m): coal's default (1e-6) leaves d noisy at 1e-9 m (blurring ∂d/∂q); much below
@@ -57,8 +61,9 @@ GJK_TOLERANCE = 1e-9
 #: Divisions of a triangle's edges for the barycentric grid of :meth:`MeshClearance._sampled`.
 SAMPLES = 16
 _GRID = np.array([(i, j, SAMPLES - i - j) for i in range(SAMPLES + 1) for j in range(SAMPLES + 1 - i)]) / SAMPLES
-#: (distance m, piece, witness point on the link (3,), unit normal from the obstacle to the link (3,))
-Best = tuple[float, int, Array, Array]
+#: (distance m, piece, witness point on the link (3,), unit normal from the obstacle to the link (3,) or None when
+#: no gradient is asked)
+Best = tuple[float, int, Array, Array | None]
 
 
 def _depth(braced: BracedRobot) -> float:
@@ -79,6 +84,8 @@ class MeshClearance:
         elements: the robot's collision elements (``Robot.geometry``); those fixed to the base are left out.
         obstacles: further obstacles of the environment.
         pad_radius: radius (m) of each pad's exempt neighbourhood; None: each brace's ``pad_radius``.
+        surfaces: whether the braces' surface solids are obstacles (False: `obstacles` only, for capsules whose
+            surface clearance is the capsule rule's).
     """
 
     def __init__(
@@ -87,13 +94,14 @@ class MeshClearance:
         elements: Sequence[CollisionElement],
         obstacles: Sequence[Obstacle] = (),
         pad_radius: float | None = None,
+        surfaces: bool = True,
     ) -> None:
         robot = braced.robot
         model = robot.model
         self.braced = braced
         depth = _depth(braced)
-        self.obstacles: tuple[Obstacle, ...] = tuple(
-            surface_obstacle(b.surface, b.obstacle_radius, depth) for b in braced.braces
+        self.obstacles: tuple[Obstacle, ...] = (
+            tuple(surface_obstacle(b.surface, b.obstacle_radius, depth) for b in braced.braces) if surfaces else ()
         ) + tuple(obstacles)
         pads: dict[int, list[tuple[Array, float]]] = {}
         for brace, fid in zip(braced.braces, braced.brace_ids, strict=True):
@@ -117,27 +125,27 @@ class MeshClearance:
                 near |= np.linalg.norm(tri - pad, axis=2).min(axis=1) < radius + PATCH * math.sqrt(3.0)
             pieces.extend(triangle_pieces(element.joint, element.link, tri[near]))
             pieces.extend(patch_pieces(element.joint, element.link, tri[~near]))
-        pieces.sort(key=lambda p: p.joint)
+        pieces, groups = _grouped(pieces)
         self.pieces: tuple[Piece, ...] = tuple(pieces)
+        #: groups of nearby pieces of one link, each piece range [groups[g], groups[g + 1]) with a bounding sphere
+        self._groups = np.array(groups, dtype=np.intp)
+        spheres = [
+            _enclosing(np.array([p.centre for p in pieces[a:b]]), np.array([p.radius for p in pieces[a:b]]))
+            for a, b in itertools.pairwise(groups)
+        ]
+        self._group_centres = np.array([c for c, _ in spheres], dtype=float).reshape(-1, 3)
+        self._group_radii = np.array([r for _, r in spheres], dtype=float)
         joints = sorted({p.joint for p in pieces})
         self._joints = joints
         self._frames = [int(model.getFrameId(model.names[j], pin.FrameType.JOINT)) for j in joints]
         self._slot = np.array([joints.index(p.joint) for p in pieces], dtype=np.intp)
-        #: each link's pieces are the contiguous range [start, stop) of self.pieces
-        self._ranges = [
-            (int(np.searchsorted(self._slot, k)), int(np.searchsorted(self._slot, k, "right")))
-            for k in range(len(joints))
-        ]
         self._centres = np.array([p.centre for p in pieces], dtype=float).reshape(-1, 3)
         self._radii = np.array([p.radius for p in pieces], dtype=float)
-        #: each link's bounding sphere (joint frame): its pieces' bounds are computed only when it comes near
-        self._link_spheres = [_enclosing(self._centres[a:b], self._radii[a:b]) for a, b in self._ranges]
         # the polytopes' extreme points, flat, with each piece's range [offset[i], offset[i + 1])
         counts = np.array([0 if p.points is None else len(p.points) for p in pieces], dtype=np.intp)
         self._offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
-        self._has_points = counts > 0
         self._points = np.concatenate([p.points for p in pieces if p.points is not None] or [np.zeros((0, 3))])
-        self._exact_obstacles = [k for k, o in enumerate(self.obstacles) if o.plane is not None]
+        self._kinds, self._origins, self._axes, self._sizes = _screened(self.obstacles)
         self._shapes = [p.shape for p in pieces]
         self._local = [p.placement for p in pieces]
         self._identity = [bool(np.array_equal(p.placement, np.eye(4))) for p in pieces]
@@ -149,30 +157,30 @@ class MeshClearance:
 
     # --- configuration ------------------------------------------------------------------------
     def _placements(self, qa: Array, gradient: bool) -> tuple[Array, list[Array] | None]:
-        """(⁰M of each link joint's frame (J, 4, 4); their LOCAL_WORLD_ALIGNED Jacobians (6×n) or None)."""
+        """(⁰M of each link joint's frame (J, 4, 4); their LOCAL_WORLD_ALIGNED Jacobians (6×n) or None).
+
+        With this object's own Pinocchio data (creating one costs as much as a pass) the Jacobians are read later,
+        only for the links that need them (:meth:`_jacobian`): the list is then empty.
+        """
         robot = self.braced.robot
-        if gradient or self._data is None:
+        if self._data is None:
             kin = robot.frame_kinematics(qa, self._frames)
             return np.array([m for m, _ in kin]).reshape(-1, 4, 4), [j for _, j in kin] if gradient else None
         model, data = robot.model, self._data
-        pin.forwardKinematics(model, data, qa)
+        if gradient:
+            pin.computeJointJacobians(model, data, qa)
+        else:
+            pin.forwardKinematics(model, data, qa)
         pin.updateFramePlacements(model, data)
-        return np.array([data.oMf[f].homogeneous for f in self._frames]).reshape(-1, 4, 4), None
+        placements = np.array([data.oMf[f].homogeneous for f in self._frames]).reshape(-1, 4, 4)
+        return placements, [] if gradient else None
 
-    def _bounds(self, placements: Array, link: int) -> Array:
-        """Lower bounds (the link's pieces, obstacles) of its pieces' signed distances from the obstacles, m."""
-        a, b = self._ranges[link]
-        m = placements[link]
-        centres = self._centres[a:b] @ m[:3, :3].T + m[:3, 3]
-        return cast(Array, np.stack([o.bound(centres) for o in self.obstacles], axis=1) - self._radii[a:b, None])
-
-    def _link_bounds(self, placements: Array) -> list[float]:
-        """A lower bound (m) of each link's distance from the obstacles (its bounding sphere's)."""
-        out = []
-        for (centre, radius), m in zip(self._link_spheres, placements, strict=True):
-            world = m[:3, :3] @ centre + m[:3, 3]
-            out.append(min(o.bound_at(world) for o in self.obstacles) - radius)
-        return out
+    def _jacobian(self, jacs: list[Array], s: int) -> Array:
+        """Link slot s's LOCAL_WORLD_ALIGNED joint Jacobian (6×n) after :meth:`_placements` with gradients."""
+        if jacs:
+            return jacs[s]
+        lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        return np.asarray(pin.getFrameJacobian(self.braced.robot.model, self._data, self._frames[s], lwa))
 
     def _pair(self, piece: int, obstacle: int, placement: Array) -> tuple[float, Array, Array]:
         """(Signed distance m, witness point on the link (3,), unit normal from the obstacle to the link (3,))."""
@@ -214,139 +222,177 @@ class MeshClearance:
         k = int(np.argmin(value))
         return float(value[k]), points[k], self.obstacles[obstacle].gradient(points[k])
 
-    def _search(self, placements: Array, bounds: Array, start: int, held: float) -> Best | None:
-        """The least (distance, piece, witness, normal) of one link's pieces (from `start`) below `held`.
+    def _screen(self, placements: Array, held: float, shared: bool) -> tuple[NDArray[Any], ...]:
+        """:func:`~bracekit.geometry._screen.screen` of one configuration (every link below `held`, m)."""
+        return screen(
+            placements,
+            self._slot,
+            self._centres,
+            self._radii,
+            self._groups,
+            self._group_centres,
+            self._group_radii,
+            self._offsets,
+            self._points,
+            self._kinds,
+            self._origins,
+            self._axes,
+            self._sizes,
+            np.full(1 if shared else len(placements), held),
+            shared,
+        )
 
-        `bounds` are those pieces' sphere bounds (k, obstacles) (:meth:`_bounds`); searched pairs are set to inf.
-
-        The pieces whose bound is at most an upper bound of the answer (the least sphere centre's distance plus
-        its diameter): the polytopes whose distance from the surface's solid is exact from their extreme points
-        all at once (:meth:`_exact`), the others by coal in the order of their bounds until the next bound passes
-        the least distance found. None if nothing comes below `held`.
-        """
-        if bounds.size == 0 or float(bounds.min()) >= held:
+    def _settled(self, found: tuple[Array, ...], s: int, gradient: bool) -> Best | None:
+        """The pair the broad phase settled for slot `s` (distance, piece, witness, normal or None), or None."""
+        best, piece, point = found[0], found[1], found[3]
+        if not math.isfinite(best[s]):
             return None
-        count = bounds.shape[1]
-        flat = bounds.reshape(-1)
-        cap = min(held, self._upper(placements, start, bounds))
-        held, best = self._exact(placements, start, np.flatnonzero(bounds.min(axis=1) <= cap), bounds, held, None)
-        for k in np.argsort(flat).tolist():
-            if flat[k] >= held or flat[k] > cap:
-                break
-            piece, obstacle = divmod(k, count)
-            value, witness, normal = self._pair(start + piece, obstacle, placements[self._slot[start]])
-            if value < held:
-                held, best = value, (value, start + piece, witness, normal)
-        return best
-
-    def _upper(self, placements: Array, start: int, bounds: Array) -> float:
-        """An upper bound (m) of a link's clearance: its closest piece's, from that piece's points.
-
-        The sphere's centre's bound plus its diameter (a point of the piece lies within its radius of the
-        centre), or for a polytope its extreme points' least signed distance from the surface's solid (every
-        value of the piece, exact, coal's or sampled, is at most that of any of its points).
-        """
-        upper = float((bounds + 2.0 * self._radii[start : start + len(bounds), None]).min())
-        piece, obstacle = divmod(int(np.argmin(bounds)), bounds.shape[1])
-        piece += start
-        if self._has_points[piece] and self.obstacles[obstacle].plane is not None:
-            m = placements[self._slot[piece]]
-            points = self._points[self._offsets[piece] : self._offsets[piece + 1]] @ m[:3, :3].T + m[:3, 3]
-            upper = min(upper, float(self.obstacles[obstacle].signed(points)[0].min()))
-        return upper
-
-    def _exact(
-        self, placements: Array, start: int, chosen: NDArray[np.intp], bounds: Array, held: float, best: Best | None
-    ) -> tuple[float, Best | None]:
-        """The polytopes (of `chosen`, offsets from `start`) whose distance from the surface's solid is exact.
-
-        A polytope over the disk (its extreme points all over it), or any for the half-space, is its extreme
-        points' least signed distance away (h is linear); one with an extreme point inside the solid gets the
-        deepest one's signed distance (as a brute-force look at the mesh vertices would). Coal is left for the
-        others (across the rim), whose `bounds` are raised to their least height (the solid is below the plane)
-        or their least distance beyond the side's tangent plane facing them (:meth:`Obstacle.beside`), whichever
-        is more; the pairs done here are set to inf.
-        """
-        chosen = chosen[self._has_points[start + chosen]]
-        if chosen.size == 0 or not self._exact_obstacles:
-            return held, best
-        ids = start + chosen
-        lo, hi = self._offsets[ids], self._offsets[ids + 1]
-        sizes = hi - lo
-        index = np.repeat(lo - np.concatenate([[0], np.cumsum(sizes)[:-1]]), sizes) + np.arange(int(sizes.sum()))
-        place = placements[self._slot[start]]
-        world = self._points[index] @ place[:3, :3].T + place[:3, 3]
-        heads = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-        for o in self._exact_obstacles:
-            value, over, height = self.obstacles[o].signed(world)
-            least = np.minimum.reduceat(value, heads)
-            exact = (least <= 0.0) | np.logical_and.reduceat(over, heads)
-            bounds[chosen[exact], o] = math.inf  # searched
-            # the others are at least their least height away (the solid lies below the plane; h is linear) and at
-            # least their least distance beyond the tangent plane of the body's side facing them
-            rest = chosen[~exact]
-            if rest.size:
-                supporting = np.maximum(np.minimum.reduceat(height, heads), self.obstacles[o].beside(world, heads))
-                bounds[rest, o] = np.maximum(bounds[rest, o], supporting[~exact])
-            if not exact.any():
-                continue
-            k = int(np.flatnonzero(exact)[np.argmin(least[exact])])
-            if least[k] < held:
-                at = heads[k] + int(np.argmin(value[heads[k] : heads[k] + sizes[k]]))
-                normal = self.obstacles[o].gradient(world[at])
-                held, best = float(least[k]), (float(least[k]), int(ids[k]), world[at], normal)
-        return held, best
+        witness = point[s]
+        normal = found[6][s] if gradient else None
+        return float(best[s]), int(piece[s]), witness, normal
 
     # --- the clearances -----------------------------------------------------------------------
     def links(self, q: Array, gradient: bool = True, below: float = math.inf) -> list[tuple[int, float, Array]]:
-        """(Chain joint index (0-based), clearance m, ∂/∂q (n,) or empty) of each link below `below`, in chain order."""
+        """(Chain joint index (0-based), clearance m, ∂/∂q (n,) or empty) of each link below `below`, in chain order.
+
+        The broad phase settles what it can; coal runs on each link's remaining pairs in the order of their
+        bounds while the bound is below the least value found.
+        """
         if not self.pieces or not self.obstacles:
             return []
         placements, jacs = self._placements(q, gradient)
-        near = self._link_bounds(placements)
+        found = self._screen(placements, below, False)
+        pairs, bounds = found[4], found[5]
+        remaining: list[list[int]] = [[] for _ in self._joints]
+        for k in np.argsort(bounds, kind="stable").tolist():
+            remaining[self._slot[pairs[k, 0]]].append(k)
         out = []
-        for s, (start, _) in enumerate(self._ranges):
-            if near[s] >= below:
+        for s, ks in enumerate(remaining):
+            best = self._settled(found, s, gradient)
+            held = below if best is None else min(best[0], below)
+            for k in ks:
+                if bounds[k] >= held:
+                    break
+                piece, obstacle = int(pairs[k, 0]), int(pairs[k, 1])
+                value, witness, normal = self._pair(piece, obstacle, placements[s])
+                if value < held:
+                    held, best = value, (value, piece, witness, normal)
+            if best is None or not best[0] < below:
                 continue
-            found = self._search(placements, self._bounds(placements, s), start, below)
-            if found is None:
-                continue
-            value, _, witness, normal = found
             grad = np.zeros(0)
-            if jacs is not None:
-                grad = _point_row(normal, witness - placements[s, :3, 3], jacs[s])
+            if jacs is not None and best[3] is not None:
+                grad = _point_row(best[3], best[2] - placements[s, :3, 3], self._jacobian(jacs, s))
+            value = best[0]
             out.append((self._joints[s] - 1, value, grad))
         return out
 
     def minimum(self, q: Array) -> tuple[float, int]:
         """(The least clearance over all links, m; its link's joint in chain order); (inf, −1) with no pieces.
 
-        The links in the order of their least sphere bound, each searched below the least clearance found.
+        The broad phase over all links at once, then coal on the remaining pairs in the order of their bounds.
         """
         if not self.pieces or not self.obstacles:
             return math.inf, -1
         placements, _ = self._placements(q, False)
-        near = self._link_bounds(placements)
+        found = self._screen(placements, math.inf, True)
         low, link = math.inf, -1
-        for s in sorted(range(len(near)), key=near.__getitem__):
-            if near[s] >= low:
+        if math.isfinite(found[0][0]):
+            low, link = float(found[0][0]), self._joints[self._slot[int(found[1][0])]] - 1
+        pairs, bounds = found[4], found[5]
+        for k in np.argsort(bounds, kind="stable").tolist():
+            if bounds[k] > low:
                 break
-            found = self._search(placements, self._bounds(placements, s), self._ranges[s][0], low)
-            if found is not None and (found[0], self._joints[s] - 1) < (low, link):
-                low, link = found[0], self._joints[s] - 1
+            piece, obstacle = int(pairs[k, 0]), int(pairs[k, 1])
+            s = int(self._slot[piece])
+            value = self._pair(piece, obstacle, placements[s])[0]
+            if (value, self._joints[s] - 1) < (low, link):
+                low, link = value, self._joints[s] - 1
         return low, link
+
+
+#: Pieces per group of the broad phase (at most).
+GROUP = 16
+
+
+def _grouped(pieces: list[Piece]) -> tuple[list[Piece], list[int]]:
+    """The pieces by link, each link's split in halves across its widest spread until at most GROUP a group.
+
+    Returns the pieces in group order and the groups' starts (with the end).
+    """
+    out: list[Piece] = []
+    starts = [0]
+
+    def split(chunk: list[Piece]) -> None:
+        centres = np.array([p.centre for p in chunk]).reshape(-1, 3)
+        if len(chunk) <= GROUP:
+            out.extend(chunk)
+            starts.append(len(out))
+            return
+        axis = int(np.argmax(np.ptp(centres, axis=0)))
+        order = np.argsort(centres[:, axis], kind="stable")
+        half = len(chunk) // 2
+        split([chunk[i] for i in order[:half]])
+        split([chunk[i] for i in order[half:]])
+
+    for joint in sorted({p.joint for p in pieces}):
+        split([p for p in pieces if p.joint == joint])
+    return out, starts
 
 
 def _enclosing(centres: Array, radii: Array) -> tuple[Array, float]:
     """A sphere (centre (3,), radius m) holding the spheres (centres (k, 3), radii (k,))."""
-    if len(centres) == 0:
-        return np.zeros(3), 0.0
     centre = 0.5 * (np.min(centres - radii[:, None], axis=0) + np.max(centres + radii[:, None], axis=0))
     return centre, float(np.max(np.linalg.norm(centres - centre, axis=1) + radii))
 
 
+def _screened(obstacles: Sequence[Obstacle]) -> tuple[NDArray[np.int64], Array, Array, Array]:
+    """The obstacles as the broad phase reads them: kinds (O,), origins (O, 3), axes (O, 3, 3), sizes (O,)."""
+    kinds, origins, axes, sizes = [], [], [], []
+    for o in obstacles:
+        if o.plane is None:
+            kinds.append(SPHERE)
+            origins.append(o.centre)
+            axes.append(np.eye(3))
+            sizes.append(o.radius)
+            continue
+        c, n, r_max = o.plane
+        kinds.append(HALFSPACE if r_max is None else DISK)
+        origins.append(c)
+        axes.append(_plane_axes(n) if r_max is None else o.placement[:3, :3])
+        sizes.append(0.0 if r_max is None else r_max)
+    return (
+        np.array(kinds, dtype=np.int64),
+        np.array(origins, dtype=float).reshape(-1, 3),
+        np.array(axes, dtype=float).reshape(-1, 3, 3),
+        np.array(sizes, dtype=float),
+    )
+
+
+def _plane_axes(n: Array) -> Array:
+    """Axes (columns x, y, n̂) of a plane with unit normal n̂."""
+    e1 = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
+    e1 /= np.linalg.norm(e1)
+    return np.column_stack([e1, np.cross(n, e1), n])
+
+
 #: collision element → its pieces on a link that carries no pad (they do not depend on the brace): built once
 _FREE: weakref.WeakKeyDictionary[CollisionElement, list[Piece]] = weakref.WeakKeyDictionary()
+
+
+def capsule_elements(capsules: Sequence[Capsule]) -> list[CollisionElement]:
+    """Capsules (segment [a, b] grown by a radius, joint frame) as collision elements (a sphere where a = b)."""
+    out = []
+    for c in capsules:
+        axis = np.asarray(c.b, dtype=float) - np.asarray(c.a, dtype=float)
+        length = float(np.linalg.norm(axis))
+        place = np.eye(4)
+        place[:3, 3] = 0.5 * (np.asarray(c.a, dtype=float) + np.asarray(c.b, dtype=float))
+        if length <= 1e-12:
+            out.append(CollisionElement(c.link, c.joint, place, "sphere", (float(c.radius),)))
+            continue
+        place[:3, :3] = rotation_with_z(axis / length, "a capsule's axis")
+        out.append(CollisionElement(c.link, c.joint, place, "capsule", (float(c.radius), length)))
+    return out
 
 
 def _free_pieces(element: CollisionElement) -> list[Piece]:

@@ -4,7 +4,8 @@ The surface solid is the one of :mod:`bracekit.kinematics.clearance`: with a rad
 (``Brace.obstacle_radius``, a table top or a post) the disk of radius r_max about the surface's point c and the
 body below it, a coal Cylinder of radius r_max whose top face is the disk and whose height reaches far below
 anything the robot can touch; without a radius the half-space below the plane (coal's Halfspace). Further
-obstacles are boxes, cylinders and meshes (a mesh as its convex hull) at a pose in the base frame.
+obstacles are boxes, cylinders, spheres and meshes (a mesh as its convex hull) at a pose in the base frame
+(a scenario's ``[[obstacle]]`` tables, :mod:`bracekit.geometry.obstacle_tables`).
 
 Each obstacle gives a lower bound of the signed distance of a point (1-Lipschitz, ≤ the signed distance), so a
 ball of radius r about a point p is at least bound(p) − r away: the broad phase of :mod:`bracekit.geometry.distance`.
@@ -19,6 +20,7 @@ from typing import Any
 import coal
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import ConvexHull
 
 from bracekit.contact.surface import Surface
 from bracekit.errors import InputError
@@ -179,6 +181,14 @@ def cylinder_obstacle(name: str, radius: float, length: float, pose: Array | Non
     return Obstacle(name, coal.Cylinder(float(radius), float(length)), place, place[:3, 3].copy(), bound)
 
 
+def sphere_obstacle(name: str, radius: float, pose: Array | None = None) -> Obstacle:
+    """A sphere of `radius` (m) centred at `pose`'s origin (4×4, base frame)."""
+    if not (np.isfinite(radius) and radius > 0):
+        raise InputError(f"{name}: a sphere needs a positive radius (m), got {radius!r}")
+    place = _posed(pose)
+    return Obstacle(name, coal.Sphere(float(radius)), place, place[:3, 3].copy(), float(radius))
+
+
 def mesh_obstacle(name: str, vertices: Array, pose: Array | None = None) -> Obstacle:
     """A mesh obstacle as the convex hull of its vertices (k, 3), m, in the frame `pose` (4×4, base frame)."""
     verts = np.asarray(vertices, dtype=float).reshape(-1, 3)
@@ -186,3 +196,31 @@ def mesh_obstacle(name: str, vertices: Array, pose: Array | None = None) -> Obst
     centre = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
     radius = float(np.sqrt(np.max(np.sum((verts - centre) ** 2, axis=1))))
     return Obstacle(name, hull(verts, name), place, place[:3, :3] @ centre + place[:3, 3], radius)
+
+
+def obstacle_mesh(obstacle: Obstacle) -> tuple[Array, NDArray[np.int64]]:
+    """A further obstacle's surface as triangles for drawing: vertices (k, 3), m, base frame, and faces (t, 3).
+
+    Boxes, cylinders and spheres tessellated as the braced link's primitives are (48 segments), a mesh as its
+    convex hull (what the clearance counts). The bracing surface's solid is drawn by the viewer and figures
+    themselves (:mod:`bracekit.viewer.bodies`).
+    """
+    from bracekit.geometry.collision import CollisionElement
+    from bracekit.geometry.pieces import surface_triangles
+
+    shape = obstacle.shape
+    name = type(shape).__name__
+    if name == "Box":
+        element = CollisionElement(obstacle.name, 0, obstacle.placement, "box", tuple(2.0 * h for h in shape.halfSide))
+    elif name == "Cylinder":
+        size = (float(shape.radius), float(2.0 * shape.halfLength))
+        element = CollisionElement(obstacle.name, 0, obstacle.placement, "cylinder", size)
+    elif name == "Sphere":
+        element = CollisionElement(obstacle.name, 0, obstacle.placement, "sphere", (float(shape.radius),))
+    else:  # a mesh's hull: coal's Convex
+        points = np.array([shape.points(i) for i in range(shape.num_points)], dtype=float).reshape(-1, 3)
+        world = points @ obstacle.placement[:3, :3].T + obstacle.placement[:3, 3]
+        return world, np.asarray(ConvexHull(world).simplices, dtype=np.int64)
+    triangles = surface_triangles(element).reshape(-1, 3)
+    vertices, faces = np.unique(np.round(triangles, 12), axis=0, return_inverse=True)
+    return vertices, faces.reshape(-1, 3).astype(np.int64)

@@ -6,7 +6,9 @@ Two ways, both in the link's frame (the URDF link's axes, m):
   origin of the next joint of the chain o' (the tip frame for the last link) and passes through the centroid g
   of the link's collision surface (on links offset from the joint line, like the xArm's or the Panda's, that line
   runs beside the housing; for a capsule it is the joint line). From the axis point
-  o + fraction·(o' − o) + P(g − o), P = I − ẑẑᵀ, a ray goes out perpendicular to the axis, at `angle`
+  o + fraction·(o' − o) + P(g − o), P = I − ẑẑᵀ (or, where that point lies outside the link because its
+  housing bends away from the line, as the xArm7's forearm does near its wrist, from the centroid of the
+  surface's cross-section at that fraction), a ray goes out perpendicular to the axis, at `angle`
   (degrees, right-handed about ẑ) from the reference direction (the link frame's x axis made perpendicular to
   ẑ, its y axis if x is along it); the pad is the link surface's outermost point on that ray's line.
 - ``offset`` snapped along a direction: the outermost surface point on the line through `offset` along the
@@ -187,6 +189,42 @@ def link_frame(robot: Robot, link: str, why: str) -> tuple[Array, Array, float, 
     return o, axis, length, z, x / np.linalg.norm(x)
 
 
+#: How far (m) inside the surface a ray's origin must be, along each axis direction, to count as inside it (a
+#: point on a face casts the same pad at every angle that leaves through that face).
+_INSIDE_MARGIN = 1e-4
+
+
+def _well_inside(tri: Array, point: Array) -> bool:
+    """Whether `point` and its neighbours _INSIDE_MARGIN away along ±x, ±y, ±z are inside the surface `tri`."""
+    return all(
+        _inside(tri, point + d)
+        for d in np.vstack([np.zeros(3), _INSIDE_MARGIN * np.eye(3), -_INSIDE_MARGIN * np.eye(3)])
+    )
+
+
+def _section_centre(tri: Array, o: Array, z: Array, height: float) -> Array | None:
+    """The centroid of the surface's cross-section by the plane ẑᵀ(p − o) = height (m), or None if it misses.
+
+    Each triangle the plane crosses gives a segment; the centroid is of the segments, weighted by their lengths.
+    """
+    side = np.einsum("tci,i->tc", tri - o, z) - height
+    ends = []
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        sa, sb = side[:, a], side[:, b]
+        crossing = (sa * sb < 0.0) | ((sa == 0.0) & (sb != 0.0))
+        t = np.where(crossing, sa / np.where(crossing, sa - sb, 1.0), np.nan)
+        ends.append(tri[:, a] + t[:, None] * (tri[:, b] - tri[:, a]))
+    points = np.stack(ends, axis=1)  # (t, 3 edges, 3): NaN where an edge does not cross
+    crossed = np.sum(~np.isnan(points[:, :, 0]), axis=1) == 2
+    if not crossed.any():
+        return None
+    pairs = points[crossed][~np.isnan(points[crossed][:, :, 0])].reshape(-1, 2, 3)
+    weight = np.linalg.norm(pairs[:, 1] - pairs[:, 0], axis=1)
+    if not weight.sum() > 0.0:
+        return None
+    return np.asarray((weight @ pairs.mean(axis=1)) / weight.sum())
+
+
 def pad_on_surface(robot: Robot, link: str, fraction: float, angle: float) -> PadPlacement:
     """The pad on `link`'s surface at `fraction` of its axis and `angle` (degrees) about it (the module's rule)."""
     if not (isinstance(fraction, int | float) and math.isfinite(fraction)):
@@ -201,6 +239,10 @@ def pad_on_surface(robot: Robot, link: str, fraction: float, angle: float) -> Pa
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     g = (area @ tri.mean(axis=1)) / max(float(area.sum()), 1e-300)
     centre = o + fraction * axis + (g - o) - z * float(z @ (g - o))
+    if not _well_inside(tri, centre):  # the line runs beside the housing here: from the cross-section's centroid
+        section = _section_centre(tri, o, z, fraction * length)
+        if section is not None and _well_inside(tri, section):
+            centre = section
     found = _cast(tri, centre, out)
     if found is None or found[0] < 0.0:
         span = (tri.reshape(-1, 3) - o) @ z / length

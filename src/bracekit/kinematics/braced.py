@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -68,12 +68,14 @@ class BracedRobot:
         braces: the braces, in the order given.
         brace_ids: Pinocchio frame id of each brace's {b_i}.
         last_joints: index of the last joint that moves each {b_i}.
+        obstacles: the environment's further solids (:func:`bracekit.geometry.obstacle_tables.with_obstacles`).
     """
 
     robot: Robot
     braces: tuple[Brace, ...]
     brace_ids: tuple[int, ...]
     last_joints: tuple[int, ...]
+    obstacles: tuple[Any, ...] = ()
 
     def __init__(
         self, robot: Robot, braces: Brace | Sequence[Brace] | None = None, *, brace: Brace | None = None

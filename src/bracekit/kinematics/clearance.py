@@ -55,7 +55,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit.geometry.collision import geometry_description, has_meshes
-from bracekit.geometry.distance import MeshClearance
+from bracekit.geometry.distance import MeshClearance, capsule_elements
 from bracekit.kinematics.braced import BracedRobot, BracedState
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
@@ -156,10 +156,15 @@ class Clearance:
         self.capsules: tuple[Capsule, ...] = ()
         #: several braces with capsules: one Clearance per surface (its own braced link left out), least over them
         self.surfaces: tuple[Clearance, ...] = ()
+        #: the capsules' clearance from the environment's further obstacles (coal), or None
+        self.extra: MeshClearance | None = None
         if has_meshes(robot.geometry):  # one brace or several: MeshClearance takes each brace's surface and pad
             robot.link_capsules(link_radius)  # validates link_radius as for capsules
-            self.mesh = MeshClearance(braced, robot.geometry)
+            self.mesh = MeshClearance(braced, robot.geometry, braced.obstacles)
             return
+        if braced.obstacles:  # every capsule (the braced link's but for its pad) from each further obstacle
+            elements = capsule_elements(robot.link_capsules(link_radius))
+            self.extra = MeshClearance(braced, elements, braced.obstacles, surfaces=False)
         if len(braced.braces) > 1:
             self.surfaces = tuple(Clearance(BracedRobot(robot, b), link_radius)._leave_pad() for b in braced.braces)
             self.capsules = self.surfaces[0].capsules
@@ -328,6 +333,16 @@ class Clearance:
         qa = self.braced.robot.check_q(q)
         if self.mesh is not None:
             return [LinkDistance(j, v, g) for j, v, g in self.mesh.links(qa, gradient, below)]
+        if self.extra is not None:  # the least of the surface's rule and the further obstacles', per link
+            least = {d.joint: d for d in self._links(qa, gradient, below)}
+            for j, v, g in self.extra.links(qa, gradient, below):
+                if j not in least or v < least[j].clearance:
+                    least[j] = LinkDistance(j, v, g)
+            return [least[j] for j in sorted(least)]
+        return self._links(qa, gradient, below)
+
+    def _links(self, qa: Array, gradient: bool, below: float) -> list[LinkDistance]:
+        """:meth:`links` from the bracing surfaces alone (capsules)."""
         if self.surfaces:
             least: dict[int, LinkDistance] = {}
             for each in self.surfaces:
@@ -365,6 +380,12 @@ class Clearance:
         qa = self.braced.robot.check_q(q)
         if self.mesh is not None:
             return self.mesh.minimum(qa)
+        if self.extra is not None:
+            return min(self._minimum(qa), self.extra.minimum(qa))
+        return self._minimum(qa)
+
+    def _minimum(self, qa: Array) -> tuple[float, int]:
+        """:meth:`minimum` from the bracing surfaces alone (capsules)."""
         if self.surfaces:
             return min((each.minimum(qa) for each in self.surfaces), default=(math.inf, -1))
         if not self.capsules:
@@ -379,6 +400,9 @@ class Clearance:
         The capsules of every configuration are placed and bounded at once; each is then searched as by
         :meth:`minimum`, so the values are the same.
         """
+        if self.extra is not None:  # one configuration at a time, as minimum
+            found = [self.minimum(q) for q in qs]
+            return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
         if self.surfaces:  # the least (clearance, joint) over the surfaces, as minimum
             values, joints = self.surfaces[0].minima(qs)
             for each in self.surfaces[1:]:

@@ -23,6 +23,7 @@ from matplotlib.axes import Axes
 from matplotlib.patches import Polygon
 from numpy.typing import NDArray
 
+from bracekit.geometry.obstacles import obstacle_mesh
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.report.camera import choose_camera
 from bracekit.report.projection import OrthoCamera, capsule_outlines, circle_points, convex_hull
@@ -155,6 +156,9 @@ class RunScene:
         if self.blocks is not None and np.any(self.blocks.joint == 0):  # the base link's own mesh is drawn
             self.base_column = (np.zeros(3), np.zeros(3), 0.0)
         self.planes = self._planes(ends)
+        #: the environment's further solids: each one's vertices (k, 3), m, base frame (convex: its silhouette is
+        #: the hull of their projection)
+        self.obstacles = [obstacle_mesh(o)[0] for o in sc.braced.obstacles]
         self.limits = self._limits()
 
     # --- geometry ---------------------------------------------------------------------------------------
@@ -251,6 +255,7 @@ class RunScene:
                 pts.append((ends + grow).reshape(-1, 2))
         for tips in self.tips.values():
             pts.append(cam.project(tips))
+        pts += [cam.project(vertices) for vertices in self.obstacles]
         allp = np.vstack(pts)
         lo, hi = allp.min(axis=0), allp.max(axis=0)
         pad = 0.03 * float(np.max(hi - lo))
@@ -389,6 +394,9 @@ class SceneView:
                 a.set_animated(animated)
             self.surfaces.append(arts)
         ax.add_artist(Polygon(cam.project(_base_disk()), closed=True, fc=BASE_COLOR, ec="none", zorder=0.5))
+        for vertices in scene.obstacles:  # behind the robot, as the surfaces' bodies
+            outline = convex_hull(cam.project(vertices))
+            ax.add_artist(Polygon(outline, closed=True, fc=SURFACE_COLOR, ec="#8a7a50", lw=0.6, alpha=0.5, zorder=0.6))
         a0, b0, r0 = scene.base_column
         if float(np.linalg.norm(b0 - a0)) > 1e-9:
             column = capsule_outlines(cam.project(a0), cam.project(b0), [r0], _CAP_POINTS)[0]

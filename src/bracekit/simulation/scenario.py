@@ -19,6 +19,7 @@ from bracekit._linalg import show
 from bracekit.compliance.preloaded import RUN_MODELS
 from bracekit.contact import REGISTRY, Brace, Surface, contact_type
 from bracekit.errors import BracekitError, FrameNotFoundError, InputError, ScenarioError
+from bracekit.geometry.obstacle_tables import obstacle_tables, with_obstacles
 from bracekit.geometry.pad import brace_point
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
@@ -102,13 +103,14 @@ def parse_scenario(
             "gradient_projection",
             "simulation",
             "loads",
+            "obstacle",
         ),
     )
     robot_t = top.table("robot", ("model", "urdf", "tip", "stiffness", "gravity", "package_dirs"))
     robot = _robot(robot_t, base)
     brace_ts = _brace_tables(top)
     several = len(brace_ts) > 1
-    braced = _braces(brace_ts, robot)
+    braced = with_obstacles(_braces(brace_ts, robot), obstacle_tables(top.raw("obstacle", None), base))
     loads_t = top.table("loads", ("wrenches",), {})
     if several:
         holding = _holding_of(robot_t, brace_ts, loads_t)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 
-from bracekit._linalg import as_array, show
+from bracekit._linalg import Array, as_array, show
 from bracekit.errors import InputError, MujocoValidationError, StaticSolveError
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.holding import Holding
@@ -27,7 +27,6 @@ from bracekit.statics.stacked import brace_index
 from bracekit.validate.contacts import plane_contacts
 from bracekit.validate.holding_check import (
     HOLDING_SETTINGS,
-    Array,
     Outcome,
     _holding_session,
     common_friction,

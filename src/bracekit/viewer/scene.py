@@ -112,6 +112,7 @@ class Scene:
         runs: the runs by compliance model, then by strategy (`runs[model][strategy]`).
         gravity, preloads: the statics of the preloaded compliance (gravity on/off, P_i per brace in N).
         meshes: the robot's link meshes the folder carries (meshes.npz; () when the robot is drawn by its capsules).
+        obstacles: the environment's further solids (name, vertices (k, 3) m base frame, faces (t, 3)).
     """
 
     name: str
@@ -125,6 +126,7 @@ class Scene:
     gravity: bool = False
     preloads: tuple[float, ...] = ()
     meshes: tuple[LinkMesh, ...] = ()
+    obstacles: tuple[tuple[str, Array, NDArray[np.int64]], ...] = ()
 
     @property
     def models(self) -> tuple[str, ...]:
@@ -444,4 +446,20 @@ def load_scene(out_dir: str | os.PathLike[str]) -> Scene:
         gravity=gravity,
         preloads=preloads,
         meshes=meshes,
+        obstacles=_obstacle_views(data.get("obstacles", []), where),
     )
+
+
+def _obstacle_views(raw: Any, where: str) -> tuple[tuple[str, Array, NDArray[np.int64]], ...]:
+    """The further obstacles of scene.json: (name, vertices (k, 3), faces (t, 3)) each."""
+    if not isinstance(raw, list):
+        raise InputError(f"{where}: obstacles must be a list; {RERUN}")
+    out = []
+    for i, o in enumerate(raw):
+        item = _object(o, f"{where}: obstacles[{i}]")
+        vertices = _numbers(item.get("vertices"), f"{where}: obstacles[{i}].vertices", (None, 3))
+        faces = _numbers(item.get("faces"), f"{where}: obstacles[{i}].faces", (None, 3)).astype(np.int64)
+        if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
+            raise InputError(f"{where}: obstacles[{i}].faces name vertices it does not have; {RERUN}")
+        out.append((_text(item.get("name", f"obstacle[{i + 1}]"), f"{where}: obstacles[{i}].name"), vertices, faces))
+    return tuple(out)

@@ -14,6 +14,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
+from bracekit.geometry.obstacles import obstacle_mesh
 from bracekit.kinematics import BracedRobot
 from bracekit.model.robot import Robot
 from bracekit.viewer.link_meshes import MESH_FILE
@@ -116,7 +117,17 @@ def scene_content(scene: SceneInput) -> dict[str, Any]:
             **({"meshes": MESH_FILE} if scene.meshes else {}),
         },
         "braces": braces,
+        **({"obstacles": _obstacles(scene.braced)} if scene.braced.obstacles else {}),
         "holding": {"gravity": scene.gravity, "preloads": list(scene.preloads)},
         "task": {"duration": scene.duration, "path": [_vec(p) for p in scene.path]},
         "runs": checks,
     }
+
+
+def _obstacles(braced: BracedRobot) -> list[dict[str, Any]]:
+    """The environment's further solids as triangle meshes (base frame, m) for scene.json."""
+    out = []
+    for o in braced.obstacles:
+        vertices, faces = obstacle_mesh(o)
+        out.append({"name": o.name, "vertices": vertices.tolist(), "faces": faces.tolist()})
+    return out

@@ -201,6 +201,8 @@ class _Drawing:
                 )
                 ring = circle_points(lift, b.normal, b.region_radius)
                 api.add_line_segments(f"/surface/region_rim_{i}", segments_of(ring), REGION_COLOR, thickness=0.004)
+        for i, (_, points, triangles) in enumerate(self.scene.obstacles):  # the further obstacles, as the post
+            api.add_mesh_simple(f"/surface/obstacle_{i}", points, triangles, color=BODY_COLOR, **NO_SHADOW)
         api.add_line_segments("/path/task", segments_of(self.scene.path), PATH_COLOR, thickness=0.004)
         vertices, faces = sphere_mesh()
         n["ellipsoid"] = api.add_mesh_simple(

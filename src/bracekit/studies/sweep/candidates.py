@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
+from bracekit.geometry.pad import pad_on_surface
 from bracekit.model.robot import Robot
 
 Array = NDArray[np.float64]
@@ -86,6 +87,15 @@ def link_offset(robot: Robot, link: str, fraction: float) -> Array:
     """The point at `fraction` of the segment from the link's joint (0) to the next joint (1), in link axes (m)."""
     ends, _ = segment(robot, link)
     return (1.0 - fraction) * ends[:3] + fraction * ends[3:]
+
+
+def surface_offset(robot: Robot, link: str, fraction: float, angle: float) -> Array:
+    """The pad on `link`'s collision surface at `fraction` of its axis and `angle` (degrees) about it (link axes, m).
+
+    As ``[brace] surface = {fraction, angle}`` places it (:func:`bracekit.geometry.pad.pad_on_surface`): on the
+    URDF's meshes or primitives, or on the default capsule of a link without them; never inside the link.
+    """
+    return np.asarray(pad_on_surface(robot, link, fraction, angle).point, dtype=float)
 
 
 def expand(spec: Any, limit: int | None = None) -> list[Candidate]:

@@ -96,7 +96,8 @@ def summary(run: SweepRun) -> dict[str, Any]:
         "refined": run.refined,
         "workers": run.workers,
         "timings_s": run.timings,
-        "units": "C_i in m/N, lengths in m, angles in rad, times in s",
+        "units": "C_i in m/N, lengths in m, angles in rad (the axis 'angle' in degrees, as [brace] surface), "
+        "times in s",
     }
 
 

@@ -15,11 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from bracekit.studies.sweep.candidates import Candidate, link_offset
+from bracekit.studies.sweep.candidates import Candidate, link_offset, surface_offset
 from bracekit.studies.sweep.spec import BRACED_STRATEGIES, POINT_FRAME, SweepSpec
 
 #: Fraction along the link used when a spec sweeps neither 'fraction' nor 'offset': the segment's middle.
 DEFAULT_FRACTION = 0.5
+#: θ_z's weight of a pad on the link's surface (an 'angle' axis) when the base scenario's weights give none: a
+#: scenario's default for a brace with a pad axis.
+PAD_THETA_WEIGHT = 0.6
 
 
 def context_data(spec: SweepSpec, inputs: dict[str, Any]) -> dict[str, Any]:
@@ -43,10 +46,17 @@ def context_data(spec: SweepSpec, inputs: dict[str, Any]) -> dict[str, Any]:
 
 
 def point_offset(spec: SweepSpec, robot: Any, inputs: dict[str, Any]) -> np.ndarray:
-    """The candidate point in its link's axes (m): the swept 'offset', or the point at 'fraction' of the segment."""
+    """The candidate point in its link's axes (m).
+
+    The swept 'offset'; with an 'angle' the pad on the link's surface at ('fraction', 'angle'), as
+    ``[brace] surface`` places it; else the point at 'fraction' of the segment between the joints.
+    """
     if "offset" in inputs:
         return np.asarray(inputs["offset"], dtype=float)
-    return link_offset(robot, inputs["link"], float(inputs.get("fraction", DEFAULT_FRACTION)))
+    fraction = float(inputs.get("fraction", DEFAULT_FRACTION))
+    if "angle" in inputs:
+        return surface_offset(robot, inputs["link"], fraction, float(inputs["angle"]))
+    return link_offset(robot, inputs["link"], fraction)
 
 
 def candidate_data(
@@ -64,10 +74,15 @@ def candidate_data(
     data = context_data(spec, inputs)
     base_brace = data.get("brace", {})
     robot = spec.base_scenario().robot
-    brace: dict[str, Any] = {
-        "link": inputs["link"],
-        "frame": POINT_FRAME,
-        "offset": [float(x) for x in point_offset(spec, robot, inputs)],
+    brace: dict[str, Any] = {"link": inputs["link"], "frame": POINT_FRAME}
+    if "angle" in inputs:  # a pad on the link's surface, its axis the surface's inward normal
+        brace["surface"] = {
+            "fraction": float(inputs.get("fraction", DEFAULT_FRACTION)),
+            "angle": float(inputs["angle"]),
+        }
+    else:
+        brace["offset"] = [float(x) for x in point_offset(spec, robot, inputs)]
+    brace |= {
         "contact": spec.contact or base_brace.get("contact", "frictionless_point"),
         "point": [float(x) for x in centre],
         "normal": list(spec.normal) if spec.normal is not None else base_brace["normal"],
@@ -86,7 +101,10 @@ def candidate_data(
     data["start"] = start
     gp = data.setdefault("gradient_projection", {})
     weights = dict(gp.get("weights", {"k": 0.5, "Ci": 100.0, "d": 0.01}))
-    weights["theta_z"] = 0.0  # a link point has no pad axis
+    if "angle" in inputs:  # the start solve and gradient projection turn the pad to face the surface
+        weights.setdefault("theta_z", PAD_THETA_WEIGHT)
+    else:
+        weights["theta_z"] = 0.0  # a link point has no pad axis
     if region is None:
         weights["d"] = 0.0
     gp["weights"] = weights

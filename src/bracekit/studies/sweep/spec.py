@@ -29,6 +29,7 @@ from bracekit.statics.equilibrium import MAX_FRICTION, MAX_PRELOAD
 AXES: dict[str, str] = {
     "link": "link",
     "fraction": "scalar",
+    "angle": "scalar",
     "offset": "vector",
     "region_offset": "vector",
     "task_centre": "vector",
@@ -38,7 +39,7 @@ AXES: dict[str, str] = {
     "friction": "scalar",
 }
 #: The axes that place the brace on the robot; the others change the task context (the free-space run).
-BRACE_AXES = ("link", "fraction", "offset", "region_offset")
+BRACE_AXES = ("link", "fraction", "angle", "offset", "region_offset")
 #: Most candidates a spec may expand to.
 MAX_CANDIDATES = 100_000
 #: The braced strategies a candidate runs (free space runs once per task context).
@@ -378,6 +379,8 @@ def parse_spec(
         raise SpecError("missing key 'axes.link' (the links to brace: \"all\" or a list of link names)")
     if "fraction" in axes_t and "offset" in axes_t:
         raise SpecError("'axes.fraction' and 'axes.offset' both place the point on the link; give one")
+    if "angle" in axes_t and "offset" in axes_t:
+        raise SpecError("'axes.angle' places the pad on the link's surface with 'axes.fraction', not 'axes.offset'")
     axes = tuple(_axis(k, axes_t[k], links) for k in AXES if k in axes_t)
     if ("task_centre" in axes_t or "task_radius" in axes_t) and base_data.get("task", {}).get("type") != "circle":
         raise SpecError("'axes.task_centre' and 'axes.task_radius' need a base scenario with a circle task")
