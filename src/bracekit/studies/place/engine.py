@@ -9,7 +9,9 @@
    ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
    of whole-task runs per round).
 
-The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection. Rows are
+The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
+scenario MuJoCo's static check settles on (:mod:`.settle`, run in this process on the feasible rows in order of
+C_i until one settles; ``mujoco_settles`` in the row, None where not checked). Rows are
 ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
 """
 
@@ -26,7 +28,9 @@ from numpy.typing import NDArray
 from bracekit.errors import InputError
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
 from bracekit.studies.place.outer import evaluate_place, polls
-from bracekit.studies.place.scenario import Place
+from bracekit.studies.place.scenario import Place, place_scenario
+from bracekit.studies.place.settle import settles
+from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
 from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
@@ -44,7 +48,7 @@ class PlaceSettings:
 
     inner: InnerSettings = field(default_factory=InnerSettings)
     seeds: int = 1
-    top: int = 2
+    top: int = 4
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))
 
@@ -94,10 +98,21 @@ def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
     return sorted(best.values(), key=lambda r: (r.value, r.place.link))[:top]
 
 
-def _best(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
-    """The feasible row with the least mean C_i of gradient projection (the earliest of equals), or None."""
-    good = [r for r in rows if usable(r)]
-    return min(good, key=lambda r: (r["Ci_mean_gp"], r["evaluation"])) if good else None
+def _best(rows: list[dict[str, Any]], starts: dict[int, InnerResult], spec: SweepSpec) -> dict[str, Any] | None:
+    """The best feasible row that MuJoCo's static check settles on, or None.
+
+    Best: the least mean C_i of gradient projection (the earliest of equals). The check runs on the rows not
+    checked yet, best first, until one settles.
+    """
+    for row in sorted((r for r in rows if usable(r)), key=lambda r: (r["Ci_mean_gp"], r["evaluation"])):
+        if row.get("mujoco_settles") is None:
+            place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
+            surface = link_surface(spec.base_scenario().robot, place.link)
+            check = settles(place_scenario(spec, surface, place, starts[row["evaluation"]].q))
+            row["mujoco_settles"], row["mujoco_message"] = check.ok, check.message
+        if row["mujoco_settles"]:
+            return row
+    return None
 
 
 def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
@@ -130,20 +145,21 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
             futures.extend(fut)
             rows = []
             for (_, r), row in zip(places, client.gather(fut), strict=True):
-                row = {"place": r.seed, "evaluation": len(evaluations), **row}
+                row = {"place": r.seed, "evaluation": len(evaluations), **row, "mujoco_settles": None}
+                row["mujoco_message"] = None
                 evaluations.append(row)
                 starts[row["evaluation"]] = r
                 rows.append(row)
             return rows
 
         batch([(r.place, r) for r in chosen], "task")
-        while _best(evaluations) is None and len(chosen) < len(ranking):  # none feasible: the next places
+        while _best(evaluations, starts, spec) is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more
             batch([(r.place, r) for r in more], "task")
         step = settings.step
         for _ in range(settings.refine_rounds):
-            best = _best(evaluations)
+            best = _best(evaluations, starts, spec)
             if best is None:
                 break
             centre = starts[best["evaluation"]]
@@ -155,7 +171,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
     except BaseException:
         client.cancel(futures)
         raise
-    best = _best(evaluations)
+    best = _best(evaluations, starts, spec)
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
