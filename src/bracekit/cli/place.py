@@ -40,6 +40,12 @@ def add_parser(subparsers: Any) -> None:
         default=0.3,
         help="posture radius R (rad): the start posture within R of the reference start (default 0.3; 0: no bound)",
     )
+    pl.add_argument(
+        "--surface",
+        choices=("capsule", "collision"),
+        default="capsule",
+        help="the pad on the capsule about the link's joint line (default) or on its collision surface",
+    )
     pl.add_argument("--objective", choices=("Ci", "ct"), default="Ci", help="inner objective: C_i or c_t (default C_i)")
     pl.add_argument("--no-figures", action="store_true", help="write the tables, summary and best.toml only")
     pl.add_argument(
@@ -75,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     spec = load_place_spec(args.source)
     check_spec(spec)
     settings = PlaceSettings(
-        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None),
+        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
         seeds=args.seeds,
         top=args.top,
         refine_rounds=args.refine,

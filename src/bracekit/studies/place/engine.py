@@ -25,12 +25,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.errors import InputError
+from bracekit.errors import BracekitError, InputError
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
 from bracekit.studies.place.outer import evaluate_place, polls
 from bracekit.studies.place.scenario import Place, place_scenario
 from bracekit.studies.place.settle import settles
-from bracekit.studies.place.surface import link_surface
+from bracekit.studies.place.surface import SurfaceKind, link_surface
 from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
 from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
@@ -89,6 +89,15 @@ def seed_fractions(count: int, bounds: tuple[float, float]) -> list[float]:
     return [lo + (hi - lo) * (i + 0.5) / count for i in range(count)]
 
 
+def _span(robot: Any, link: str, inner: InnerSettings) -> tuple[float, float]:
+    """The fraction's bounds on `link`'s surface (the settings' for a link without one: its seeds fail by name)."""
+    bounds = inner.fraction_bounds
+    try:
+        return link_surface(robot, link, inner.surface).fraction_bounds(bounds)
+    except BracekitError:
+        return bounds
+
+
 def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
     """The best successful optimum of each link (least start objective), the `top` best links, best first."""
     best: dict[str, InnerResult] = {}
@@ -98,7 +107,9 @@ def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
     return sorted(best.values(), key=lambda r: (r.value, r.place.link))[:top]
 
 
-def _best(rows: list[dict[str, Any]], starts: dict[int, InnerResult], spec: SweepSpec) -> dict[str, Any] | None:
+def _best(
+    rows: list[dict[str, Any]], starts: dict[int, InnerResult], spec: SweepSpec, kind: SurfaceKind
+) -> dict[str, Any] | None:
     """The best feasible row that MuJoCo's static check settles on, or None.
 
     Best: the least mean C_i of gradient projection (the earliest of equals). The check runs on the rows not
@@ -107,7 +118,7 @@ def _best(rows: list[dict[str, Any]], starts: dict[int, InnerResult], spec: Swee
     for row in sorted((r for r in rows if usable(r)), key=lambda r: (r["Ci_mean_gp"], r["evaluation"])):
         if row.get("mujoco_settles") is None:
             place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
-            surface = link_surface(spec.base_scenario().robot, place.link)
+            surface = link_surface(spec.base_scenario().robot, place.link, kind)
             check = settles(place_scenario(spec, surface, place, starts[row["evaluation"]].q))
             row["mujoco_settles"], row["mujoco_message"] = check.ok, check.message
         if row["mujoco_settles"]:
@@ -126,7 +137,9 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
         spec_f = client.scatter(spec, broadcast=True, hash=False)
         ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
         futures.append(ctx_f)
-        seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, settings.inner.fraction_bounds)]
+        robot = spec.base_scenario().robot
+        spans = {link: _span(robot, link, settings.inner) for link in links}
+        seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
         inner_f = [
             client.submit(optimise_start, spec_f, link, f, q_ref, settings.inner, i, pure=False)
             for i, (link, f) in enumerate(seeds)
@@ -141,7 +154,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
         starts: dict[int, InnerResult] = {}
 
         def batch(places: list[tuple[Place, InnerResult]], stage: str) -> list[dict[str, Any]]:
-            fut = [client.submit(evaluate_place, spec_f, p, r.q, ctx_f, stage, pure=False) for p, r in places]
+            fut = [
+                client.submit(evaluate_place, spec_f, p, r.q, ctx_f, stage, settings.inner.surface, pure=False)
+                for p, r in places
+            ]
             futures.extend(fut)
             rows = []
             for (_, r), row in zip(places, client.gather(fut), strict=True):
@@ -153,25 +169,27 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
             return rows
 
         batch([(r.place, r) for r in chosen], "task")
-        while _best(evaluations, starts, spec) is None and len(chosen) < len(ranking):  # none usable: the next
+        while _best(evaluations, starts, spec, settings.inner.surface) is None and len(chosen) < len(
+            ranking
+        ):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more
             batch([(r.place, r) for r in more], "task")
         step = settings.step
         for _ in range(settings.refine_rounds):
-            best = _best(evaluations, starts, spec)
+            best = _best(evaluations, starts, spec, settings.inner.surface)
             if best is None:
                 break
             centre = starts[best["evaluation"]]
             here = Place(best["link"], float(best["fraction"]), math.radians(best["angle_deg"]))
-            rows = batch([(p, centre) for p in polls(here, step, settings.inner.fraction_bounds)], "refine")
+            rows = batch([(p, centre) for p in polls(here, step, spans[here.link])], "refine")
             if not any(usable(r) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
                 step = (0.5 * step[0], 0.5 * step[1])
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:
         client.cancel(futures)
         raise
-    best = _best(evaluations, starts, spec)
+    best = _best(evaluations, starts, spec, settings.inner.surface)
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0

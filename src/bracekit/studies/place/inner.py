@@ -34,13 +34,13 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from bracekit.errors import BracekitError
+from bracekit.errors import BracekitError, ContactError
 from bracekit.objective import ConditionNumber
 from bracekit.studies.place.clearance import MovingClearance
 from bracekit.studies.place.compliance import Measure, placed_compliance
 from bracekit.studies.place.kinematics import PlacedBrace, link_axes_in_brace, placed_brace
 from bracekit.studies.place.scenario import Place, place_scenario
-from bracekit.studies.place.surface import LinkSurface, link_surface
+from bracekit.studies.place.surface import PadSurface, SurfaceKind, link_surface
 from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
 
 Array = NDArray[np.float64]
@@ -52,7 +52,8 @@ class InnerSettings:
 
     Objective, tilt bound (degrees), clearance margin (m, over the spec's ``min_clearance``: the path moves the
     links), joint-limit margin (rad: a start at a limit leaves the task no room), fraction bounds, SLSQP
-    iterations, the posture radius (rad about the reference start; None: no bound).
+    iterations, the posture radius (rad about the reference start; None: no bound), the surface the pad is
+    placed on (:func:`bracekit.studies.place.surface.link_surface`).
     """
 
     measure: Measure = "Ci"
@@ -62,6 +63,7 @@ class InnerSettings:
     fraction_bounds: tuple[float, float] = (0.02, 0.98)
     maxiter: int = 150
     posture_radius: float | None = 0.3
+    surface: SurfaceKind = "capsule"
 
 
 @dataclass(frozen=True)
@@ -99,10 +101,25 @@ class InnerResult:
         }
 
 
-def facing_angle(surface: LinkSurface, rotation: Array, normal: Array) -> float:
+def facing_angle(surface: PadSurface, rotation: Array, normal: Array) -> float:
     """The angle φ (rad) whose inward normal ⁰R_link n(φ) is nearest the surface normal."""
     a, b = -(normal @ rotation @ surface.x), -(normal @ rotation @ surface.y)
     return math.atan2(b, a) if math.hypot(a, b) > 1e-9 else 0.0
+
+
+def _template(surface: PadSurface, link: str, settings: InnerSettings) -> Place:
+    """The place the problem's scenario is built at; ContactError when no ray meets the surface.
+
+    Mid-fraction, the first of four angles whose ray meets the surface (on a collision surface a ray may miss).
+    """
+    fraction = 0.5 * sum(surface.fraction_bounds(settings.fraction_bounds))
+    for angle in (0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi):
+        try:
+            surface.point(fraction, angle)
+        except ContactError:
+            continue
+        return Place(link, fraction, angle)
+    raise ContactError(f"no ray from the axis of link {link!r} at fraction {fraction:g} meets its surface")
 
 
 class StartProblem:
@@ -110,8 +127,8 @@ class StartProblem:
 
     def __init__(self, spec: SweepSpec, link: str, q0: Array, settings: InnerSettings) -> None:
         robot = spec.base_scenario().robot
-        self.surface = link_surface(robot, link)
-        self.template = Place(link, 0.5, 0.0)
+        self.surface = link_surface(robot, link, settings.surface)
+        self.template = _template(self.surface, link, settings)
         self.scenario = place_scenario(spec, self.surface, self.template, q0)
         self.p0 = self.surface.point(self.template.fraction, self.template.angle)
         self.rot = link_axes_in_brace(self.scenario.robot, link, POINT_FRAME)
@@ -232,7 +249,7 @@ class StartProblem:
         for lo, hi in zip(robot.lower, robot.upper, strict=True):
             mm = min(m, 0.25 * float(hi - lo)) if np.isfinite(hi - lo) else m
             out.append((float(lo + mm) if np.isfinite(lo) else None, float(hi - mm) if np.isfinite(hi) else None))
-        return [*out, self.settings.fraction_bounds, (angle0 - math.pi, angle0 + math.pi)]
+        return [*out, self.surface.fraction_bounds(self.settings.fraction_bounds), (angle0 - math.pi, angle0 + math.pi)]
 
 
 def optimise_start(

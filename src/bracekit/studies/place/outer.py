@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from bracekit.simulation.scenario import Scenario, parse_scenario
 from bracekit.studies.place.scenario import Place, pad_world, place_data
-from bracekit.studies.place.surface import link_surface
+from bracekit.studies.place.surface import SurfaceKind, link_surface
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, judged_run, single_thread
 from bracekit.studies.sweep.spec import SweepSpec
@@ -30,7 +30,9 @@ Array = NDArray[np.float64]
 TASK_COLUMNS = tuple(c for c in RESULT_COLUMNS if not c.startswith("screen"))
 
 
-def evaluate_place(spec: SweepSpec, place: Place, q: Array, context: TaskContext, stage: str) -> dict[str, Any]:
+def evaluate_place(
+    spec: SweepSpec, place: Place, q: Array, context: TaskContext, stage: str, kind: SurfaceKind = "capsule"
+) -> dict[str, Any]:
     """The whole-task row of a place braced at posture q: the sweep's result columns; never raises a BracekitError."""
     single_thread()
     began = time.perf_counter()
@@ -40,7 +42,7 @@ def evaluate_place(spec: SweepSpec, place: Place, q: Array, context: TaskContext
     row |= {"completed": False, "feasible": False, "Ci_mean_free_space": context.free.get("Ci_mean")}
 
     def build() -> tuple[Array, Scenario]:
-        surface = link_surface(spec.base_scenario().robot, place.link)
+        surface = link_surface(spec.base_scenario().robot, place.link, kind)
         centre = pad_world(spec, surface, place, q)
         data = place_data(spec, surface, place, q, centre)
         return centre, parse_scenario(data, base=spec.base_dir, name=data["name"])

@@ -64,6 +64,8 @@ def summary(run: PlaceRun) -> dict[str, Any]:
             "max_tilt_deg": s.inner.max_tilt_deg,
             "clearance_margin_m": s.inner.clearance_margin,
             "limit_margin_rad": s.inner.limit_margin,
+            "posture_radius_rad": s.inner.posture_radius,
+            "surface": s.inner.surface,
         },
         "inner_runs": len(run.inner),
         "inner_successful": sum(r.success for r in run.inner),
@@ -164,7 +166,7 @@ def write_outputs(run: PlaceRun, folder: Path, figures: bool = True) -> list[str
     found = best_place(run)
     if found is not None:
         place, q = found
-        surface = link_surface(run.spec.base_scenario().robot, place.link)
+        surface = link_surface(run.spec.base_scenario().robot, place.link, run.settings.inner.surface)
         (folder / "best.toml").write_text(toml_text(place_data(run.spec, surface, place, q)), encoding="utf-8")
         names.append("best.toml")
         if figures:
