@@ -1,4 +1,4 @@
-"""`bracekit place` on a small budget, then `bracekit validate` on the best.toml it wrote (slow).
+"""`bracekit place` on a small budget (the paper robot, the Panda), then `bracekit validate` on its best.toml (slow).
 
 The independent reference is the validation itself: MuJoCo's settled static deflection and the nonlinear
 static solve against the constrained model at the written scenario's start.
@@ -27,6 +27,22 @@ def test_the_best_place_validates(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert main(["place", str(spec), "--out", str(out), "--refine", "0", "--no-figures"]) == 0
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert summary["best"]["link"] == "link4"  # a brace on link2 is feasible by the sweep's rules but not settled
+    capsys.readouterr()
+    code = main(["validate", str(out / "best.toml"), "--configs", "1", "--tracking-points", "0", "--json"])
+    data = json.loads(capsys.readouterr().out)
+    assert code == 0 and data["n_failed"] == 0 and data["n_ok"] > 0
+    assert data["constrained"]["median_rel_err_mujoco"] < 0.01
+
+
+def test_the_best_place_on_the_panda_validates(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = tmp_path / "spec.toml"
+    spec.write_text(
+        'name = "place-panda"\nbase = "panda"\n[axes]\nlink = ["panda_link3"]\n[brace]\nnormal = [0.0, 0.0, 1.0]\n'
+        "region_radius = 0.10\nsurface_radius = 0.12\n[feasibility]\nk_max = 25.0\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "place"
+    assert main(["place", str(spec), "--out", str(out), "--refine", "0", "--no-figures"]) == 0
     capsys.readouterr()
     code = main(["validate", str(out / "best.toml"), "--configs", "1", "--tracking-points", "0", "--json"])
     data = json.loads(capsys.readouterr().out)
