@@ -1,7 +1,8 @@
 """Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
 
 1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process) seeds the
-   inner level; the task context (the free-space run) is computed on a worker meanwhile.
+   inner level; the task context (the free-space run) is computed on a worker meanwhile, and another worker
+   imports the inner level's modules.
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
@@ -126,6 +127,13 @@ def _best(
     return None
 
 
+def _warm() -> None:
+    """Import the inner level's modules (SciPy's optimiser, the clearance) on a worker."""
+    import scipy.optimize  # noqa: F401
+
+    import bracekit.studies.place.inner  # noqa: F401
+
+
 def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
     """Run both levels on the Dask `client` (see the module)."""
     began = time.perf_counter()
@@ -133,10 +141,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
-        q_ref = reference_start(context_scenario(spec, {}))
         spec_f = client.scatter(spec, broadcast=True, hash=False)
         ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
-        futures.append(ctx_f)
+        futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
+        q_ref = reference_start(context_scenario(spec, {}))
         robot = spec.base_scenario().robot
         spans = {link: _span(robot, link, settings.inner) for link in links}
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
