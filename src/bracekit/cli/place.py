@@ -27,7 +27,7 @@ def add_parser(subparsers: Any) -> None:
     pl.add_argument("--out", type=Path, required=True, help="output folder, written whole at the end")
     pl.add_argument("--workers", type=int, default=1, help="local Dask worker processes (default 1)")
     pl.add_argument("--seeds", type=int, default=1, help="inner optimisations per link (default 1)")
-    pl.add_argument("--top", type=int, default=4, help="places run over the whole task and refined (default 4)")
+    pl.add_argument("--top", type=int, default=2, help="places run over the whole task and refined (default 2)")
     pl.add_argument(
         "--refine",
         type=int,

@@ -11,8 +11,8 @@
    of whole-task runs per round).
 
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
-scenario MuJoCo's static check settles on (:mod:`.settle`, run in this process on the feasible rows in order of
-C_i until one settles; ``mujoco_settles`` in the row, None where not checked). Rows are
+scenario MuJoCo's static check settles on (:mod:`.settle`, run on the worker after each feasible whole-task
+run; ``mujoco_settles`` in the row, None on the infeasible ones). Rows are
 ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
 """
 
@@ -29,9 +29,8 @@ from numpy.typing import NDArray
 from bracekit.errors import BracekitError, InputError
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
 from bracekit.studies.place.outer import evaluate_place, polls
-from bracekit.studies.place.scenario import Place, place_scenario
-from bracekit.studies.place.settle import settles
-from bracekit.studies.place.surface import SurfaceKind, link_surface
+from bracekit.studies.place.scenario import Place
+from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
 from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
@@ -49,7 +48,7 @@ class PlaceSettings:
 
     inner: InnerSettings = field(default_factory=InnerSettings)
     seeds: int = 1
-    top: int = 4
+    top: int = 2
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))
 
@@ -108,23 +107,13 @@ def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
     return sorted(best.values(), key=lambda r: (r.value, r.place.link))[:top]
 
 
-def _best(
-    rows: list[dict[str, Any]], starts: dict[int, InnerResult], spec: SweepSpec, kind: SurfaceKind
-) -> dict[str, Any] | None:
-    """The best feasible row that MuJoCo's static check settles on, or None.
+def _best(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The best feasible row MuJoCo's static check settled on, or None.
 
-    Best: the least mean C_i of gradient projection (the earliest of equals). The check runs on the rows not
-    checked yet, best first, until one settles.
+    Best: the least mean C_i of gradient projection (the earliest of equals).
     """
-    for row in sorted((r for r in rows if usable(r)), key=lambda r: (r["Ci_mean_gp"], r["evaluation"])):
-        if row.get("mujoco_settles") is None:
-            place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
-            surface = link_surface(spec.base_scenario().robot, place.link, kind)
-            check = settles(place_scenario(spec, surface, place, starts[row["evaluation"]].q))
-            row["mujoco_settles"], row["mujoco_message"] = check.ok, check.message
-        if row["mujoco_settles"]:
-            return row
-    return None
+    good = [r for r in rows if usable(r) and r.get("mujoco_settles") is True]
+    return min(good, key=lambda r: (r["Ci_mean_gp"], r["evaluation"])) if good else None
 
 
 def _warm() -> None:
@@ -169,35 +158,32 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
             futures.extend(fut)
             rows = []
             for (_, r), row in zip(places, client.gather(fut), strict=True):
-                row = {"place": r.seed, "evaluation": len(evaluations), **row, "mujoco_settles": None}
-                row["mujoco_message"] = None
+                row = {"place": r.seed, "evaluation": len(evaluations), **row}
                 evaluations.append(row)
                 starts[row["evaluation"]] = r
                 rows.append(row)
             return rows
 
         batch([(r.place, r) for r in chosen], "task")
-        while _best(evaluations, starts, spec, settings.inner.surface) is None and len(chosen) < len(
-            ranking
-        ):  # none usable: the next
+        while _best(evaluations) is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more
             batch([(r.place, r) for r in more], "task")
         step = settings.step
         for _ in range(settings.refine_rounds):
-            best = _best(evaluations, starts, spec, settings.inner.surface)
+            best = _best(evaluations)
             if best is None:
                 break
             centre = starts[best["evaluation"]]
             here = Place(best["link"], float(best["fraction"]), math.radians(best["angle_deg"]))
             rows = batch([(p, centre) for p in polls(here, step, spans[here.link])], "refine")
-            if not any(usable(r) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
+            if not any(r is _best([r]) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
                 step = (0.5 * step[0], 0.5 * step[1])
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:
         client.cancel(futures)
         raise
-    best = _best(evaluations, starts, spec, settings.inner.surface)
+    best = _best(evaluations)
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
