@@ -18,6 +18,8 @@ from bracekit.cli.main import main
         (["paper-links", "--refine", "-1"], "--refine"),
         (["paper-links", "--seeds", "1000000"], "--seeds must be from 1 to 64"),
         (["paper-links", "--top", "1000000"], "--top must be from 1 to 64"),
+        (["paper-links", "--radius", "-0.1"], "--radius must be a finite angle >= 0 rad"),
+        (["paper-links", "--radius", "nan"], "--radius must be a finite angle >= 0 rad"),
     ],
 )
 def test_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], words: str) -> None:

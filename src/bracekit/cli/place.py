@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,18 @@ def add_parser(subparsers: Any) -> None:
         default=1,
         help="compass rounds on fraction and angle, one batch of 4 runs each (default 1)",
     )
+    pl.add_argument(
+        "--radius",
+        type=float,
+        default=0.3,
+        help="posture radius R (rad): the start posture within R of the reference start (default 0.3; 0: no bound)",
+    )
+    pl.add_argument(
+        "--surface",
+        choices=("capsule", "collision"),
+        default="capsule",
+        help="the pad on the capsule about the link's joint line (default) or on its collision surface",
+    )
     pl.add_argument("--objective", choices=("Ci", "ct"), default="Ci", help="inner objective: C_i or c_t (default C_i)")
     pl.add_argument("--no-figures", action="store_true", help="write the tables, summary and best.toml only")
     pl.add_argument(
@@ -51,6 +64,8 @@ def run(args: argparse.Namespace) -> int:
     for name in ("seeds", "top"):
         if not 1 <= getattr(args, name) <= MAX_PLACE_COUNT:
             raise InputError(f"--{name} must be from 1 to {MAX_PLACE_COUNT}, got {getattr(args, name)}")
+    if not (math.isfinite(args.radius) and args.radius >= 0.0):
+        raise InputError(f"--radius must be a finite angle >= 0 rad (0: no bound), got {args.radius}")
     if not 0 <= args.refine <= MAX_PLACE_COUNT:
         raise InputError(f"--refine must be from 0 to {MAX_PLACE_COUNT}, got {args.refine}")
     from bracekit.report.output import atomic_directory, prepare_output
@@ -63,7 +78,10 @@ def run(args: argparse.Namespace) -> int:
     spec = load_place_spec(args.source)
     check_spec(spec)
     settings = PlaceSettings(
-        inner=InnerSettings(measure=args.objective), seeds=args.seeds, top=args.top, refine_rounds=args.refine
+        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
+        seeds=args.seeds,
+        top=args.top,
+        refine_rounds=args.refine,
     )
     with (
         sigterm_as_interrupt(),

@@ -59,7 +59,11 @@ def test_optimum_meets_its_constraints(setup: dict[str, Any]) -> None:
         assert np.linalg.norm(pin.log3(np.asarray(rotation).T @ state.R_e)) < 1e-6
     clearance, _ = link_clearance(state)
     assert clearance >= spec.feasibility.min_clearance + settings.clearance_margin - 1e-6
-    assert math.degrees(math.acos(min(1.0, state.contacts[0].z_b @ sc.braced.braces[0].surface.normal))) <= 15.0 + 1e-4
+    assert math.degrees(math.acos(min(1.0, state.contacts[0].z_b @ sc.braced.braces[0].surface.normal))) <= (
+        settings.max_tilt_deg + 1e-4
+    )
+    assert settings.posture_radius is not None
+    assert np.linalg.norm(r.q - setup["q"]) <= settings.posture_radius + 1e-6
     ci = np.linalg.norm(constrained_compliance(state) @ sc.beta_x(0.0))
     assert r.value == pytest.approx(ci, rel=1e-9)
     lower, upper = sc.robot.lower + settings.limit_margin - 1e-9, sc.robot.upper - settings.limit_margin + 1e-9

@@ -1,7 +1,8 @@
 """Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
 
 1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process) seeds the
-   inner level; the task context (the free-space run) is computed on a worker meanwhile.
+   inner level; the task context (the free-space run) is computed on a worker meanwhile, and another worker
+   imports the inner level's modules.
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
@@ -9,7 +10,9 @@
    ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
    of whole-task runs per round).
 
-The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection. Rows are
+The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
+scenario MuJoCo's static check settles on (:mod:`.settle`, run on the worker after each feasible whole-task
+run; ``mujoco_settles`` in the row, None on the infeasible ones). Rows are
 ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
 """
 
@@ -23,10 +26,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.errors import InputError
+from bracekit.errors import BracekitError, InputError
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
 from bracekit.studies.place.outer import evaluate_place, polls
 from bracekit.studies.place.scenario import Place
+from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
 from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
@@ -85,6 +89,15 @@ def seed_fractions(count: int, bounds: tuple[float, float]) -> list[float]:
     return [lo + (hi - lo) * (i + 0.5) / count for i in range(count)]
 
 
+def _span(robot: Any, link: str, inner: InnerSettings) -> tuple[float, float]:
+    """The fraction's bounds on `link`'s surface (the settings' for a link without one: its seeds fail by name)."""
+    bounds = inner.fraction_bounds
+    try:
+        return link_surface(robot, link, inner.surface).fraction_bounds(bounds)
+    except BracekitError:
+        return bounds
+
+
 def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
     """The best successful optimum of each link (least start objective), the `top` best links, best first."""
     best: dict[str, InnerResult] = {}
@@ -95,9 +108,19 @@ def choose(inner: list[InnerResult], top: int) -> list[InnerResult]:
 
 
 def _best(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
-    """The feasible row with the least mean C_i of gradient projection (the earliest of equals), or None."""
-    good = [r for r in rows if usable(r)]
+    """The best feasible row MuJoCo's static check settled on, or None.
+
+    Best: the least mean C_i of gradient projection (the earliest of equals).
+    """
+    good = [r for r in rows if usable(r) and r.get("mujoco_settles") is True]
     return min(good, key=lambda r: (r["Ci_mean_gp"], r["evaluation"])) if good else None
+
+
+def _warm() -> None:
+    """Import the inner level's modules (SciPy's optimiser, the clearance) on a worker."""
+    import scipy.optimize  # noqa: F401
+
+    import bracekit.studies.place.inner  # noqa: F401
 
 
 def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
@@ -107,11 +130,13 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
-        q_ref = reference_start(context_scenario(spec, {}))
         spec_f = client.scatter(spec, broadcast=True, hash=False)
         ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
-        futures.append(ctx_f)
-        seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, settings.inner.fraction_bounds)]
+        futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
+        q_ref = reference_start(context_scenario(spec, {}))
+        robot = spec.base_scenario().robot
+        spans = {link: _span(robot, link, settings.inner) for link in links}
+        seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
         inner_f = [
             client.submit(optimise_start, spec_f, link, f, q_ref, settings.inner, i, pure=False)
             for i, (link, f) in enumerate(seeds)
@@ -126,7 +151,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
         starts: dict[int, InnerResult] = {}
 
         def batch(places: list[tuple[Place, InnerResult]], stage: str) -> list[dict[str, Any]]:
-            fut = [client.submit(evaluate_place, spec_f, p, r.q, ctx_f, stage, pure=False) for p, r in places]
+            fut = [
+                client.submit(evaluate_place, spec_f, p, r.q, ctx_f, stage, settings.inner.surface, pure=False)
+                for p, r in places
+            ]
             futures.extend(fut)
             rows = []
             for (_, r), row in zip(places, client.gather(fut), strict=True):
@@ -137,7 +165,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
             return rows
 
         batch([(r.place, r) for r in chosen], "task")
-        while _best(evaluations) is None and len(chosen) < len(ranking):  # none feasible: the next places
+        while _best(evaluations) is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more
             batch([(r.place, r) for r in more], "task")
@@ -148,8 +176,8 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun
                 break
             centre = starts[best["evaluation"]]
             here = Place(best["link"], float(best["fraction"]), math.radians(best["angle_deg"]))
-            rows = batch([(p, centre) for p in polls(here, step, settings.inner.fraction_bounds)], "refine")
-            if not any(usable(r) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
+            rows = batch([(p, centre) for p in polls(here, step, spans[here.link])], "refine")
+            if not any(r is _best([r]) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
                 step = (0.5 * step[0], 0.5 * step[1])
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:

@@ -11,6 +11,9 @@ c_t = β_xᵀ C_e β_x of the constrained model at the start's β_x — subject 
 - every link but the braced one clear of the surface's solid by ``min_clearance`` + ``clearance_margin``
   (:mod:`bracekit.studies.place.clearance`);
 - the pad facing the surface: its inward normal within ``max_tilt_deg`` of the surface normal, n_wᵀ n̂ ≥ cos;
+- the posture within ``posture_radius`` R of the reference start q0, ‖q − q0‖² ≤ R² (rad²): the start alone does
+  not see the task, and far from the reference start (the one the grid's candidates start from) the inner
+  optimum tends to put a joint at its limit or a link through the surface later along the path;
 - the joint limits less a margin and the fraction's bounds (SLSQP bounds).
 
 Every gradient is analytic: the objective's through :mod:`bracekit.studies.place.compliance`, the pose's
@@ -31,13 +34,13 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from bracekit.errors import BracekitError
+from bracekit.errors import BracekitError, ContactError
 from bracekit.objective import ConditionNumber
 from bracekit.studies.place.clearance import MovingClearance
 from bracekit.studies.place.compliance import Measure, placed_compliance
 from bracekit.studies.place.kinematics import PlacedBrace, link_axes_in_brace, placed_brace
 from bracekit.studies.place.scenario import Place, place_scenario
-from bracekit.studies.place.surface import LinkSurface, link_surface
+from bracekit.studies.place.surface import PadSurface, SurfaceKind, link_surface
 from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
 
 Array = NDArray[np.float64]
@@ -49,15 +52,19 @@ class InnerSettings:
 
     Objective, tilt bound (degrees), clearance margin (m, over the spec's ``min_clearance``: the path moves the
     links), joint-limit margin (rad: a start at a limit leaves the task no room), fraction bounds, SLSQP
-    iterations.
+    iterations (the converged seeds of paper-links and panda-links take 12 to 24; the rest run to the limit
+    with the pose still off by centimetres), the posture radius (rad about the reference start; None: no
+    bound), the surface the pad is placed on (:func:`bracekit.studies.place.surface.link_surface`).
     """
 
     measure: Measure = "Ci"
-    max_tilt_deg: float = 15.0
+    max_tilt_deg: float = 45.0
     clearance_margin: float = 0.01
-    limit_margin: float = 0.1
+    limit_margin: float = 0.3
     fraction_bounds: tuple[float, float] = (0.02, 0.98)
-    maxiter: int = 150
+    maxiter: int = 60
+    posture_radius: float | None = 0.3
+    surface: SurfaceKind = "capsule"
 
 
 @dataclass(frozen=True)
@@ -95,10 +102,25 @@ class InnerResult:
         }
 
 
-def facing_angle(surface: LinkSurface, rotation: Array, normal: Array) -> float:
+def facing_angle(surface: PadSurface, rotation: Array, normal: Array) -> float:
     """The angle φ (rad) whose inward normal ⁰R_link n(φ) is nearest the surface normal."""
     a, b = -(normal @ rotation @ surface.x), -(normal @ rotation @ surface.y)
     return math.atan2(b, a) if math.hypot(a, b) > 1e-9 else 0.0
+
+
+def _template(surface: PadSurface, link: str, settings: InnerSettings) -> Place:
+    """The place the problem's scenario is built at; ContactError when no ray meets the surface.
+
+    Mid-fraction, the first of four angles whose ray meets the surface (on a collision surface a ray may miss).
+    """
+    fraction = 0.5 * sum(surface.fraction_bounds(settings.fraction_bounds))
+    for angle in (0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi):
+        try:
+            surface.point(fraction, angle)
+        except ContactError:
+            continue
+        return Place(link, fraction, angle)
+    raise ContactError(f"no ray from the axis of link {link!r} at fraction {fraction:g} meets its surface")
 
 
 class StartProblem:
@@ -106,8 +128,8 @@ class StartProblem:
 
     def __init__(self, spec: SweepSpec, link: str, q0: Array, settings: InnerSettings) -> None:
         robot = spec.base_scenario().robot
-        self.surface = link_surface(robot, link)
-        self.template = Place(link, 0.5, 0.0)
+        self.surface = link_surface(robot, link, settings.surface)
+        self.template = _template(self.surface, link, settings)
         self.scenario = place_scenario(spec, self.surface, self.template, q0)
         self.p0 = self.surface.point(self.template.fraction, self.template.angle)
         self.rot = link_axes_in_brace(self.scenario.robot, link, POINT_FRAME)
@@ -125,6 +147,7 @@ class StartProblem:
         self.X = self.scenario.braced.X_i[0]
         self.D = np.zeros(self.X.shape[1])
         self.k_term = ConditionNumber()
+        self.q0 = np.asarray(q0, dtype=float)
         self.clearance = MovingClearance(self.scenario.braced)
         self.min_clearance = spec.feasibility.min_clearance + settings.clearance_margin
         self._key: bytes | None = None
@@ -198,10 +221,10 @@ class StartProblem:
         return np.vstack(rows)
 
     def inequalities(self, x: Array) -> Array:
-        """[k_max − k(J_e), n_wᵀn̂ − cos(max tilt), each link's clearance − bound] ≥ 0."""
+        """[k_max − k(J_e), n_wᵀn̂ − cos(max tilt), R² − ‖q − q0‖², each link's clearance − bound] ≥ 0."""
         state, pb, _, _ = self.evaluate(x)
         cos = math.cos(math.radians(self.settings.max_tilt_deg))
-        head = np.array([self.k_max - self.k_term.value(state), pb.n @ self.normal - cos])
+        head = np.array([self.k_max - self.k_term.value(state), pb.n @ self.normal - cos, self.radius(x)])
         if x.tobytes() == self._ckey and self._crows is not None:
             return np.concatenate([head, self._crows[0]])
         return np.concatenate([head, self.clearance.values(x[: self.n], pb.b) - self.min_clearance])
@@ -211,7 +234,13 @@ class StartProblem:
         state, pb, _, _ = self.evaluate(x)
         dk = np.concatenate([-self.k_term.gradient(state), np.zeros(2)])
         dn = np.concatenate([self.normal @ pb.dn_dq, self.normal @ pb.dn_dtheta])
-        return np.vstack([dk, dn, self.clearance_rows(x)[1]])
+        dr = np.concatenate([-2.0 * (x[: self.n] - self.q0), np.zeros(2)]) if self.settings.posture_radius else 0 * dk
+        return np.vstack([dk, dn, dr, self.clearance_rows(x)[1]])
+
+    def radius(self, x: Array) -> float:
+        """R² − ‖q − q0‖² (rad²; 1 without a posture radius): the posture within R of the reference start."""
+        r = self.settings.posture_radius
+        return 1.0 if r is None else float(r * r - np.sum((x[: self.n] - self.q0) ** 2))
 
     def bounds(self, angle0: float) -> list[tuple[float | None, float | None]]:
         """SLSQP bounds: the joint limits less the margin (None where infinite), the fraction's, φ within π."""
@@ -221,7 +250,7 @@ class StartProblem:
         for lo, hi in zip(robot.lower, robot.upper, strict=True):
             mm = min(m, 0.25 * float(hi - lo)) if np.isfinite(hi - lo) else m
             out.append((float(lo + mm) if np.isfinite(lo) else None, float(hi - mm) if np.isfinite(hi) else None))
-        return [*out, self.settings.fraction_bounds, (angle0 - math.pi, angle0 + math.pi)]
+        return [*out, self.surface.fraction_bounds(self.settings.fraction_bounds), (angle0 - math.pi, angle0 + math.pi)]
 
 
 def optimise_start(

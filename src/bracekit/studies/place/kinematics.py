@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from bracekit.kinematics import BracedState
 from bracekit.model.robot import Robot
-from bracekit.studies.place.surface import LinkSurface
+from bracekit.studies.place.surface import PadSurface
 
 Array = NDArray[np.float64]
 
@@ -63,7 +63,7 @@ def link_axes_in_brace(robot: Robot, link: str, frame: str) -> Array:
 
 
 def placed_brace(
-    state: BracedState, surface: LinkSurface, p0: Array, theta: Array, link_in_b: Array, index: int = 0
+    state: BracedState, surface: PadSurface, p0: Array, theta: Array, link_in_b: Array, index: int = 0
 ) -> PlacedBrace:
     """The brace `index` of `state` (a point frame of `surface.link` at p0, link frame, m) moved to θ = (s, φ).
 
@@ -84,11 +84,11 @@ def placed_brace(
     dj[:3] += np.cross(dj0[3:], d, axisa=0, axisc=0)
     w = _cross_columns(j_w, np.broadcast_to(d[:, None], (3, n)))  # ω_k × d, column k
     dj[:3] += np.cross(j_w[:, :, None], w[:, None, :], axisa=0, axisb=0, axisc=0)
-    db = rot @ surface.point_derivative(phi)
+    db = rot @ surface.point_derivative(s, phi)
     dth = np.zeros((6, n, 2))
     for j in range(2):
         dth[:3, :, j] = _cross_columns(j_w, np.broadcast_to(db[:, j : j + 1], (3, n)))
-    nw = rot @ surface.normal(phi)
+    nw = rot @ surface.normal(s, phi)
     return PlacedBrace(
         b=contact.b + d,
         n=nw,
@@ -97,5 +97,5 @@ def placed_brace(
         dJ_dtheta=dth,
         db_dtheta=db,
         dn_dq=_cross_columns(j_w, np.broadcast_to(nw[:, None], (3, n))),
-        dn_dtheta=rot @ surface.normal_derivative(phi),
+        dn_dtheta=rot @ surface.normal_derivative(s, phi),
     )

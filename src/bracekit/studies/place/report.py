@@ -28,8 +28,14 @@ FILES = ("table.md", "table.csv", "evaluations.parquet", "summary.json", "best.t
 
 
 def ranked(run: PlaceRun) -> list[dict[str, Any]]:
-    """The whole-task rows, feasible first by mean C_i of gradient projection, then the rest in order."""
-    good = sorted((r for r in run.evaluations if usable(r)), key=lambda r: (r["Ci_mean_gp"], r["place"]))
+    """The whole-task rows: feasible first by mean C_i of gradient projection, then the rest in order.
+
+    Among the feasible ones, those MuJoCo's static check did not settle on come last.
+    """
+    good = sorted(
+        (r for r in run.evaluations if usable(r)),
+        key=lambda r: (r.get("mujoco_settles") is False, r["Ci_mean_gp"], r["place"]),
+    )
     return good + [r for r in run.evaluations if not usable(r)]
 
 
@@ -58,11 +64,17 @@ def summary(run: PlaceRun) -> dict[str, Any]:
             "max_tilt_deg": s.inner.max_tilt_deg,
             "clearance_margin_m": s.inner.clearance_margin,
             "limit_margin_rad": s.inner.limit_margin,
+            "posture_radius_rad": s.inner.posture_radius,
+            "surface": s.inner.surface,
         },
         "inner_runs": len(run.inner),
         "inner_successful": sum(r.success for r in run.inner),
         "whole_task_runs": len(run.evaluations),
         "feasible_runs": sum(usable(r) for r in run.evaluations),
+        "mujoco_checks": {
+            "settled": sum(r.get("mujoco_settles") is True for r in run.evaluations),
+            "not_settled": sum(r.get("mujoco_settles") is False for r in run.evaluations),
+        },
         "workers": run.workers,
         "timings": run.timings,
         "best": None
@@ -100,6 +112,8 @@ def table_markdown(run: PlaceRun) -> str:
     for i, r in enumerate(ranked(run), 1):
         clear = r.get("min_link_clearance_m")
         why = "yes" if usable(r) else f"no: {r.get('failure') or ''}"[:90]
+        if usable(r) and r.get("mujoco_settles") is False:
+            why = "yes, but MuJoCo's static check does not settle"
         k = r.get("k_mean_gp")
         lines.append(
             f"| {i} | {r['link']} | {r['fraction']:.4f} | {r['angle_deg']:.1f} | {r['stage']} | "
@@ -152,7 +166,7 @@ def write_outputs(run: PlaceRun, folder: Path, figures: bool = True) -> list[str
     found = best_place(run)
     if found is not None:
         place, q = found
-        surface = link_surface(run.spec.base_scenario().robot, place.link)
+        surface = link_surface(run.spec.base_scenario().robot, place.link, run.settings.inner.surface)
         (folder / "best.toml").write_text(toml_text(place_data(run.spec, surface, place, q)), encoding="utf-8")
         names.append("best.toml")
         if figures:

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from bracekit.simulation.scenario import parse_scenario
 from bracekit.simulation.scenario_model import Scenario
-from bracekit.studies.place.surface import LinkSurface
+from bracekit.studies.place.surface import PadSurface
 from bracekit.studies.sweep.candidates import Candidate, candidate_id
 from bracekit.studies.sweep.scenario import candidate_data
 from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
@@ -39,14 +39,14 @@ class Place(NamedTuple):
         return math.degrees(self.angle)
 
 
-def place_candidate(surface: LinkSurface, place: Place) -> Candidate:
+def place_candidate(surface: PadSurface, place: Place) -> Candidate:
     """The place as a sweep candidate: inputs link, fraction and the pad point as the link-frame offset (m)."""
     offset = [float(x) for x in surface.point(place.fraction, place.angle)]
     inputs: dict[str, Any] = {"link": place.link, "fraction": float(place.fraction), "offset": offset}
     return Candidate(-1, candidate_id(inputs), inputs)
 
 
-def pad_world(spec: SweepSpec, surface: LinkSurface, place: Place, q: Array) -> Array:
+def pad_world(spec: SweepSpec, surface: PadSurface, place: Place, q: Array) -> Array:
     """The pad point's world position (3,), m, at posture q."""
     robot = spec.base_scenario().robot
     offset = surface.point(place.fraction, place.angle)
@@ -56,14 +56,14 @@ def pad_world(spec: SweepSpec, surface: LinkSurface, place: Place, q: Array) -> 
 
 
 def place_data(
-    spec: SweepSpec, surface: LinkSurface, place: Place, q: Array, centre: Array | None = None
+    spec: SweepSpec, surface: PadSurface, place: Place, q: Array, centre: Array | None = None
 ) -> dict[str, Any]:
     """The TOML data of the place's scenario, braced at posture q (the start guess); see the module."""
     candidate = place_candidate(surface, place)
     if centre is None:
         centre = pad_world(spec, surface, place, q)
     data = candidate_data(spec, candidate, q, centre)
-    data["brace"]["pad_axis"] = [float(x) for x in surface.normal(place.angle)]
+    data["brace"]["pad_axis"] = [float(x) for x in surface.normal(place.fraction, place.angle)]
     data["name"] = f"{spec.name}-place"
     data["description"] = (
         f"brace on {place.link} at fraction {place.fraction:.4f}, angle {place.angle_deg:.1f}° (bracekit place)"
@@ -74,7 +74,7 @@ def place_data(
     return data
 
 
-def place_scenario(spec: SweepSpec, surface: LinkSurface, place: Place, q: Array) -> Scenario:
+def place_scenario(spec: SweepSpec, surface: PadSurface, place: Place, q: Array) -> Scenario:
     """The place's scenario (parsed), braced at posture q."""
     data = place_data(spec, surface, place, q)
     return parse_scenario(data, base=spec.base_dir, name=data["name"])

@@ -17,14 +17,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.errors import ContactError
 from bracekit.geometry.pad import link_frame
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS
 from bracekit.model.robot import Robot
+from bracekit.studies.place.snapped import SnappedSurface, snapped_surface
 
 Array = NDArray[np.float64]
 
@@ -48,16 +49,20 @@ class LinkSurface:
         """p(s, φ) (3,), m, link frame."""
         return self.origin + fraction * self.axis + self.radius * self.direction(angle)
 
-    def normal(self, angle: float) -> Array:
-        """n(φ) = −u(φ) (3,): the surface's inward unit normal, link frame."""
+    def normal(self, fraction: float, angle: float) -> Array:
+        """n(φ) = −u(φ) (3,): the surface's inward unit normal, link frame (the same at every fraction)."""
         return -self.direction(angle)
 
-    def point_derivative(self, angle: float) -> Array:
+    def fraction_bounds(self, bounds: tuple[float, float]) -> tuple[float, float]:
+        """The fraction's bounds on this surface: `bounds` (the capsule spans the whole axis)."""
+        return bounds
+
+    def point_derivative(self, fraction: float, angle: float) -> Array:
         """∂p/∂(s, φ) (3×2): [o' − o, r u'(φ)], m and m/rad."""
         du = -math.sin(angle) * self.x + math.cos(angle) * self.y
         return np.column_stack([self.axis, self.radius * du])
 
-    def normal_derivative(self, angle: float) -> Array:
+    def normal_derivative(self, fraction: float, angle: float) -> Array:
         """∂n/∂(s, φ) (3×2): [0, −u'(φ)], 1/rad."""
         du = -math.sin(angle) * self.x + math.cos(angle) * self.y
         return np.column_stack([np.zeros(3), -du])
@@ -70,12 +75,22 @@ def link_radius(robot: Robot, link: str) -> float:
     return float(max(radii, default=DEFAULT_LINK_RADIUS))
 
 
-def link_surface(robot: Robot, link: str) -> LinkSurface:
-    """The capsule surface of `link` (see the module); ContactError for a link without length or with meshes."""
-    if any(e.kind == "mesh" and e.link == link for e in robot.geometry):
-        raise ContactError(
-            f"link {link!r} has collision meshes: the continuous placement parameterises capsule surfaces only; "
-            "place a pad on a mesh link with `[brace] surface = {fraction, angle}` in a scenario"
-        )
+#: A pad's surface: the analytic capsule about the joint line, or a collision surface snapped to.
+PadSurface = LinkSurface | SnappedSurface
+
+
+#: The surfaces a pad may be placed on: the capsule about the joint line, or the link's collision surface.
+SurfaceKind = Literal["capsule", "collision"]
+
+
+def link_surface(robot: Robot, link: str, kind: SurfaceKind = "capsule") -> PadSurface:
+    """The surface the pad of `link` is placed on; ContactError for a link without length.
+
+    ``capsule``: the capsule of the module about the joint line. ``collision``: the link's collision surface
+    (its URDF primitives and meshes, or its capsules without any), snapped to
+    (:class:`~bracekit.studies.place.snapped.SnappedSurface`, the rule of ``surface = {fraction, angle}``).
+    """
+    if kind == "collision":
+        return snapped_surface(robot, link)
     o, axis, _, z, x = link_frame(robot, link, "it carries no placement")
     return LinkSurface(link, o, axis, x, np.cross(z, x), link_radius(robot, link))
