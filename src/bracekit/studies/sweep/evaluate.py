@@ -113,11 +113,17 @@ def candidate_point(spec: SweepSpec, candidate: Candidate, context: TaskContext)
     return np.asarray(placement[:3, 3], dtype=float)
 
 
-def candidate_scenario(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> Scenario:
-    """The candidate's scenario (see :mod:`bracekit.studies.sweep.scenario`); needs a solved context."""
+def candidate_scenario(
+    spec: SweepSpec, candidate: Candidate, context: TaskContext, point: Array | None = None
+) -> Scenario:
+    """The candidate's scenario (see :mod:`bracekit.studies.sweep.scenario`); needs a solved context.
+
+    `point`: the candidate point (m, world) if already known (:func:`candidate_point`).
+    """
     if context.q_ref is None:
         raise ValueError("the task context has no reference start")
-    point = candidate_point(spec, candidate, context)
+    if point is None:
+        point = candidate_point(spec, candidate, context)
     centre = point + np.asarray(candidate.inputs.get("region_offset", [0.0, 0.0, 0.0]), dtype=float)
     data = candidate_data(spec, candidate, context.q_ref, centre)
     return parse_scenario(data, base=spec.base_dir, name=data["name"])
@@ -195,7 +201,8 @@ def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskConte
         return row
 
     def build() -> tuple[Array, Scenario]:
-        return candidate_point(spec, candidate, context), candidate_scenario(spec, candidate, context)
+        point = candidate_point(spec, candidate, context)
+        return point, candidate_scenario(spec, candidate, context, point)
 
     return judged_run(spec, row, began, context, build)
 
