@@ -3,8 +3,8 @@
 The steps: the task contexts (a reference start, then one free-space run per task), the batch screening (one
 task per context), the candidates that pass (one task each, run from the reference start while the free-space
 runs are under way; as they finish, their rows get the free-space columns and are saved), then the refinement
-of the best feasible candidates, and the final tables. Rows are sorted by candidate order, so the tables are the same
-whatever the number of workers or the order in which they finish.
+of the best feasible candidates, and the final tables. Rows are sorted by candidate order, so the tables are
+the same whatever the number of workers or the order in which they finish.
 """
 
 from __future__ import annotations
