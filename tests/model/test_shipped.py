@@ -271,3 +271,29 @@ def test_regenerated_urdfs_equal_committed_files(tmp_path: Path) -> None:
         regenerated = (tmp_path / name).read_text(encoding="utf-8")
         committed = (MODELS / name).read_text(encoding="utf-8")
         assert regenerated == committed, f"{name} is stale: run tools/build_models.py"
+
+
+def test_load_model_parses_once_and_matches_a_fresh_parse_of_the_urdf() -> None:
+    """The per-process parsed robot: the same Pinocchio model each call, equal to pinocchio's own parse."""
+    from bracekit.model.shipped import load_model
+
+    a = load_model("paper-robot", stiffness=300.0)
+    b = load_model("paper-robot")
+    assert a.model is b.model  # parsed once
+    np.testing.assert_array_equal(a.stiffness, np.full(a.n, 300.0))
+    np.testing.assert_array_equal(b.stiffness, np.full(b.n, 170.0))
+    fresh = pin.buildModelFromUrdf(str(PAPER_URDF))  # pinocchio's parse, independent of bracekit's loader
+    data, fdata = a.model.createData(), fresh.createData()
+    q = np.random.default_rng(4).uniform(-1.0, 1.0, a.n)
+    pin.framesForwardKinematics(a.model, data, q)
+    pin.framesForwardKinematics(fresh, fdata, q)
+    tool = fresh.getFrameId("tool")
+    np.testing.assert_allclose(data.oMf[a.model.getFrameId("tool")].homogeneous, fdata.oMf[tool].homogeneous)
+
+
+def test_a_derived_robot_leaves_the_parsed_robot_unchanged() -> None:
+    """A brace point added to one loaded robot is not a frame of the next one (the model is copied)."""
+    from bracekit.model.shipped import load_model
+
+    load_model("puma560").with_point_frame("extra_point", "link3", [0.1, 0.0, 0.0])
+    assert not load_model("puma560").model.existFrame("extra_point")

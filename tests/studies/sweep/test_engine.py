@@ -181,7 +181,7 @@ def test_an_older_work_folder_is_refused_as_another_version(tiny_spec: Path, tmp
 
 def test_the_probe_connects_with_the_clients_security_arguments(monkeypatch: pytest.MonkeyPatch) -> None:
     import distributed
-    import distributed.comm
+    import distributed.comm.core
 
     from bracekit.studies.sweep.engine import probe
 
@@ -193,6 +193,22 @@ def test_the_probe_connects_with_the_clients_security_arguments(monkeypatch: pyt
 
     marker = {"ssl_context": "from the Dask config", "require_encryption": True}
     monkeypatch.setattr(distributed.Security, "get_connection_args", lambda self, role: dict(marker))
-    monkeypatch.setattr(distributed.comm, "connect", fake_connect)
+    monkeypatch.setattr(distributed.comm.core, "connect", fake_connect)  # what probe() calls
     assert "refused" in (probe("tls://127.0.0.1:9", 2.0) or "")
     assert seen == marker  # a TLS scheduler configured for Client() is reached by the probe too
+
+
+def test_rows_equal_candidates_evaluated_one_by_one_in_this_process(tiny_spec: Path, reference: Any) -> None:
+    """The sweep runs candidates from the reference start while the free-space run goes on: the rows are those of
+    each candidate evaluated here, after its whole task context, without Dask."""
+    from bracekit.studies.sweep.context import task_context
+    from bracekit.studies.sweep.evaluate import evaluate_candidate, judge
+
+    spec = load_spec(tiny_spec)
+    candidates = expand(spec)
+    context = task_context(spec, {}, candidates[0].context_key)
+    assert {c.context_key for c in candidates} == {context.key}
+    for c, row in zip(candidates, reference.rows, strict=True):
+        here = judge(spec, evaluate_candidate(spec, c, context))
+        assert row["Ci_mean_free_space"] is not None
+        assert without_times([{k: here.get(k) for k in row}]) == without_times([row]), c.id

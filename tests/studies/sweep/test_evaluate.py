@@ -4,6 +4,7 @@ import dataclasses
 import re
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -14,8 +15,8 @@ from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import load_scenario
 from bracekit.simulation.simulate import simulate
 from bracekit.studies.sweep.candidates import expand
-from bracekit.studies.sweep.context import task_context
-from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, evaluate_candidate
+from bracekit.studies.sweep.context import free_space_context, reference_context, task_context
+from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, evaluate_candidate, with_free_space
 from bracekit.studies.sweep.spec import load_spec
 
 
@@ -91,3 +92,35 @@ def test_a_candidate_whose_run_fails_gets_a_row_with_the_reason(tiny_spec: Path)
     row = evaluate_candidate(bad, cand, ctx)
     assert row["completed"] is False and row["feasible"] is False
     assert row["failure"] and "\n" not in row["failure"]
+
+
+def _no_time(row: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in row.items() if k != "wall_s"}
+
+
+def test_a_row_from_the_reference_start_completed_by_the_free_space_run_is_the_whole_contexts_row(
+    tiny_spec: Path,
+) -> None:
+    """A candidate run while the free-space run is under way gets, once it ends, the row of the whole context."""
+    spec = load_spec(tiny_spec)
+    cand = expand(spec)[3]
+    ref = reference_context(spec, {}, cand.context_key)
+    whole = free_space_context(spec, ref)
+    assert ref.free == {} and ref.q_ref is not None and whole.q_ref is not None
+    np.testing.assert_array_equal(whole.q_ref, task_context(spec, {}, cand.context_key).q_ref)
+    early = evaluate_candidate(spec, cand, ref)
+    assert early["Ci_mean_free_space"] is None and early["Ci_reduction_gp"] is None
+    row = with_free_space(spec, cand, early, whole)
+    assert _no_time(row) == _no_time(evaluate_candidate(spec, cand, whole))
+    assert row["Ci_reduction_gp"] == pytest.approx(1.0 - row["Ci_mean_gp"] / row["Ci_mean_free_space"], rel=1e-15)
+
+
+def test_a_failed_free_space_run_gives_the_row_of_a_failed_context(tiny_spec: Path) -> None:
+    """A free-space run that fails after the candidate ran: the row says the context failed, as when it fails first."""
+    spec = load_spec(tiny_spec)
+    cand = expand(spec)[0]
+    ref = reference_context(spec, {}, cand.context_key)
+    failed = dataclasses.replace(ref, q_ref=None, failure="task context: the free-space run left the joint limits")
+    row = with_free_space(spec, cand, evaluate_candidate(spec, cand, ref), failed)
+    assert _no_time(row) == _no_time(evaluate_candidate(spec, cand, failed))
+    assert row["failure"] == failed.failure and row["completed"] is False and row["Ci_mean_gp"] is None

@@ -3,11 +3,14 @@
 The reference start is the configuration nearest the base scenario's start guess (minimum-norm Gauss–Newton)
 with the tip at the task's start pose (the task's rotation, else the guess's tip orientation); the free-space
 minimum-norm run goes from there along the task. Candidates that differ only in where the brace is share a
-context; the other inputs (task centre and radius, stiffness, preload, friction) make new ones.
+context; the other inputs (task centre and radius, stiffness, preload, friction) make new ones. A candidate's
+run needs the reference start only (:func:`reference_context`), so a sweep runs its candidates while the
+free-space run (:func:`free_space_context`) is still under way and adds its columns to their rows afterwards.
 """
 
 from __future__ import annotations
 
+import time
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -77,21 +80,38 @@ def reference_start(scenario: Scenario) -> Array:
     return q
 
 
-def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskContext:
-    """Solve the reference start and run free-space minimum norm along the task; never raises a BracekitError."""
-    import time
+def reference_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskContext:
+    """The task context's reference start only (no free-space run): all a candidate's run needs.
 
+    Never raises a BracekitError: a reference start that cannot be solved is the context's ``failure``.
+    """
     began = time.perf_counter()
     try:
+        q_ref = reference_start(context_scenario(spec, inputs))
+    except BracekitError as exc:
+        return TaskContext(key, inputs, None, failure=f"task context: {exc}", wall_s=time.perf_counter() - began)
+    return TaskContext(key, inputs, q_ref, wall_s=time.perf_counter() - began)
+
+
+def free_space_context(spec: SweepSpec, reference: TaskContext) -> TaskContext:
+    """`reference` (:func:`reference_context`) completed by the free-space minimum-norm run from its start.
+
+    Never raises a BracekitError: a free-space run that fails makes the context a failed one (``q_ref`` None),
+    as when the reference start cannot be solved.
+    """
+    if reference.q_ref is None:
+        return reference
+    key, inputs = reference.key, reference.inputs
+    began = time.perf_counter() - reference.wall_s
+    try:
         sc = context_scenario(spec, inputs)
-        q_ref = reference_start(sc)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             tr = simulate(
                 sc.braced,
                 sc.strategy("free_space_min_norm"),
                 sc.task,
-                q_ref,
+                reference.q_ref,
                 sc.dt,
                 sc.beta_x,
                 feedback_gain=sc.feedback_gain,
@@ -103,7 +123,7 @@ def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskConte
     return TaskContext(
         key,
         inputs,
-        q_ref,
+        reference.q_ref,
         t=tr.t,
         Q=tr.q,
         beta=beta,
@@ -111,3 +131,8 @@ def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskConte
         failure=None,
         wall_s=time.perf_counter() - began,
     )
+
+
+def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskContext:
+    """Solve the reference start and run free-space minimum norm along the task; never raises a BracekitError."""
+    return free_space_context(spec, reference_context(spec, inputs, key))

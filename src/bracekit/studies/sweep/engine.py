@@ -1,9 +1,10 @@
 """Running a sweep on Dask distributed: a local cluster of worker processes, or an existing scheduler.
 
-The steps: the task contexts (one free-space run per task), the batch screening (one task per context), the
-candidates that pass (one task each, as they finish their rows are saved), then the refinement of the best
-feasible candidates, and the final tables. Rows are sorted by candidate order, so the tables are the same
-whatever the number of workers or the order in which they finish.
+The steps: the task contexts (a reference start, then one free-space run per task), the batch screening (one
+task per context), the candidates that pass (one task each, run from the reference start while the free-space
+runs are under way; as they finish, their rows get the free-space columns and are saved), then the refinement
+of the best feasible candidates, and the final tables. Rows are sorted by candidate order, so the tables are
+the same whatever the number of workers or the order in which they finish.
 """
 
 from __future__ import annotations
@@ -21,8 +22,15 @@ from typing import Any
 from bracekit._linalg import show
 from bracekit.errors import InputError
 from bracekit.studies.sweep.candidates import Candidate, expand
-from bracekit.studies.sweep.context import TaskContext, task_context
-from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, empty_row, evaluate_candidate, input_columns, judge
+from bracekit.studies.sweep.context import TaskContext, free_space_context, reference_context
+from bracekit.studies.sweep.evaluate import (
+    RESULT_COLUMNS,
+    empty_row,
+    evaluate_candidate,
+    input_columns,
+    judge,
+    with_free_space,
+)
 from bracekit.studies.sweep.rows import row_problem
 from bracekit.studies.sweep.screen import Screened, screen_context, select
 from bracekit.studies.sweep.spec import SweepSpec
@@ -229,8 +237,10 @@ def run_sweep(
         needed = everything if screening else chosen
         keys = _contexts(needed)
         t0 = time.perf_counter()
-        ctx_f = {k: client.submit(task_context, spec_f, inputs, k, pure=False) for k, inputs in keys.items()}
-        futures += list(ctx_f.values())
+        # the candidates need the reference start only: they run while the free-space runs are under way
+        ref_f = {k: client.submit(reference_context, spec_f, inputs, k, pure=False) for k, inputs in keys.items()}
+        ctx_f = {k: client.submit(free_space_context, spec_f, f, pure=False) for k, f in ref_f.items()}
+        futures += [*ref_f.values(), *ctx_f.values()]
         verdicts: dict[str, str | None] = {}
         screened: dict[str, Screened] = {}
         if screening:
@@ -242,12 +252,18 @@ def run_sweep(
             for part in client.gather(scr_f):
                 screened |= {s.candidate: s for s in part}
                 verdicts |= select(spec, part)
-        contexts: dict[str, TaskContext] = dict(zip(ctx_f, client.gather(list(ctx_f.values())), strict=True))
         timings["contexts_and_screening_s"] = time.perf_counter() - t0
         todo = [c for c in chosen if c.id not in done and verdicts.get(c.id) is None]
         t1 = time.perf_counter()
-        ev_f = [client.submit(evaluate_candidate, spec_f, c, ctx_f[c.context_key], pure=False) for c in todo]
-        futures += ev_f
+        ev_f = {client.submit(evaluate_candidate, spec_f, c, ref_f[c.context_key], pure=False): c for c in todo}
+        futures += list(ev_f)
+        contexts: dict[str, TaskContext] = {}
+
+        def context(key: str) -> TaskContext:
+            if key not in contexts:
+                contexts[key] = ctx_f[key].result()
+            return contexts[key]
+
         bar = None
         if progress and todo:
             from tqdm import tqdm
@@ -256,8 +272,9 @@ def run_sweep(
         from distributed import as_completed
 
         try:
-            for fut in as_completed(ev_f):
-                row = fut.result()
+            for fut in as_completed(list(ev_f)):
+                c = ev_f[fut]
+                row = with_free_space(spec, c, fut.result(), context(c.context_key))
                 store.save(row)
                 done[row["candidate"]] = row
                 if bar is not None:
@@ -267,6 +284,8 @@ def run_sweep(
         finally:
             if bar is not None:
                 bar.close()
+        for key in ctx_f:
+            context(key)
         timings["simulation_s"] = time.perf_counter() - t1
         rows = []
         order = ["candidate", "index", *input_columns(spec), *RESULT_COLUMNS]

@@ -11,7 +11,7 @@ import sys
 import time
 import warnings
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 from numpy.typing import NDArray
@@ -113,11 +113,17 @@ def candidate_point(spec: SweepSpec, candidate: Candidate, context: TaskContext)
     return np.asarray(placement[:3, 3], dtype=float)
 
 
-def candidate_scenario(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> Scenario:
-    """The candidate's scenario (see :mod:`bracekit.studies.sweep.scenario`); needs a solved context."""
+def candidate_scenario(
+    spec: SweepSpec, candidate: Candidate, context: TaskContext, point: Array | None = None
+) -> Scenario:
+    """The candidate's scenario (see :mod:`bracekit.studies.sweep.scenario`); needs a solved context.
+
+    `point`: the candidate point (m, world) if already known (:func:`candidate_point`).
+    """
     if context.q_ref is None:
         raise ValueError("the task context has no reference start")
-    point = candidate_point(spec, candidate, context)
+    if point is None:
+        point = candidate_point(spec, candidate, context)
     centre = point + np.asarray(candidate.inputs.get("region_offset", [0.0, 0.0, 0.0]), dtype=float)
     data = candidate_data(spec, candidate, context.q_ref, centre)
     return parse_scenario(data, base=spec.base_dir, name=data["name"])
@@ -127,7 +133,7 @@ def _num(value: Any) -> float | None:
     return None if value is None or not np.isfinite(value) else float(value)
 
 
-def finite(value: Any) -> bool:
+def finite(value: Any) -> TypeGuard[float]:
     """Whether `value` is a finite number (not None, inf or NaN)."""
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -195,9 +201,31 @@ def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskConte
         return row
 
     def build() -> tuple[Array, Scenario]:
-        return candidate_point(spec, candidate, context), candidate_scenario(spec, candidate, context)
+        point = candidate_point(spec, candidate, context)
+        return point, candidate_scenario(spec, candidate, context, point)
 
     return judged_run(spec, row, began, context, build)
+
+
+def with_free_space(spec: SweepSpec, candidate: Candidate, row: dict[str, Any], context: TaskContext) -> dict[str, Any]:
+    """The row of a candidate run from its reference context, with the free-space columns of the whole `context`.
+
+    ``Ci_mean_free_space`` and ``Ci_reduction_gp`` (1 − C_i,gp / C_i,free, means in m/N) as
+    :func:`evaluate_candidate` gives them from the whole context; when the free-space run failed, the row of a
+    candidate whose context failed (not run; the context's failure), as then. A new dict; ``wall_s`` kept.
+    """
+    if context.q_ref is None:
+        out = empty_row(spec, candidate)
+        out["Ci_mean_free_space"] = context.free.get("Ci_mean")
+        out["failure"] = context.failure
+        out["wall_s"] = row.get("wall_s")
+        return out
+    out = dict(row)
+    free, gp = context.free.get("Ci_mean"), out.get("Ci_mean_gp")
+    out["Ci_mean_free_space"] = free
+    if finite(free) and finite(gp):
+        out["Ci_reduction_gp"] = 1.0 - gp / free
+    return out
 
 
 def judged_run(
