@@ -158,6 +158,7 @@ class GradientProjectionStep:
         self._normal = braced.split.brace.surface.normal
         self._nl = self._normal.tolist()
         self._fk: FusedKinematics | None = None
+        self._last: tuple[Array, tuple[Any, ...]] | None = None
         obj = strategy.objective
         if not isinstance(obj, Objective):
             raise InputError("the fused step needs an Objective")
@@ -279,6 +280,17 @@ class GradientProjectionStep:
     def _with_beta(self, beta_x: ArrayLike | None) -> Objective:
         return self._objective if beta_x is None else self._objective.with_beta_x(beta_x)
 
+    def last_kinematics(self, q: Array) -> tuple[tuple[Array, Array], tuple[Array, Array]] | None:
+        """((⁰M_e, J_e), (⁰M_b, J_b)) of this step's last Pinocchio pass if it was at this very array q, else None.
+
+        The order of :meth:`BracedRobot.state_from_kinematics`: a caller builds the state at q without a second pass.
+        """
+        last = self._last
+        if last is None or last[0] is not q:
+            return None
+        je, jb, mb, me = last[1]
+        return (me, je), (mb, jb)
+
     def _kinematics(self, qa: Array, hessians: bool) -> tuple[Any, ...]:
         """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows (n×6n) if asked."""
         model, data = self._model, self._data
@@ -287,6 +299,7 @@ class GradientProjectionStep:
         je = pin.getFrameJacobian(model, data, self._tip, LWA)
         jb = pin.getFrameJacobian(model, data, self._bid, LWA)
         mb, me = data.oMf[self._bid].homogeneous, data.oMf[self._tip].homogeneous
+        self._last = (qa, (je, jb, mb, me))
         if not hessians:
             return je, jb, mb, me, None, None
         pin.computeJointKinematicHessians(model, data)

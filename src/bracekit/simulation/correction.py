@@ -22,6 +22,7 @@ from bracekit.tolerances import ACCEPT_TOL, CORRECTION_ROUNDOFF, CORRECTION_TOL
 Array = NDArray[np.float64]
 #: The contact anchors of a run: (b0_i (3,), ⁰R_b0_i (3×3)) of each brace, in brace order.
 Anchors = Sequence[tuple[Array, Array]]
+_NO_ANGLE = np.zeros(3)
 
 __all__ = [
     "Anchors",
@@ -57,8 +58,10 @@ def contact_residual(state: BracedState, anchors: Anchors) -> Array:
     """
     out = []
     for x, c, (b0, r0) in zip(state.X_i, state.contacts, anchors, strict=True):
-        out.append(x.T @ np.concatenate([c.b - b0, pin.log3(c.R_b @ r0.T)]))
-    return np.concatenate(out)
+        # no constraint moment (frictionless point, point with friction): log3 is weighted by zeros, not computed
+        angle = pin.log3(c.R_b @ r0.T) if x[3:].any() else _NO_ANGLE
+        out.append(x.T @ np.concatenate([c.b - b0, angle]))
+    return out[0] if len(out) == 1 else np.concatenate(out)
 
 
 def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
