@@ -127,9 +127,11 @@ class ControlStep:
         self.preloads = pre if strategy.braced else np.zeros(count)
         self.gravity = bool(gravity)
         self.stiffness = np.asarray(braced.robot.stiffness, dtype=float)
-        fast = fused_step(braced, self.strategy) if len(braced.braces) == 1 else None  # several: the reference
+        fast = fused_step(braced, self.strategy)
         if fast is not None and backend != "numpy":
             fast = GradientProjectionStep(braced, self.strategy, backend=backend)  # type: ignore[arg-type]
+        if fast is not None and len(braced.braces) > 1 and not fast.uses_kernel:
+            fast = None  # the reference step on this tick's state: one Pinocchio pass
         self._fast = fast
         self._data = braced.robot.model.createData()
         self._regions = [

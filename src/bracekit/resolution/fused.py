@@ -54,6 +54,7 @@ from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
+from bracekit.resolution.fused_several import Kinematics, SeveralBraceKernel
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
 from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
@@ -130,7 +131,8 @@ class GradientProjectionStep:
         self.braced = braced
         self.strategy = strategy
         self._several = len(braced.braces) > 1
-        if self._several:  # the fused code is written over one brace's chain split: the reference step runs
+        self._multi: SeveralBraceKernel | None = None
+        if self._several:  # the NumPy code is written over one brace's chain split: the reference or the kernel
             self._n = braced.n
             self.backend: str = "numpy"
             self.uses_kernel: bool = False
@@ -138,6 +140,8 @@ class GradientProjectionStep:
             self.fallback_reason: str | None = (
                 "several braces: the fused step holds one brace's chain split, the reference step runs (same q̇)"
             )
+            if backend != "numpy":
+                self._several_setup(backend)
             return
         robot = braced.robot
         self._model = robot.model
@@ -184,6 +188,21 @@ class GradientProjectionStep:
         self._kernel = None if kernels is None else self._numba_setup(kernels)
         self.uses_kernel = self._kernel is not None
 
+    def _several_setup(self, backend: str) -> None:
+        """The numba kernel of several braces (:mod:`bracekit.resolution.fused_several`) where it applies."""
+        try:
+            kernels = importlib.import_module("bracekit.resolution._numba_several")
+        except ImportError as exc:
+            if backend == "numba":
+                numba_kernels()  # the InputError that says how to install numba
+                raise InputError(f"the numba kernel of several braces cannot be imported: {exc}") from exc
+            self.fallback_reason = "numba cannot be imported"
+            return
+        self.backend = "numba"
+        self._multi, reason = SeveralBraceKernel.build(self.braced, self.strategy, kernels)
+        self.uses_kernel = self._multi is not None
+        self.fallback_reason = reason
+
     def _numba_setup(self, kernels: ModuleType) -> Any:
         """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs).
 
@@ -225,6 +244,10 @@ class GradientProjectionStep:
         if not (type(xd) is np.ndarray and xd.dtype == np.float64 and xd.shape == (6,) and math.isfinite(xd.sum())):
             xd = tip_twist(xdot)
         if self._several:
+            if self._multi is not None:
+                fast = self._multi(qa, xd, beta_x)
+                if fast is not None:
+                    return fast
             strategy = self._reference(beta_x)
             return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
         if self._kernel is not None:
@@ -280,12 +303,15 @@ class GradientProjectionStep:
     def _with_beta(self, beta_x: ArrayLike | None) -> Objective:
         return self._objective if beta_x is None else self._objective.with_beta_x(beta_x)
 
-    def last_kinematics(self, q: Array) -> tuple[tuple[Array, Array], tuple[Array, Array]] | None:
-        """((⁰M_e, J_e), (⁰M_b, J_b)) of this step's last Pinocchio pass if it was at this very array q, else None.
+    def last_kinematics(self, q: Array) -> Kinematics | None:
+        """(⁰M, J) of the tip, then of each brace, of this step's last Pinocchio pass if it was at this very array q.
 
-        The order of :meth:`BracedRobot.state_from_kinematics`: a caller builds the state at q without a second pass.
+        None otherwise. The order of :meth:`BracedRobot.state_from_kinematics`: a caller builds the state at q
+        without a second pass.
         """
-        last = self._last
+        if self._multi is not None:
+            return self._multi.last_kinematics(q)
+        last = getattr(self, "_last", None)
         if last is None or last[0] is not q:
             return None
         je, jb, mb, me = last[1]
