@@ -89,15 +89,16 @@ def numba_available() -> bool:
     return True
 
 
-def fused_step(braced: BracedRobot, strategy: object) -> GradientProjectionStep | None:
+def fused_step(braced: BracedRobot, strategy: object, backend: Backend = "numpy") -> GradientProjectionStep | None:
     """The fused step of a gradient-projection strategy, or None where the reference path runs instead.
 
-    None for another strategy and beyond MAX_HESSIAN_JOINTS joints. With several braces the step runs the
-    reference (its ``fallback_reason`` says so): the fused code is written over one brace's chain split.
+    None for another strategy and beyond MAX_HESSIAN_JOINTS joints. With several braces and the NumPy backend
+    the step runs the reference (its ``fallback_reason`` says so): the NumPy code is written over one brace's
+    chain split; the numba backend has a kernel for several braces (:mod:`bracekit.resolution.fused_several`).
     """
     if type(strategy) is not BracedGradientProjection or braced.n > MAX_HESSIAN_JOINTS:
         return None
-    return GradientProjectionStep(braced, strategy)
+    return GradientProjectionStep(braced, strategy, backend=backend)
 
 
 class GradientProjectionStep:

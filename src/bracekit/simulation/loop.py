@@ -46,7 +46,7 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective import RegionBarrier
-from bracekit.resolution.fused import GradientProjectionStep, fused_step
+from bracekit.resolution.fused import Backend, GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
 from bracekit.simulation.correction import correct, reach, task_error
@@ -147,7 +147,10 @@ def simulate(
     free_dims = redundancy(space, st.R_e, st.motions.A if strategy.braced else st.J_e)
     anchors = [(c.b.copy(), c.R_b.copy()) for c in st.contacts] if strategy.braced else None
     checked = st.motions.inverted(strategy.braced)
-    fast = fused_step(braced, strategy)
+    # one brace: the NumPy step (no compilation); several: the compiled step where numba is installed (compiled
+    # once and cached; the same q̇ as the reference to ~1e-15), else the reference
+    backend: Backend = "auto" if len(braced.braces) > 1 else "numpy"
+    fast = fused_step(braced, strategy, backend)
     scaled_steps: dict[float, GradientProjectionStep] = {}
     guard = region_guard(braced, strategy)
     scalable = isinstance(strategy, BracedGradientProjection)
@@ -161,7 +164,7 @@ def simulate(
             if scale == 1.0:
                 return fast(st.q, xdot, beta_x(t))
             if scale not in scaled_steps:
-                scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale))  # type: ignore[arg-type]
+                scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale), backend)  # type: ignore[arg-type]
             return scaled_steps[scale](st.q, xdot, beta_x(t))
         current = with_beta_x(strategy if scale == 1.0 else scaled_alpha(strategy, scale), beta_x(t))
         if current.needs_hessians:
