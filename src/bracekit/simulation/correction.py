@@ -120,9 +120,8 @@ def correct(
     """
     scale_len = reach(braced.robot) if length is None else float(length)
     scale = np.array([scale_len] * 3 + [1.0] * (space.rows - 3))
-    if anchors is not None:
-        for x in braced.X_i:  # unit force and moment columns: a length and an angle residual
-            scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
+    if anchors is not None:  # unit force and moment columns: a length and an angle residual
+        scale = np.concatenate([scale, *(scale_len * f + m for f, m in braced.wrench_column_norms)])
     roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
     previous = np.inf
     st = braced.state(q)
@@ -136,7 +135,7 @@ def correct(
         step = rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
         trial = braced.state(st.q + step)
         t_res, t_rows = _rows(trial, position, rotation, anchors, space)
-        if np.linalg.norm(t_res / scale) > np.linalg.norm(res / scale) and size >= ACCEPT_TOL:
+        if size >= ACCEPT_TOL and np.linalg.norm(t_res / scale) > np.linalg.norm(res / scale):
             damped = _damped_step(braced, st, res, rows, scale, position, rotation, anchors, space)
             if damped is None:
                 break
