@@ -79,6 +79,30 @@ def _mm(a, b):  # pragma: no cover - compiled
 
 
 @_jit
+def _matvec(a, x):  # pragma: no cover - compiled
+    """A x (plain loops, any layout)."""
+    out = np.empty(a.shape[0])
+    for r in range(a.shape[0]):
+        s = 0.0
+        for i in range(a.shape[1]):
+            s += a[r, i] * x[i]
+        out[r] = s
+    return out
+
+
+@_jit
+def _tmatvec(a, x):  # pragma: no cover - compiled
+    """Aᵀ x (plain loops, any layout)."""
+    out = np.empty(a.shape[1])
+    for i in range(a.shape[1]):
+        s = 0.0
+        for r in range(a.shape[0]):
+            s += a[r, i] * x[r]
+        out[i] = s
+    return out
+
+
+@_jit
 def _frobenius2(m):  # pragma: no cover - compiled
     s = 0.0
     for i in range(m.shape[0]):

@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from bracekit.resolution._numba_linalg import _frobenius2, _null_space, _row_basis, _spd_inverse
+from bracekit.resolution._numba_linalg import _frobenius2, _matvec, _null_space, _row_basis, _spd_inverse, _tmatvec
 
 #: Status codes of :func:`gp_step_several` (those of the one-brace kernel).
 OK, NOT_CERTIFIED, BARRIER = 0, 1, 3
@@ -38,32 +38,9 @@ _jit = njit(cache=True, error_model="numpy", nogil=True)
 @_jit
 def _constrained_deflection(je, g, minv, kinv, x):  # pragma: no cover - compiled
     """(x̃, p_x) for a twist x (6,): p_x = M⁻¹ G K⁻¹ J_eᵀ x (c,), x̃ = K⁻¹ (J_eᵀ x − Gᵀ p_x) (n,)."""
-    c, n = g.shape
-    u = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for r in range(6):
-            s += je[r, i] * x[r]
-        u[i] = s * kinv[i]
-    gu = np.empty(c)
-    for r in range(c):
-        s = 0.0
-        for i in range(n):
-            s += g[r, i] * u[i]
-        gu[r] = s
-    p = np.empty(c)
-    for r in range(c):
-        s = 0.0
-        for t in range(c):
-            s += minv[r, t] * gu[t]
-        p[r] = s
-    out = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for r in range(c):
-            s += g[r, i] * p[r]
-        out[i] = u[i] - kinv[i] * s
-    return out, p
+    u = _tmatvec(je, x) * kinv
+    p = _matvec(minv, _matvec(g, u))
+    return u - kinv * _tmatvec(g, p), p
 
 
 @_jit
@@ -78,12 +55,7 @@ def _objective_gradient(q, je, jbs, he, hbs, mbs, g, minv, kinv, xrows, rowbrace
     for t in range(ci.shape[0]):  # ComplianceIndex.gradient: (C_eβ)ᵀ (∂C_e/∂q) β / C_i, bilinear_gradient
         beta = ci[t, :6]
         bt, pb = _constrained_deflection(je, g, minv, kinv, beta)
-        v = np.empty(6)  # C_e β = J_e β̃
-        for r in range(6):
-            s = 0.0
-            for i in range(n):
-                s += je[r, i] * bt[i]
-            v[r] = s
+        v = _matvec(je, bt)  # C_e β = J_e β̃
         civ = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3] + v[4] * v[4] + v[5] * v[5])
         if not math.isfinite(civ):
             return NOT_CERTIFIED, dg
@@ -215,33 +187,7 @@ def gp_step_several(q, je, jbs, he, hbs, mbs, sel, xd, xrows, rowbrace, kinv, ci
     status, dg = _objective_gradient(q, je, jbs, he, hbs, mbs, g, minv, kinv, xrows, rowbrace, ci, reg, jl)
     if status != OK:
         return status, out
-    grad = np.empty(kk)  # Nᵀ ∂g/∂q
-    for j in range(kk):
-        s = 0.0
-        for i in range(n):
-            s += basis[i, j] * dg[i]
-        grad[j] = s
-    z = np.empty(m)  # R⁻ᵀ S ẋ − α Qᵀ ∇g
-    for cc in range(m):
-        s = 0.0
-        for r in range(m):
-            xs = 0.0
-            for p in range(6):
-                xs += sel[r, p] * xd[p]
-            s += rinv[r, cc] * xs
-        s2 = 0.0
-        for j in range(kk):
-            s2 += qq[j, cc] * grad[j]
-        z[cc] = s - alpha * s2
-    y = np.empty(kk)  # B⁺S ẋ + α (I − B⁺B) ∇g
-    for j in range(kk):
-        s = 0.0
-        for cc in range(m):
-            s += qq[j, cc] * z[cc]
-        y[j] = s + alpha * grad[j]
-    for i in range(n):  # q̇ = N y
-        s = 0.0
-        for j in range(kk):
-            s += basis[i, j] * y[j]
-        out[i] = s
-    return OK, out
+    grad = _tmatvec(basis, dg)  # Nᵀ ∂g/∂q
+    z = _tmatvec(rinv, _matvec(sel, xd)) - alpha * _tmatvec(qq, grad)  # R⁻ᵀ S ẋ − α Qᵀ ∇g
+    y = _matvec(qq, z) + alpha * grad  # B⁺S ẋ + α (I − B⁺B) ∇g
+    return OK, _matvec(basis, y)  # q̇ = N y

@@ -47,14 +47,13 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import inverse, row_basis
-from bracekit.compliance.first_order import unit6
 from bracekit.errors import InputError, ModelError
 from bracekit.kinematics import LWA, BracedRobot, contact_null_space, frame_hessian_rows
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
-from bracekit.resolution.fused_several import Kinematics, SeveralBraceKernel
+from bracekit.resolution.fused_several import Kinematics, SeveralBraceKernel, kernel_inputs
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
 from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
@@ -334,12 +333,7 @@ class GradientProjectionStep:
 
     def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
         """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
-        ci = self._ci
-        if beta_x is not None and ci.shape[0]:
-            ci = ci.copy()
-            ci[:, :6] = unit6(beta_x, "beta_x")  # as ComplianceIndex(beta_x): same InputError
-        if not (xd.flags.c_contiguous and xd.flags.writeable):  # one compiled signature
-            xd = xd.copy()
+        ci, xd = kernel_inputs(self._ci, beta_x, xd)
         je, jb, mb, me, he, hb = self._kinematics(qa, True)
         h, x, t, kinv = self._nb_const
         assert self._kernel is not None

@@ -32,6 +32,19 @@ Array = NDArray[np.float64]
 Kinematics = tuple[tuple[Array, Array], ...]
 
 
+def kernel_inputs(ci: Array, beta_x: Any, xd: Array) -> tuple[Array, Array]:
+    """The kernels' compliance-index rows with β_x (6,) replaced, and ẋ (6,) as their one compiled signature takes it.
+
+    β_x is made a unit twist as ``ComplianceIndex(beta_x)`` does (the same InputError); None keeps the rows.
+    """
+    if beta_x is not None and ci.shape[0]:
+        ci = ci.copy()
+        ci[:, :6] = unit6(beta_x, "beta_x")
+    if not (xd.flags.c_contiguous and xd.flags.writeable):
+        xd = xd.copy()
+    return ci, xd
+
+
 def _term_rows(objective: Objective) -> tuple[Array, Array, Array] | str:
     """The kernel's rows (ci, reg, jl) of the objective's terms of non-zero weight, or the name of one it lacks."""
     ci: list[list[float]] = []
@@ -108,12 +121,7 @@ class SeveralBraceKernel:
 
     def __call__(self, qa: Array, xd: Array, beta_x: Any = None) -> Array | None:
         """q̇ (n,) at a checked q (n,) for a checked ẋ (6,); None where the kernel declines."""
-        ci = self._ci
-        if beta_x is not None and ci.shape[0]:
-            ci = ci.copy()
-            ci[:, :6] = unit6(beta_x, "beta_x")  # as ComplianceIndex(beta_x): same InputError
-        if not (xd.flags.c_contiguous and xd.flags.writeable):  # one compiled signature
-            xd = xd.copy()
+        ci, xd = kernel_inputs(self._ci, beta_x, xd)
         model, data, tip, bids = self._model, self._data, self._tip, self._bids
         pin.computeJointJacobians(model, data, qa)
         pin.updateFramePlacements(model, data)
