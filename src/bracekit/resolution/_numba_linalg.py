@@ -93,13 +93,7 @@ def _matvec(a, x):  # pragma: no cover - compiled
 @_jit
 def _tmatvec(a, x):  # pragma: no cover - compiled
     """Aᵀ x (plain loops, any layout)."""
-    out = np.empty(a.shape[1])
-    for i in range(a.shape[1]):
-        s = 0.0
-        for r in range(a.shape[0]):
-            s += a[r, i] * x[r]
-        out[i] = s
-    return out
+    return _matvec(a.T, x)
 
 
 @_jit
