@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from numpy.typing import NDArray
 
 from bracekit.compliance._numba_kernels import _finish, _gain, _k2, _shift_rows
 
@@ -31,11 +32,39 @@ K_UNCERTIFIED, KB_UNCERTIFIED, NOT_FINITE, UNLOADED_ROW = 1, 2, 4, 8
 #: Blocks of configurations :func:`evaluate` shares among its threads (each block allocates its scratch once).
 BLOCKS = 64
 
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+#: The chain and contact (:class:`~bracekit.compliance.batch.BatchEvaluator`'s kernel constants, :func:`evaluate`).
+Chain = tuple[
+    Array,
+    Array,
+    IntArray,
+    IntArray,
+    Array,
+    Array,
+    IntArray,
+    Array,
+    IntArray,
+    Array,
+    int,
+    Array,
+    Array,
+    float,
+    float,
+    float,
+]
+#: β_x and what to compute: (beta, do_con, do_proj, do_kb).
+Task = tuple[Array, bool, bool, bool]
+#: The outputs, written in place: (ce_con, ce_proj, ci_con, ci_proj, k, kb, flags).
+Outputs = tuple[Array, Array, Array, Array, Array, Array, IntArray]
+
 _jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
 
 @_jit
-def _rows(start, stop, q, chain, task, out):  # pragma: no cover - compiled
+def _rows(
+    start: int, stop: int, q: Array, chain: Chain, task: Task, out: Outputs
+) -> None:  # pragma: no cover - compiled
     """Rows start … stop − 1 of :func:`evaluate` (one thread's share), with their own scratch arrays."""
     (
         speed,
@@ -261,7 +290,7 @@ def _rows(start, stop, q, chain, task, out):  # pragma: no cover - compiled
 
 
 @njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
-def evaluate(q, chain, task, out):  # pragma: no cover - compiled
+def evaluate(q: Array, chain: Chain, task: Task, out: Outputs) -> None:  # pragma: no cover - compiled
     """C_e, C_i and k of every row of q (N×n) into the output arrays; per-row flags (see the module docstring).
 
     Args:
@@ -305,6 +334,6 @@ def evaluate(q, chain, task, out):  # pragma: no cover - compiled
 
 
 @_jit
-def evaluate_serial(q, chain, task, out):  # pragma: no cover - compiled
+def evaluate_serial(q: Array, chain: Chain, task: Task, out: Outputs) -> None:  # pragma: no cover - compiled
     """:func:`evaluate` on the calling thread only (no threading layer: safe after a fork, no pool start-up)."""
     _rows(0, q.shape[0], q, chain, task, out)

@@ -11,12 +11,15 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
 
 _jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
 
 @_jit
-def _k2(m, lo, col):  # pragma: no cover - compiled
+def _k2(m: Array, lo: Array, col: Array) -> float:  # pragma: no cover - compiled
     """tr(M) tr(M⁻¹) = 36 k² of a symmetric 6×6 M = JJᵀ by Cholesky (‖L⁻¹‖²_F); inf if not positive definite.
 
     `lo` (6×6) and `col` (6,) are scratch space.
@@ -50,7 +53,7 @@ def _k2(m, lo, col):  # pragma: no cover - compiled
 
 
 @_jit
-def _jacobi(m):  # pragma: no cover - compiled
+def _jacobi(m: Array) -> tuple[Array, Array]:  # pragma: no cover - compiled
     """Eigenvalues w and eigenvectors V (columns) of a small symmetric matrix by cyclic Jacobi rotations."""
     c = m.shape[0]
     a = m.copy()
@@ -92,7 +95,7 @@ def _jacobi(m):  # pragma: no cover - compiled
 
 
 @_jit
-def _cholesky(m, add):  # pragma: no cover - compiled
+def _cholesky(m: Array, add: float) -> tuple[Array, bool]:  # pragma: no cover - compiled
     """(L, ok): the Cholesky factor of M + add·I (symmetric M); ok is False where it is not positive definite."""
     c = m.shape[0]
     lo = np.zeros((c, c))
@@ -112,7 +115,7 @@ def _cholesky(m, add):  # pragma: no cover - compiled
 
 
 @_jit
-def _cholesky_inverse(m, add, out):  # pragma: no cover - compiled
+def _cholesky_inverse(m: Array, add: float, out: Array) -> bool:  # pragma: no cover - compiled
     """(M + add·I)⁻¹ = L⁻ᵀ L⁻¹ into out (c×c) by Cholesky; False (out untouched) where not positive definite."""
     c = m.shape[0]
     lo, ok = _cholesky(m, add)
@@ -136,7 +139,9 @@ def _cholesky_inverse(m, add, out):  # pragma: no cover - compiled
 
 
 @_jit
-def _gain(m, tr, env_inv, unloaded_tol, g):  # pragma: no cover - compiled
+def _gain(
+    m: Array, tr: float, env_inv: float, unloaded_tol: float, g: Array
+) -> tuple[int, bool]:  # pragma: no cover - compiled
     """G of ``compliance.loaded_gain`` into g (c×c); returns (unloaded directions, ok)."""
     c = m.shape[0]
     if env_inv > 0.0:  # (m + I/k_env)⁻¹ by Cholesky (symmetric positive definite)
@@ -166,7 +171,7 @@ def _gain(m, tr, env_inv, unloaded_tol, g):  # pragma: no cover - compiled
 
 
 @_jit
-def _shift_rows(a, d0, d1, d2):  # pragma: no cover - compiled
+def _shift_rows(a: Array, d0: float, d1: float, d2: float) -> None:  # pragma: no cover - compiled
     """S_t1 A in place for A (6×m): v += d × ω column by column (eq:twists)."""
     for i in range(a.shape[1]):
         w0, w1, w2 = a[3, i], a[4, i], a[5, i]
@@ -176,7 +181,9 @@ def _shift_rows(a, d0, d1, d2):  # pragma: no cover - compiled
 
 
 @_jit
-def _finish(ce, c2, out, beta, i, bi):  # pragma: no cover - compiled
+def _finish(
+    ce: Array, c2: Array, out: Array, beta: Array, i: int, bi: int
+) -> tuple[float, bool]:  # pragma: no cover - compiled
     """C_e = sym(ce + c2) into out[i]; returns (C_i along beta[bi], finite)."""
     ok = True
     for r in range(6):

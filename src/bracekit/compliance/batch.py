@@ -39,7 +39,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import ModuleType
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -405,7 +405,7 @@ def _inverse_trace(m: Array) -> Array:
         row = -np.einsum("nk,nkj->nj", low[:, i, :i], inv[:, :i, :]) if i else np.zeros((N, size))
         row[:, i] += 1.0
         inv[:, i, :] = row * diag[:, i, None]
-    return np.einsum("nij,nij->n", inv, inv)
+    return cast(Array, np.einsum("nij,nij->n", inv, inv))
 
 
 def _frobenius(j: Array, errors: str, offset: int) -> Array:
@@ -426,7 +426,7 @@ def _frobenius(j: Array, errors: str, offset: int) -> Array:
         k = np.sqrt(k2) / 6.0
     for i in np.flatnonzero(~(k2 < CERTIFIED_COND**2)).tolist():  # 36 k² ≥ cond(J)²; also nan
         k[i] = _reference_condition(j[i], errors, offset + int(i))
-    return k
+    return cast(Array, k)
 
 
 def _reference_condition(j: Array, errors: str, index: int) -> float:

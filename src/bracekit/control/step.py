@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 import pinocchio as pin
@@ -156,7 +156,7 @@ class ControlStep:
         for c, brace, p in zip(state.contacts, self.braced.braces, self.preloads, strict=True):
             if p > 0.0:
                 tau -= c.J_b[:3].T @ (p * brace.surface.normal)
-        return (state.q if q is None else q) + tau / self.stiffness
+        return cast(Array, (state.q if q is None else q) + tau / self.stiffness)
 
     def __call__(self, q: ArrayLike, xdot: ArrayLike) -> ControlResult:
         """One tick at q (n,) rad with the tool twist ẋ (6,) [v; ω], m/s and rad/s, world axes."""

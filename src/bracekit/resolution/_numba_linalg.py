@@ -10,14 +10,19 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from bracekit.compliance._numba_kernels import _cholesky, _cholesky_inverse
+
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
 
 _jit = njit(cache=True, error_model="numpy", nogil=True)
 
 
 @_jit
-def _lu(m):  # pragma: no cover - compiled
+def _lu(m: Array) -> tuple[Array, IntArray, bool]:  # pragma: no cover - compiled
     """LU with partial pivoting of a square matrix, in a copy: (lu, piv, ok); ok is False on a zero pivot."""
     n = m.shape[0]
     lu = m.copy()
@@ -44,7 +49,7 @@ def _lu(m):  # pragma: no cover - compiled
 
 
 @_jit
-def _lu_solve(lu, piv, b):  # pragma: no cover - compiled
+def _lu_solve(lu: Array, piv: IntArray, b: Array) -> Array:  # pragma: no cover - compiled
     """M⁻¹ B for the LU factors of M and a matrix B (n×p)."""
     n, p = b.shape
     x = np.empty((n, p))
@@ -66,7 +71,7 @@ def _lu_solve(lu, piv, b):  # pragma: no cover - compiled
 
 
 @_jit
-def _mm(a, b):  # pragma: no cover - compiled
+def _mm(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
     """A B of small matrices (plain loops: no BLAS call, any layout)."""
     m, p = a.shape
     c = np.zeros((m, b.shape[1]))
@@ -79,7 +84,7 @@ def _mm(a, b):  # pragma: no cover - compiled
 
 
 @_jit
-def _matvec(a, x):  # pragma: no cover - compiled
+def _matvec(a: Array, x: Array) -> Array:  # pragma: no cover - compiled
     """A x (plain loops, any layout)."""
     out = np.empty(a.shape[0])
     for r in range(a.shape[0]):
@@ -91,13 +96,13 @@ def _matvec(a, x):  # pragma: no cover - compiled
 
 
 @_jit
-def _tmatvec(a, x):  # pragma: no cover - compiled
+def _tmatvec(a: Array, x: Array) -> Array:  # pragma: no cover - compiled
     """Aᵀ x (plain loops, any layout)."""
     return _matvec(a.T, x)
 
 
 @_jit
-def _frobenius2(m):  # pragma: no cover - compiled
+def _frobenius2(m: Array) -> float:  # pragma: no cover - compiled
     s = 0.0
     for i in range(m.shape[0]):
         for j in range(m.shape[1]):
@@ -106,7 +111,7 @@ def _frobenius2(m):  # pragma: no cover - compiled
 
 
 @_jit
-def _householder(r):  # pragma: no cover - compiled
+def _householder(r: Array) -> tuple[Array, bool]:  # pragma: no cover - compiled
     """Householder QR of r (rows×cols, rows ≥ cols) in place: R in its upper triangle (zeros below).
 
     Returns (vs, ok): the unit reflector vectors vs[j] (H_j = I − 2 vs[j] vs[j]ᵀ, entries j… of row j), ok False
@@ -145,7 +150,7 @@ def _householder(r):  # pragma: no cover - compiled
 
 
 @_jit
-def _reflect(vs, b):  # pragma: no cover - compiled
+def _reflect(vs: Array, b: Array) -> None:  # pragma: no cover - compiled
     """H_0 … H_{c−1} b in place for the reflectors of :func:`_householder` (b: rows×p)."""
     for j in range(vs.shape[0] - 1, -1, -1):
         for c in range(b.shape[1]):
@@ -158,7 +163,7 @@ def _reflect(vs, b):  # pragma: no cover - compiled
 
 
 @_jit
-def _row_basis(at):  # pragma: no cover - compiled
+def _row_basis(at: Array) -> tuple[Array, Array, bool]:  # pragma: no cover - compiled
     """Householder QR of Aᵀ (k×m, k ≥ m): (Q (k×m) orthonormal, R⁻¹ (m×m) upper, ok)."""
     k, m = at.shape
     r = at.copy()
@@ -182,7 +187,7 @@ def _row_basis(at):  # pragma: no cover - compiled
 
 
 @_jit
-def _spd_inverse(m, shift):  # pragma: no cover - compiled
+def _spd_inverse(m: Array, shift: float) -> tuple[Array, bool]:  # pragma: no cover - compiled
     """(M⁻¹, ok) of a symmetric M by Cholesky; ok only if every eigenvalue of M exceeds `shift`.
 
     M − shift·I is tested positive definite by a first Cholesky (no eigen-decomposition).
@@ -195,7 +200,7 @@ def _spd_inverse(m, shift):  # pragma: no cover - compiled
 
 
 @_jit
-def _null_space(m, cert2, null_rtol):  # pragma: no cover - compiled
+def _null_space(m: Array, cert2: float, null_rtol: float) -> tuple[Array, bool]:  # pragma: no cover - compiled
     """(N, ok): an orthonormal basis N (k×max(k − c, 0)) of the null space of M (c×k), by Householder QR.
 
     ok only where M has full rank min(c, k) with a margin: cond(M) ≤ ‖M‖_F ‖R⁻¹‖_F < √cert2 and

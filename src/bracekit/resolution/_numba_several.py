@@ -26,8 +26,12 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from bracekit.resolution._numba_linalg import _frobenius2, _matvec, _null_space, _row_basis, _spd_inverse, _tmatvec
+
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 #: Status codes of :func:`gp_step_several` (those of the one-brace kernel).
 OK, NOT_CERTIFIED, BARRIER = 0, 1, 3
@@ -36,7 +40,9 @@ _jit = njit(cache=True, error_model="numpy", nogil=True)
 
 
 @_jit
-def _constrained_deflection(je, g, minv, kinv, x):  # pragma: no cover - compiled
+def _constrained_deflection(
+    je: Array, g: Array, minv: Array, kinv: Array, x: Array
+) -> tuple[Array, Array]:  # pragma: no cover - compiled
     """(x̃, p_x) for a twist x (6,): p_x = M⁻¹ G K⁻¹ J_eᵀ x (c,), x̃ = K⁻¹ (J_eᵀ x − Gᵀ p_x) (n,)."""
     u = _tmatvec(je, x) * kinv
     p = _matvec(minv, _matvec(g, u))
@@ -44,7 +50,22 @@ def _constrained_deflection(je, g, minv, kinv, x):  # pragma: no cover - compile
 
 
 @_jit
-def _objective_gradient(q, je, jbs, he, hbs, mbs, g, minv, kinv, xrows, rowbrace, ci, reg, jl):  # pragma: no cover
+def _objective_gradient(
+    q: Array,
+    je: Array,
+    jbs: tuple[Array, ...],
+    he: Array,
+    hbs: tuple[Array, ...],
+    mbs: tuple[Array, ...],
+    g: Array,
+    minv: Array,
+    kinv: Array,
+    xrows: Array,
+    rowbrace: IntArray,
+    ci: Array,
+    reg: Array,
+    jl: Array,
+) -> tuple[int, Array]:  # pragma: no cover
     """(status, ∂g/∂q (n,)) of the compiled terms: C_i (constrained), region barriers d_i, joint-limit barrier."""
     n = je.shape[1]
     nb = len(jbs)
@@ -110,7 +131,23 @@ def _objective_gradient(q, je, jbs, he, hbs, mbs, g, minv, kinv, xrows, rowbrace
 
 
 @_jit
-def gp_step_several(q, je, jbs, he, hbs, mbs, sel, xd, xrows, rowbrace, kinv, ci, reg, jl, par):  # pragma: no cover
+def gp_step_several(
+    q: Array,
+    je: Array,
+    jbs: tuple[Array, ...],
+    he: Array,
+    hbs: tuple[Array, ...],
+    mbs: tuple[Array, ...],
+    sel: Array,
+    xd: Array,
+    xrows: Array,
+    rowbrace: IntArray,
+    kinv: Array,
+    ci: Array,
+    reg: Array,
+    jl: Array,
+    par: Array,
+) -> tuple[int, Array]:  # pragma: no cover
     """(status, q̇) of ``BracedGradientProjection.velocity`` with several braces and the analytic ∇g.
 
     q̇ = N [B⁺ S ẋ + α (I − B⁺B) Nᵀ ∂g/∂q], B = S J_e N.

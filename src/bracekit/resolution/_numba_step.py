@@ -25,17 +25,37 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from bracekit.resolution._numba_linalg import _frobenius2, _lu, _lu_solve, _mm, _null_space, _row_basis, _spd_inverse
 
 #: Status codes of :func:`gp_step`.
 OK, NOT_CERTIFIED, UNLOADED, BARRIER = 0, 1, 2, 3
 
+Array = NDArray[np.float64]
+
 _jit = njit(cache=True, error_model="numpy", nogil=True)
 
 
 @_jit
-def gp_step(je, jb, he, hb, mb, me, xd, h, x, t_proj, kinv, ci, reg, normal, par, n1):  # pragma: no cover - compiled
+def gp_step(
+    je: Array,
+    jb: Array,
+    he: Array,
+    hb: Array,
+    mb: Array,
+    me: Array,
+    xd: Array,
+    h: Array,
+    x: Array,
+    t_proj: Array,
+    kinv: Array,
+    ci: Array,
+    reg: Array,
+    normal: Array,
+    par: Array,
+    n1: int,
+) -> tuple[int, Array]:  # pragma: no cover - compiled
     """(status, q̇) of one braced gradient-projection step (eq:grad_proj) with the analytic ∇g, any n1 ≥ 1.
 
     Args:

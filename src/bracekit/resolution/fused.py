@@ -40,7 +40,7 @@ import importlib
 import math
 from dataclasses import replace
 from types import ModuleType
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import pinocchio as pin
@@ -349,7 +349,7 @@ class GradientProjectionStep:
             inv = inverse(j1)
             if inv is None or not float(np.vdot(j1, j1)) * float(np.vdot(inv, inv)) < self._cert2:
                 raise NotCertified  # ‖J1‖²_F ‖J1⁻¹‖²_F ≥ cond(J1)²
-            return inv.dot(self._H)
+            return cast(Array, inv.dot(self._H))
         return contact_null_space(self._X.T @ j1)
 
     def _step(self, qa: Array, xd: Array, obj: Objective) -> Array:

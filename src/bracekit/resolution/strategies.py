@@ -16,7 +16,7 @@ several the null space N of the stacked constraint G, A = J_e N, and ∇g = Nᵀ
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Literal, Protocol
+from typing import Literal, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,7 +38,7 @@ def pinv_checked(m: Array, what: str) -> Array:
     u, s, vt = np.linalg.svd(m, full_matrices=False)
     if s[-1] <= STEP_SINGULAR_RATIO * s[0]:
         raise SingularityError(f"{what} is singular (σ_min/σ_max = {s[-1] / max(s[0], 1e-300):.2e})")
-    return (vt.T / s) @ u.T
+    return cast(Array, (vt.T / s) @ u.T)
 
 
 class Strategy(Protocol):
