@@ -15,6 +15,7 @@ several the null space N of the stacked constraint G, A = J_e N, and ∇g = Nᵀ
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Literal, Protocol, cast
 
@@ -95,7 +96,8 @@ MAX_TIP_TWIST = 1e12
 def tip_twist(xdot: ArrayLike) -> Array:
     """ẋ as a finite (6,) float array [v; ω] (m/s, rad/s), each |component| ≤ MAX_TIP_TWIST; InputError otherwise."""
     if type(xdot) is np.ndarray and xdot.dtype == np.float64 and xdot.shape == (6,):  # the control loop's case
-        if max(map(abs, xdot.tolist())) <= MAX_TIP_TWIST:  # False for NaN and ±inf: checked below
+        values = xdot.tolist()
+        if math.isfinite(sum(values)) and max(map(abs, values)) <= MAX_TIP_TWIST:  # else checked below
             return xdot
     x = as_array(xdot, "the tip twist ẋ [v; ω]", (6,))
     big = float(np.max(np.abs(x)))
