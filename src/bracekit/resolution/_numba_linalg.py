@@ -102,6 +102,21 @@ def _tmatvec(a: Array, x: Array) -> Array:  # pragma: no cover - compiled
 
 
 @_jit
+def _region_pull(mb: Array, row: Array) -> tuple[bool, float, float, float]:  # pragma: no cover - compiled
+    """RegionBarrier.gradient's pull on b (⁰M_b, 4×4) for a row (centre (3), r_max, weight): (inside, c · (b − p)).
+
+    c = weight · 2 r_max² / (r_max² − r²)², the factor of J_b[:3]ᵀ (b − p) in ∂d/∂q; inside False at r ≥ r_max.
+    """
+    rel0, rel1, rel2 = mb[0, 3] - row[0], mb[1, 3] - row[1], mb[2, 3] - row[2]
+    r2 = rel0 * rel0 + rel1 * rel1 + rel2 * rel2
+    rm2 = row[3] * row[3]
+    if not r2 < rm2:
+        return False, 0.0, 0.0, 0.0
+    c = row[4] * 2.0 * rm2 / (rm2 - r2) ** 2
+    return True, c * rel0, c * rel1, c * rel2
+
+
+@_jit
 def _frobenius2(m: Array) -> float:  # pragma: no cover - compiled
     s = 0.0
     for i in range(m.shape[0]):

@@ -28,10 +28,23 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from bracekit.resolution._numba_linalg import _frobenius2, _matvec, _null_space, _row_basis, _spd_inverse, _tmatvec
+from bracekit.resolution._numba_linalg import (
+    _frobenius2,
+    _matvec,
+    _null_space,
+    _region_pull,
+    _row_basis,
+    _spd_inverse,
+    _tmatvec,
+)
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+#: One Pinocchio pass: J_e, every J_b_i, the Hessian rows of {e} and of every {b_i}, every ⁰M_b_i.
+Kinematics = tuple[Array, tuple[Array, ...], Array, tuple[Array, ...], tuple[Array, ...]]
+#: The compiled terms' rows: compliance indices, region barriers, bounded joints of joint-limit barriers.
+Terms = tuple[Array, Array, Array]
 
 #: Status codes of :func:`gp_step_several` (those of the one-brace kernel).
 OK, NOT_CERTIFIED, BARRIER = 0, 1, 3
@@ -51,22 +64,11 @@ def _constrained_deflection(
 
 @_jit
 def _objective_gradient(
-    q: Array,
-    je: Array,
-    jbs: tuple[Array, ...],
-    he: Array,
-    hbs: tuple[Array, ...],
-    mbs: tuple[Array, ...],
-    g: Array,
-    minv: Array,
-    kinv: Array,
-    xrows: Array,
-    rowbrace: IntArray,
-    ci: Array,
-    reg: Array,
-    jl: Array,
+    q: Array, kin: Kinematics, g: Array, minv: Array, kinv: Array, xrows: Array, rowbrace: IntArray, terms: Terms
 ) -> tuple[int, Array]:  # pragma: no cover
     """(status, ∂g/∂q (n,)) of the compiled terms: C_i (constrained), region barriers d_i, joint-limit barrier."""
+    je, jbs, he, hbs, mbs = kin
+    ci, reg, jl = terms
     n = je.shape[1]
     nb = len(jbs)
     dg = np.zeros(n)
@@ -96,16 +98,12 @@ def _objective_gradient(
                         ub[b, p, i] -= f * xp * (pb[row] * at[i] + pa[row] * bt[i])
     for t in range(reg.shape[0]):  # RegionBarrier.gradient of brace reg[t, 0]
         b = int(reg[t, 0])
-        mb = mbs[b]
-        rel0, rel1, rel2 = mb[0, 3] - reg[t, 1], mb[1, 3] - reg[t, 2], mb[2, 3] - reg[t, 3]
-        r2 = rel0 * rel0 + rel1 * rel1 + rel2 * rel2
-        rm2 = reg[t, 4] * reg[t, 4]
-        if not r2 < rm2:
+        inside, p0, p1, p2 = _region_pull(mbs[b], reg[t, 1:])
+        if not inside:
             return BARRIER, dg
-        cc = reg[t, 5] * 2.0 * rm2 / (rm2 - r2) ** 2
-        yb[b, 0] += cc * rel0
-        yb[b, 1] += cc * rel1
-        yb[b, 2] += cc * rel2
+        yb[b, 0] += p0
+        yb[b, 1] += p1
+        yb[b, 2] += p2
     for t in range(jl.shape[0]):  # JointLimitBarrier.gradient_of_q
         j = int(jl[t, 0])
         below, above = q[j] - jl[t, 1], jl[t, 2] - q[j]
@@ -133,19 +131,13 @@ def _objective_gradient(
 @_jit
 def gp_step_several(
     q: Array,
-    je: Array,
-    jbs: tuple[Array, ...],
-    he: Array,
-    hbs: tuple[Array, ...],
-    mbs: tuple[Array, ...],
+    kin: Kinematics,
     sel: Array,
     xd: Array,
     xrows: Array,
     rowbrace: IntArray,
     kinv: Array,
-    ci: Array,
-    reg: Array,
-    jl: Array,
+    terms: Terms,
     par: Array,
 ) -> tuple[int, Array]:  # pragma: no cover
     """(status, q̇) of ``BracedGradientProjection.velocity`` with several braces and the analytic ∇g.
@@ -154,21 +146,20 @@ def gp_step_several(
 
     Args:
         q: the configuration (n,), rad.
-        je: the frame Jacobian of {e} (6×n, world axes, LOCAL_WORLD_ALIGNED).
-        jbs: the frame Jacobians of every {b_i} (a tuple of 6×n).
-        he: the kinematic Hessian of {e} as (n, 6n) rows, ``he[k, r + 6 i] = ∂J_e[r, i]/∂q_k``.
-        hbs: the same of every {b_i} (a tuple).
-        mbs: ⁰M_b_i (4×4) of every brace (a tuple).
+        kin: one Pinocchio pass (:data:`Kinematics`): the frame Jacobian J_e of {e} (6×n, world axes,
+            LOCAL_WORLD_ALIGNED), those of every {b_i} (a tuple), the kinematic Hessian of {e} as (n, 6n) rows
+            (``he[k, r + 6 i] = ∂J_e[r, i]/∂q_k``), those of every {b_i}, and ⁰M_b_i (4×4) of every brace.
         sel: the task rows S(⁰R_e) (m×6).
         xd: the tip twist ẋ (6,).
         xrows: the rows of G as constraint wrenches, a column of their brace's X_i (c×6).
         rowbrace: the brace index of each row (c,).
         kinv: 1/K (n,).
-        ci: one row per compliance-index term: β_x (6), weight.
-        reg: one row per region-barrier term: brace index, centre (3), r_max, weight.
-        jl: one row per bounded joint of a joint-limit barrier: joint index, q_min, q_max, weight.
+        terms: the compiled terms (:data:`Terms`): one row per compliance-index term (β_x (6), weight), per
+            region-barrier term (brace index, centre (3), r_max, weight) and per bounded joint of a joint-limit
+            barrier (joint index, q_min, q_max, weight).
         par: [α, CERTIFIED_COND², UNLOADED_TOL, NULL_SPACE_RTOL].
     """
+    je, jbs = kin[0], kin[1]
     n = je.shape[1]
     c = xrows.shape[0]
     m = sel.shape[0]
@@ -221,7 +212,7 @@ def gp_step_several(
     qq, rinv, ok = _row_basis(bt)
     if not ok or not _frobenius2(bt) * _frobenius2(rinv) < cert2:
         return NOT_CERTIFIED, out
-    status, dg = _objective_gradient(q, je, jbs, he, hbs, mbs, g, minv, kinv, xrows, rowbrace, ci, reg, jl)
+    status, dg = _objective_gradient(q, kin, g, minv, kinv, xrows, rowbrace, terms)
     if status != OK:
         return status, out
     grad = _tmatvec(basis, dg)  # Nᵀ ∂g/∂q

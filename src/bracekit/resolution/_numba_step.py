@@ -27,7 +27,16 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from bracekit.resolution._numba_linalg import _frobenius2, _lu, _lu_solve, _mm, _null_space, _row_basis, _spd_inverse
+from bracekit.resolution._numba_linalg import (
+    _frobenius2,
+    _lu,
+    _lu_solve,
+    _mm,
+    _null_space,
+    _region_pull,
+    _row_basis,
+    _spd_inverse,
+)
 
 #: Status codes of :func:`gp_step`.
 OK, NOT_CERTIFIED, UNLOADED, BARRIER = 0, 1, 2, 3
@@ -283,15 +292,12 @@ def gp_step(
             y[4] += w_theta * u1 / s
             y[5] += w_theta * u2 / s
     for term in range(reg.shape[0]):  # RegionBarrier.gradient
-        rel0, rel1, rel2 = mb[0, 3] - reg[term, 0], mb[1, 3] - reg[term, 1], mb[2, 3] - reg[term, 2]
-        r2 = rel0 * rel0 + rel1 * rel1 + rel2 * rel2
-        rm2 = reg[term, 3] * reg[term, 3]
-        if not r2 < rm2:
+        inside, p0, p1, p2 = _region_pull(mb, reg[term])
+        if not inside:
             return BARRIER, out
-        c = reg[term, 4] * 2.0 * rm2 / (rm2 - r2) ** 2
-        y[0] += c * rel0
-        y[1] += c * rel1
-        y[2] += c * rel2
+        y[0] += p0
+        y[1] += p1
+        y[2] += p2
     dg = np.zeros(n)
     for k in range(n):
         s = 0.0

@@ -134,21 +134,7 @@ class SeveralBraceKernel:
         he = frame_hessian_rows(model, data, tip)
         hbs = tuple(frame_hessian_rows(model, data, f) for f in bids)
         sel = self._sel if self._sel is not None else self._space.selection(me[:3, :3])
-        status, out = self._kernel(
-            qa,
-            je,
-            jbs,
-            he,
-            hbs,
-            mbs,
-            sel,
-            xd,
-            self._xrows,
-            self._rowbrace,
-            self._kinv,
-            ci,
-            self._reg,
-            self._jl,
-            self._par,
-        )
+        kin = (je, jbs, he, hbs, mbs)
+        terms = (ci, self._reg, self._jl)
+        status, out = self._kernel(qa, kin, sel, xd, self._xrows, self._rowbrace, self._kinv, terms, self._par)
         return out if status == 0 and math.isfinite(out.sum()) else None
