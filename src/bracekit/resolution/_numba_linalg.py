@@ -84,6 +84,19 @@ def _mm(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
 
 
 @_jit
+def _tmm(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
+    """Aᵀ B of small matrices (plain loops, any layout; each entry summed over the rows in order)."""
+    out = np.empty((a.shape[1], b.shape[1]))
+    for c in range(a.shape[1]):
+        for i in range(b.shape[1]):
+            s = 0.0
+            for r in range(a.shape[0]):
+                s += a[r, c] * b[r, i]
+            out[c, i] = s
+    return out
+
+
+@_jit
 def _matvec(a: Array, x: Array) -> Array:  # pragma: no cover - compiled
     """A x (plain loops, any layout)."""
     out = np.empty(a.shape[0])

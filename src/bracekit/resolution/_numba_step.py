@@ -36,6 +36,7 @@ from bracekit.resolution._numba_linalg import (
     _region_pull,
     _row_basis,
     _spd_inverse,
+    _tmm,
 )
 
 #: Status codes of :func:`gp_step`.
@@ -116,14 +117,7 @@ def gp_step(
         g1 = _mm(j1inv, h)
         first = _mm(s1, h)
     else:  # dq1/db̃ = an orthonormal basis of the null space of Xᵀ J1
-        xtj1 = np.empty((nc, n1))
-        for c in range(nc):
-            for i in range(n1):
-                s = 0.0
-                for r in range(6):
-                    s += x[r, c] * j1[r, i]
-                xtj1[c, i] = s
-        g1, ok = _null_space(xtj1, cert2, null_rtol)
+        g1, ok = _null_space(_tmm(x, j1), cert2, null_rtol)
         if not ok:
             return NOT_CERTIFIED, out
         first = _mm(s1, _mm(j1, g1))
@@ -191,13 +185,7 @@ def gp_step(
                             for i in range(n1):
                                 s += jb[r, i] * jx[i]
                             cx[r, c] = s
-                    m = np.zeros((nc, nc))
-                    for c1 in range(nc):
-                        for c2 in range(nc):
-                            s = 0.0
-                            for r in range(6):
-                                s += x[r, c1] * cx[r, c2]
-                            m[c1, c2] = s
+                    m = _tmm(x, cx)
                     # loaded with a margin: every eigenvalue of m above 2 · UNLOADED_TOL · tr(C1)
                     g, ok = _spd_inverse(m, 2.0 * unloaded_tol * max(tr, 1e-300))
                     if not ok:
