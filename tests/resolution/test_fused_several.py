@@ -151,3 +151,20 @@ def test_control_step_of_two_braces_uses_one_pass_and_the_kernel() -> None:
         assert np.max(np.abs(a.qdot - b.qdot)) <= RTOL * np.max(np.abs(b.qdot))
         for x, y in zip(a[2:], b[2:], strict=True):
             np.testing.assert_allclose(x, y, rtol=0, atol=1e-12)
+
+
+def test_terms_the_reference_refuses_are_left_to_it() -> None:
+    """A region barrier of a third brace on a two-brace robot: not compiled, the reference's InputError."""
+    from bracekit.errors import InputError
+
+    sc = _scenario()
+    braced = sc.braced
+    strategy = BracedGradientProjection(
+        Objective([RegionBarrier(0.2, braced.braces[1].surface.point, name="d_2", brace=2)], [1.0]),
+        space=sc.task_space,
+    )
+    step = GradientProjectionStep(braced, strategy, backend="numba")
+    assert not step.uses_kernel and "d_2" in (step.fallback_reason or "")
+    q = np.asarray(sc.guess, dtype=float)
+    with pytest.raises(InputError, match="braces\\[2\\]"):
+        step(q, np.zeros(6))

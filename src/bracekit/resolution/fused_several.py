@@ -45,8 +45,12 @@ def kernel_inputs(ci: Array, beta_x: Any, xd: Array) -> tuple[Array, Array]:
     return ci, xd
 
 
-def _term_rows(objective: Objective) -> tuple[Array, Array, Array] | str:
-    """The kernel's rows (ci, reg, jl) of the objective's terms of non-zero weight, or the name of one it lacks."""
+def _term_rows(objective: Objective, braces: int, n: int) -> tuple[Array, Array, Array] | str:
+    """The kernel's rows (ci, reg, jl) of the objective's terms of non-zero weight, or the name of one it lacks.
+
+    A term the reference refuses (a region barrier of a brace the robot lacks, joint limits of another length) is
+    left to the reference, which raises its error.
+    """
     ci: list[list[float]] = []
     reg: list[list[float]] = []
     jl: list[list[float]] = []
@@ -57,9 +61,9 @@ def _term_rows(objective: Objective) -> tuple[Array, Array, Array] | str:
         kind = type(term)  # exactly these classes: a subclass may change value or gradient
         if kind is ComplianceIndex and isinstance(term, ComplianceIndex) and term.model == "constrained":
             ci.append([*term.beta_x.tolist(), w])
-        elif kind is RegionBarrier and isinstance(term, RegionBarrier):
+        elif kind is RegionBarrier and isinstance(term, RegionBarrier) and term.brace < braces:
             reg.append([float(term.brace), *term.centre.tolist(), float(term.r_max), w])
-        elif kind is JointLimitBarrier and isinstance(term, JointLimitBarrier):
+        elif kind is JointLimitBarrier and isinstance(term, JointLimitBarrier) and term.lower.size == n:
             index = term._index  # type: ignore[attr-defined]  # the bounded joints
             jl.extend([float(j), float(term.lower[j]), float(term.upper[j]), w] for j in index)
         else:
@@ -109,7 +113,7 @@ class SeveralBraceKernel:
             return None, "finite-difference gradient"
         if any(b.environment_stiffness is not None for b in braced.braces):
             return None, "several braces with a compliant environment: the reference step runs (same q̇)"
-        rows = _term_rows(strategy.objective)
+        rows = _term_rows(strategy.objective, len(braced.braces), braced.n)
         if isinstance(rows, str):
             return None, f"term without a compiled copy for several braces: {rows}"
         return cls(braced, strategy, kernels, rows), None
