@@ -99,7 +99,8 @@ class SeveralBraceKernel:
         self._rowbrace = np.array(rowbrace, dtype=np.int64)
         self._kinv = np.ascontiguousarray(1.0 / robot.stiffness, dtype=float)
         self._space = strategy.space
-        self._sel = self._space.selection(np.eye(3)) if self._space.kind in ("pose", "position") else None
+        constant = self._space.kind in ("pose", "position")  # a writable copy: one compiled signature
+        self._sel = np.array(self._space.selection(np.eye(3))) if constant else None
         self._par = np.array([float(strategy.alpha), CERTIFIED_COND**2, UNLOADED_TOL, NULL_SPACE_RTOL])
         self._kernel = kernels.gp_step_several
         self._last: tuple[Array, Kinematics] | None = None
