@@ -20,6 +20,7 @@ from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.motions import MATRIX_LABELS
 from bracekit.model.robot import Robot
 from bracekit.resolution.task_space import TaskSpace
+from bracekit.simulation.correction import norm
 from bracekit.tolerances import (
     DEFAULT_JOINT_SPEED,
     JOINT_STEP_SAFETY,
@@ -179,7 +180,7 @@ def braces_outside(braced: BracedRobot, state: BracedState) -> list[int]:
     return [
         i
         for i, (brace, b) in enumerate(zip(braced.braces, state.b_i, strict=True))
-        if brace.region_radius is not None and np.linalg.norm(b - brace.surface.point) >= brace.region_radius
+        if brace.region_radius is not None and norm(b - brace.surface.point) >= brace.region_radius
     ]
 
 

@@ -49,7 +49,7 @@ from bracekit.objective import RegionBarrier
 from bracekit.resolution.fused import Backend, GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
-from bracekit.simulation.correction import correct, reach, task_error
+from bracekit.simulation.correction import correct, norm, reach, task_error
 from bracekit.simulation.guards import (
     LIMIT_SCALES,
     MAX_SUBSTEP_DEPTH,
@@ -209,7 +209,7 @@ def simulate(
         states: list[BracedState], first: int, ratios: list[dict[str, float]], jumps: list[float]
     ) -> tuple[Samples | None, int, BracekitError | None]:
         times = [(first + i) * dt for i in range(len(states))]
-        errors = [float(np.linalg.norm(task.position(t) - st.e)) for t, st in zip(times, states, strict=True)]
+        errors = [norm(task.position(t) - st.e) for t, st in zip(times, states, strict=True)]
         return measure_path(braced, states, [beta_x(t) for t in times], errors, ratios, jumps)
 
     with warnings.catch_warnings(record=True) as caught:

@@ -134,5 +134,3 @@ def in_plane(n: Array, s: Array) -> Array | None:
 def task_time(t: float) -> float:
     """A time (s) as a float; InputError unless it is a finite number."""
     return t if type(t) is float and math.isfinite(t) else as_number(t, "the time t", unit="s")
-
-
