@@ -138,10 +138,10 @@ def correct(
     st = braced.state(q)
     res, rows = _rows(st, position, rotation, anchors, space)
     for _ in range(max_iter):
-        size = float(np.max(np.abs(res) / scale))
+        size = float((np.abs(res) / scale).max())  # np.max's reduction, without its wrapper
         if size < tol or (size < ACCEPT_TOL and size > 0.5 * previous):
             return st
-        floor = roundoff * max(1.0, float(np.max(np.abs(st.q)))) * norm(rows / scale[:, None])
+        floor = roundoff * max(1.0, float(np.abs(st.q).max())) * norm(rows / scale[:, None])
         if size < floor:  # with the test above: size < max(tol, floor), the round-off floor only where it decides
             return st
         previous = size

@@ -236,7 +236,7 @@ def simulate(
                 before = st.q
                 st = advance(st, i * dt, dt)
                 step = np.abs(st.q - before)
-                if np.any(step > bound):
+                if (step > bound).any():
                     gain = getattr(strategy, "objective", None) is not None
                     raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
                 ratios = sigma_ratios(st, space, checked)  # the others after the steps, at once
@@ -246,7 +246,7 @@ def simulate(
                 break
             states.append(st)
             ratio_rows.append(ratios)
-            jumps.append(float(np.max(step)))
+            jumps.append(float(step.max()))
             if progress is not None:
                 progress(1)
         # the measures, from the corrected states, all at once; the run stops at the first it cannot measure
