@@ -84,7 +84,7 @@ def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
     """
     out = []
     for x, c, (_, r0) in zip(state.X_i, state.contacts, anchors, strict=True):
-        if not np.any(x[3:]):
+        if not x[3:].any():
             out.append(x.T @ c.J_b)
             continue
         r = c.R_b @ r0.T

@@ -57,6 +57,7 @@ from bracekit.simulation.guards import (
     check_conditioning,
     joint_step_bound,
     jump_failure,
+    limit_bounds,
     limit_failure,
     outside_limits,
     point_label,
@@ -156,6 +157,7 @@ def simulate(
     scalable = isinstance(strategy, BracedGradientProjection)
     length = reach(braced.robot)
     bound = joint_step_bound(braced.robot, dt)
+    limits = limit_bounds(braced.robot)
     counts = {"substeps": 0, "limited": 0}
 
     def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
@@ -181,11 +183,11 @@ def simulate(
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
         goal = task.position(t + h)
         new = correct(braced, st.q + rate(st, t, xdot) * h, goal, rotation, anchors, length=length, space=space)
-        if outside_limits(braced.robot, new.q).size:
+        if outside_limits(braced.robot, new.q, limits).size:
             for scale in LIMIT_SCALES if scalable else ():
                 qdot = rate(st, t, xdot, scale)
                 new = correct(braced, st.q + qdot * h, goal, rotation, anchors, length=length, space=space)
-                if not outside_limits(braced.robot, new.q).size:
+                if not outside_limits(braced.robot, new.q, limits).size:
                     counts["limited"] += 1
                     break
             else:
