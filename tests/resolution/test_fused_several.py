@@ -168,3 +168,27 @@ def test_terms_the_reference_refuses_are_left_to_it() -> None:
     q = np.asarray(sc.guess, dtype=float)
     with pytest.raises(InputError, match="braces\\[2\\]"):
         step(q, np.zeros(6))
+
+
+def test_the_braced_conditioning_barrier_is_certified_inactive_or_left_to_the_reference() -> None:
+    """Inactive (r well above r₀): the kernel adds nothing, as the reference; active: the kernel declines."""
+    conditioning = pytest.importorskip("bracekit.objective.braced_conditioning")
+    sc = _scenario()
+    braced = sc.braced
+    beta = np.array([1.0, 0.0, 0.5, 0.0, 0.0, 0.0])
+    xdot = np.array([0.0, 0.01, 0.02, 0.0, 0.0, 0.0])
+    for r0, active in ((0.01, False), (0.99, True)):
+        term = conditioning.BracedConditioning(threshold=r0, space=sc.task_space)
+        objective = Objective([ComplianceIndex(beta, "constrained"), term], [100.0, 0.5])
+        strategy = BracedGradientProjection(objective, space=sc.task_space)
+        step = GradientProjectionStep(braced, strategy, backend="numba")
+        assert step.uses_kernel
+        for q in _configurations(3):
+            ref = _reference(strategy, q, xdot)
+            got = step._multi(q, xdot)  # type: ignore[misc]
+            if active:
+                assert got is None  # the reference computes the barrier's gradient
+                np.testing.assert_array_equal(step(q, xdot), ref)
+            else:
+                assert got is not None
+                assert np.max(np.abs(got - ref)) <= RTOL * np.max(np.abs(ref))

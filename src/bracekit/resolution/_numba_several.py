@@ -43,8 +43,12 @@ IntArray = NDArray[np.int64]
 
 #: One Pinocchio pass: J_e, every J_b_i, the Hessian rows of {e} and of every {b_i}, every ⁰M_b_i.
 Kinematics = tuple[Array, tuple[Array, ...], Array, tuple[Array, ...], tuple[Array, ...]]
-#: The compiled terms' rows: compliance indices, region barriers, bounded joints of joint-limit barriers.
-Terms = tuple[Array, Array, Array]
+#: The compiled terms' rows: compliance indices, region barriers, bounded joints of joint-limit barriers, and the
+#: braced-conditioning barriers whose inactivity the kernel certifies.
+Terms = tuple[Array, Array, Array, Array]
+
+#: The braced-conditioning barrier counts as inactive where σ_min/σ_max provably exceeds its r₀ by this factor.
+INACTIVE_MARGIN = 1.1
 
 #: Status codes of :func:`gp_step_several` (those of the one-brace kernel).
 OK, NOT_CERTIFIED, BARRIER = 0, 1, 3
@@ -63,12 +67,46 @@ def _constrained_deflection(
 
 
 @_jit
+def _conditioning_inactive(
+    je: Array, g: Array, minv: Array, kinv: Array, rows: int, r0: float
+) -> bool:  # pragma: no cover - compiled
+    """Whether r = √(λ_min/λ_max) of S C_e Sᵀ (S the first `rows` rows of I₆) certainly exceeds INACTIVE_MARGIN · r₀.
+
+    S C_e Sᵀ = S J_e K⁻¹ J_eᵀ Sᵀ − B M⁻¹ Bᵀ, B = S J_e K⁻¹ Gᵀ (eq:Ce, rigid braces); λ_min ≥ 1/‖(S C_e Sᵀ)⁻¹‖_F
+    and λ_max ≤ ‖S C_e Sᵀ‖_F, so r² ≥ 1/(‖·‖_F ‖·⁻¹‖_F). Then the barrier and its gradient are 0 (eq:cond_barrier).
+    """
+    c, n = g.shape
+    ms = np.empty((rows, rows))
+    bs = np.empty((rows, c))
+    for r in range(rows):
+        for t in range(c):
+            s = 0.0
+            for i in range(n):
+                s += je[r, i] * kinv[i] * g[t, i]
+            bs[r, t] = s
+    for r in range(rows):
+        for t in range(rows):
+            s = 0.0
+            for i in range(n):
+                s += je[r, i] * kinv[i] * je[t, i]
+            for a in range(c):
+                for b in range(c):
+                    s -= bs[r, a] * minv[a, b] * bs[t, b]
+            ms[r, t] = s
+    inv, ok = _spd_inverse(ms, 0.0)
+    return ok and 1.0 > _frobenius2(ms) * _frobenius2(inv) * (INACTIVE_MARGIN * r0) ** 4
+
+
+@_jit
 def _objective_gradient(
     q: Array, kin: Kinematics, g: Array, minv: Array, kinv: Array, xrows: Array, rowbrace: IntArray, terms: Terms
 ) -> tuple[int, Array]:  # pragma: no cover
     """(status, ∂g/∂q (n,)) of the compiled terms: C_i (constrained), region barriers d_i, joint-limit barrier."""
     je, jbs, he, hbs, mbs = kin
-    ci, reg, jl = terms
+    ci, reg, jl, cond = terms
+    for t in range(cond.shape[0]):  # a braced-conditioning barrier: zero where certified inactive, else declined
+        if not _conditioning_inactive(je, g, minv, kinv, int(cond[t, 1]), cond[t, 0]):
+            return NOT_CERTIFIED, np.zeros(je.shape[1])
     n = je.shape[1]
     nb = len(jbs)
     dg = np.zeros(n)

@@ -5,7 +5,9 @@
 ``BracedGradientProjection.velocity(braced.state(q, hessians=True), ẋ)`` — q̇ = N [B⁺ S ẋ + α (I − B⁺B) Nᵀ ∂g/∂q],
 B = S J_e N (docs/model.md, "Several braces") — in :func:`bracekit.resolution._numba_several.gp_step_several`,
 with the terms that have a compiled copy there: the compliance index C_i of the constrained model (eq:Ce), each
-brace's region barrier d_i and the joint-limit barrier. It does not apply (``fallback_reason`` says why) to
+brace's region barrier d_i and the joint-limit barrier; a braced-conditioning barrier (eq:cond_barrier) where the
+kernel certifies it inactive (σ_min/σ_max of its rows of C_e above r₀ with a margin: it adds nothing), else the
+kernel declines. It does not apply (``fallback_reason`` says why) to
 finite-difference gradients, other terms or a compliant environment; at a configuration where the kernel's
 certificates fail it returns None and the caller runs the reference step (same errors and warnings).
 """
@@ -45,8 +47,23 @@ def kernel_inputs(ci: Array, beta_x: Any, xd: Array) -> tuple[Array, Array]:
     return ci, xd
 
 
-def _term_rows(objective: Objective, braces: int, n: int) -> tuple[Array, Array, Array] | str:
-    """The kernel's rows (ci, reg, jl) of the objective's terms of non-zero weight, or the name of one it lacks.
+def _conditioning_rows(term: Any) -> int | None:
+    """The task rows (6 or 3) of a braced-conditioning barrier whose inactivity the kernel can certify, else None.
+
+    The barrier (``BracedConditioning``, the term of key ``conditioning``) adds nothing where σ_min/σ_max of its
+    rows of C_e is above r₀; the kernel certifies that or declines (the reference then computes it). Rows fixed
+    in the world only: the full pose (space None or ``pose``) or the position.
+    """
+    kind = type(term)
+    if (kind.__module__, kind.__qualname__) != ("bracekit.objective.braced_conditioning", "BracedConditioning"):
+        return None
+    space = getattr(term, "space", None)
+    name = "pose" if space is None else getattr(space, "kind", None)
+    return {"pose": 6, "position": 3}.get(str(name))
+
+
+def _term_rows(objective: Objective, braces: int, n: int) -> tuple[Array, Array, Array, Array] | str:
+    """The kernel's rows (ci, reg, jl, cond) of the objective's terms of non-zero weight, or the name of one it lacks.
 
     A term the reference refuses (a region barrier of a brace the robot lacks, joint limits of another length) is
     left to the reference, which raises its error.
@@ -54,6 +71,7 @@ def _term_rows(objective: Objective, braces: int, n: int) -> tuple[Array, Array,
     ci: list[list[float]] = []
     reg: list[list[float]] = []
     jl: list[list[float]] = []
+    cond: list[list[float]] = []
     for term, weight in zip(objective.terms, objective.weights, strict=True):
         w = float(weight)
         if not w:
@@ -66,12 +84,15 @@ def _term_rows(objective: Objective, braces: int, n: int) -> tuple[Array, Array,
         elif kind is JointLimitBarrier and isinstance(term, JointLimitBarrier) and term.lower.size == n:
             index = term._index  # type: ignore[attr-defined]  # the bounded joints
             jl.extend([float(j), float(term.lower[j]), float(term.upper[j]), w] for j in index)
+        elif (rows := _conditioning_rows(term)) is not None:
+            cond.append([float(term.threshold), float(rows)])  # type: ignore[attr-defined]
         else:
             return str(getattr(term, "name", kind.__name__))
     return (
         np.array(ci, dtype=float).reshape(-1, 7),
         np.array(reg, dtype=float).reshape(-1, 6),
         np.array(jl, dtype=float).reshape(-1, 4),
+        np.array(cond, dtype=float).reshape(-1, 2),
     )
 
 
@@ -89,7 +110,7 @@ class SeveralBraceKernel:
         self._model, self._data = robot.model, robot.model.createData()
         self._tip, self._bids = robot.tip_id, tuple(braced.brace_ids)
         ensure_hessian_layout(self._model, self._data, (self._tip, *self._bids))
-        self._ci, self._reg, self._jl = rows
+        self._ci, self._reg, self._jl, self._cond = rows
         xrows, rowbrace = [], []
         for i, x in enumerate(braced.X_i):
             for col in range(x.shape[1]):
@@ -140,6 +161,6 @@ class SeveralBraceKernel:
         hbs = tuple(frame_hessian_rows(model, data, f) for f in bids)
         sel = self._sel if self._sel is not None else self._space.selection(me[:3, :3])
         kin = (je, jbs, he, hbs, mbs)
-        terms = (ci, self._reg, self._jl)
+        terms = (ci, self._reg, self._jl, self._cond)
         status, out = self._kernel(qa, kin, sel, xd, self._xrows, self._rowbrace, self._kinv, terms, self._par)
         return out if status == 0 and math.isfinite(out.sum()) else None
