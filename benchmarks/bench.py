@@ -85,6 +85,7 @@ def run_benchmarks(quick: bool = False, parts: tuple[str, ...] = PARTS, compare:
     if "runs" in parts:
         res.update(runs.step_runs(calls=400 if quick else 2000, rounds=3 if quick else 7))
         res.update(runs.scenario_runs(rounds=1 if quick else 5))
+        res.update(runs.per_step_runs(rounds=1 if quick else 3))
     if "core" in parts:
         core = _core(quick)
         core.update(res)  # the whole-run part's floors are the ones the comparison reads

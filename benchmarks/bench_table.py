@@ -25,6 +25,18 @@ def extra_table(r: dict[str, Any]) -> str:
             rows.append(
                 (f"run_scenario('{name}'), in process", f"{r[key]:.2f} s", f"median; CPU {cpu:.2f} s" if cpu else "")
             )
+    if "run_step_braces_ratio" in r:
+        rows += [
+            ("Run step, paper (one brace, gradient projection)", f"{r['run_step_one_brace_us']:.0f} µs", "median"),
+            ("Run step, two-braces (gradient projection)", f"{r['run_step_two_braces_us']:.0f} µs", "median"),
+            (
+                "run_step_braces_ratio",
+                f"{r['run_step_braces_ratio']:.2f}",
+                "two / one brace per step (goal ≤ 2)",
+            ),
+        ]
+    elif "run_step_failed" in r:
+        rows.append(("Run step, one and two braces", "-", r["run_step_failed"]))
     floors = "pinocchio_floor_two_braces_us" in r  # the part "runs" measured its floors
     if "step_gp_us" in r:
         ratio = f"{r['step_gp_in_floors']:.1f}× the Pinocchio floor" if "step_gp_in_floors" in r else ""

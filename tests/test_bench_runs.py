@@ -92,6 +92,13 @@ def test_bench_with_runs_prints_the_ratios_and_goals_against_a_file(tmp_path: Pa
     ratios = {row["key"]: row["ratio"] for row in r["comparison"]["ratios"]}
     assert ratios["run_paper_s"] == pytest.approx(r["run_paper_s"] / 100.0)
     assert r["machine"]["cores"] >= 1 and "Against old.json" in r["table"]
+    # a step of a two-brace run against a step of a one-brace run: the ratio of the two times, and its goal
+    assert r["run_step_one_brace_us"] > 0 and r["run_step_two_braces_us"] > 0
+    assert r["run_step_braces_ratio"] == pytest.approx(r["run_step_two_braces_us"] / r["run_step_one_brace_us"])
+    assert "run_step_braces_ratio" in r["table"]
+    goal = "two-braces run step ≤ 2× a one-brace run step"
+    (row,) = [g for g in r["comparison"]["goals"] if g["name"] == goal]
+    assert row["passed"] == (r["run_step_braces_ratio"] <= 2.0)
     json.dumps(r)
 
 

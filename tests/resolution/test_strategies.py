@@ -355,3 +355,17 @@ def test_a_tip_twist_too_large_to_invert_is_refused_not_overflowed(component: in
         tip_twist(xdot)
     xdot[component] = -MAX_TIP_TWIST  # the bound itself is accepted
     assert np.array_equal(tip_twist(xdot), xdot)
+
+
+@pytest.mark.parametrize("where", range(6))
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf, 2e12])
+def test_tip_twist_refuses_a_float_array_with_a_bad_component_anywhere(where: int, bad: float) -> None:
+    """The float (6,) array of a control loop takes a quick path: NaN, ±inf or a huge value are still refused."""
+    from bracekit.resolution.strategies import tip_twist
+
+    x = np.full(6, 0.1)
+    x[where] = bad
+    with pytest.raises(InputError):
+        tip_twist(x)
+    ok = np.full(6, 0.1)
+    assert tip_twist(ok) is ok  # the array itself, as as_array gives it

@@ -34,44 +34,58 @@ BLOCKS = 64
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+#: The chain and contact (:class:`~bracekit.compliance.batch.BatchEvaluator`'s kernel constants, :func:`evaluate`).
+Chain = tuple[
+    Array,
+    Array,
+    IntArray,
+    IntArray,
+    Array,
+    Array,
+    IntArray,
+    Array,
+    IntArray,
+    Array,
+    int,
+    Array,
+    Array,
+    float,
+    float,
+    float,
+]
+#: β_x and what to compute: (beta, do_con, do_proj, do_kb).
+Task = tuple[Array, bool, bool, bool]
+#: The outputs, written in place: (ce_con, ce_proj, ci_con, ci_proj, k, kb, flags).
+Outputs = tuple[Array, Array, Array, Array, Array, Array, IntArray]
 
 _jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
 
 @_jit
 def _rows(
-    start: int,
-    stop: int,
-    q: Array,
-    speed: Array,
-    along: Array,
-    col: IntArray,
-    parent: IntArray,
-    place_r: Array,
-    place_t: Array,
-    frame_parent: IntArray,
-    frame_r: Array,
-    support: IntArray,
-    kinv: Array,
-    n1: int,
-    x: Array,
-    t_proj: Array,
-    env_inv: float,
-    unloaded_tol: float,
-    cert2: float,
-    beta: Array,
-    do_con: bool,
-    do_proj: bool,
-    do_kb: bool,
-    ce_con: Array,
-    ce_proj: Array,
-    ci_con: Array,
-    ci_proj: Array,
-    k: Array,
-    kb: Array,
-    flags: IntArray,
+    start: int, stop: int, q: Array, chain: Chain, task: Task, out: Outputs
 ) -> None:  # pragma: no cover - compiled
     """Rows start … stop − 1 of :func:`evaluate` (one thread's share), with their own scratch arrays."""
+    (
+        speed,
+        along,
+        col,
+        parent,
+        place_r,
+        place_t,
+        frame_parent,
+        frame_r,
+        support,
+        kinv,
+        n1,
+        x,
+        t_proj,
+        env_inv,
+        unloaded_tol,
+        cert2,
+    ) = chain
+    beta, do_con, do_proj, do_kb = task
+    ce_con, ce_proj, ci_con, ci_proj, k, kb, flags = out
     n = q.shape[1]
     J = speed.shape[0]
     nc = x.shape[1]
@@ -276,167 +290,50 @@ def _rows(
 
 
 @njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
-def evaluate(
-    q: Array,
-    speed: Array,
-    along: Array,
-    col: IntArray,
-    parent: IntArray,
-    place_r: Array,
-    place_t: Array,
-    frame_parent: IntArray,
-    frame_r: Array,
-    support: IntArray,
-    kinv: Array,
-    n1: int,
-    x: Array,
-    t_proj: Array,
-    env_inv: float,
-    unloaded_tol: float,
-    cert2: float,
-    beta: Array,
-    do_con: bool,
-    do_proj: bool,
-    do_kb: bool,
-    ce_con: Array,
-    ce_proj: Array,
-    ci_con: Array,
-    ci_proj: Array,
-    k: Array,
-    kb: Array,
-    flags: IntArray,
-) -> None:  # pragma: no cover - compiled
+def evaluate(q: Array, chain: Chain, task: Task, out: Outputs) -> None:  # pragma: no cover - compiled
     """C_e, C_i and k of every row of q (N×n) into the output arrays; per-row flags (see the module docstring).
 
     Args:
         q: configurations (N×n), chain order.
-        speed: per joint (J,), |ω| per unit q (0 for a prismatic joint).
-        along: per joint (J,), the speed along its axis per unit q (ChainKinematics' motion).
-        col: per joint (J,), its column in q.
-        parent: per joint (J,), its parent joint (0: the base; joint j is 1 + its index).
-        place_r: per joint (J, 3, 3), the rotation of its placement in the parent's z-aligned frame.
-        place_t: per joint (J, 3), the translation of that placement, m.
-        frame_parent: the joint that carries {e} and {b} (2,).
-        frame_r: the offsets of {e} and {b} in that joint's z-aligned frame (2, 3), m.
-        support: (2, n) 1 where a column moves the frame, else 0.
-        kinv: 1/K (n,).
-        n1: joints of chain 1.
-        x: X (6×c), the constraint wrenches.
-        t_proj: I − P (6×6).
-        env_inv: 1/k_env, or 0 for a rigid environment.
-        unloaded_tol: UNLOADED_TOL.
-        cert2: CERTIFIED_COND².
-        beta: unit β_x, (1, 6) for every row or (N, 6).
-        do_con: compute the constrained model.
-        do_proj: compute the projection model.
-        do_kb: compute k of J̃ too.
-        ce_con: (N, 6, 6) output, C_e of the constrained model (or (0, 6, 6) when not computed).
-        ce_proj: (N, 6, 6) output, C_e of the projection model (or (0, 6, 6)).
-        ci_con: (N,) output, C_i of the constrained model (or empty).
-        ci_proj: (N,) output, C_i of the projection model (or empty).
-        k: (N,) output, k of J_e (NaN where flagged K_UNCERTIFIED).
-        kb: (N,) output, k of J̃ (or empty; NaN where flagged KB_UNCERTIFIED).
-        flags: (N,) int64 output, the row flags.
+        chain: the chain and contact (``BatchEvaluator``'s kernel constants), a tuple of
+            speed: per joint (J,), |ω| per unit q (0 for a prismatic joint).
+            along: per joint (J,), the speed along its axis per unit q (ChainKinematics' motion).
+            col: per joint (J,), its column in q.
+            parent: per joint (J,), its parent joint (0: the base; joint j is 1 + its index).
+            place_r: per joint (J, 3, 3), the rotation of its placement in the parent's z-aligned frame.
+            place_t: per joint (J, 3), the translation of that placement, m.
+            frame_parent: the joint that carries {e} and {b} (2,).
+            frame_r: the offsets of {e} and {b} in that joint's z-aligned frame (2, 3), m.
+            support: (2, n) 1 where a column moves the frame, else 0.
+            kinv: 1/K (n,).
+            n1: joints of chain 1.
+            x: X (6×c), the constraint wrenches.
+            t_proj: I − P (6×6).
+            env_inv: 1/k_env, or 0 for a rigid environment.
+            unloaded_tol: UNLOADED_TOL.
+            cert2: CERTIFIED_COND².
+        task: the twist and what to compute, a tuple of
+            beta: unit β_x, (1, 6) for every row or (N, 6).
+            do_con: compute the constrained model.
+            do_proj: compute the projection model.
+            do_kb: compute k of J̃ too.
+        out: the outputs, written in place, a tuple of
+            ce_con: (N, 6, 6) output, C_e of the constrained model (or (0, 6, 6) when not computed).
+            ce_proj: (N, 6, 6) output, C_e of the projection model (or (0, 6, 6)).
+            ci_con: (N,) output, C_i of the constrained model (or empty).
+            ci_proj: (N,) output, C_i of the projection model (or empty).
+            k: (N,) output, k of J_e (NaN where flagged K_UNCERTIFIED).
+            kb: (N,) output, k of J̃ (or empty; NaN where flagged KB_UNCERTIFIED).
+            flags: (N,) int64 output, the row flags.
     """
     N = q.shape[0]
     block = max(1, (N + BLOCKS - 1) // BLOCKS)
     for bl in prange((N + block - 1) // block):
         start = bl * block
-        _rows(
-            start,
-            min(N, start + block),
-            q,
-            speed,
-            along,
-            col,
-            parent,
-            place_r,
-            place_t,
-            frame_parent,
-            frame_r,
-            support,
-            kinv,
-            n1,
-            x,
-            t_proj,
-            env_inv,
-            unloaded_tol,
-            cert2,
-            beta,
-            do_con,
-            do_proj,
-            do_kb,
-            ce_con,
-            ce_proj,
-            ci_con,
-            ci_proj,
-            k,
-            kb,
-            flags,
-        )
+        _rows(start, min(N, start + block), q, chain, task, out)
 
 
 @_jit
-def evaluate_serial(
-    q: Array,
-    speed: Array,
-    along: Array,
-    col: IntArray,
-    parent: IntArray,
-    place_r: Array,
-    place_t: Array,
-    frame_parent: IntArray,
-    frame_r: Array,
-    support: IntArray,
-    kinv: Array,
-    n1: int,
-    x: Array,
-    t_proj: Array,
-    env_inv: float,
-    unloaded_tol: float,
-    cert2: float,
-    beta: Array,
-    do_con: bool,
-    do_proj: bool,
-    do_kb: bool,
-    ce_con: Array,
-    ce_proj: Array,
-    ci_con: Array,
-    ci_proj: Array,
-    k: Array,
-    kb: Array,
-    flags: IntArray,
-) -> None:  # pragma: no cover - compiled
+def evaluate_serial(q: Array, chain: Chain, task: Task, out: Outputs) -> None:  # pragma: no cover - compiled
     """:func:`evaluate` on the calling thread only (no threading layer: safe after a fork, no pool start-up)."""
-    _rows(
-        0,
-        q.shape[0],
-        q,
-        speed,
-        along,
-        col,
-        parent,
-        place_r,
-        place_t,
-        frame_parent,
-        frame_r,
-        support,
-        kinv,
-        n1,
-        x,
-        t_proj,
-        env_inv,
-        unloaded_tol,
-        cert2,
-        beta,
-        do_con,
-        do_proj,
-        do_kb,
-        ce_con,
-        ce_proj,
-        ci_con,
-        ci_proj,
-        k,
-        kb,
-        flags,
-    )
+    _rows(0, q.shape[0], q, chain, task, out)

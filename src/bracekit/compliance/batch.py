@@ -281,7 +281,7 @@ class BatchEvaluator:
         flags = np.zeros(N, dtype=np.int64)
         b = np.ascontiguousarray(beta[:1] if beta.strides[0] == 0 else beta)
         qc = np.ascontiguousarray(q)
-        args = (qc, *self._kernel_args, b, con, proj, k_braced, ce_con, ce_proj, ci_con, ci_proj, k, kb, flags)
+        args = (qc, self._kernel_args, (b, con, proj, k_braced), (ce_con, ce_proj, ci_con, ci_proj, k, kb, flags))
         global _PARALLEL_PID
         if threads == 1 or _PARALLEL_PID not in (None, os.getpid()):  # one thread, or a fork of a parallel process
             kern.evaluate_serial(*args)

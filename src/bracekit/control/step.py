@@ -21,6 +21,7 @@ one brace and several; a free-space strategy corrects nothing and presses nothin
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import NamedTuple, cast
 
@@ -127,11 +128,19 @@ class ControlStep:
         self.gravity = bool(gravity)
         self.stiffness = np.asarray(braced.robot.stiffness, dtype=float)
         fast = fused_step(braced, self.strategy)
-        if fast is not None and backend != "numpy" and len(braced.braces) == 1:
+        if fast is not None and backend != "numpy":
             fast = GradientProjectionStep(braced, self.strategy, backend=backend)  # type: ignore[arg-type]
+        if fast is not None and len(braced.braces) > 1 and not fast.uses_kernel:
+            fast = None  # the reference step on this tick's state: one Pinocchio pass
         self._fast = fast
         self._data = braced.robot.model.createData()
-        self._regions = [i for i, b in enumerate(braced.braces) if b.region_radius is not None]
+        self._regions = [
+            (i, float(b.region_radius), b.surface.point)
+            for i, b in enumerate(braced.braces)
+            if b.region_radius is not None
+        ]
+        self._no_margin = np.full(count, np.inf)
+        self._pressing = self.gravity or bool(np.any(self.preloads))
         self.anchors: list[tuple[Array, Array]] | None = None
 
     def reset(self, q: ArrayLike) -> None:
@@ -154,27 +163,28 @@ class ControlStep:
         qa = np.asarray(q, dtype=float)
         xd = tip_twist(xdot)
         strategy = self.strategy
-        hessians = bool(strategy.needs_hessians) and self._fast is None
-        st = self.braced.state(qa, hessians=hessians)
-        if self._fast is not None:
-            qdot = self._fast(qa, xd) if self.beta_x is None else self._fast(qa, xd, self.beta_x)
+        fast = self._fast
+        if fast is not None:  # the fused step's Pinocchio pass gives the state: one pass per tick
+            qdot = fast(qa, xd) if self.beta_x is None else fast(qa, xd, self.beta_x)
+            kin = fast.last_kinematics(qa)
+            st = self.braced.state(qa) if kin is None else self.braced.state_from_kinematics(qa, kin)
         else:
+            st = self.braced.state(qa, hessians=bool(strategy.needs_hessians))
             qdot = strategy.velocity(st, xd)
         residual = np.zeros(0)
         if strategy.braced:
             if self.anchors is None:
                 self.anchors = [(c.b.copy(), c.R_b.copy()) for c in st.contacts]
             residual = contact_residual(st, self.anchors)
-            if np.max(np.abs(residual)) > _ROUNDOFF:
+            if np.abs(residual).max() > _ROUNDOFF:
                 rows = self.space.selection(st.R_e) @ st.J_e if not self.space.is_pose else st.J_e
                 stacked = np.vstack([rows, contact_jacobian(st, self.anchors)])
                 rhs = np.concatenate([np.zeros(rows.shape[0]), -residual / (self.correction * self.dt)])
                 qdot = qdot + stacked.T @ _least_norm(stacked @ stacked.T, rhs)
         q_next = qa + qdot * self.dt
-        margin = np.full(len(self.braced.braces), np.inf)
-        for i in self._regions:
-            brace = self.braced.braces[i]
-            radius = brace.region_radius or 0.0  # a brace of _regions has one
-            margin[i] = radius - float(np.linalg.norm(st.contacts[i].b - brace.surface.point))
-        set_point = self.set_point(st, q_next) if (self.gravity or np.any(self.preloads)) else q_next
+        margin = self._no_margin.copy()
+        for i, radius, centre in self._regions:
+            d = st.contacts[i].b - centre
+            margin[i] = radius - math.sqrt(d.dot(d))  # ‖b_i − p_i‖ as np.linalg.norm computes it
+        set_point = self.set_point(st, q_next) if self._pressing else q_next
         return ControlResult(qdot, q_next, set_point, residual, margin, st.e.copy(), st.R_e.copy())

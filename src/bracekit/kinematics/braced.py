@@ -10,6 +10,7 @@ Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian is the paper's J (reference point
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -119,6 +120,11 @@ class BracedRobot:
         return tuple(brace.X() for brace in self.braces)
 
     @cached_property
+    def wrench_column_norms(self) -> tuple[tuple[Array, Array], ...]:
+        """(‖force part‖, ‖moment part‖) of each column of each X_i: the correction's residual scales."""
+        return tuple((np.linalg.norm(x[:3], axis=0), np.linalg.norm(x[3:], axis=0)) for x in self.X_i)
+
+    @cached_property
     def split(self) -> BraceSplit:
         """The paper's chain split at {b} (n1, n2, H, X, P): one brace only, ContactError with several."""
         if len(self.braces) != 1:
@@ -147,7 +153,11 @@ class BracedRobot:
         :class:`~bracekit.model.chain.ChainFK` (Pinocchio's Data grows as n³); the Hessians need that Data
         and are refused beyond MAX_HESSIAN_JOINTS joints.
         """
-        qa = self.robot.check_q(q)
+        n = self.robot.n
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum()):
+            qa = q  # what check_q returns for it (a view of it), without the checks' cost
+        else:
+            qa = self.robot.check_q(q)
         if not isinstance(hessians, bool):
             raise InputError(f"hessians must be True or False, got {show(hessians)}")
         ids = (self.robot.tip_id, *self.brace_ids)

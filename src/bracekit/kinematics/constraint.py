@@ -92,8 +92,7 @@ def stacked_constraint(state: BracedState) -> StackedConstraint:
     blocks: list[Array] = []
     rows: list[tuple[int, int]] = []
     comp: list[float] = []
-    for i, (brace, j_b) in enumerate(zip(braced.braces, state.J_b_i, strict=True)):
-        x = brace.X()
+    for i, (brace, x, j_b) in enumerate(zip(braced.braces, braced.X_i, state.J_b_i, strict=True)):  # X_i cached
         blocks.append(x.T @ j_b)
         rows.extend((i, col) for col in range(x.shape[1]))
         k_env = brace.environment_stiffness
@@ -101,7 +100,7 @@ def stacked_constraint(state: BracedState) -> StackedConstraint:
     with np.errstate(all="ignore"):
         g = np.ascontiguousarray(np.vstack(blocks), dtype=np.float64)
         w = g / np.sqrt(k)
-        traces = [float(np.sum(j_b * j_b / k)) for j_b, brace in zip(state.J_b_i, braced.braces, strict=True)]
+        traces = [float((j_b * j_b / k).sum()) for j_b in state.J_b_i]  # np.sum's reduction, without its wrapper
     if not (np.isfinite(g).all() and np.isfinite(w).all() and np.isfinite(traces).all()):
         raise NumericalError(
             f"{GKG} is not finite: the compliance overflows (joint stiffnesses too small for 1/K or lengths too large)"

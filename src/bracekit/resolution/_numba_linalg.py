@@ -12,8 +12,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from bracekit.compliance._numba_kernels import _cholesky, _cholesky_inverse
+
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
 
 _jit = njit(cache=True, error_model="numpy", nogil=True)
 
@@ -81,6 +84,52 @@ def _mm(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
 
 
 @_jit
+def _tmm(a: Array, b: Array) -> Array:  # pragma: no cover - compiled
+    """Aᵀ B of small matrices (plain loops, any layout; each entry summed over the rows in order)."""
+    out = np.empty((a.shape[1], b.shape[1]))
+    for c in range(a.shape[1]):
+        for i in range(b.shape[1]):
+            s = 0.0
+            for r in range(a.shape[0]):
+                s += a[r, c] * b[r, i]
+            out[c, i] = s
+    return out
+
+
+@_jit
+def _matvec(a: Array, x: Array) -> Array:  # pragma: no cover - compiled
+    """A x (plain loops, any layout)."""
+    out = np.empty(a.shape[0])
+    for r in range(a.shape[0]):
+        s = 0.0
+        for i in range(a.shape[1]):
+            s += a[r, i] * x[i]
+        out[r] = s
+    return out
+
+
+@_jit
+def _tmatvec(a: Array, x: Array) -> Array:  # pragma: no cover - compiled
+    """Aᵀ x (plain loops, any layout)."""
+    return _matvec(a.T, x)
+
+
+@_jit
+def _region_pull(mb: Array, row: Array) -> tuple[bool, float, float, float]:  # pragma: no cover - compiled
+    """RegionBarrier.gradient's pull on b (⁰M_b, 4×4) for a row (centre (3), r_max, weight): (inside, c · (b − p)).
+
+    c = weight · 2 r_max² / (r_max² − r²)², the factor of J_b[:3]ᵀ (b − p) in ∂d/∂q; inside False at r ≥ r_max.
+    """
+    rel0, rel1, rel2 = mb[0, 3] - row[0], mb[1, 3] - row[1], mb[2, 3] - row[2]
+    r2 = rel0 * rel0 + rel1 * rel1 + rel2 * rel2
+    rm2 = row[3] * row[3]
+    if not r2 < rm2:
+        return False, 0.0, 0.0, 0.0
+    c = row[4] * 2.0 * rm2 / (rm2 - r2) ** 2
+    return True, c * rel0, c * rel1, c * rel2
+
+
+@_jit
 def _frobenius2(m: Array) -> float:  # pragma: no cover - compiled
     s = 0.0
     for i in range(m.shape[0]):
@@ -90,50 +139,69 @@ def _frobenius2(m: Array) -> float:  # pragma: no cover - compiled
 
 
 @_jit
+def _householder(r: Array) -> tuple[Array, bool]:  # pragma: no cover - compiled
+    """Householder QR of r (rows×cols, rows ≥ cols) in place: R in its upper triangle (zeros below).
+
+    Returns (vs, ok): the unit reflector vectors vs[j] (H_j = I − 2 vs[j] vs[j]ᵀ, entries j… of row j), ok False
+    on a zero column.
+    """
+    rows, cols = r.shape
+    vs = np.zeros((cols, rows))
+    for j in range(cols):
+        norm = 0.0
+        for i in range(j, rows):
+            norm += r[i, j] * r[i, j]
+        norm = math.sqrt(norm)
+        if not norm > 0.0:
+            return vs, False
+        alpha = -norm if r[j, j] >= 0.0 else norm
+        for i in range(j, rows):
+            vs[j, i] = r[i, j]
+        vs[j, j] -= alpha
+        vn = 0.0
+        for i in range(j, rows):
+            vn += vs[j, i] * vs[j, i]
+        if vn > 0.0:
+            for c in range(j, cols):
+                s = 0.0
+                for i in range(j, rows):
+                    s += vs[j, i] * r[i, c]
+                s *= 2.0 / vn
+                for i in range(j, rows):
+                    r[i, c] -= s * vs[j, i]
+            for i in range(j, rows):
+                vs[j, i] /= math.sqrt(vn)  # unit: H_j = I − 2 v vᵀ
+        r[j, j] = alpha
+        for i in range(j + 1, rows):
+            r[i, j] = 0.0
+    return vs, True
+
+
+@_jit
+def _reflect(vs: Array, b: Array) -> None:  # pragma: no cover - compiled
+    """H_0 … H_{c−1} b in place for the reflectors of :func:`_householder` (b: rows×p)."""
+    for j in range(vs.shape[0] - 1, -1, -1):
+        for c in range(b.shape[1]):
+            s = 0.0
+            for i in range(j, b.shape[0]):
+                s += vs[j, i] * b[i, c]
+            s *= 2.0
+            for i in range(j, b.shape[0]):
+                b[i, c] -= s * vs[j, i]
+
+
+@_jit
 def _row_basis(at: Array) -> tuple[Array, Array, bool]:  # pragma: no cover - compiled
     """Householder QR of Aᵀ (k×m, k ≥ m): (Q (k×m) orthonormal, R⁻¹ (m×m) upper, ok)."""
     k, m = at.shape
     r = at.copy()
-    vs = np.zeros((m, k))
-    for j in range(m):
-        norm = 0.0
-        for i in range(j, k):
-            norm += r[i, j] * r[i, j]
-        norm = math.sqrt(norm)
-        if not norm > 0.0:
-            return r, r, False
-        alpha = -norm if r[j, j] >= 0.0 else norm
-        vn = 0.0
-        for i in range(j, k):
-            vs[j, i] = r[i, j]
-        vs[j, j] -= alpha
-        for i in range(j, k):
-            vn += vs[j, i] * vs[j, i]
-        if vn > 0.0:
-            for c in range(j, m):
-                s = 0.0
-                for i in range(j, k):
-                    s += vs[j, i] * r[i, c]
-                s *= 2.0 / vn
-                for i in range(j, k):
-                    r[i, c] -= s * vs[j, i]
-            for i in range(j, k):
-                vs[j, i] /= math.sqrt(vn)  # unit: H_j = I − 2 v vᵀ
-        r[j, j] = alpha
-        for i in range(j + 1, k):
-            r[i, j] = 0.0
-    # Q = H_0 … H_{m−1} [I; 0]
-    q = np.zeros((k, m))
+    vs, ok = _householder(r)
+    if not ok:
+        return r, r, False
+    q = np.zeros((k, m))  # Q = H_0 … H_{m−1} [I; 0]
     for i in range(m):
         q[i, i] = 1.0
-    for j in range(m - 1, -1, -1):
-        for c in range(m):
-            s = 0.0
-            for i in range(j, k):
-                s += vs[j, i] * q[i, c]
-            s *= 2.0
-            for i in range(j, k):
-                q[i, c] -= s * vs[j, i]
+    _reflect(vs, q)
     # R⁻¹ by back substitution
     rinv = np.zeros((m, m))
     for c in range(m):
@@ -150,40 +218,13 @@ def _row_basis(at: Array) -> tuple[Array, Array, bool]:  # pragma: no cover - co
 def _spd_inverse(m: Array, shift: float) -> tuple[Array, bool]:  # pragma: no cover - compiled
     """(M⁻¹, ok) of a symmetric M by Cholesky; ok only if every eigenvalue of M exceeds `shift`.
 
-    M − shift·I is tested positive definite by a second Cholesky (no eigen-decomposition).
+    M − shift·I is tested positive definite by a first Cholesky (no eigen-decomposition).
     """
     c = m.shape[0]
-    for attempt in range(2):
-        lo = np.zeros((c, c))
-        for j in range(c):
-            s = m[j, j] - (shift if attempt == 0 else 0.0)
-            for p in range(j):
-                s -= lo[j, p] * lo[j, p]
-            if not s > 0.0:
-                return lo, False
-            lo[j, j] = math.sqrt(s)
-            for i in range(j + 1, c):
-                t = m[i, j]
-                for p in range(j):
-                    t -= lo[i, p] * lo[j, p]
-                lo[i, j] = t / lo[j, j]
-    # M⁻¹ = L⁻ᵀ L⁻¹
-    li = np.zeros((c, c))
-    for col in range(c):
-        li[col, col] = 1.0 / lo[col, col]
-        for i in range(col + 1, c):
-            s = 0.0
-            for p in range(col, i):
-                s -= lo[i, p] * li[p, col]
-            li[i, col] = s / lo[i, i]
     g = np.zeros((c, c))
-    for i in range(c):
-        for j in range(c):
-            s = 0.0
-            for p in range(max(i, j), c):
-                s += li[p, i] * li[p, j]
-            g[i, j] = s
-    return g, True
+    if not _cholesky(m, -shift)[1]:
+        return g, False
+    return g, _cholesky_inverse(m, 0.0, g)
 
 
 @_jit
@@ -201,32 +242,9 @@ def _null_space(m: Array, cert2: float, null_rtol: float) -> tuple[Array, bool]:
     for i in range(rows):
         for j in range(cols):
             r[i, j] = m[j, i] if tall else m[i, j]
-    vs = np.zeros((cols, rows))
-    for j in range(cols):
-        norm = 0.0
-        for i in range(j, rows):
-            norm += r[i, j] * r[i, j]
-        norm = math.sqrt(norm)
-        if not norm > 0.0:
-            return np.zeros((k, 0)), False
-        alpha = -norm if r[j, j] >= 0.0 else norm
-        for i in range(j, rows):
-            vs[j, i] = r[i, j]
-        vs[j, j] -= alpha
-        vn = 0.0
-        for i in range(j, rows):
-            vn += vs[j, i] * vs[j, i]
-        if vn > 0.0:
-            for cc in range(j, cols):
-                t = 0.0
-                for i in range(j, rows):
-                    t += vs[j, i] * r[i, cc]
-                t *= 2.0 / vn
-                for i in range(j, rows):
-                    r[i, cc] -= t * vs[j, i]
-            for i in range(j, rows):
-                vs[j, i] /= math.sqrt(vn)
-        r[j, j] = alpha
+    vs, ok = _householder(r)
+    if not ok:
+        return np.zeros((k, 0)), False
     # ‖R⁻¹‖²_F by back substitution (R = the upper cols×cols block)
     rinv2 = 0.0
     for cc in range(cols):
@@ -248,12 +266,5 @@ def _null_space(m: Array, cert2: float, null_rtol: float) -> tuple[Array, bool]:
     basis = np.zeros((k, k - c))
     for i in range(k - c):
         basis[c + i, i] = 1.0
-    for j in range(c - 1, -1, -1):
-        for cc in range(k - c):
-            t = 0.0
-            for i in range(j, k):
-                t += vs[j, i] * basis[i, cc]
-            t *= 2.0
-            for i in range(j, k):
-                basis[i, cc] -= t * vs[j, i]
+    _reflect(vs, basis)
     return basis, True

@@ -27,7 +27,17 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from bracekit.resolution._numba_linalg import _frobenius2, _lu, _lu_solve, _mm, _null_space, _row_basis, _spd_inverse
+from bracekit.resolution._numba_linalg import (
+    _frobenius2,
+    _lu,
+    _lu_solve,
+    _mm,
+    _null_space,
+    _region_pull,
+    _row_basis,
+    _spd_inverse,
+    _tmm,
+)
 
 #: Status codes of :func:`gp_step`.
 OK, NOT_CERTIFIED, UNLOADED, BARRIER = 0, 1, 2, 3
@@ -107,14 +117,7 @@ def gp_step(
         g1 = _mm(j1inv, h)
         first = _mm(s1, h)
     else:  # dq1/db̃ = an orthonormal basis of the null space of Xᵀ J1
-        xtj1 = np.empty((nc, n1))
-        for c in range(nc):
-            for i in range(n1):
-                s = 0.0
-                for r in range(6):
-                    s += x[r, c] * j1[r, i]
-                xtj1[c, i] = s
-        g1, ok = _null_space(xtj1, cert2, null_rtol)
+        g1, ok = _null_space(_tmm(x, j1), cert2, null_rtol)
         if not ok:
             return NOT_CERTIFIED, out
         first = _mm(s1, _mm(j1, g1))
@@ -182,13 +185,7 @@ def gp_step(
                             for i in range(n1):
                                 s += jb[r, i] * jx[i]
                             cx[r, c] = s
-                    m = np.zeros((nc, nc))
-                    for c1 in range(nc):
-                        for c2 in range(nc):
-                            s = 0.0
-                            for r in range(6):
-                                s += x[r, c1] * cx[r, c2]
-                            m[c1, c2] = s
+                    m = _tmm(x, cx)
                     # loaded with a margin: every eigenvalue of m above 2 · UNLOADED_TOL · tr(C1)
                     g, ok = _spd_inverse(m, 2.0 * unloaded_tol * max(tr, 1e-300))
                     if not ok:
@@ -283,15 +280,12 @@ def gp_step(
             y[4] += w_theta * u1 / s
             y[5] += w_theta * u2 / s
     for term in range(reg.shape[0]):  # RegionBarrier.gradient
-        rel0, rel1, rel2 = mb[0, 3] - reg[term, 0], mb[1, 3] - reg[term, 1], mb[2, 3] - reg[term, 2]
-        r2 = rel0 * rel0 + rel1 * rel1 + rel2 * rel2
-        rm2 = reg[term, 3] * reg[term, 3]
-        if not r2 < rm2:
+        inside, p0, p1, p2 = _region_pull(mb, reg[term])
+        if not inside:
             return BARRIER, out
-        c = reg[term, 4] * 2.0 * rm2 / (rm2 - r2) ** 2
-        y[0] += c * rel0
-        y[1] += c * rel1
-        y[2] += c * rel2
+        y[0] += p0
+        y[1] += p1
+        y[2] += p2
     dg = np.zeros(n)
     for k in range(n):
         s = 0.0

@@ -47,13 +47,13 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from bracekit._linalg import inverse, row_basis
-from bracekit.compliance.first_order import unit6
 from bracekit.errors import InputError, ModelError
 from bracekit.kinematics import LWA, BracedRobot, contact_null_space, frame_hessian_rows
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
+from bracekit.resolution.fused_several import Kinematics, SeveralBraceKernel, kernel_inputs
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
 from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
@@ -88,15 +88,16 @@ def numba_available() -> bool:
     return True
 
 
-def fused_step(braced: BracedRobot, strategy: object) -> GradientProjectionStep | None:
+def fused_step(braced: BracedRobot, strategy: object, backend: Backend = "numpy") -> GradientProjectionStep | None:
     """The fused step of a gradient-projection strategy, or None where the reference path runs instead.
 
-    None for another strategy and beyond MAX_HESSIAN_JOINTS joints. With several braces the step runs the
-    reference (its ``fallback_reason`` says so): the fused code is written over one brace's chain split.
+    None for another strategy and beyond MAX_HESSIAN_JOINTS joints. With several braces and the NumPy backend
+    the step runs the reference (its ``fallback_reason`` says so): the NumPy code is written over one brace's
+    chain split; the numba backend has a kernel for several braces (:mod:`bracekit.resolution.fused_several`).
     """
     if type(strategy) is not BracedGradientProjection or braced.n > MAX_HESSIAN_JOINTS:
         return None
-    return GradientProjectionStep(braced, strategy)
+    return GradientProjectionStep(braced, strategy, backend=backend)
 
 
 class GradientProjectionStep:
@@ -130,7 +131,8 @@ class GradientProjectionStep:
         self.braced = braced
         self.strategy = strategy
         self._several = len(braced.braces) > 1
-        if self._several:  # the fused code is written over one brace's chain split: the reference step runs
+        self._multi: SeveralBraceKernel | None = None
+        if self._several:  # the NumPy code is written over one brace's chain split: the reference or the kernel
             self._n = braced.n
             self.backend: str = "numpy"
             self.uses_kernel: bool = False
@@ -138,6 +140,8 @@ class GradientProjectionStep:
             self.fallback_reason: str | None = (
                 "several braces: the fused step holds one brace's chain split, the reference step runs (same q̇)"
             )
+            if backend != "numpy":
+                self._several_setup(backend)
             return
         robot = braced.robot
         self._model = robot.model
@@ -158,6 +162,7 @@ class GradientProjectionStep:
         self._normal = braced.split.brace.surface.normal
         self._nl = self._normal.tolist()
         self._fk: FusedKinematics | None = None
+        self._last: tuple[Array, tuple[Any, ...]] | None = None
         obj = strategy.objective
         if not isinstance(obj, Objective):
             raise InputError("the fused step needs an Objective")
@@ -182,6 +187,21 @@ class GradientProjectionStep:
         self.backend = "numpy" if kernels is None else "numba"
         self._kernel = None if kernels is None else self._numba_setup(kernels)
         self.uses_kernel = self._kernel is not None
+
+    def _several_setup(self, backend: str) -> None:
+        """The numba kernel of several braces (:mod:`bracekit.resolution.fused_several`) where it applies."""
+        try:
+            kernels = importlib.import_module("bracekit.resolution._numba_several")
+        except ImportError as exc:
+            if backend == "numba":
+                numba_kernels()  # the InputError that says how to install numba
+                raise InputError(f"the numba kernel of several braces cannot be imported: {exc}") from exc
+            self.fallback_reason = "numba cannot be imported"
+            return
+        self.backend = "numba"
+        self._multi, reason = SeveralBraceKernel.build(self.braced, self.strategy, kernels)
+        self.uses_kernel = self._multi is not None
+        self.fallback_reason = reason
 
     def _numba_setup(self, kernels: ModuleType) -> Any:
         """The kernel and its constant arguments, or None where it does not apply (the NumPy code runs).
@@ -224,6 +244,10 @@ class GradientProjectionStep:
         if not (type(xd) is np.ndarray and xd.dtype == np.float64 and xd.shape == (6,) and math.isfinite(xd.sum())):
             xd = tip_twist(xdot)
         if self._several:
+            if self._multi is not None:
+                fast = self._multi(qa, xd, beta_x)
+                if fast is not None:
+                    return fast
             strategy = self._reference(beta_x)
             return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
         if self._kernel is not None:
@@ -279,6 +303,20 @@ class GradientProjectionStep:
     def _with_beta(self, beta_x: ArrayLike | None) -> Objective:
         return self._objective if beta_x is None else self._objective.with_beta_x(beta_x)
 
+    def last_kinematics(self, q: Array) -> Kinematics | None:
+        """(⁰M, J) of the tip, then of each brace, of this step's last Pinocchio pass if it was at this very array q.
+
+        None otherwise. The order of :meth:`BracedRobot.state_from_kinematics`: a caller builds the state at q
+        without a second pass.
+        """
+        if self._multi is not None:
+            return self._multi.last_kinematics(q)
+        last = getattr(self, "_last", None)
+        if last is None or last[0] is not q:
+            return None
+        je, jb, mb, me = last[1]
+        return (me, je), (mb, jb)
+
     def _kinematics(self, qa: Array, hessians: bool) -> tuple[Any, ...]:
         """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows (n×6n) if asked."""
         model, data = self._model, self._data
@@ -287,6 +325,7 @@ class GradientProjectionStep:
         je = pin.getFrameJacobian(model, data, self._tip, LWA)
         jb = pin.getFrameJacobian(model, data, self._bid, LWA)
         mb, me = data.oMf[self._bid].homogeneous, data.oMf[self._tip].homogeneous
+        self._last = (qa, (je, jb, mb, me))
         if not hessians:
             return je, jb, mb, me, None, None
         pin.computeJointKinematicHessians(model, data)
@@ -294,12 +333,7 @@ class GradientProjectionStep:
 
     def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
         """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
-        ci = self._ci
-        if beta_x is not None and ci.shape[0]:
-            ci = ci.copy()
-            ci[:, :6] = unit6(beta_x, "beta_x")  # as ComplianceIndex(beta_x): same InputError
-        if not (xd.flags.c_contiguous and xd.flags.writeable):  # one compiled signature
-            xd = xd.copy()
+        ci, xd = kernel_inputs(self._ci, beta_x, xd)
         je, jb, mb, me, he, hb = self._kinematics(qa, True)
         h, x, t, kinv = self._nb_const
         assert self._kernel is not None

@@ -15,6 +15,7 @@ several the null space N of the stacked constraint G, A = J_e N, and ∇g = Nᵀ
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Literal, Protocol, cast
 
@@ -31,6 +32,8 @@ from bracekit.tolerances import STEP_SINGULAR_RATIO
 Array = NDArray[np.float64]
 GradientMode = Literal["analytic", "finite-difference"]
 GRADIENT_MODES: tuple[str, ...] = ("analytic", "finite-difference")
+
+
 def pinv_checked(m: Array, what: str) -> Array:
     """Moore–Penrose pseudo-inverse of a full-row-rank matrix; SingularityError near rank loss."""
     u, s, vt = np.linalg.svd(m, full_matrices=False)
@@ -92,6 +95,10 @@ MAX_TIP_TWIST = 1e12
 
 def tip_twist(xdot: ArrayLike) -> Array:
     """ẋ as a finite (6,) float array [v; ω] (m/s, rad/s), each |component| ≤ MAX_TIP_TWIST; InputError otherwise."""
+    if type(xdot) is np.ndarray and xdot.dtype == np.float64 and xdot.shape == (6,):  # the control loop's case
+        values = xdot.tolist()
+        if math.isfinite(sum(values)) and max(map(abs, values)) <= MAX_TIP_TWIST:  # else checked below
+            return xdot
     x = as_array(xdot, "the tip twist ẋ [v; ω]", (6,))
     big = float(np.max(np.abs(x)))
     if big > MAX_TIP_TWIST:

@@ -83,7 +83,10 @@ class TaskSpace:
         return np.asarray(rotation, dtype=float) @ self.axis
 
     def selection(self, rotation: Array) -> Array:
-        """S(⁰R_e) (m×6) at the tip orientation `rotation` (3×3)."""
+        """S(⁰R_e) (m×6) at the tip orientation `rotation` (3×3); read-only and shared for the pose and position."""
+        constant = _CONSTANT_SELECTION.get(self.kind)
+        if constant is not None:
+            return constant
         s = np.zeros((self.rows, 6))
         s[:3, :3] = np.eye(3)
         if self.kind == "pose":
@@ -135,3 +138,14 @@ def redundancy(space: TaskSpace, rotation: Array, m: Array) -> int:
     """Dimension of the null space left by the selected rows: columns of m (6×k) − rank(S m)."""
     sm = select(space, rotation, m, np.zeros(6))[0]
     return int(m.shape[1] - np.linalg.matrix_rank(sm))
+
+
+def _constant_selection(rows: int) -> Array:
+    """[I_m 0] (m×6) of the pose (m = 6) or the position (m = 3), read-only."""
+    s = np.eye(rows, 6)
+    s.setflags(write=False)
+    return s
+
+
+#: S of the task spaces whose rows do not turn with the tool: one read-only array each.
+_CONSTANT_SELECTION: dict[str, Array] = {"pose": _constant_selection(6), "position": _constant_selection(3)}

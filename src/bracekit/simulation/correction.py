@@ -7,6 +7,7 @@ rows of the paper's contact); the same code serves any number of braces.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,16 +23,27 @@ from bracekit.tolerances import ACCEPT_TOL, CORRECTION_ROUNDOFF, CORRECTION_TOL
 Array = NDArray[np.float64]
 #: The contact anchors of a run: (b0_i (3,), ⁰R_b0_i (3×3)) of each brace, in brace order.
 Anchors = Sequence[tuple[Array, Array]]
+_NO_ANGLE = np.zeros(3)
 
 __all__ = [
     "Anchors",
     "contact_jacobian",
     "contact_residual",
     "correct",
+    "norm",
     "pose_error",
     "reach",
     "task_error",
 ]
+
+
+def norm(x: Array) -> float:
+    """‖x‖₂ of a vector, ‖x‖_F of a matrix, as ``np.linalg.norm(x)`` computes it.
+
+    √(x·x) over x raveled, the same operations without the wrapper's cost (a run takes several per step).
+    """
+    flat = x.ravel(order="K")
+    return math.sqrt(float(flat.dot(flat)))
 
 
 def pose_error(state: BracedState, position: Array, rotation: Array) -> Array:
@@ -57,8 +69,10 @@ def contact_residual(state: BracedState, anchors: Anchors) -> Array:
     """
     out = []
     for x, c, (b0, r0) in zip(state.X_i, state.contacts, anchors, strict=True):
-        out.append(x.T @ np.concatenate([c.b - b0, pin.log3(c.R_b @ r0.T)]))
-    return np.concatenate(out)
+        # no constraint moment (frictionless point, point with friction): log3 is weighted by zeros, not computed
+        angle = pin.log3(c.R_b @ r0.T) if x[3:].any() else _NO_ANGLE
+        out.append(x.T @ np.concatenate([c.b - b0, angle]))
+    return out[0] if len(out) == 1 else np.concatenate(out)
 
 
 def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
@@ -70,7 +84,7 @@ def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
     """
     out = []
     for x, c, (_, r0) in zip(state.X_i, state.contacts, anchors, strict=True):
-        if not np.any(x[3:]):
+        if not x[3:].any():
             out.append(x.T @ c.J_b)
             continue
         r = c.R_b @ r0.T
@@ -117,23 +131,24 @@ def correct(
     """
     scale_len = reach(braced.robot) if length is None else float(length)
     scale = np.array([scale_len] * 3 + [1.0] * (space.rows - 3))
-    if anchors is not None:
-        for x in braced.X_i:  # unit force and moment columns: a length and an angle residual
-            scale = np.concatenate([scale, scale_len * np.linalg.norm(x[:3], axis=0) + np.linalg.norm(x[3:], axis=0)])
+    if anchors is not None:  # unit force and moment columns: a length and an angle residual
+        scale = np.concatenate([scale, *(scale_len * f + m for f, m in braced.wrench_column_norms)])
     roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
     previous = np.inf
     st = braced.state(q)
     res, rows = _rows(st, position, rotation, anchors, space)
     for _ in range(max_iter):
-        size = float(np.max(np.abs(res) / scale))
-        floor = roundoff * max(1.0, float(np.max(np.abs(st.q)))) * float(np.linalg.norm(rows / scale[:, None]))
-        if size < max(tol, floor) or (size < ACCEPT_TOL and size > 0.5 * previous):
+        size = float((np.abs(res) / scale).max())  # np.max's reduction, without its wrapper
+        if size < tol or (size < ACCEPT_TOL and size > 0.5 * previous):
+            return st
+        floor = roundoff * max(1.0, float(np.abs(st.q).max())) * norm(rows / scale[:, None])
+        if size < floor:  # with the test above: size < max(tol, floor), the round-off floor only where it decides
             return st
         previous = size
         step = rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
         trial = braced.state(st.q + step)
         t_res, t_rows = _rows(trial, position, rotation, anchors, space)
-        if np.linalg.norm(t_res / scale) > np.linalg.norm(res / scale) and size >= ACCEPT_TOL:
+        if size >= ACCEPT_TOL and norm(t_res / scale) > norm(res / scale):
             damped = _damped_step(braced, st, res, rows, scale, position, rotation, anchors, space)
             if damped is None:
                 break
@@ -185,14 +200,14 @@ def _damped_step(
     """
     j, r = rows / scale[:, None], res / scale
     jjt = j @ j.T
-    base = float(np.linalg.norm(r))
+    base = norm(r)
     size = max(float(np.trace(jjt)), 1e-300)
     for damping in LM_DAMPING:
         step = j.T @ np.linalg.solve(jjt + damping * size * np.eye(r.size), r)
         for fraction in LINE_SEARCH:
             trial = braced.state(st.q + fraction * step)
             t_res, t_rows = _rows(trial, position, rotation, anchors, space)
-            if np.linalg.norm(t_res / scale) < base:
+            if norm(t_res / scale) < base:
                 return trial, t_res, t_rows
     return None
 

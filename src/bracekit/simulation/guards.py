@@ -20,6 +20,7 @@ from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.motions import MATRIX_LABELS
 from bracekit.model.robot import Robot
 from bracekit.resolution.task_space import TaskSpace
+from bracekit.simulation.correction import norm
 from bracekit.tolerances import (
     DEFAULT_JOINT_SPEED,
     JOINT_STEP_SAFETY,
@@ -50,6 +51,7 @@ __all__ = [
     "joint_speeds",
     "joint_step_bound",
     "jump_failure",
+    "limit_bounds",
     "limit_failure",
     "outside_limits",
     "point_label",
@@ -57,9 +59,18 @@ __all__ = [
 ]
 
 
-def outside_limits(robot: Robot, q: Array) -> NDArray[np.intp]:
-    """The joints (0-based) of q (n,) below their lower or above their upper limit by more than JOINT_LIMIT_TOL."""
-    return np.flatnonzero((q < robot.lower - JOINT_LIMIT_TOL) | (q > robot.upper + JOINT_LIMIT_TOL))
+def limit_bounds(robot: Robot) -> tuple[Array, Array]:
+    """(q_min − JOINT_LIMIT_TOL, q_max + JOINT_LIMIT_TOL) (n,) each: the range a corrected step may reach."""
+    return robot.lower - JOINT_LIMIT_TOL, robot.upper + JOINT_LIMIT_TOL
+
+
+def outside_limits(robot: Robot, q: Array, bounds: tuple[Array, Array] | None = None) -> NDArray[np.intp]:
+    """The joints (0-based) of q (n,) below their lower or above their upper limit by more than JOINT_LIMIT_TOL.
+
+    `bounds`: :func:`limit_bounds` of the robot, computed once by a caller that checks every step.
+    """
+    low, high = limit_bounds(robot) if bounds is None else bounds
+    return np.flatnonzero((q < low) | (q > high))
 
 
 def prismatic(robot: Robot, j: int) -> bool:
@@ -179,7 +190,7 @@ def braces_outside(braced: BracedRobot, state: BracedState) -> list[int]:
     return [
         i
         for i, (brace, b) in enumerate(zip(braced.braces, state.b_i, strict=True))
-        if brace.region_radius is not None and np.linalg.norm(b - brace.surface.point) >= brace.region_radius
+        if brace.region_radius is not None and norm(b - brace.surface.point) >= brace.region_radius
     ]
 
 

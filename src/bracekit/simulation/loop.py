@@ -46,10 +46,10 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective import RegionBarrier
-from bracekit.resolution.fused import GradientProjectionStep, fused_step
+from bracekit.resolution.fused import Backend, GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
-from bracekit.simulation.correction import correct, reach, task_error
+from bracekit.simulation.correction import correct, norm, reach, task_error
 from bracekit.simulation.guards import (
     LIMIT_SCALES,
     MAX_SUBSTEP_DEPTH,
@@ -57,6 +57,7 @@ from bracekit.simulation.guards import (
     check_conditioning,
     joint_step_bound,
     jump_failure,
+    limit_bounds,
     limit_failure,
     outside_limits,
     point_label,
@@ -147,12 +148,16 @@ def simulate(
     free_dims = redundancy(space, st.R_e, st.motions.A if strategy.braced else st.J_e)
     anchors = [(c.b.copy(), c.R_b.copy()) for c in st.contacts] if strategy.braced else None
     checked = st.motions.inverted(strategy.braced)
-    fast = fused_step(braced, strategy)
+    # one brace: the NumPy step (no compilation); several: the compiled step where numba is installed (compiled
+    # once and cached; the same q̇ as the reference to ~1e-15), else the reference
+    backend: Backend = "auto" if len(braced.braces) > 1 else "numpy"
+    fast = fused_step(braced, strategy, backend)
     scaled_steps: dict[float, GradientProjectionStep] = {}
     guard = region_guard(braced, strategy)
     scalable = isinstance(strategy, BracedGradientProjection)
     length = reach(braced.robot)
     bound = joint_step_bound(braced.robot, dt)
+    limits = limit_bounds(braced.robot)
     counts = {"substeps": 0, "limited": 0}
 
     def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
@@ -161,7 +166,7 @@ def simulate(
             if scale == 1.0:
                 return fast(st.q, xdot, beta_x(t))
             if scale not in scaled_steps:
-                scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale))  # type: ignore[arg-type]
+                scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale), backend)  # type: ignore[arg-type]
             return scaled_steps[scale](st.q, xdot, beta_x(t))
         current = with_beta_x(strategy if scale == 1.0 else scaled_alpha(strategy, scale), beta_x(t))
         if current.needs_hessians:
@@ -178,11 +183,11 @@ def simulate(
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
         goal = task.position(t + h)
         new = correct(braced, st.q + rate(st, t, xdot) * h, goal, rotation, anchors, length=length, space=space)
-        if outside_limits(braced.robot, new.q).size:
+        if outside_limits(braced.robot, new.q, limits).size:
             for scale in LIMIT_SCALES if scalable else ():
                 qdot = rate(st, t, xdot, scale)
                 new = correct(braced, st.q + qdot * h, goal, rotation, anchors, length=length, space=space)
-                if not outside_limits(braced.robot, new.q).size:
+                if not outside_limits(braced.robot, new.q, limits).size:
                     counts["limited"] += 1
                     break
             else:
@@ -206,7 +211,7 @@ def simulate(
         states: list[BracedState], first: int, ratios: list[dict[str, float]], jumps: list[float]
     ) -> tuple[Samples | None, int, BracekitError | None]:
         times = [(first + i) * dt for i in range(len(states))]
-        errors = [float(np.linalg.norm(task.position(t) - st.e)) for t, st in zip(times, states, strict=True)]
+        errors = [norm(task.position(t) - st.e) for t, st in zip(times, states, strict=True)]
         return measure_path(braced, states, [beta_x(t) for t in times], errors, ratios, jumps)
 
     with warnings.catch_warnings(record=True) as caught:
@@ -233,7 +238,7 @@ def simulate(
                 before = st.q
                 st = advance(st, i * dt, dt)
                 step = np.abs(st.q - before)
-                if np.any(step > bound):
+                if (step > bound).any():
                     gain = getattr(strategy, "objective", None) is not None
                     raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
                 ratios = sigma_ratios(st, space, checked)  # the others after the steps, at once
@@ -243,7 +248,7 @@ def simulate(
                 break
             states.append(st)
             ratio_rows.append(ratios)
-            jumps.append(float(np.max(step)))
+            jumps.append(float(step.max()))
             if progress is not None:
                 progress(1)
         # the measures, from the corrected states, all at once; the run stops at the first it cannot measure
