@@ -46,9 +46,8 @@ from bracekit.validate.inputs import (
     Array,
     _configurations,
     _count,
-    _directions,
-    _positive,
     _scenario,
+    _tip_loads,
 )
 from bracekit.validate.mujoco_check import mujoco_static_deflection
 from bracekit.validate.statics import solve_statics
@@ -354,24 +353,22 @@ def check_compliance(
     Raises:
         InputError: bad configurations (a brace off its surface, dependent contacts), loads or directions.
     """
-    force = _positive(force, "force", "N")
-    moment = _positive(moment, "moment", "N·m")
+    loads = _tip_loads(force, moment, directions)
     plane_contacts(braced, preload)  # checks the preloads and the contact types
     if not isinstance(mujoco, bool):
         raise InputError(f"mujoco must be True or False, got {mujoco!r}")
     max_steps = _count(max_steps, "max_steps")
-    labelled = _directions(directions)
+    labelled, scale = loads.labelled, loads.scale
     qs = [braced.robot.check_q(q) for q in configs]
-    scale = np.array([force] * 3 + [moment] * 3)
     p_json = float(preload) if isinstance(preload, int | float) else [float(p) for p in preload]
     report = ValidationReport(
         scenario=name,
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={
-            "force_N": force,
-            "moment_Nm": moment,
+            "force_N": loads.force,
+            "moment_Nm": loads.moment,
             "preload_N": p_json,
-            "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+            "directions": loads.directions_json(),
             "length_scale": "L = |e - b| at each configuration (m)",
             "static_solve": "Newton on the KKT system, unilateral contact (opens if it would pull), tol 1e-12",
             "mujoco": {**MUJOCO_SETTINGS, "max_steps": max_steps} if mujoco else None,

@@ -34,9 +34,9 @@ from bracekit.validate.inputs import (
     Array,
     _configurations,
     _count,
-    _directions,
     _positive,
     _scenario,
+    _tip_loads,
 )
 from bracekit.validate.table import aligned, fmt_rel
 
@@ -206,21 +206,19 @@ def run_preloaded_validation(
     ps = [_positive(p, "each preload", "N", zero_ok=True) for p in preloads]
     if not ps:
         raise InputError("preloads must hold at least one contact force (N)")
-    force = _positive(force, "force", "N")
-    moment = _positive(moment, "moment", "N·m")
+    loads = _tip_loads(force, moment, directions)
     max_steps = _count(max_steps, "max_steps")
-    labelled = _directions(directions)
+    labelled, scale = loads.labelled, loads.scale
     qs = _configurations(sc, configs)
-    scale = np.array([force] * 3 + [moment] * 3)
     report = PreloadedValidationReport(
         scenario=sc.name,
         gravity=gravity,
         preloads=ps,
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={
-            "force_N": force,
-            "moment_Nm": moment,
-            "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+            "force_N": loads.force,
+            "moment_Nm": loads.moment,
+            "directions": loads.directions_json(),
             "length_scale": "L = |e - b| at each configuration (m)",
             "set_points": "q_s = q + K^-1 (g(q) - J_b,v^T n P): q is the equilibrium under gravity and the preload",
             "static_solve": "Newton on the KKT system, unilateral contact, gravity as set, tol 1e-12",
