@@ -87,8 +87,22 @@ def link_triangles(robot: Robot, link: str, link_radius: float = DEFAULT_LINK_RA
     return tri @ inverse[:3, :3].T + inverse[:3, 3], place
 
 
-def _hits(tri: Array, origin: Array, direction: Array) -> tuple[NDArray[np.bool_], Array]:
-    """(Which triangles (t, 3, 3) the line origin + t·direction crosses, the t of each crossing)."""
+class RayHits(NamedTuple):
+    """Where the line origin + t·direction crosses each triangle of a surface (t, 3, 3) (Möller–Trumbore).
+
+    ``hit``: which triangles it crosses (t,); ``t``: the line parameter of each crossing (m per unit of
+    direction); ``u``, ``v``: the barycentric coordinates of the crossing along each triangle's edges
+    (corner 1 − corner 0, corner 2 − corner 0). Entries where ``hit`` is False are meaningless.
+    """
+
+    hit: NDArray[np.bool_]
+    t: Array
+    u: Array
+    v: Array
+
+
+def ray_hits(tri: Array, origin: Array, direction: Array) -> RayHits:
+    """The crossings of the line origin + t·direction (world or link frame, m) with the triangles `tri` (t, 3, 3)."""
     a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
     e1, e2 = b - a, c - a
     p = np.cross(direction, e2)
@@ -100,12 +114,12 @@ def _hits(tri: Array, origin: Array, direction: Array) -> tuple[NDArray[np.bool_
     qv = np.cross(s, e1)
     v = (qv @ direction) * inv
     t = np.einsum("ij,ij->i", e2, qv) * inv
-    return ok & (u >= -1e-12) & (v >= -1e-12) & (u + v <= 1.0 + 1e-12), t
+    return RayHits(ok & (u >= -1e-12) & (v >= -1e-12) & (u + v <= 1.0 + 1e-12), t, u, v)
 
 
 def _cast(tri: Array, origin: Array, direction: Array) -> tuple[float, Array] | None:
     """(Largest t with origin + t·direction on a triangle, that triangle's unit normal) or None (no hit)."""
-    hit, t = _hits(tri, origin, direction)
+    hit, t, _, _ = ray_hits(tri, origin, direction)
     if not hit.any():
         return None
     k = int(np.flatnonzero(hit)[np.argmax(t[hit])])
@@ -153,7 +167,7 @@ def _inside(tri: Array, point: Array) -> bool:
     """Whether `point` is inside the closed surface `tri` (parity of crossings along three rays, majority)."""
     votes = 0
     for d in _VOTES:
-        hit, t = _hits(tri, point, d / np.linalg.norm(d))
+        hit, t, _, _ = ray_hits(tri, point, d / np.linalg.norm(d))
         votes += int(np.count_nonzero(hit & (t > 0.0))) % 2
     return votes >= 2
 

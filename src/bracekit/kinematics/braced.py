@@ -20,6 +20,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from bracekit._forward import Forward
 from bracekit._linalg import show
 from bracekit.contact import Brace
 from bracekit.errors import ContactError, InputError, ModelError
@@ -132,15 +133,10 @@ class BracedRobot:
         n1 = self.last_joints[0] + 1
         return BraceSplit(brace=self.braces[0], brace_id=self.brace_ids[0], n1=n1, n2=self.robot.n - n1)
 
-    @property
-    def brace(self) -> Brace:
-        """The one brace: ``split.brace`` (ContactError with several braces)."""
-        return self.split.brace
-
-    @property
-    def brace_id(self) -> int:
-        """Pinocchio frame id of the one brace's {b}: ``split.brace_id`` (ContactError with several braces)."""
-        return self.split.brace_id
+    brace = Forward[Brace]("split", "The one brace: ``split.brace`` (ContactError with several braces).")
+    brace_id = Forward[int](
+        "split", "Pinocchio frame id of the one brace's {b}: ``split.brace_id`` (ContactError with several braces)."
+    )
 
     @cached_property
     def _data(self) -> pin.Data:
@@ -341,15 +337,10 @@ class BracedState:
         """The stacked constraint G, its independent rows and N (warns about dependent rows once)."""
         return stacked_constraint(self)
 
-    @property
-    def G(self) -> Array:
-        """[X_1ᵀ J_b1; X_2ᵀ J_b2; …] (c×n, c = Σ (6 − l_i)): every contact is kept when G Δq = 0."""
-        return self.constraint.G
-
-    @property
-    def N(self) -> Array:
-        """Orthonormal basis of the braced motions, the null space of G (n×(n − rank G))."""
-        return self.constraint.N
+    G = Forward[Array](
+        "constraint", "[X_1ᵀ J_b1; X_2ᵀ J_b2; …] (c×n, c = Σ (6 − l_i)): every contact is kept when G Δq = 0."
+    )
+    N = Forward[Array]("constraint", "Orthonormal basis of the braced motions, the null space of G (n×(n − rank G)).")
 
     @cached_property
     def braced_jacobian(self) -> Array:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._forward import Forward
 from bracekit.contact import Brace
 from bracekit.errors import ContactError, SingularityError
 from bracekit.kinematics.constraint import contact_null_space
@@ -93,50 +94,16 @@ class ChainSplit:
         """The one contact's state (b, R_b, J_b, dJ_b)."""
         return self.state.contacts[0]
 
-    @property
-    def n1(self) -> int:
-        """Joints of chain 1."""
-        return self.model.n1
-
-    @property
-    def n2(self) -> int:
-        """Joints of chain 2."""
-        return self.model.n2
-
-    @property
-    def b(self) -> Array:
-        """Position of {b} (3,), m."""
-        return self.contact.b
-
-    @property
-    def R_b(self) -> Array:
-        """Orientation ⁰R_b (3×3)."""
-        return self.contact.R_b
-
-    @property
-    def J_b(self) -> Array:
-        """Geometric Jacobian at b, world axes (6×n); its chain-2 columns are zero."""
-        return self.contact.J_b
-
-    @property
-    def dJ_b(self) -> Array | None:
-        """∂J_b/∂q (6, n, n), [:, i, k] = ∂J_b[:, i]/∂q_k, if asked for."""
-        return self.contact.dJ_b
-
-    @property
-    def H(self) -> Array:
-        """Allowable twists of {b} (6×l), eq:constraint / eq:H_point."""
-        return self.model.H
-
-    @property
-    def X(self) -> Array:
-        """Constraint wrenches (6×(6−l))."""
-        return self.model.X
-
-    @property
-    def P(self) -> Array:
-        """X (XᵀX)⁻¹ Xᵀ (6×6)."""
-        return self.model.P
+    n1 = Forward[int]("model", "Joints of chain 1.")
+    n2 = Forward[int]("model", "Joints of chain 2.")
+    b = Forward[Array]("contact", "Position of {b} (3,), m.")
+    z_b = Forward[Array]("contact", "ẑ_b, world axes (3,).")
+    R_b = Forward[Array]("contact", "Orientation ⁰R_b (3×3).")
+    J_b = Forward[Array]("contact", "Geometric Jacobian at b, world axes (6×n); its chain-2 columns are zero.")
+    dJ_b = Forward[Array | None]("contact", "∂J_b/∂q (6, n, n), [:, i, k] = ∂J_b[:, i]/∂q_k, if asked for.")
+    H = Forward[Array]("model", "Allowable twists of {b} (6×l), eq:constraint / eq:H_point.")
+    X = Forward[Array]("model", "Constraint wrenches (6×(6−l)).")
+    P = Forward[Array]("model", "X (XᵀX)⁻¹ Xᵀ (6×6).")
 
     @cached_property
     def J1(self) -> Array:
@@ -192,8 +159,3 @@ class ChainSplit:
         """Braced Jacobian [S_t1 H, S_t2 J2] (6×(l+n2)), eq:braced_kin (S_t1 J1 G with G = chain1_map)."""
         first = self.S_t1 @ self.H if self.n1 == 6 else self.S_t1 @ self.J1 @ self.chain1_map
         return np.hstack([first, self.S_t2 @ self.J2])
-
-    @property
-    def z_b(self) -> Array:
-        """ẑ_b, world axes (3,)."""
-        return self.contact.z_b

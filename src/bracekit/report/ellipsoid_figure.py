@@ -35,6 +35,7 @@ from bracekit.report.figure_common import (
     _runs,
     _state,
     _tip_compliance,
+    _title,
 )
 
 # --- Fig. 3: compliance ellipsoids -----------------------------------------------------------------------
@@ -148,12 +149,10 @@ def ellipsoid_figure(result: RunResult, points: int = 6) -> Figure:
                     fontsize=_FONT - 2,
                 )
         y -= vgap
-    fig.suptitle(
+    title = (
         f"Fig. 3: translational compliance ellipsoids at {points} points of the task ({result.compliance_model} "
         f"model for the braced runs)\nsemi-axes: eigenvalues of the force block of the tip compliance, drawn at "
-        f"{scale:.2f} m per m/N; dashed: the task path",
-        fontsize=_FONT + 1,
-        y=1.0 - 0.08 / height,
-        va="top",
+        f"{scale:.2f} m per m/N; dashed: the task path"
     )
+    _title(fig, title, _FONT + 1, 0.08, height)
     return fig

@@ -69,6 +69,11 @@ def _new_figure(width: float, height: float) -> Figure:
     return fig
 
 
+def _title(fig: Figure, text: str, size: float, inset: float, height: float) -> None:
+    """The figure's title, centred, its top `inset` inches below the top of a figure `height` inches tall."""
+    fig.suptitle(text, fontsize=size, y=1.0 - inset / height, va="top")
+
+
 def _wrapped(text: str, inches: float, size: float = _FONT + 1) -> str:
     """`text` on two lines (at its middle space) when it is longer than `inches` at font size `size` (pt)."""
     if len(text) * 0.55 * size / 72.0 <= inches or " " not in text:

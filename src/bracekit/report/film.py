@@ -42,6 +42,7 @@ from bracekit.report.figure_common import (
     _scale_bar,
     _scene,
     _scene_legend,
+    _title,
     _view_text,
     _wrapped,
 )
@@ -112,13 +113,11 @@ def film_strip(result: RunResult, frames: int = 5) -> Figure:
     fig.legend(
         handles, labels, loc="lower center", ncol=5, fontsize=_FONT - 1, frameon=False, bbox_to_anchor=(0.5, 0.0)
     )
-    fig.suptitle(
+    title = (
         f"Fig. 2: the runs of scenario {result.scenario.name} ({result.compliance_model} compliance for the braced "
-        f"runs); {_view_text(scene)}",
-        fontsize=_FONT + 2,
-        y=1.0 - 0.1 / height,
-        va="top",
+        f"runs); {_view_text(scene)}"
     )
+    _title(fig, title, _FONT + 2, 0.1, height)
     return fig
 
 

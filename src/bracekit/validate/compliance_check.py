@@ -37,6 +37,7 @@ from bracekit.errors import (
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.contacts import plane_contacts
+from bracekit.validate.deflection_record import case_record, failed_record
 from bracekit.validate.inputs import (
     _TIMESTEPS,
     DEFAULT_DIRECTIONS,
@@ -45,13 +46,12 @@ from bracekit.validate.inputs import (
     Array,
     _configurations,
     _count,
-    _directions,
-    _positive,
     _scenario,
+    _tip_loads,
 )
 from bracekit.validate.mujoco_check import mujoco_static_deflection
 from bracekit.validate.statics import solve_statics
-from bracekit.validate.table import _rel_err, _stats, aligned, fmt_rel
+from bracekit.validate.table import _stats, aligned, fmt_rel
 
 __all__ = ["ValidationReport", "check_compliance", "first_order_state", "run_validation"]
 
@@ -136,86 +136,11 @@ def _references(
     return out, messages
 
 
-def _case(
-    braced: BracedRobot,
-    cfg: _Config,
-    index: int,
-    label: str,
-    w: Array,
-    preload: float | Sequence[float],
-    max_steps: int,
-    mujoco: bool = True,
-) -> dict[str, Any]:
-    refs, messages = _references(braced, cfg.q, w, preload, max_steps, mujoco=mujoco)
-    st, mj = refs["static"], refs["mujoco"]
-    ref = {
-        "static": None if st is None else np.asarray(st.deflection, dtype=float),
-        "mujoco": None if mj is None else np.asarray(mj.deflection, dtype=float),
-    }
-    models = tuple(cfg.compliances)
-    pred = {m: cfg.compliances[m] @ w for m in models}
-    opened = bool((st is not None and st.contact_opened) or (mj is not None and mj.contact_opened))
-    if messages:
-        status = "failed"
-    elif opened:
-        status = "contact_opened"
-        messages.append(
-            "the contact opened under this load (preload too small for it): the braced first-order models "
-            "assume a closed contact, so this case is not in the statistics"
-        )
-    else:
-        status = "ok"
-    return {
-        "config": index,
-        "label": label,
-        "wrench": w.tolist(),
-        "status": status,
-        "message": "; ".join(messages) if messages else None,
-        "length_scale_m": cfg.length,
-        "deflection": {
-            **{k: (None if v is None else v.tolist()) for k, v in ref.items()},
-            **{m: pred[m].tolist() for m in models},
-        },
-        "rel_err": {m: {k: _rel_err(pred[m], ref[k], cfg.length) for k in ("mujoco", "static")} for m in models},
-        "rel_err_mujoco_vs_static": (
-            _rel_err(ref["mujoco"], ref["static"], cfg.length) if ref["mujoco"] is not None else None
-        ),
-        "contact_force_static": None if st is None else float(st.contact_force),
-        "contact_force_mujoco": None if mj is None else float(mj.contact_force),
-        "opened": opened,
-        "opened_static": None if st is None else bool(st.contact_opened),
-        "opened_mujoco": None if mj is None else bool(mj.contact_opened),
-        "mujoco_steps": None if mj is None else int(mj.steps),
-        "contact_forces_static": None if st is None else st.contact_forces.tolist(),
-        "contact_forces_mujoco": None if mj is None else mj.contact_forces.tolist(),
-        "mujoco_timestep_s": refs["timestep"],
-    }
-
-
-def _failed_config(index: int, labelled: list[tuple[str, Array]], scale: Array, exc: Exception) -> list[dict[str, Any]]:
-    return [
-        {
-            "config": index,
-            "label": label,
-            "wrench": (d * scale).tolist(),
-            "status": "failed",
-            "message": f"configuration {index}: {exc}",
-            "length_scale_m": None,
-            "deflection": {k: None for k in ("mujoco", "static", *MODELS)},
-            "rel_err": {m: {"mujoco": None, "static": None} for m in MODELS},
-            "rel_err_mujoco_vs_static": None,
-            "contact_force_static": None,
-            "contact_force_mujoco": None,
-            "opened": False,
-            "opened_static": None,
-            "opened_mujoco": None,
-            "mujoco_steps": None,
-            "contact_forces_static": None,
-            "contact_forces_mujoco": None,
-            "mujoco_timestep_s": None,
-        }
-        for label, d in labelled
-    ]
+#: The message of a case whose contact opened.
+_OPENED = (
+    "the contact opened under this load (preload too small for it): the braced first-order models assume a closed "
+    "contact, so this case is not in the statistics"
+)
 
 
 def _model_stats(ok: list[dict[str, Any]], model: str) -> dict[str, float | int | None]:
@@ -428,24 +353,22 @@ def check_compliance(
     Raises:
         InputError: bad configurations (a brace off its surface, dependent contacts), loads or directions.
     """
-    force = _positive(force, "force", "N")
-    moment = _positive(moment, "moment", "N·m")
+    loads = _tip_loads(force, moment, directions)
     plane_contacts(braced, preload)  # checks the preloads and the contact types
     if not isinstance(mujoco, bool):
         raise InputError(f"mujoco must be True or False, got {mujoco!r}")
     max_steps = _count(max_steps, "max_steps")
-    labelled = _directions(directions)
+    labelled, scale = loads.labelled, loads.scale
     qs = [braced.robot.check_q(q) for q in configs]
-    scale = np.array([force] * 3 + [moment] * 3)
     p_json = float(preload) if isinstance(preload, int | float) else [float(p) for p in preload]
     report = ValidationReport(
         scenario=name,
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={
-            "force_N": force,
-            "moment_Nm": moment,
+            "force_N": loads.force,
+            "moment_Nm": loads.moment,
             "preload_N": p_json,
-            "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+            "directions": loads.directions_json(),
             "length_scale": "L = |e - b| at each configuration (m)",
             "static_solve": "Newton on the KKT system, unilateral contact (opens if it would pull), tol 1e-12",
             "mujoco": {**MUJOCO_SETTINGS, "max_steps": max_steps} if mujoco else None,
@@ -457,13 +380,20 @@ def check_compliance(
         except InputError:
             raise
         except (BracekitError, np.linalg.LinAlgError) as exc:
-            report.cases.extend(_failed_config(i, labelled, scale, exc))
+            report.cases.extend(
+                failed_record({"config": i, "label": label}, d * scale, MODELS, None, f"configuration {i}: {exc}")
+                for label, d in labelled
+            )
             if progress is not None:
                 progress(len(labelled))
             continue
         report.models = tuple(cfg.compliances)  # the projection model is the paper's, for one brace
         for label, d in labelled:
-            report.cases.append(_case(braced, cfg, i, label, d * scale, preload, max_steps, mujoco))
+            w = d * scale
+            refs, messages = _references(braced, cfg.q, w, preload, max_steps, mujoco=mujoco)
+            pred = {m: c @ w for m, c in cfg.compliances.items()}
+            head = {"config": i, "label": label}
+            report.cases.append(case_record(head, w, pred, refs, messages, cfg.length, _OPENED))
             if progress is not None:
                 progress(1)
     return report

@@ -13,6 +13,7 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
+from bracekit._forward import Forward
 from bracekit.statics import ContactResponse, ContactResponses
 from bracekit.validate.inputs import Array
 
@@ -145,20 +146,9 @@ class HoldingCheck:
     timestep: float
     cases: list[HoldingCase] = field(default_factory=list)
 
-    @property
-    def brace(self) -> int:
-        """The brace predicted to fail first."""
-        return self.prediction.brace
-
-    @property
-    def margin(self) -> float:
-        """The predicted scale of w at which the first brace lifts off or slips (inf: never)."""
-        return self.prediction.margin
-
-    @property
-    def mode(self) -> Outcome | None:
-        """The predicted failure, ``lifted_off`` or ``slipped`` (None: never)."""
-        return self.prediction.mode
+    brace = Forward[int]("prediction", "The brace predicted to fail first.")
+    margin = Forward[float]("prediction", "The predicted scale of w at which the first brace fails (inf: never).")
+    mode = Forward[Outcome | None]("prediction", "The predicted failure, ``lifted_off`` or ``slipped`` (None: never).")
 
     @property
     def liftoff_margin(self) -> float:

@@ -12,7 +12,7 @@ import os
 import warnings
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -128,6 +128,30 @@ def _directions(directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike
             raise InputError(f"load direction '{label}' is zero")
         out.append((label, np.concatenate([v[:3] / nf if nf else v[:3], v[3:] / nm if nm else v[3:]])))
     return out
+
+
+class TipLoads(NamedTuple):
+    """The loads of a deflection check: each unit direction [f̂; m̂] (world axes) scaled to ``force`` / ``moment``."""
+
+    force: float  # N
+    moment: float  # N·m
+    labelled: list[tuple[str, Array]]  # (label, [f̂; m̂])
+
+    @property
+    def scale(self) -> Array:
+        """[force ×3, moment ×3]: a direction times it is the tip wrench w = [f; m] (N, N·m)."""
+        return np.array([self.force] * 3 + [self.moment] * 3)
+
+    def directions_json(self) -> list[dict[str, Any]]:
+        """The directions as the reports' settings list them."""
+        return [{"label": lab, "direction": d.tolist()} for lab, d in self.labelled]
+
+
+def _tip_loads(
+    force: float, moment: float, directions: Sequence[tuple[str, ArrayLike]] | Sequence[ArrayLike]
+) -> TipLoads:
+    """Check the load magnitudes (> 0) and normalise the directions (InputError naming the bad one)."""
+    return TipLoads(_positive(force, "force", "N"), _positive(moment, "moment", "N·m"), _directions(directions))
 
 
 def path_samples(scenario: Scenario) -> int:

@@ -27,17 +27,18 @@ from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.statics import contact_responses
 from bracekit.validate.compliance_check import DeflectionCases, _config, _model_stats, _references
+from bracekit.validate.deflection_record import case_record, failed_record
 from bracekit.validate.inputs import (
     DEFAULT_DIRECTIONS,
     MUJOCO_SETTINGS,
     Array,
     _configurations,
     _count,
-    _directions,
     _positive,
     _scenario,
+    _tip_loads,
 )
-from bracekit.validate.table import _rel_err, aligned, fmt_rel
+from bracekit.validate.table import aligned, fmt_rel
 
 __all__ = ["PRELOADED_MODELS", "PreloadedValidationReport", "preloaded_tip_compliance", "run_preloaded_validation"]
 
@@ -69,7 +70,8 @@ class PreloadedValidationReport(DeflectionCases):
     ``wrench``, ``status`` (``ok`` | ``contact_opened`` | ``failed``), ``message``, ``length_scale_m``,
     ``deflection`` {mujoco, static, preloaded, constrained} → [Δp; Δθ] (m, rad) or None, ``rel_err``
     {model: {mujoco, static}}, ``rel_err_mujoco_vs_static``, ``contact_force_static`` / ``contact_force_mujoco``
-    (N), ``opened``, ``mujoco_steps``.
+    (N), ``opened`` (``opened_static`` / ``opened_mujoco``), ``mujoco_steps``, ``mujoco_timestep_s``: the layout of
+    :func:`~bracekit.validate.deflection_record.case_record`.
     """
 
     scenario: str
@@ -157,52 +159,8 @@ class PreloadedValidationReport(DeflectionCases):
         return "\n".join([*head, *aligned(cols, rows, left=(1,)), "", agree, *tail])
 
 
-def _preloaded_case(
-    braced: BracedRobot,
-    q: Array,
-    length: float,
-    comp: dict[str, Array],
-    index: int,
-    label: str,
-    w: Array,
-    preload: float,
-    gravity: bool,
-    max_steps: int,
-) -> dict[str, Any]:
-    refs, messages = _references(braced, q, w, preload, max_steps, gravity)
-    st, mj = refs["static"], refs["mujoco"]
-    ref = {
-        "static": None if st is None else np.asarray(st.deflection, dtype=float),
-        "mujoco": None if mj is None else np.asarray(mj.deflection, dtype=float),
-    }
-    pred = {m: comp[m] @ w for m in PRELOADED_MODELS}
-    opened = bool((st is not None and st.contact_opened) or (mj is not None and mj.contact_opened))
-    status = "failed" if messages else ("contact_opened" if opened else "ok")
-    if status == "contact_opened":
-        messages.append("the contact opened under this load (it pulls more than the preload): not in the statistics")
-    return {
-        "config": index,
-        "preload_N": preload,
-        "label": label,
-        "wrench": w.tolist(),
-        "status": status,
-        "message": "; ".join(messages) if messages else None,
-        "length_scale_m": length,
-        "deflection": {
-            **{k: (None if v is None else v.tolist()) for k, v in ref.items()},
-            **{m: pred[m].tolist() for m in PRELOADED_MODELS},
-        },
-        "rel_err": {m: {k: _rel_err(pred[m], ref[k], length) for k in ("mujoco", "static")} for m in PRELOADED_MODELS},
-        "rel_err_mujoco_vs_static": (
-            _rel_err(ref["mujoco"], ref["static"], length) if ref["mujoco"] is not None else None
-        ),
-        "contact_force_static": None if st is None else float(st.contact_force),
-        "contact_force_mujoco": None if mj is None else float(mj.contact_force),
-        "opened": opened,
-        "mujoco_steps": None if mj is None else int(mj.steps),
-        "contact_forces_static": None if st is None else st.contact_forces.tolist(),
-        "contact_forces_mujoco": None if mj is None else mj.contact_forces.tolist(),
-    }
+#: The message of a case whose contact opened.
+_OPENED = "the contact opened under this load (it pulls more than the preload): not in the statistics"
 
 
 def run_preloaded_validation(
@@ -248,21 +206,19 @@ def run_preloaded_validation(
     ps = [_positive(p, "each preload", "N", zero_ok=True) for p in preloads]
     if not ps:
         raise InputError("preloads must hold at least one contact force (N)")
-    force = _positive(force, "force", "N")
-    moment = _positive(moment, "moment", "N·m")
+    loads = _tip_loads(force, moment, directions)
     max_steps = _count(max_steps, "max_steps")
-    labelled = _directions(directions)
+    labelled, scale = loads.labelled, loads.scale
     qs = _configurations(sc, configs)
-    scale = np.array([force] * 3 + [moment] * 3)
     report = PreloadedValidationReport(
         scenario=sc.name,
         gravity=gravity,
         preloads=ps,
         configurations=[np.asarray(q, dtype=float).tolist() for q in qs],
         settings={
-            "force_N": force,
-            "moment_Nm": moment,
-            "directions": [{"label": lab, "direction": d.tolist()} for lab, d in labelled],
+            "force_N": loads.force,
+            "moment_Nm": loads.moment,
+            "directions": loads.directions_json(),
             "length_scale": "L = |e - b| at each configuration (m)",
             "set_points": "q_s = q + K^-1 (g(q) - J_b,v^T n P): q is the equilibrium under gravity and the preload",
             "static_solve": "Newton on the KKT system, unilateral contact, gravity as set, tol 1e-12",
@@ -276,10 +232,7 @@ def run_preloaded_validation(
             raise
         except (BracekitError, np.linalg.LinAlgError) as exc:
             for p in ps:
-                report.cases.extend(
-                    {**_preloaded_case_failed(i, p, label, d * scale, None), "message": f"configuration {i}: {exc}"}
-                    for label, d in labelled
-                )
+                report.cases.extend(_failed(i, p, labelled, scale, None, f"configuration {i}: {exc}"))
             if progress is not None:
                 progress(len(ps) * len(labelled))
             continue
@@ -288,41 +241,26 @@ def run_preloaded_validation(
             try:
                 comp["preloaded"] = preloaded_tip_compliance(sc.braced, q, p, gravity)
             except NumericalError as exc:
-                report.cases.extend(
-                    {
-                        **_preloaded_case_failed(i, p, label, d * scale, cfg.length),
-                        "message": f"preloaded compliance: {exc}",
-                    }
-                    for label, d in labelled
-                )
+                report.cases.extend(_failed(i, p, labelled, scale, cfg.length, f"preloaded compliance: {exc}"))
                 if progress is not None:
                     progress(len(labelled))
                 continue
             for label, d in labelled:
-                report.cases.append(
-                    _preloaded_case(sc.braced, cfg.q, cfg.length, comp, i, label, d * scale, p, gravity, max_steps)
-                )
+                w = d * scale
+                refs, messages = _references(sc.braced, cfg.q, w, p, max_steps, gravity)
+                pred = {m: comp[m] @ w for m in PRELOADED_MODELS}
+                head = {"config": i, "preload_N": p, "label": label}
+                report.cases.append(case_record(head, w, pred, refs, messages, cfg.length, _OPENED))
                 if progress is not None:
                     progress(1)
     return report
 
 
-def _preloaded_case_failed(index: int, preload: float, label: str, w: Array, length: float | None) -> dict[str, Any]:
-    return {
-        "config": index,
-        "preload_N": preload,
-        "label": label,
-        "wrench": w.tolist(),
-        "status": "failed",
-        "message": None,
-        "length_scale_m": length,
-        "deflection": {k: None for k in ("mujoco", "static", *PRELOADED_MODELS)},
-        "rel_err": {m: {"mujoco": None, "static": None} for m in PRELOADED_MODELS},
-        "rel_err_mujoco_vs_static": None,
-        "contact_force_static": None,
-        "contact_force_mujoco": None,
-        "opened": False,
-        "mujoco_steps": None,
-        "contact_forces_static": None,
-        "contact_forces_mujoco": None,
-    }
+def _failed(
+    index: int, preload: float, labelled: list[tuple[str, Array]], scale: Array, length: float | None, message: str
+) -> list[dict[str, Any]]:
+    """The failed records of every load at configuration `index` and preload P (N)."""
+    head = {"config": index, "preload_N": preload}
+    return [
+        failed_record({**head, "label": label}, d * scale, PRELOADED_MODELS, length, message) for label, d in labelled
+    ]

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import ContactError
-from bracekit.geometry.pad import link_frame, link_triangles
+from bracekit.geometry.pad import link_frame, link_triangles, ray_hits
 from bracekit.model.robot import Robot
 
 Array = NDArray[np.float64]
@@ -130,24 +130,15 @@ class SnappedSurface:
 
     def _cast(self, origin: Array, u: Array, fraction: float, angle: float) -> _Hit:
         tri = self.triangles
-        a, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-        p = np.cross(u, e2)
-        det = np.einsum("ij,ij->i", e1, p)
-        ok = np.abs(det) > 1e-15
-        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        rel = origin - a
-        bu = np.einsum("ij,ij->i", rel, p) * inv
-        qv = np.cross(rel, e1)
-        bv = (qv @ u) * inv
-        t = np.einsum("ij,ij->i", e2, qv) * inv
-        hit = ok & (bu >= -1e-12) & (bv >= -1e-12) & (bu + bv <= 1.0 + 1e-12)
+        hit, t, bu, bv = ray_hits(tri, origin, u)
         if not hit.any() or float(t[hit].max()) < 0.0:
             raise ContactError(
                 f"no surface of link {self.link!r} on the ray at fraction {fraction:g}, angle "
                 f"{math.degrees(angle):g}°: the placement left the link's collision geometry"
             )
         k = int(np.flatnonzero(hit)[np.argmax(t[hit])])
-        return _Hit(float(t[k]), k, np.cross(e1[k], e2[k]), (float(bu[k]), float(bv[k])))
+        normal = np.cross(tri[k, 1] - tri[k, 0], tri[k, 2] - tri[k, 0])
+        return _Hit(float(t[k]), k, normal, (float(bu[k]), float(bv[k])))
 
     def _smooth(self, h: _Hit) -> Array:
         """The hit's interpolated outward normal m (3,), not normalised."""
