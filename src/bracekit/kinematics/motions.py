@@ -29,6 +29,7 @@ Array = NDArray[np.float64]
 MATRIX_LABELS = {
     "J1": "J1",
     "A": "A",
+    "SA": "S A (the task rows of A)",
     "J": "J",
     "J_braced": "J̃",
     "G": "G (independent rows)",
@@ -133,20 +134,21 @@ class SplitMotions(BracedMotions):
         return np.concatenate([self.split.chain1_map.T @ dg_dq[:n1], dg_dq[n1:]])
 
     def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
-        """J1, A (eq:braced_kin), J = J_e and J̃ (eq:J_wave), whole (not task rows)."""
+        """J1, A (eq:braced_kin), J = J_e and J̃ (eq:J_wave), whole; S A, the task rows of A that a step inverts."""
         sp = self.split
         return {
             "J1": lambda: singular_ratio(sp.J1),
             "A": lambda: singular_ratio(sp.A),
+            "SA": lambda: rank_ratio(sp.A if rows is None else rows @ sp.A),
             "J": lambda: singular_ratio(sp.state.J_e),
             "J_braced": lambda: singular_ratio(sp.J_braced),
         }
 
     def inverted(self, braced: bool) -> tuple[str, ...]:
-        """Free space: J (J⁺ ẋ), then J̃. Braced: A (eq:general_inv), J1 when n1 = 6 (eq:q1), then J̃."""
+        """Free space: J (J⁺ ẋ), then J̃. Braced: S A (eq:general_inv in the task rows), J1 when n1 = 6 (eq:q1), J̃."""
         if not braced:
             return ("J", "J_braced")
-        return ("A", "J1", "J_braced") if self.split.n1 == 6 else ("A", "J_braced")
+        return ("SA", "J1", "J_braced") if self.split.n1 == 6 else ("SA", "J_braced")
 
 
 @dataclass(frozen=True, eq=False)
