@@ -60,3 +60,19 @@ def test_the_first_brace_to_fail_is_the_least_of_every_brace_s_own_limits(two: b
             assert (abs(fn) if kind == "lift" else abs(ft - 0.8 * fn)) < 1e-9 * max(1.0, abs(fn))
     assert pred.margin == min(np.min(pred.liftoff), np.min(pred.slip))
     assert pred.brace == int(np.argmin(np.minimum(pred.liftoff, pred.slip))) and pred.mode == "slipped"
+
+
+def test_above_the_band_the_expected_outcome_is_the_first_order_state_at_that_load() -> None:
+    """A brace past its slip scale can be past its lift-off scale too (they lie 20 % apart on the tutorial's
+    arm, where MuJoCo lifts the pad off at 1.2× the slip margin): the expected outcome is lifted off then."""
+    from bracekit.validate.holding_check import _expected
+    from bracekit.validate.holding_records import Prediction
+
+    close = Prediction(responses=None, liftoff=np.array([0.3789]), slip=np.array([0.3163]))  # type: ignore[arg-type]
+    far = Prediction(responses=None, liftoff=np.array([0.5]), slip=np.array([0.3163]))  # type: ignore[arg-type]
+    s = 1.2 * close.margin
+    assert close.mode == "slipped" and s > 0.3789
+    assert _expected(1.2, close, s) == "lifted_off"
+    assert _expected(1.2, far, s) == "slipped"
+    assert _expected(0.8, close, 0.8 * close.margin) == "held"
+    assert _expected(1.0, close, close.margin) is None  # inside the band nothing is expected

@@ -90,13 +90,18 @@ _MIN_HOLD, _MAX_HOLD = 2.0, 16.0  # settling time after the ramp, in units of τ
 _SETTLE_TOL = 1e-7  # rad: remaining motion max|q̇|·τ
 
 
-def _expected(fraction: float | None, mode: Outcome | None) -> Outcome | None:
-    if fraction is None or mode is None:
+def _expected(fraction: float | None, pred: Prediction, s: float) -> Outcome | None:
+    """The outcome the first-order limits predict at scale s, where the case is clear of the margin's band.
+
+    Above FAIL_ABOVE × the margin, the braces' state at s itself: lifted off if any brace's lift-off scale is
+    at most s (a brace past its slip scale may also be past its lift-off scale), else slipped.
+    """
+    if fraction is None or pred.mode is None:
         return "held"
     if fraction <= HOLD_BELOW * (1.0 + 1e-9):
         return "held"
     if fraction >= FAIL_ABOVE * (1.0 - 1e-9):
-        return mode
+        return "lifted_off" if bool(np.any(pred.liftoff <= s)) else "slipped"
     return None
 
 
@@ -329,7 +334,7 @@ def _case(
     outcome: Outcome = "lifted_off" if "lifted_off" in outcomes else ("slipped" if "slipped" in outcomes else "held")
     margin = pred.margin
     fraction = float(s / margin) if np.isfinite(margin) and margin > 0.0 else None
-    expected = _expected(fraction, pred.mode)
+    expected = _expected(fraction, pred, s)
     compare = outcome == "held" and (fraction is None or fraction < 1.0)
     rel_err = change_err = torque_err = None
     if compare:
