@@ -257,36 +257,35 @@ def _rows(
                 if not ok:
                     flag |= NOT_FINITE
         # --- k of J_e (eq:manip), and of J̃ = [Ĵ1, J_e2]
-        for r in range(6):
-            for c in range(r, 6):
-                s = 0.0
-                for p in range(n):
-                    s += jac[0, r, p] * jac[0, c, p]
-                mm[r, c] = s
-                mm[c, r] = s
-        k2 = _k2(mm, lo, col6)
-        if k2 < cert2:
-            k[i] = math.sqrt(k2) / 6.0
-        else:
-            k[i] = math.nan
+        k[i] = _certified_k(jac[0], jac[0], 0, n, mm, lo, col6, cert2)
+        if not math.isfinite(k[i]):
             flag |= K_UNCERTIFIED
         if do_kb:
-            for r in range(6):
-                for c in range(r, 6):
-                    s = 0.0
-                    for p in range(n1):
-                        s += tj1[r, p] * tj1[c, p]
-                    for p in range(n1, n):
-                        s += jac[0, r, p] * jac[0, c, p]
-                    mm[r, c] = s
-                    mm[c, r] = s
-            k2 = _k2(mm, lo, col6)
-            if k2 < cert2:
-                kb[i] = math.sqrt(k2) / 6.0
-            else:
-                kb[i] = math.nan
+            kb[i] = _certified_k(tj1, jac[0], n1, n, mm, lo, col6, cert2)
+            if not math.isfinite(kb[i]):
                 flag |= KB_UNCERTIFIED
         flags[i] = flag
+
+
+@njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
+def _certified_k(
+    left: Array, right: Array, n1: int, n: int, mm: Array, lo: Array, col6: Array, cert2: float
+) -> float:  # pragma: no cover - compiled
+    """K (eq:manip) of the 6×n matrix whose first n1 columns are left's and the rest right's; NaN if uncertified.
+
+    mm (6×6) receives the Gram matrix M Mᵀ; k² = tr(M Mᵀ) tr((M Mᵀ)⁻¹) / 36 must stay below cert2 (CERTIFIED_COND²).
+    """
+    for r in range(6):
+        for c in range(r, 6):
+            s = 0.0
+            for p in range(n1):
+                s += left[r, p] * left[c, p]
+            for p in range(n1, n):
+                s += right[r, p] * right[c, p]
+            mm[r, c] = s
+            mm[c, r] = s
+    k2 = _k2(mm, lo, col6)
+    return math.sqrt(k2) / 6.0 if k2 < cert2 else math.nan
 
 
 @njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
