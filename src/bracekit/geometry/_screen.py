@@ -22,10 +22,23 @@ is settled there; else it is left to coal with the bound raised to its least hei
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+try:
+    from numba import njit
+
+    #: Whether the broad phase runs compiled (numba, the ``[fast]`` extra) or as plain Python (same loops, slower).
+    COMPILED = True
+except ImportError:  # pragma: no cover - numba is in the test extras
+    COMPILED = False
+
+    def njit(**_: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:  # type: ignore[no-redef]
+        """Without numba: the loops run as Python (the geometry's description says so)."""
+        return lambda f: f
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]

@@ -13,6 +13,7 @@ objects are built where they are used (:mod:`bracekit.geometry.distance`).
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 from collections.abc import Sequence
@@ -149,7 +150,13 @@ def geometry_description(elements: Sequence[CollisionElement], capsules: int) ->
     """
     moving = [e for e in elements if e.joint > 0]
     if has_meshes(elements):
-        return f"meshes and primitives from the URDF ({len(moving)} elements, coal)"
+        phase = "" if broad_phase() == "compiled" else f"; broad phase in {broad_phase()}"
+        return f"meshes and primitives from the URDF ({len(moving)} elements, coal{phase})"
     if capsules:
         return f"capsules fitted to the URDF's collision primitives ({capsules})"
     return "capsules (no collision geometry in the URDF)"
+
+
+def broad_phase() -> str:
+    """How the mesh clearance's broad phase runs: "compiled" (numba, the ``[fast]`` extra) or as plain Python."""
+    return "compiled" if importlib.util.find_spec("numba") is not None else "Python (numba not installed)"

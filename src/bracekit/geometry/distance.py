@@ -25,10 +25,12 @@ own motion along the surface does not change d to first order).
 
 from __future__ import annotations
 
+import importlib
 import itertools
 import math
 import weakref
 from collections.abc import Sequence
+from types import ModuleType
 from typing import Any
 
 import coal
@@ -37,7 +39,6 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from bracekit.errors import InputError, NumericalError
-from bracekit.geometry._screen import DISK, HALFSPACE, SPHERE, screen
 from bracekit.geometry.collision import CollisionElement
 from bracekit.geometry.obstacles import Obstacle, surface_obstacle
 from bracekit.geometry.pieces import (
@@ -224,7 +225,7 @@ class MeshClearance:
 
     def _screen(self, placements: Array, held: float, shared: bool) -> tuple[NDArray[Any], ...]:
         """:func:`~bracekit.geometry._screen.screen` of one configuration (every link below `held`, m)."""
-        return screen(
+        found: tuple[NDArray[Any], ...] = _kernel().screen(
             placements,
             self._slot,
             self._centres,
@@ -241,6 +242,7 @@ class MeshClearance:
             np.full(1 if shared else len(placements), held),
             shared,
         )
+        return found
 
     def _settled(self, found: tuple[Array, ...], s: int, gradient: bool) -> Best | None:
         """The pair the broad phase settled for slot `s` (distance, piece, witness, normal or None), or None."""
@@ -350,13 +352,13 @@ def _screened(obstacles: Sequence[Obstacle]) -> tuple[NDArray[np.int64], Array, 
     kinds, origins, axes, sizes = [], [], [], []
     for o in obstacles:
         if o.plane is None:
-            kinds.append(SPHERE)
+            kinds.append(_kernel().SPHERE)
             origins.append(o.centre)
             axes.append(np.eye(3))
             sizes.append(o.radius)
             continue
         c, n, r_max = o.plane
-        kinds.append(HALFSPACE if r_max is None else DISK)
+        kinds.append(_kernel().HALFSPACE if r_max is None else _kernel().DISK)
         origins.append(c)
         axes.append(_plane_axes(n) if r_max is None else o.placement[:3, :3])
         sizes.append(0.0 if r_max is None else r_max)
@@ -410,3 +412,9 @@ def _point_row(u: Array, arm: Array, jac: Array) -> Array:
     ax, ay, az = arm.tolist()
     ux, uy, uz = u.tolist()
     return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
+
+
+def _kernel() -> ModuleType:
+    """The broad phase (:mod:`bracekit.geometry._screen`), imported on first use: numba is an optional extra."""
+    return importlib.import_module("bracekit.geometry._screen")
+

@@ -47,9 +47,10 @@ START_FD_STEP = 1e-7
 def conditioned(state: BracedState) -> tuple[str, ...]:
     """The matrices whose conditioning the start keeps above the floor: the braced inverses, J1 aside.
 
-    One brace: A and J̃; several: G (independent rows) and S J_e N (:meth:`BracedMotions.inverted`).
+    One brace: the whole A (not only the task rows S A a step inverts: a margin in every task space) and J̃;
+    several: G (independent rows) and S J_e N (:meth:`BracedMotions.inverted`).
     """
-    return tuple(key for key in state.motions.inverted(True) if key != "J1")
+    return tuple("A" if key == "SA" else key for key in state.motions.inverted(True) if key != "J1")
 
 
 def _conditioning_residual(state: BracedState, floor: float, space: TaskSpace = POSE) -> Array:
