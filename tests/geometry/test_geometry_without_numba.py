@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_geometry_distance import Q0, _braced
 
 from bracekit.kinematics.clearance import Clearance, geometry_of
-from test_geometry_distance import Q0, _braced
 from geometry_refs import xarm7
 
 SCRIPT = """
