@@ -5,6 +5,9 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -68,31 +71,21 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--radius must be a finite angle >= 0 rad (0: no bound), got {args.radius}")
     if not 0 <= args.refine <= MAX_PLACE_COUNT:
         raise InputError(f"--refine must be from 0 to {MAX_PLACE_COUNT}, got {args.refine}")
-    from bracekit.report.output import atomic_directory, prepare_output
-    from bracekit.studies.place.engine import PlaceSettings, check_spec, run_place
-    from bracekit.studies.place.inner import InnerSettings
-    from bracekit.studies.place.report import FILES, table_markdown, write_outputs
+    from bracekit.report.output import prepare_output
+    from bracekit.studies.place.engine import check_spec
+    from bracekit.studies.place.report import FILES, table_markdown
     from bracekit.studies.place.spec import load_place_spec
     from bracekit.studies.sweep.engine import dask_client
 
     spec = load_place_spec(args.source)
     check_spec(spec)
-    settings = PlaceSettings(
-        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
-        seeds=args.seeds,
-        top=args.top,
-        refine_rounds=args.refine,
-    )
+    command = f"bracekit place {args.source}"
     with (
         sigterm_as_interrupt(),
-        prepare_output(
-            args.out, overwrite=args.overwrite, files=FILES, command=f"bracekit place {args.source}"
-        ) as plan,
+        prepare_output(args.out, overwrite=args.overwrite, files=FILES, command=command) as plan,
+        _background(dask_client(args.workers)) as client_future,  # the cluster starts while q_ref is solved here
     ):
-        with dask_client(args.workers) as client:
-            result = run_place(spec, client, settings)
-        with atomic_directory(plan) as tmp:
-            names = write_outputs(result, tmp, figures=figures)
+        result, names = _run(args, spec, client_future, plan, figures)
     print(table_markdown(result), end="")
     print(f"wrote {', '.join(names)} to {args.out}/", file=sys.stderr)
     if result.best is None:
@@ -100,3 +93,43 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(f"run the best place: bracekit run {args.out}/best.toml --out DIR", file=sys.stderr)
     return 0
+
+
+def _run(
+    args: argparse.Namespace, spec: Any, client_future: Future[Any], plan: Any, figures: bool
+) -> tuple[Any, list[str]]:
+    """The placement once the cluster is starting (`client_future`: its client), its outputs written whole."""
+    from bracekit.report.output import atomic_directory
+    from bracekit.studies.place.engine import PlaceSettings, prepare, run_place
+    from bracekit.studies.place.inner import InnerSettings
+    from bracekit.studies.place.report import write_outputs
+
+    settings = PlaceSettings(
+        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
+        seeds=args.seeds,
+        top=args.top,
+        refine_rounds=args.refine,
+    )
+    prepared = prepare(spec, settings)
+    result = run_place(spec, client_future.result(), settings, prepared)
+    with atomic_directory(plan) as tmp:
+        names = write_outputs(result, tmp, figures=figures)
+    return result, names
+
+
+@contextmanager
+def _background(manager: AbstractContextManager[Any]) -> Iterator[Future[Any]]:
+    """`manager` entered on a thread (its value as a Future) and exited here, with this block's exception if any.
+
+    On an error in the block (bad input, Ctrl-C) it waits for the entry to finish, then exits the manager.
+    """
+    pool = ThreadPoolExecutor(1)
+    entered = pool.submit(manager.__enter__)
+    pool.shutdown(wait=False)
+    try:
+        yield entered
+    except BaseException as exc:
+        if entered.exception() is None and manager.__exit__(type(exc), exc, exc.__traceback__):
+            return
+        raise
+    manager.__exit__(None, None, None)

@@ -1,6 +1,7 @@
 """Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
 
-1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process) seeds the
+1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process: :func:`prepare`,
+   which the command line runs while the cluster starts) seeds the
    inner level; the task context (the free-space run) is computed on a worker meanwhile, and another worker
    imports the inner level's modules.
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
@@ -25,7 +26,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -168,19 +169,39 @@ def bounded_map(client: Any, fn: Any, calls: list[tuple[Any, ...]], window: int,
     return results
 
 
-def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
-    """Run both levels on the Dask `client` (see the module)."""
-    began = time.perf_counter()
+class Prepared(NamedTuple):
+    """What the inner level needs before any worker.
+
+    The links, the reference start q_ref (n,), each link's fraction bounds.
+    """
+
+    links: list[str]
+    q_ref: Array
+    spans: dict[str, tuple[float, float]]
+
+
+def prepare(spec: SweepSpec, settings: PlaceSettings) -> Prepared:
+    """The links, q_ref (:func:`bracekit.studies.sweep.context.reference_start`) and spans, in this process.
+
+    The command line computes it while the Dask cluster starts.
+    """
     links = check_spec(spec)
+    q_ref = reference_start(context_scenario(spec, {}))
+    robot = spec.base_scenario().robot
+    return Prepared(links, q_ref, {link: _span(robot, link, settings.inner) for link in links})
+
+
+def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: Prepared | None = None) -> PlaceRun:
+    """Run both levels on the Dask `client` (see the module); `prepared`: :func:`prepare`'s, computed when None."""
+    began = time.perf_counter()
+    check_spec(spec)
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
         spec_f = client.scatter(spec, broadcast=True, hash=False)
         ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
         futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
-        q_ref = reference_start(context_scenario(spec, {}))
-        robot = spec.base_scenario().robot
-        spans = {link: _span(robot, link, settings.inner) for link in links}
+        links, q_ref, spans = prepare(spec, settings) if prepared is None else prepared
         window = WINDOW_PER_WORKER * max(1, _workers(client))
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
         calls = [(spec_f, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
