@@ -45,6 +45,9 @@ Array = NDArray[np.float64]
 #: Tasks in flight per worker (:func:`bounded_map`): enough to keep each busy, few to cancel on an interrupt.
 WINDOW_PER_WORKER = 2
 
+#: A place to run over the task and the inner optimum whose start posture it is run from.
+Trial = tuple[Place, InnerResult]
+
 
 @dataclass(frozen=True)
 class PlaceSettings:
@@ -63,7 +66,11 @@ class PlaceSettings:
 
 @dataclass
 class PlaceRun:
-    """What a placement did: every inner result, every whole-task row, the best, the timings (s)."""
+    """What a placement did: every inner result, every whole-task row, the best, the timings (s).
+
+    ``unused``: the first compass round's trials run ahead with the task batch and discarded (their centre
+    was not the best place MuJoCo settled on).
+    """
 
     spec: SweepSpec
     settings: PlaceSettings
@@ -75,6 +82,7 @@ class PlaceRun:
     best_start: InnerResult | None
     timings: dict[str, float]
     workers: int = 0
+    unused: int = 0
 
 
 def check_spec(spec: SweepSpec) -> list[str]:
@@ -214,15 +222,24 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         starts: dict[int, InnerResult] = {}
         kind = settings.inner.surface
 
-        def batch(places: list[tuple[Place, InnerResult]], stage: str) -> list[dict[str, Any]]:
-            calls = [(spec_f, p, r.q, ctx_f, stage, kind) for p, r in places]
-            rows = []
-            for (_, r), row in zip(places, bounded_map(client, evaluate_place, calls, window, futures), strict=True):
+        spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
+
+        def batch(places: list[Trial], stage: str, ahead: int = 0) -> None:
+            """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`."""
+            first = len(places) - ahead
+            todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare]
+            calls = [
+                (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind) for i in todo
+            ]
+            done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures), strict=True))
+            for i, (p, r) in enumerate(places):
+                row = done[i] if i in done else spare.pop((p, r.seed))
+                if i >= first:
+                    spare[p, r.seed] = row
+                    continue
                 row = {"place": r.seed, "evaluation": len(evaluations), **row}
                 evaluations.append(row)
                 starts[row["evaluation"]] = r
-                rows.append(row)
-            return rows
 
         def settled_best() -> dict[str, Any] | None:
             """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
@@ -233,19 +250,30 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 row["mujoco_settles"], row["mujoco_message"] = fut.result()
             return _best(evaluations)
 
-        batch([(r.place, r) for r in chosen], "task")
+        def trials(
+            centre: InnerResult, row: dict[str, Any], step: tuple[float, float]
+        ) -> list[tuple[Place, InnerResult]]:
+            """The compass trials about the place of `row` (link, fraction, angle_deg), at the centre's posture."""
+            here = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
+            return [(p, centre) for p in polls(here, step, spans[here.link])]
+
+        # the first compass round's trials about the best inner optimum run with the task batch: they are used
+        # when that place is the best feasible one MuJoCo settles on (else discarded)
+        step = settings.step
+        top = chosen[0].place if chosen else None
+        row0 = {"link": top.link, "fraction": top.fraction, "angle_deg": top.angle_deg} if top else {}
+        ahead = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
+        batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead))
         while settled_best() is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more
             batch([(r.place, r) for r in more], "task")
-        step = settings.step
         for _ in range(settings.refine_rounds):
             best = settled_best()
             if best is None:
                 break
             centre = starts[best["evaluation"]]
-            here = Place(best["link"], float(best["fraction"]), math.radians(best["angle_deg"]))
-            batch([(p, centre) for p in polls(here, step, spans[here.link])], "refine")
+            batch(trials(centre, best, step), "refine")
             if settled_best() is best:
                 step = (0.5 * step[0], 0.5 * step[1])
         timings["outer_s"] = time.perf_counter() - t1
@@ -255,7 +283,9 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     best = settled_best()
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
-    return PlaceRun(spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client))
+    return PlaceRun(
+        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), len(spare)
+    )
 
 
 def _workers(client: Any) -> int:
