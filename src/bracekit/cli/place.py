@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     with (
         sigterm_as_interrupt(),
         prepare_output(args.out, overwrite=args.overwrite, files=FILES, command=command) as plan,
+        _forked_workers(),
         _background(dask_client(args.workers)) as client_future,  # the cluster starts while q_ref is solved here
     ):
         result, names = _run(args, spec, client_future, plan, figures)
@@ -115,6 +116,35 @@ def _run(
     with atomic_directory(plan) as tmp:
         names = write_outputs(result, tmp, figures=figures)
     return result, names
+
+
+#: What the workers run: imported here before they are forked, so none of them imports it again.
+WORKER_MODULES = (
+    "scipy.optimize",
+    "bracekit.studies.place.inner",
+    "bracekit.studies.place.outer",
+    "bracekit.studies.sweep.context",
+    "bracekit.validate.contacts",
+    "bracekit.validate.inputs",
+    "bracekit.validate.mujoco_check",
+)
+
+
+@contextmanager
+def _forked_workers() -> Iterator[None]:
+    """Local workers forked from this process (Dask's ``fork`` method), :data:`WORKER_MODULES` imported first.
+
+    A spawned worker imports bracekit, Pinocchio, SciPy and MuJoCo again (seconds of CPU each, more than the
+    placement's own work on a loaded machine); a forked one starts with them.
+    """
+    import importlib
+
+    import dask
+
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
+    with dask.config.set({"distributed.worker.multiprocessing-method": "fork"}):
+        yield
 
 
 @contextmanager

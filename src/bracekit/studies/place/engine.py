@@ -224,12 +224,16 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
 
         spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
 
-        def batch(places: list[Trial], stage: str, ahead: int = 0) -> None:
-            """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`."""
+        def batch(places: list[Trial], stage: str, ahead: int = 0, check: int = 0) -> None:
+            """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`.
+
+            The first `check` places get MuJoCo's check on their worker right after their run when feasible.
+            """
             first = len(places) - ahead
             todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare]
             calls = [
-                (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind) for i in todo
+                (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
+                for i in todo
             ]
             done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures), strict=True))
             for i, (p, r) in enumerate(places):
@@ -263,7 +267,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         top = chosen[0].place if chosen else None
         row0 = {"link": top.link, "fraction": top.fraction, "angle_deg": top.angle_deg} if top else {}
         ahead = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
-        batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead))
+        batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead), check=1)  # the likely best: checked now
         while settled_best() is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more

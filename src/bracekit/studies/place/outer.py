@@ -26,6 +26,7 @@ from bracekit.studies.place.settle import Settled, settles
 from bracekit.studies.place.surface import SurfaceKind, link_surface
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, judged_run, single_thread
+from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
 
 Array = NDArray[np.float64]
@@ -43,12 +44,19 @@ def _scenario(spec: SweepSpec, place: Place, q: Array, kind: SurfaceKind) -> tup
 
 
 def evaluate_place(
-    spec: SweepSpec, place: Place, q: Array, context: TaskContext, stage: str, kind: SurfaceKind = "capsule"
+    spec: SweepSpec,
+    place: Place,
+    q: Array,
+    context: TaskContext,
+    stage: str,
+    kind: SurfaceKind = "capsule",
+    check: bool = False,
 ) -> dict[str, Any]:
     """The whole-task row of a place braced at posture q: the sweep's result columns; never raises a BracekitError.
 
-    ``mujoco_settles`` and ``mujoco_message`` are None (not checked): the engine checks the feasible rows it
-    may name the best with :func:`settle_place`, best first.
+    ``mujoco_settles`` and ``mujoco_message``: with `check`, a feasible row's MuJoCo check (:func:`settle_place`,
+    right after the run on the same worker); else None (not checked: the engine checks the feasible rows it
+    may name the best, best first).
     """
     single_thread()
     began = time.perf_counter()
@@ -58,6 +66,9 @@ def evaluate_place(
     row |= {"completed": False, "feasible": False, "Ci_mean_free_space": context.free.get("Ci_mean")}
     row = judged_run(spec, row, began, context, lambda: _scenario(spec, place, q, kind))
     row["mujoco_settles"] = row["mujoco_message"] = None
+    if check and usable(row):
+        row["mujoco_settles"], row["mujoco_message"] = settle_place(spec, place, q, kind)
+        row["wall_s"] = time.perf_counter() - began
     return row
 
 
