@@ -140,6 +140,7 @@ def _forked_workers() -> Iterator[None]:
     import importlib
 
     import dask
+    import distributed  # noqa: F401  (its configuration defaults first: leaving the `set` below restores the key only)
 
     for name in WORKER_MODULES:
         importlib.import_module(name)
