@@ -112,7 +112,9 @@ def _run(
         refine_rounds=args.refine,
     )
     prepared = prepare(spec, settings)
-    result = run_place(spec, client_future.result(), settings, prepared)
+    client = client_future.result()
+    client.run(_numba_from_environment)  # before any task: a forked worker holds this process's numba settings
+    result = run_place(spec, client, settings, prepared)
     with atomic_directory(plan) as tmp:
         names = write_outputs(result, tmp, figures=figures)
     return result, names
@@ -146,6 +148,17 @@ def _forked_workers() -> Iterator[None]:
         importlib.import_module(name)
     with dask.config.set({"distributed.worker.multiprocessing-method": "fork"}):
         yield
+
+
+def _numba_from_environment() -> None:
+    """Numba's settings re-read from the worker's environment (its ``NUMBA_NUM_THREADS``), before its threads start.
+
+    A forked worker inherits the numba settings this process read at import; the worker's environment (the
+    cluster's, one thread) differs, and numba refuses to compile once its threads run with other settings.
+    """
+    numba = sys.modules.get("numba")
+    if numba is not None:
+        numba.core.config.reload_config()
 
 
 @contextmanager
