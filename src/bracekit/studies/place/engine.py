@@ -254,9 +254,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 row["mujoco_settles"], row["mujoco_message"] = fut.result()
             return _best(evaluations)
 
-        def trials(
-            centre: InnerResult, row: dict[str, Any], step: tuple[float, float]
-        ) -> list[tuple[Place, InnerResult]]:
+        def trials(centre: InnerResult, row: dict[str, Any], step: tuple[float, float]) -> list[Trial]:
             """The compass trials about the place of `row` (link, fraction, angle_deg), at the centre's posture."""
             here = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
             return [(p, centre) for p in polls(here, step, spans[here.link])]
