@@ -68,3 +68,16 @@ def test_forked_workers_read_numba_settings_from_their_environment() -> None:
         client.run(_numba_from_environment)
         got = list(client.run(_numba_threads).values())
     assert got == [(WORKER_ENV["NUMBA_NUM_THREADS"], int(WORKER_ENV["NUMBA_NUM_THREADS"]))]
+
+
+def test_numba_threads_started_is_seen() -> None:
+    """Started numba threads are seen (the workers are then spawned, not forked): in a fresh process."""
+    import subprocess
+    import sys
+
+    code = (
+        "import numba\nfrom bracekit.cli.place import _numba_threads_started as f\n"
+        "before = f()\nnumba.set_num_threads(1)\nprint(before, f())\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "True"]

@@ -137,7 +137,8 @@ def _forked_workers() -> Iterator[None]:
     """Local workers forked from this process (Dask's ``fork`` method), :data:`WORKER_MODULES` imported first.
 
     A spawned worker imports bracekit, Pinocchio, SciPy and MuJoCo again (seconds of CPU each, more than the
-    placement's own work on a loaded machine); a forked one starts with them.
+    placement's own work on a loaded machine); a forked one starts with them. Not when this process already
+    runs numba's threads (a child would inherit a thread pool without its threads): then spawned, as the sweep's.
     """
     import importlib
 
@@ -146,8 +147,17 @@ def _forked_workers() -> Iterator[None]:
 
     for name in WORKER_MODULES:
         importlib.import_module(name)
-    with dask.config.set({"distributed.worker.multiprocessing-method": "fork"}):
+    method = "spawn" if _numba_threads_started() else "fork"
+    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
         yield
+
+
+def _numba_threads_started() -> bool:
+    """Whether numba's thread pool was started in this process (True when it cannot tell)."""
+    if "numba" not in sys.modules:
+        return False
+    parallel = sys.modules.get("numba.np.ufunc.parallel")
+    return parallel is not None and bool(getattr(parallel, "_is_initialized", True))
 
 
 def _numba_from_environment() -> None:
@@ -157,7 +167,7 @@ def _numba_from_environment() -> None:
     cluster's, one thread) differs, and numba refuses to compile once its threads run with other settings.
     """
     numba = sys.modules.get("numba")
-    if numba is not None:
+    if numba is not None and not _numba_threads_started():  # a spawned worker's settings are its environment's
         numba.core.config.reload_config()
 
 
