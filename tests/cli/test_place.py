@@ -48,3 +48,36 @@ def test_a_cobot_scenario_is_named_as_such(tmp_path: Path, capsys: pytest.Captur
     err = capsys.readouterr().err.strip()
     assert "`bracekit cobot` scenario" in err and "'base' = " not in err and len(err.splitlines()) == 1
     assert not out.exists()
+
+
+def _numba_threads() -> tuple[str | None, int]:
+    import os
+
+    import numba
+
+    return os.environ.get("NUMBA_NUM_THREADS"), int(numba.config.NUMBA_NUM_THREADS)
+
+
+@pytest.mark.slow
+def test_forked_workers_read_numba_settings_from_their_environment() -> None:
+    """A forked worker's numba settings match its environment (else numba refuses to compile a cold kernel)."""
+    from bracekit.cli.place import _forked_workers, _numba_from_environment
+    from bracekit.studies.sweep.engine import WORKER_ENV, dask_client
+
+    with _forked_workers(), dask_client(1) as client:
+        client.run(_numba_from_environment)
+        got = list(client.run(_numba_threads).values())
+    assert got == [(WORKER_ENV["NUMBA_NUM_THREADS"], int(WORKER_ENV["NUMBA_NUM_THREADS"]))]
+
+
+def test_numba_threads_started_is_seen() -> None:
+    """Started numba threads are seen (the workers are then spawned, not forked): in a fresh process."""
+    import subprocess
+    import sys
+
+    code = (
+        "import numba\nfrom bracekit.cli.place import _numba_threads_started as f\n"
+        "before = f()\nnumba.set_num_threads(1)\nprint(before, f())\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "True"]

@@ -5,6 +5,9 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -68,31 +71,22 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--radius must be a finite angle >= 0 rad (0: no bound), got {args.radius}")
     if not 0 <= args.refine <= MAX_PLACE_COUNT:
         raise InputError(f"--refine must be from 0 to {MAX_PLACE_COUNT}, got {args.refine}")
-    from bracekit.report.output import atomic_directory, prepare_output
-    from bracekit.studies.place.engine import PlaceSettings, check_spec, run_place
-    from bracekit.studies.place.inner import InnerSettings
-    from bracekit.studies.place.report import FILES, table_markdown, write_outputs
+    from bracekit.report.output import prepare_output
+    from bracekit.studies.place.engine import check_spec
+    from bracekit.studies.place.report import FILES, table_markdown
     from bracekit.studies.place.spec import load_place_spec
     from bracekit.studies.sweep.engine import dask_client
 
     spec = load_place_spec(args.source)
     check_spec(spec)
-    settings = PlaceSettings(
-        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
-        seeds=args.seeds,
-        top=args.top,
-        refine_rounds=args.refine,
-    )
+    command = f"bracekit place {args.source}"
     with (
         sigterm_as_interrupt(),
-        prepare_output(
-            args.out, overwrite=args.overwrite, files=FILES, command=f"bracekit place {args.source}"
-        ) as plan,
+        prepare_output(args.out, overwrite=args.overwrite, files=FILES, command=command) as plan,
+        _forked_workers(),
+        _background(dask_client(args.workers)) as client_future,  # the cluster starts while q_ref is solved here
     ):
-        with dask_client(args.workers) as client:
-            result = run_place(spec, client, settings)
-        with atomic_directory(plan) as tmp:
-            names = write_outputs(result, tmp, figures=figures)
+        result, names = _run(args, spec, client_future, plan, figures)
     print(table_markdown(result), end="")
     print(f"wrote {', '.join(names)} to {args.out}/", file=sys.stderr)
     if result.best is None:
@@ -100,3 +94,96 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(f"run the best place: bracekit run {args.out}/best.toml --out DIR", file=sys.stderr)
     return 0
+
+
+def _run(
+    args: argparse.Namespace, spec: Any, client_future: Future[Any], plan: Any, figures: bool
+) -> tuple[Any, list[str]]:
+    """The placement once the cluster is starting (`client_future`: its client), its outputs written whole."""
+    from bracekit.report.output import atomic_directory
+    from bracekit.studies.place.engine import PlaceSettings, prepare, run_place
+    from bracekit.studies.place.inner import InnerSettings
+    from bracekit.studies.place.report import write_outputs
+
+    settings = PlaceSettings(
+        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
+        seeds=args.seeds,
+        top=args.top,
+        refine_rounds=args.refine,
+    )
+    prepared = prepare(spec, settings)
+    client = client_future.result()
+    client.run(_numba_from_environment)  # before any task: a forked worker holds this process's numba settings
+    result = run_place(spec, client, settings, prepared)
+    with atomic_directory(plan) as tmp:
+        names = write_outputs(result, tmp, figures=figures)
+    return result, names
+
+
+#: What the workers run: imported here before they are forked, so none of them imports it again.
+WORKER_MODULES = (
+    "scipy.optimize",
+    "bracekit.studies.place.inner",
+    "bracekit.studies.place.outer",
+    "bracekit.studies.sweep.context",
+    "bracekit.validate.contacts",
+    "bracekit.validate.inputs",
+    "bracekit.validate.mujoco_check",
+)
+
+
+@contextmanager
+def _forked_workers() -> Iterator[None]:
+    """Local workers forked from this process (Dask's ``fork`` method), :data:`WORKER_MODULES` imported first.
+
+    A spawned worker imports bracekit, Pinocchio, SciPy and MuJoCo again (seconds of CPU each, more than the
+    placement's own work on a loaded machine); a forked one starts with them. Not when this process already
+    runs numba's threads (a child would inherit a thread pool without its threads): then spawned, as the sweep's.
+    """
+    import importlib
+
+    import dask
+    import distributed  # noqa: F401  (its configuration defaults first: leaving the `set` below restores the key only)
+
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
+    method = "spawn" if _numba_threads_started() else "fork"
+    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+        yield
+
+
+def _numba_threads_started() -> bool:
+    """Whether numba's thread pool was started in this process (True when it cannot tell)."""
+    if "numba" not in sys.modules:
+        return False
+    parallel = sys.modules.get("numba.np.ufunc.parallel")
+    return parallel is not None and bool(getattr(parallel, "_is_initialized", True))
+
+
+def _numba_from_environment() -> None:
+    """Numba's settings re-read from the worker's environment (its ``NUMBA_NUM_THREADS``), before its threads start.
+
+    A forked worker inherits the numba settings this process read at import; the worker's environment (the
+    cluster's, one thread) differs, and numba refuses to compile once its threads run with other settings.
+    """
+    numba = sys.modules.get("numba")
+    if numba is not None and not _numba_threads_started():  # a spawned worker's settings are its environment's
+        numba.core.config.reload_config()
+
+
+@contextmanager
+def _background(manager: AbstractContextManager[Any]) -> Iterator[Future[Any]]:
+    """`manager` entered on a thread (its value as a Future) and exited here, with this block's exception if any.
+
+    On an error in the block (bad input, Ctrl-C) it waits for the entry to finish, then exits the manager.
+    """
+    pool = ThreadPoolExecutor(1)
+    entered = pool.submit(manager.__enter__)
+    pool.shutdown(wait=False)
+    try:
+        yield entered
+    except BaseException as exc:
+        if entered.exception() is None and manager.__exit__(type(exc), exc, exc.__traceback__):
+            return
+        raise
+    manager.__exit__(None, None, None)

@@ -33,6 +33,12 @@ def test_small_placement(tmp_path: Path) -> None:
     lower = [r for r in run.evaluations if usable(r) and r["Ci_mean_gp"] < run.best["Ci_mean_gp"]]
     assert all(r["mujoco_settles"] is False for r in lower)
     assert [r["stage"] for r in run.evaluations] == ["task"] + ["refine"] * 4
+    # the compass trials run ahead with the task batch are the first round's: all used, about the task's place
+    assert run.unused == 0
+    centre = run.evaluations[0]
+    for r in run.evaluations[1:]:
+        moved = (r["fraction"] != centre["fraction"], r["angle_deg"] != pytest.approx(centre["angle_deg"]))
+        assert sum(moved) == 1 and r["place"] == centre["place"]
     names = write_outputs(run, tmp_path, figures=False)
     assert {"table.md", "summary.json", "evaluations.parquet", "table.csv", "best.toml"} <= set(names)
     assert run.best_start is not None

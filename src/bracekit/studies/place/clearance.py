@@ -1,13 +1,20 @@
 """The link clearances from a surface that moves with the pad, and their derivatives in (q, θ).
 
 The surface passes through the pad point b(q, θ) (:mod:`bracekit.studies.place.inner`), so a link's clearance
-c_j(q, b) (:class:`bracekit.kinematics.clearance.Clearance`: capsules against the disk and the cylinder below,
-the braced link left out) changes with the posture twice — the links move, and the surface with the pad:
+c_j(q, b) (:class:`bracekit.kinematics.clearance.Clearance`, the braced link left out) changes with the posture
+twice — the links move, and the surface with the pad:
 
     ∂c_j/∂q = (∂c_j/∂q)_b + (∂c_j/∂b) J_b[:3],     ∂c_j/∂θ = (∂c_j/∂b) ∂b/∂θ.
 
 (∂c_j/∂q)_b is the clearance module's exact gradient; ∂c_j/∂b (1×3) by central differences of the clearance in
 the surface's position (step :data:`STEP`), since that module gives no derivative in the surface's point.
+
+Capsules: the surface's rule (the disk and the cylinder below) through b. Collision meshes and primitives
+(:class:`bracekit.geometry.distance.MeshClearance`, coal): the surface's solid is fixed where the brace put it
+(through b₀), and moving it by δ = b − b₀ is moving every link by −δ, so the links' placements are shifted
+by −δ (:class:`ShiftedMeshClearance`; a shift changes neither the Jacobians nor the witnesses' arms); the
+environment's further obstacles (``[[obstacle]]``) stay where they are (a second, unshifted clearance, the
+least of the two per link).
 """
 
 from __future__ import annotations
@@ -15,8 +22,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit.geometry.distance import MeshClearance
 from bracekit.kinematics import BracedRobot
-from bracekit.kinematics.clearance import Clearance
+from bracekit.kinematics.clearance import Clearance, LinkDistance
 
 Array = NDArray[np.float64]
 
@@ -24,23 +32,53 @@ Array = NDArray[np.float64]
 STEP = 1e-6
 
 
+class ShiftedMeshClearance(MeshClearance):
+    """:class:`MeshClearance` with every link's placement translated by ``shift`` (m, world; the surface by −shift)."""
+
+    shift: Array = np.zeros(3)
+
+    def _placements(self, qa: Array, gradient: bool) -> tuple[Array, list[Array] | None]:
+        placements, jacs = super()._placements(qa, gradient)
+        placements = placements.copy()
+        placements[:, :3, 3] += self.shift
+        return placements, jacs
+
+
 class MovingClearance(Clearance):
     """The clearance of each link but the braced one from the brace's surface put through a given point."""
 
     def __init__(self, braced: BracedRobot) -> None:
         super().__init__(braced)
-        if self.mesh is not None:
-            raise ValueError("a robot with collision meshes: the moving clearance uses capsules")
+        self._mesh_fixed: MeshClearance | None = None
+        if self.mesh is not None:  # the braced link left out, as with capsules: the pad moves along it
+            skip = int(braced.robot.model.frames[braced.brace_id].parentJoint)
+            elements = [e for e in braced.robot.geometry if e.joint != skip]
+            self._origin = np.array(braced.brace.surface.point, dtype=float)
+            self.mesh = ShiftedMeshClearance(braced, elements)
+            if braced.obstacles:
+                self._mesh_fixed = MeshClearance(braced, elements, braced.obstacles, surfaces=False)
+
+    def _found(self, q: Array, point: Array, gradient: bool) -> list[LinkDistance]:
+        """Each link's clearance with the surface through `point`, in chain order."""
+        self._point = point
+        if self.mesh is None:
+            return sorted(self.links(q, gradient=gradient), key=lambda d: d.joint)
+        assert isinstance(self.mesh, ShiftedMeshClearance)
+        self.mesh.shift = self._origin - point
+        least = {j: LinkDistance(j, v, g) for j, v, g in self.mesh.links(q, gradient)}
+        if self._mesh_fixed is not None:
+            for j, v, g in self._mesh_fixed.links(q, gradient):
+                if j not in least or v < least[j].clearance:
+                    least[j] = LinkDistance(j, v, g)
+        return [least[j] for j in sorted(least)]
 
     def values(self, q: Array, point: Array) -> Array:
         """Each link's clearance (J,), m, with the surface through `point` (no gradients)."""
-        self._point = point
-        return np.array([d.clearance for d in sorted(self.links(q, gradient=False), key=lambda d: d.joint)])
+        return np.array([d.clearance for d in self._found(q, point, False)])
 
     def rows(self, q: Array, point: Array) -> tuple[Array, Array, Array]:
         """(Each link's clearance (J,), m; (∂c/∂q)_b (J, n); ∂c/∂b (J, 3)) with the surface through `point`."""
-        self._point = point
-        found = sorted(self.links(q, gradient=True), key=lambda d: d.joint)
+        found = self._found(q, point, True)
         values = np.array([d.clearance for d in found])
         dq = np.array([d.gradient for d in found]).reshape(len(found), q.size)
         db = np.zeros((values.size, 3))

@@ -1,6 +1,7 @@
 """Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
 
-1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process) seeds the
+1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process: :func:`prepare`,
+   which the command line runs while the cluster starts) seeds the
    inner level; the task context (the free-space run) is computed on a worker meanwhile, and another worker
    imports the inner level's modules.
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
@@ -10,10 +11,14 @@
    ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
    of whole-task runs per round).
 
+Every task goes through :func:`bounded_map`: at most two per worker in flight, so an interrupt stops a run
+in seconds whatever the number of seeds.
+
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
-scenario MuJoCo's static check settles on (:mod:`.settle`, run on the worker after each feasible whole-task
-run; ``mujoco_settles`` in the row, None on the infeasible ones). Rows are
-ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers finish in.
+scenario MuJoCo's static check settles on (:mod:`.settle`): the check runs on a worker on the feasible rows,
+least C_i first, until one settles (``mujoco_settles`` in the row: True, False, or None when not checked).
+Rows are ordered by link and seed (inner) and by place and evaluation (outer), whatever the order the workers
+finish in.
 """
 
 from __future__ import annotations
@@ -21,14 +26,14 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError, InputError
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
-from bracekit.studies.place.outer import evaluate_place, polls
+from bracekit.studies.place.outer import evaluate_place, polls, settle_place
 from bracekit.studies.place.scenario import Place
 from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
@@ -36,6 +41,12 @@ from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
 
 Array = NDArray[np.float64]
+
+#: Tasks in flight per worker (:func:`bounded_map`): enough to keep each busy, few to cancel on an interrupt.
+WINDOW_PER_WORKER = 2
+
+#: A place to run over the task and the inner optimum whose start posture it is run from.
+Trial = tuple[Place, InnerResult]
 
 
 @dataclass(frozen=True)
@@ -55,7 +66,11 @@ class PlaceSettings:
 
 @dataclass
 class PlaceRun:
-    """What a placement did: every inner result, every whole-task row, the best, the timings (s)."""
+    """What a placement did: every inner result, every whole-task row, the best, the timings (s).
+
+    ``unused``: the first compass round's trials run ahead with the task batch and discarded (their centre
+    was not the best place MuJoCo settled on).
+    """
 
     spec: SweepSpec
     settings: PlaceSettings
@@ -67,6 +82,7 @@ class PlaceRun:
     best_start: InnerResult | None
     timings: dict[str, float]
     workers: int = 0
+    unused: int = 0
 
 
 def check_spec(spec: SweepSpec) -> list[str]:
@@ -116,6 +132,13 @@ def _best(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
     return min(good, key=lambda r: (r["Ci_mean_gp"], r["evaluation"])) if good else None
 
 
+def _unchecked(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The feasible row the best must be compared with next: the least mean C_i among those not yet rejected."""
+    good = [r for r in rows if usable(r) and r.get("mujoco_settles") is not False]
+    best = min(good, key=lambda r: (r["Ci_mean_gp"], r["evaluation"])) if good else None
+    return None if best is None or best.get("mujoco_settles") is True else best
+
+
 def _warm() -> None:
     """Import the inner level's modules (SciPy's optimiser, the clearance) on a worker."""
     import scipy.optimize  # noqa: F401
@@ -123,71 +146,153 @@ def _warm() -> None:
     import bracekit.studies.place.inner  # noqa: F401
 
 
-def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings) -> PlaceRun:
-    """Run both levels on the Dask `client` (see the module)."""
-    began = time.perf_counter()
+def bounded_map(client: Any, fn: Any, calls: list[tuple[Any, ...]], window: int, futures: list[Any]) -> list[Any]:
+    """fn(*call) for every call on the Dask `client`, results in the calls' order, at most `window` submitted at once.
+
+    Each finished task lets the next one in, so the workers never wait for a batch, and an interrupt (Ctrl-C,
+    SIGTERM) leaves at most `window` tasks to cancel: closing the cluster then takes seconds whatever the number
+    of calls. The submitted futures are appended to `futures` (the caller cancels them on an interrupt).
+    """
+    from distributed import as_completed
+
+    results: list[Any] = [None] * len(calls)
+    index: dict[Any, int] = {}
+    pending = iter(enumerate(calls))
+
+    def submit(queue: Any) -> None:
+        nxt = next(pending, None)
+        if nxt is not None:
+            fut = client.submit(fn, *nxt[1], pure=False)
+            index[fut.key] = nxt[0]
+            futures.append(fut)
+            queue.add(fut)
+
+    queue = as_completed([])
+    for _ in range(min(window, len(calls))):
+        submit(queue)
+    for fut in queue:
+        results[index[fut.key]] = fut.result()
+        futures.remove(fut)
+        submit(queue)
+    return results
+
+
+class Prepared(NamedTuple):
+    """What the inner level needs before any worker.
+
+    The links, the reference start q_ref (n,), each link's fraction bounds.
+    """
+
+    links: list[str]
+    q_ref: Array
+    spans: dict[str, tuple[float, float]]
+
+
+def prepare(spec: SweepSpec, settings: PlaceSettings) -> Prepared:
+    """The links, q_ref (:func:`bracekit.studies.sweep.context.reference_start`) and spans, in this process.
+
+    The command line computes it while the Dask cluster starts.
+    """
     links = check_spec(spec)
+    q_ref = reference_start(context_scenario(spec, {}))
+    robot = spec.base_scenario().robot
+    return Prepared(links, q_ref, {link: _span(robot, link, settings.inner) for link in links})
+
+
+def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: Prepared | None = None) -> PlaceRun:
+    """Run both levels on the Dask `client` (see the module); `prepared`: :func:`prepare`'s, computed when None."""
+    began = time.perf_counter()
+    check_spec(spec)
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
         spec_f = client.scatter(spec, broadcast=True, hash=False)
         ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
         futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
-        q_ref = reference_start(context_scenario(spec, {}))
-        robot = spec.base_scenario().robot
-        spans = {link: _span(robot, link, settings.inner) for link in links}
+        links, q_ref, spans = prepare(spec, settings) if prepared is None else prepared
+        window = WINDOW_PER_WORKER * max(1, _workers(client))
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
-        inner_f = [
-            client.submit(optimise_start, spec_f, link, f, q_ref, settings.inner, i, pure=False)
-            for i, (link, f) in enumerate(seeds)
-        ]
-        futures += inner_f
-        inner = list(client.gather(inner_f))
+        calls = [(spec_f, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
+        inner: list[InnerResult] = bounded_map(client, optimise_start, calls, window, futures)
         timings["inner_s"] = time.perf_counter() - began
         ranking = choose(inner, len(links))
         chosen = ranking[: settings.top]
         t1 = time.perf_counter()
         evaluations: list[dict[str, Any]] = []
         starts: dict[int, InnerResult] = {}
+        kind = settings.inner.surface
 
-        def batch(places: list[tuple[Place, InnerResult]], stage: str) -> list[dict[str, Any]]:
-            fut = [
-                client.submit(evaluate_place, spec_f, p, r.q, ctx_f, stage, settings.inner.surface, pure=False)
-                for p, r in places
+        spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
+
+        def batch(places: list[Trial], stage: str, ahead: int = 0, check: int = 0) -> None:
+            """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`.
+
+            The first `check` places get MuJoCo's check on their worker right after their run when feasible.
+            """
+            first = len(places) - ahead
+            todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare]
+            calls = [
+                (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
+                for i in todo
             ]
-            futures.extend(fut)
-            rows = []
-            for (_, r), row in zip(places, client.gather(fut), strict=True):
+            done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures), strict=True))
+            for i, (p, r) in enumerate(places):
+                row = done[i] if i in done else spare.pop((p, r.seed))
+                if i >= first:
+                    spare[p, r.seed] = row
+                    continue
                 row = {"place": r.seed, "evaluation": len(evaluations), **row}
                 evaluations.append(row)
                 starts[row["evaluation"]] = r
-                rows.append(row)
-            return rows
 
-        batch([(r.place, r) for r in chosen], "task")
-        while _best(evaluations) is None and len(chosen) < len(ranking):  # none usable: the next
+        def settled_best() -> dict[str, Any] | None:
+            """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
+            while (row := _unchecked(evaluations)) is not None:
+                place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
+                fut = client.submit(settle_place, spec_f, place, starts[row["evaluation"]].q, kind, pure=False)
+                futures.append(fut)
+                row["mujoco_settles"], row["mujoco_message"] = fut.result()
+            return _best(evaluations)
+
+        def trials(centre: InnerResult, row: dict[str, Any], step: tuple[float, float]) -> list[Trial]:
+            """The compass trials about the place of `row` (link, fraction, angle_deg), at the centre's posture."""
+            here = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
+            return [(p, centre) for p in polls(here, step, spans[here.link])]
+
+        # the first compass round's trials about the best inner optimum run with the task batch: they are used
+        # when that place is the best feasible one MuJoCo settles on (else discarded)
+        step = settings.step
+        top = chosen[0].place if chosen else None
+        row0 = {"link": top.link, "fraction": top.fraction, "angle_deg": top.angle_deg} if top else {}
+        ahead = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
+        batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead), check=1)  # the likely best: checked now
+        while settled_best() is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more
             batch([(r.place, r) for r in more], "task")
-        step = settings.step
         for _ in range(settings.refine_rounds):
-            best = _best(evaluations)
+            best = settled_best()
             if best is None:
                 break
             centre = starts[best["evaluation"]]
-            here = Place(best["link"], float(best["fraction"]), math.radians(best["angle_deg"]))
-            rows = batch([(p, centre) for p in polls(here, step, spans[here.link])], "refine")
-            if not any(r is _best([r]) and r["Ci_mean_gp"] < best["Ci_mean_gp"] for r in rows):
+            batch(trials(centre, best, step), "refine")
+            if settled_best() is best:
                 step = (0.5 * step[0], 0.5 * step[1])
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:
         client.cancel(futures)
         raise
-    best = _best(evaluations)
+    best = settled_best()
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
-    workers = len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
-    return PlaceRun(spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, workers)
+    return PlaceRun(
+        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), len(spare)
+    )
+
+
+def _workers(client: Any) -> int:
+    """The number of the client's workers (0 when it cannot say)."""
+    return len(client.scheduler_info(n_workers=-1).get("workers", {})) if hasattr(client, "scheduler_info") else 0
 
 
 def best_place(run: PlaceRun) -> tuple[Place, Array] | None:

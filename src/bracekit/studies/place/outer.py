@@ -3,10 +3,11 @@
 :func:`evaluate_place` runs the place's scenario (:mod:`bracekit.studies.place.scenario`: the start guess the
 inner optimum's posture, the surface through the pad there) with both braced strategies, and judges the row by
 the sweep's feasibility rules (:func:`bracekit.studies.sweep.evaluate.summary_columns`: k of J̃, clearance,
-joint limits, margins, holding), and checks a feasible one in MuJoCo. The refinement is a compass search on (s, φ) whose
-trial places (:func:`polls`: s ± h_s, φ ± h_φ, the start posture kept) run as one parallel batch per round
-(:mod:`bracekit.studies.place.engine`): the best feasible trial with a lower mean C_i of gradient projection
-becomes the centre, else the steps halve. Infeasible trials never win.
+joint limits, margins, holding); :func:`settle_place` checks a feasible one in MuJoCo. The refinement is a
+compass search on (s, φ) whose trial places (:func:`polls`: s ± h_s, φ ± h_φ, the start posture kept) run as
+one parallel batch per round (:mod:`bracekit.studies.place.engine`): the best feasible trial with a lower mean
+C_i of gradient projection that MuJoCo settles on becomes the centre, else the steps halve. Infeasible trials
+never win.
 """
 
 from __future__ import annotations
@@ -17,10 +18,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit.errors import BracekitError
 from bracekit.simulation.scenario import parse_scenario
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.studies.place.scenario import Place, pad_world, place_data
-from bracekit.studies.place.settle import settles
+from bracekit.studies.place.settle import Settled, settles
 from bracekit.studies.place.surface import SurfaceKind, link_surface
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.evaluate import RESULT_COLUMNS, judged_run, single_thread
@@ -33,13 +35,28 @@ Array = NDArray[np.float64]
 TASK_COLUMNS = tuple(c for c in RESULT_COLUMNS if not c.startswith("screen"))
 
 
+def _scenario(spec: SweepSpec, place: Place, q: Array, kind: SurfaceKind) -> tuple[Array, Scenario]:
+    """The pad's world point at posture q and the place's scenario (the surface through it)."""
+    surface = link_surface(spec.base_scenario().robot, place.link, kind)
+    centre = pad_world(spec, surface, place, q)
+    data = place_data(spec, surface, place, q, centre)
+    return centre, parse_scenario(data, base=spec.base_dir, name=data["name"])
+
+
 def evaluate_place(
-    spec: SweepSpec, place: Place, q: Array, context: TaskContext, stage: str, kind: SurfaceKind = "capsule"
+    spec: SweepSpec,
+    place: Place,
+    q: Array,
+    context: TaskContext,
+    stage: str,
+    kind: SurfaceKind = "capsule",
+    check: bool = False,
 ) -> dict[str, Any]:
     """The whole-task row of a place braced at posture q: the sweep's result columns; never raises a BracekitError.
 
-    A feasible row also gets MuJoCo's static check of its scenario (:mod:`bracekit.studies.place.settle`):
-    ``mujoco_settles`` and ``mujoco_message`` (None on the other rows).
+    ``mujoco_settles`` and ``mujoco_message``: with `check`, a feasible row's MuJoCo check (:func:`settle_place`,
+    right after the run on the same worker); else None (not checked: the engine checks the feasible rows it
+    may name the best, best first).
     """
     single_thread()
     began = time.perf_counter()
@@ -47,23 +64,22 @@ def evaluate_place(
     row["angle_deg"] = place.angle_deg
     row |= dict.fromkeys(TASK_COLUMNS)
     row |= {"completed": False, "feasible": False, "Ci_mean_free_space": context.free.get("Ci_mean")}
-
-    built: list[Scenario] = []
-
-    def build() -> tuple[Array, Scenario]:
-        surface = link_surface(spec.base_scenario().robot, place.link, kind)
-        centre = pad_world(spec, surface, place, q)
-        data = place_data(spec, surface, place, q, centre)
-        built.append(parse_scenario(data, base=spec.base_dir, name=data["name"]))
-        return centre, built[-1]
-
-    row = judged_run(spec, row, began, context, build)
+    row = judged_run(spec, row, began, context, lambda: _scenario(spec, place, q, kind))
     row["mujoco_settles"] = row["mujoco_message"] = None
-    if usable(row) and built:
-        check = settles(built[-1])
-        row["mujoco_settles"], row["mujoco_message"] = check.ok, check.message
+    if check and usable(row):
+        row["mujoco_settles"], row["mujoco_message"] = settle_place(spec, place, q, kind)
         row["wall_s"] = time.perf_counter() - began
     return row
+
+
+def settle_place(spec: SweepSpec, place: Place, q: Array, kind: SurfaceKind = "capsule") -> Settled:
+    """MuJoCo's static check (:func:`bracekit.studies.place.settle.settles`) of the place's scenario at posture q."""
+    single_thread()
+    try:
+        scenario = _scenario(spec, place, q, kind)[1]
+    except BracekitError as exc:
+        return Settled(False, f"MuJoCo's static check: {exc}")
+    return settles(scenario)
 
 
 def polls(place: Place, step: tuple[float, float], bounds: tuple[float, float]) -> list[Place]:

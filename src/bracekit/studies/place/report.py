@@ -76,6 +76,7 @@ def summary(run: PlaceRun) -> dict[str, Any]:
             "not_settled": sum(r.get("mujoco_settles") is False for r in run.evaluations),
         },
         "workers": run.workers,
+        "trials_run_ahead_unused": run.unused,
         "timings": run.timings,
         "best": None
         if best is None or found is None
