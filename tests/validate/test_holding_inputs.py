@@ -76,3 +76,27 @@ def test_above_the_band_the_expected_outcome_is_the_first_order_state_at_that_lo
     assert _expected(1.2, far, s) == "slipped"
     assert _expected(0.8, close, 0.8 * close.margin) == "held"
     assert _expected(1.0, close, close.margin) is None  # inside the band nothing is expected
+
+
+def test_indeterminate_contact_forces_refuse_the_holding_checks_by_name(two: bk.Scenario) -> None:
+    """A sticking pad with three load rows on a body only two joints move: J_bᵀ X has rank ≤ 2 < 3 (a frictionless
+    pad on the same body keeps its one row): the split into normal and tangential force is free, so no check."""
+    from bracekit.validate.holding_check import check_determinate
+
+    q = validation_configurations(two, 1)[0]
+    h = default_holding(two)
+    check_determinate(two.braced, [q], h, "holding check")  # the shipped pads are determinate
+    robot = two.braced.robot
+    j = next(i for i in range(robot.model.nframes) if robot.model.frames[i].parentJoint == 2)
+    name = robot.model.frames[j].name
+    import pinocchio as pin
+
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q)
+    where = data.oMf[j].translation.copy()
+    pad = bk.Brace(name, bk.Surface(where, np.array([0.0, 0.0, 1.0])))
+    braced = bk.BracedRobot(robot, [pad])
+    rank = np.linalg.matrix_rank(braced.state(q).J_b_i[0][:3], tol=1e-9)
+    assert rank <= 2
+    with pytest.raises(InputError, match="determinate contact forces"):
+        check_determinate(braced, [q], Holding(preloads=(5.0,), frictions=(0.8,)), "holding check")

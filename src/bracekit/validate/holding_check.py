@@ -33,6 +33,7 @@ Actuator saturation is not simulated (MuJoCo's springs have no effort limit); th
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import mujoco
@@ -40,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from bracekit._linalg import as_array, show
-from bracekit.errors import InputError, MujocoValidationError
+from bracekit.errors import InputError, MujocoValidationError, RedundantContactWarning, UnloadedContactWarning
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.holding import Holding
 from bracekit.statics import ContactResponse, capacity_of, contact_responses, effort_limits
@@ -59,6 +60,7 @@ __all__ = [
     "Outcome",
     "Prediction",
     "check_braces",
+    "check_determinate",
     "mujoco_holding_check",
 ]
 
@@ -169,6 +171,33 @@ def check_braces(braced: BracedRobot, holding: Holding, what: str) -> None:
         if brace.environment_stiffness is not None:
             raise InputError(f"the MuJoCo {what} models rigid surfaces; brace {i} has an environment stiffness")
     common_friction(braced, holding)
+
+
+def check_determinate(braced: BracedRobot, qs: ArrayLike, holding: Holding, what: str) -> None:
+    """InputError where the load contacts' forces are statically indeterminate at a configuration of `qs`.
+
+    A load row that carries no load or depends on others (J_bᵀ X rank deficient: the joints cannot move the brace
+    point along some constraint direction) leaves the split of a brace's force into normal and tangential parts
+    free: any force X c with J_bᵀ X c = 0 can be added. Slip and lift-off then have no first-order prediction
+    (MuJoCo's regularised contact picks one split), so the ``what`` is refused by name, not run.
+    """
+    count = len(braced.braces)
+    frictions = [m if m else None for m in holding.brace_frictions(count)]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        contact_responses(
+            braced,
+            np.asarray(qs),
+            preload=list(holding.brace_preloads(count)),
+            gravity=holding.gravity,
+            friction=frictions,
+        )
+    said = [str(w.message) for w in caught if issubclass(w.category, UnloadedContactWarning | RedundantContactWarning)]
+    if said:
+        raise InputError(
+            f"the {what} need determinate contact forces, but at the checked configurations {said[0]} (J_bᵀ X is "
+            "rank deficient): the split into normal and tangential force, and so slip and lift-off, is undefined"
+        )
 
 
 def common_friction(braced: BracedRobot, holding: Holding) -> float | None:

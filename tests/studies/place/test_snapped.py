@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from bracekit.geometry.pad import pad_on_surface
+from bracekit.geometry.pad import _well_inside, pad_on_surface
 from bracekit.model.robot import Robot
 from bracekit.studies.place.inner import InnerSettings, StartProblem
 from bracekit.studies.place.snapped import SnappedSurface
@@ -33,12 +33,33 @@ def test_point_and_axis_match_pad_on_surface(robot: Robot, link: str) -> None:
     surface = link_surface(robot, link, "collision")
     assert isinstance(surface, SnappedSurface)
     lo, hi = surface.fraction_bounds((0.02, 0.98))
+    compared = 0
     for f, deg in [(0.1, 0.0), (0.3, 90.0), (0.7, 200.0), (0.9, -45.0)]:
         s = lo + f * (hi - lo)
+        point = surface.point(s, math.radians(deg))
+        # on the link's surface: a point of one of its triangles (barycentric coordinates in [0, 1])
+        assert _on_triangles(surface.triangles, point)
+        if not _well_inside(surface.triangles, surface.centre(s)):
+            continue  # pad_on_surface casts from the cross-section's centroid there, not from the smooth line
         pad = pad_on_surface(robot, link, s, deg)
-        assert np.allclose(surface.point(s, math.radians(deg)), pad.point, atol=1e-12)
+        assert np.allclose(point, pad.point, atol=1e-12)
         # the interpolated normal against the facet's: within the tessellation's angle
         assert surface.normal(s, math.radians(deg)) @ pad.axis > math.cos(math.radians(15.0))
+        compared += 1
+    assert compared >= 2
+
+
+def _on_triangles(tri: np.ndarray, p: np.ndarray, tol: float = 1e-9) -> bool:
+    """Whether p lies on one of the triangles (t, 3, 3): in its plane and inside its edges."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    n = np.cross(b - a, c - a)
+    area2 = np.einsum("ij,ij->i", n, n)
+    ok = area2 > 0.0
+    dist = np.abs(np.einsum("ij,ij->i", p - a, n)) / np.sqrt(np.where(ok, area2, 1.0))
+    u = np.einsum("ij,ij->i", np.cross(c - b, p - b), n) / np.where(ok, area2, 1.0)
+    v = np.einsum("ij,ij->i", np.cross(a - c, p - c), n) / np.where(ok, area2, 1.0)
+    w = 1.0 - u - v
+    return bool(np.any(ok & (dist < tol) & (u > -tol) & (v > -tol) & (w > -tol)))
 
 
 def _same_face(surface: SnappedSurface, s: float, phi: float) -> bool:
