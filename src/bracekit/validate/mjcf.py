@@ -15,6 +15,13 @@ Pinocchio statics (measured, see the tests):
   clamps the solref time constant to ≥ 2 timesteps); bodies of 1 kg / 0.01 kg·m² (the contact's
   steady-state softness scales with the inverse constraint-space mass); a finite surface stiffness k_env
   is a soft contact of exactly that stiffness (:func:`soft_contact_solref`);
+* the sphere on a massless body of its own at the contact point: MuJoCo regularises a contact with the
+  ``body_invweight0`` (the mobility at its centre of mass, at qpos0) of the sphere's body. On a link whose
+  centre of mass cannot translate (link 2 of an arm whose joint-1 and joint-2 axes meet at its origin), that
+  mobility is 0 and the regulariser R falls to MuJoCo's floor 1e-15: the contact is a hard constraint whose
+  penetration at rest, f R / stiffness, is ~1e-16 m, so the sphere sits on the collision threshold, drops out
+  of contact on round-off (45 steps in 20 000 on link 2 of the paper robot) and is kicked back in: the chain
+  never settles. On its own body R is the mobility of the contact point (penetration ~5e-11 m at 1 N);
 * quasi-static settling: implicitfast integrator and joint damping d_i = τ k_i with τ = 2√λ_max(K⁻¹M(q0)),
   which damps the heaviest mode critically and every other mode faster than e^(−t/τ).
 """
@@ -146,10 +153,12 @@ def soft_contact_solref(k_env: float, inverse_weight: float, impedance: float = 
 
 
 def _mjcf_contacts(chain: _Chain, contacts: list[_ContactGeoms], damping_time: float, timestep: float) -> str:
-    """MJCF text: the spring-jointed chain, a sphere per contact on {b_i}'s body and its plane in the world.
+    """MJCF text: the spring-jointed chain, a sphere per contact fixed to {b_i}'s body and its plane in the world.
 
-    Sphere i has contype = bit_i and plane i conaffinity = bit_i (all other bits 0), so each sphere only
-    collides with its own plane.
+    Each sphere sits on a massless body of its own at its centre: MuJoCo's contact regulariser then uses the
+    mobility of the contact point, never 0 on a link whose centre of mass cannot move. Sphere i has
+    contype = bit_i and plane i conaffinity = bit_i (all other bits 0), so each sphere only collides with its
+    own plane.
     """
     model, q0, K, rest, tip_frame_id = chain.model, chain.q0, chain.K, chain.rest, chain.tip_frame_id
     sphere_radius, gravity, friction, cone, impratio = (
@@ -211,8 +220,9 @@ def _mjcf_contacts(chain: _Chain, contacts: list[_ContactGeoms], damping_time: f
                 )
         for geoms, centre_local in spheres.get(jid, []):
             lines.append(
-                f'{indent}  <geom name={quoteattr(geoms.sphere)} type="sphere" size="{_fmt(sphere_radius)}" '
-                f'pos="{_vec(centre_local)}" contype="{geoms.bit}" conaffinity="0" {contact_attrs(geoms)}/>'
+                f'{indent}  <body name={quoteattr(geoms.sphere)} pos="{_vec(centre_local)}">'
+                f'<geom name={quoteattr(geoms.sphere)} type="sphere" size="{_fmt(sphere_radius)}" '
+                f'contype="{geoms.bit}" conaffinity="0" {contact_attrs(geoms)}/></body>'
             )
         if jid == tjid:
             lines.append(
@@ -280,19 +290,19 @@ def build_mujoco_model(
 ) -> str:
     """MJCF string of the spring-jointed chain with a sphere contact at every {b_i} on its plane.
 
-    Bodies mirror ``model.jointPlacements`` (MuJoCo qpos = Pinocchio q). Hinge i has stiffness k_i
-    (N·m/rad), damping τ·k_i (N·m·s/rad) and springref = q_s: by default the set points that make q0 the
-    equilibrium under the contacts' preloads P_i (:func:`~bracekit.validate.plane_contact.contact_set_points`,
-    no gravity), the spring model of :func:`bracekit.validate.statics.solve_statics`. Contact i is a sphere
-    (geom ``brace_sphere_i``, radius ``sphere_radius``) fixed to b_i's parent body with its centre at
-    b_i + r n̂_i at q0, and a plane (geom ``surface_i``) through the contact's point with normal n̂_i; sphere i
-    has contype 2^i and plane i conaffinity 2^i, so each sphere collides with its own plane only (at most 31
-    contacts). The contact is MuJoCo's frictionless point (condim 1), or condim 3 with ``friction``; stiff
+    Bodies mirror ``model.jointPlacements`` (MuJoCo qpos = Pinocchio q). Hinge i has stiffness k_i (N·m/rad),
+    damping τ·k_i (N·m·s/rad) and springref = q_s: by default the set points that make q0 the equilibrium under the
+    contacts' preloads P_i (:func:`~bracekit.validate.plane_contact.contact_set_points`, no gravity), the spring
+    model of :func:`bracekit.validate.statics.solve_statics`. Contact i is a sphere (geom ``brace_sphere_i``, radius
+    ``sphere_radius``) on a massless body of the same name fixed to b_i's parent body with its origin at the
+    sphere's centre b_i + r n̂_i at q0, and a plane (geom ``surface_i``) through the contact's point with normal
+    n̂_i; sphere i has contype 2^i and plane i conaffinity 2^i, so each sphere collides with its own plane only (at
+    most 31 contacts). The contact is MuJoCo's frictionless point (condim 1), or condim 3 with ``friction``; stiff
     (solref 0.002 1, solimp 0.9999 0.9999 0.001) or, with the contact's k_env, a spring of stiffness k_env
-    (:func:`soft_contact_solref`) whose plane is pressed in by P_i / k_env at q0. Site ``tip`` is at the tip
-    frame, same orientation. Bodies get 1 kg and 0.01 kg·m² unless ``gravity``, which uses Pinocchio's inertias
-    (floored at 1 g, 1e-6 kg·m²) and g = 9.81 m/s² along −z; with gravity, give the set points that hold it
-    (``set_points``, e.g. from :func:`bracekit.statics.contact_response`).
+    (:func:`soft_contact_solref`) whose plane is pressed in by P_i / k_env at q0. Site ``tip`` is at the tip frame,
+    same orientation. Bodies get 1 kg and 0.01 kg·m² unless ``gravity``, which uses Pinocchio's inertias (floored at
+    1 g, 1e-6 kg·m²) and g = 9.81 m/s² along −z; with gravity, give the set points that hold it (``set_points``,
+    e.g. from :func:`bracekit.statics.contact_response`).
 
     Args:
         model: Pinocchio model of a serial chain of 1-DoF revolute joints (nq == nv == n).

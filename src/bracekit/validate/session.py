@@ -70,7 +70,7 @@ def captured_warnings(messages: list[str]) -> Iterator[list[str]]:
 
 @dataclass(frozen=True)
 class _Pair:
-    """Contact i of the model: its sphere and plane geom ids, the sphere's body and b_i in that body's frame."""
+    """Contact i of the model: its sphere and plane geom ids, the sphere's own body (fixed to b_i's link), b_i in it."""
 
     sphere: int
     plane: int

@@ -1,7 +1,7 @@
 """A small placement end to end on a Dask local cluster: one link, one seed, one compass round (slow).
 
-link4 of the paper's robot: its best place validates in MuJoCo (a brace on link2 does not settle there; the
-placement's MuJoCo check, tested in test_settle.py, keeps it from being named the best).
+link4 of the paper's robot: its best place validates in MuJoCo (the placement's MuJoCo check is tested in
+test_settle.py).
 """
 
 from __future__ import annotations

@@ -29,6 +29,7 @@ def test_settles_as_the_validation_does(setup: dict[str, Any], link: str, fracti
     # one-sided: the check is the validation's first attempt on a smaller step budget, so a place it passes
     # settles in the validation too (the validation may still settle where the check gave up)
     assert not check.ok or case["status"] == "ok", case["message"]
-    # on the paper's robot a brace on link2 does not settle within the check's budget; one on link4 does
-    assert check.ok == (link == "link4"), check.message
-    assert check.ok or "did not settle" in (check.message or "")
+    # both settle within the check's budget: link2's too, whose centre of mass cannot translate (the contact
+    # sphere on a body of its own, validate.mjcf; tests/validate/test_mjcf.py has the unsettled contact)
+    assert check.ok, check.message
+    assert case["status"] == "ok", case["message"]

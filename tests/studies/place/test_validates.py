@@ -22,7 +22,6 @@ PANDA = (
 )
 
 
-# on the paper's robot a brace on link2 is feasible by the sweep's rules but MuJoCo does not settle on it
 @pytest.mark.parametrize(("spec_text", "best_link"), [(PAPER, "link4"), (PANDA, "panda_link3")])
 def test_the_best_place_validates(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], spec_text: str, best_link: str

@@ -1,16 +1,15 @@
 """Whether MuJoCo's static check settles on a place's scenario: the placement's last rule before it names a best.
 
 `bracekit validate` (docs/validation.md) loads the braced chain's tip with small dead wrenches in MuJoCo (a
-frictionless sphere on the surface's plane, preloaded) and needs the chain to settle, max|q̇|·τ below its
-tolerance, in every case. On some places it never does although the whole-task run is feasible by the sweep's
-rules: on ``paper-links`` every brace on link2 (the body of joint 2; any point, posture, preload from 1 to
-100 N, the surface tilted, any MuJoCo solver, cone or timestep tried) keeps moving by 1e-9 to 1e-6 rad in kicks
-after it nearly settles, while a brace on link3 or link4 at the same posture settles in under 10000 steps. A
-place whose scenario MuJoCo cannot check is not named the best: :func:`settles` runs one load case of the
-check (the validation's preload, force magnitude, contact and first timestep, at the solved start) on a
-smaller step budget, and the engine takes the best place that settles (:mod:`bracekit.studies.place.engine`).
-The check is one-sided: a place it passes settles in the validation's case too (the same simulation, more
-steps allowed there); the validation may settle, at a smaller timestep or after more steps, where it gave up.
+frictionless sphere on the surface's plane, preloaded) and needs the chain to settle, max|q̇|·τ below its tolerance,
+in every case. A place whose whole-task run is feasible by the sweep's rules may still give a chain MuJoCo does not
+settle (a contact MuJoCo does not regularise drops in and out on round-off; :mod:`bracekit.validate.mjcf` gives each
+contact sphere a body of its own for that reason). A place whose scenario MuJoCo cannot check is not named the best:
+:func:`settles` runs one load case of the check (the validation's preload, force magnitude, contact and first
+timestep, at the solved start) on a smaller step budget, and the engine takes the best place that settles
+(:mod:`bracekit.studies.place.engine`). The check is one-sided: a place it passes settles in the validation's case
+too (the same simulation, more steps allowed there); the validation may settle, at a smaller timestep or after more
+steps, where it gave up.
 """
 
 from __future__ import annotations
