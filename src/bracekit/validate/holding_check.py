@@ -59,8 +59,8 @@ __all__ = [
     "HoldingCheck",
     "Outcome",
     "Prediction",
-    "check_braces",
     "check_determinate",
+    "check_mujoco_contacts",
     "mujoco_holding_check",
 ]
 
@@ -92,19 +92,23 @@ _MIN_HOLD, _MAX_HOLD = 2.0, 16.0  # settling time after the ramp, in units of τ
 _SETTLE_TOL = 1e-7  # rad: remaining motion max|q̇|·τ
 
 
-def _expected(fraction: float | None, pred: Prediction, s: float) -> Outcome | None:
-    """The outcome the first-order limits predict at scale s, where the case is clear of the margin's band.
+def _expected(fraction: float | None, pred: Prediction, s: float) -> tuple[Outcome | None, tuple[Outcome, ...]]:
+    """(The outcome the first-order limits predict at scale s, the outcomes that agree with it) off the bands.
 
-    Above FAIL_ABOVE × the margin, the braces' state at s itself: lifted off if any brace's lift-off scale is
-    at most s (a brace past its slip scale may also be past its lift-off scale), else slipped.
+    Below HOLD_BELOW × the margin: held. Above FAIL_ABOVE × the margin the braces have failed; a brace past its
+    slip scale may be near its lift-off scale too, so the way follows that scale's own band: lifted off past
+    FAIL_ABOVE × the least lift-off scale, slipped below HOLD_BELOW × it, either in between.
     """
-    if fraction is None or pred.mode is None:
-        return "held"
-    if fraction <= HOLD_BELOW * (1.0 + 1e-9):
-        return "held"
-    if fraction >= FAIL_ABOVE * (1.0 - 1e-9):
-        return "lifted_off" if bool(np.any(pred.liftoff <= s)) else "slipped"
-    return None
+    if fraction is None or pred.mode is None or fraction <= HOLD_BELOW * (1.0 + 1e-9):
+        return "held", ("held",)
+    if fraction < FAIL_ABOVE * (1.0 - 1e-9):
+        return None, ()
+    lift = float(np.min(pred.liftoff))
+    if s >= FAIL_ABOVE * lift:
+        return "lifted_off", ("lifted_off",)
+    if s <= HOLD_BELOW * lift:
+        return "slipped", ("slipped",)
+    return ("lifted_off" if s >= lift else "slipped"), ("slipped", "lifted_off")
 
 
 def _holding_session(
@@ -152,7 +156,7 @@ def holding_inputs(
         raise InputError(f"expected a BracedRobot, got {type(braced).__name__}")
     if not isinstance(holding, Holding):
         raise InputError(f"holding must be a bracekit.simulation.holding.Holding, got {type(holding).__name__}")
-    check_braces(braced, holding, what)
+    check_mujoco_contacts(braced, holding, what)
     qa = braced.robot.check_q(q)
     w = as_array(wrench, "the tool wrench [f; m] (N, N·m)").reshape(-1)
     if w.size != 6:
@@ -160,7 +164,7 @@ def holding_inputs(
     return qa, w
 
 
-def check_braces(braced: BracedRobot, holding: Holding, what: str) -> None:
+def check_mujoco_contacts(braced: BracedRobot, holding: Holding, what: str) -> None:
     """InputError unless the MuJoCo ``what`` models every brace: contact types MuJoCo models, rigid surfaces, one μ.
 
     MuJoCo's sphere on a plane models a rigid surface (a brace with k_env is checked by the environment
@@ -363,7 +367,7 @@ def _case(
     outcome: Outcome = "lifted_off" if "lifted_off" in outcomes else ("slipped" if "slipped" in outcomes else "held")
     margin = pred.margin
     fraction = float(s / margin) if np.isfinite(margin) and margin > 0.0 else None
-    expected = _expected(fraction, pred, s)
+    expected, agreeing = _expected(fraction, pred, s)
     compare = outcome == "held" and (fraction is None or fraction < 1.0)
     rel_err = change_err = torque_err = None
     if compare:
@@ -390,7 +394,7 @@ def _case(
         outcome=outcome,
         failed_braces=failed,
         expected=expected,
-        agrees=None if expected is None else outcome == expected,
+        agrees=None if expected is None else outcome in agreeing,
         settled=settled,
         steps=steps,
     )

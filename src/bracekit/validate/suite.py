@@ -28,7 +28,7 @@ from bracekit.simulation.scenario_model import Scenario
 from bracekit.validate.capacity_report import CapacityValidationReport, run_capacity_validation
 from bracekit.validate.compliance_check import ValidationReport, run_validation
 from bracekit.validate.environment_check import EnvironmentValidationReport, run_environment_validation
-from bracekit.validate.holding_check import check_braces, check_determinate
+from bracekit.validate.holding_check import check_determinate, check_mujoco_contacts
 from bracekit.validate.holding_report import HoldingValidationReport, default_holding, run_holding_validation
 from bracekit.validate.inputs import _scenario, path_samples
 from bracekit.validate.preloaded_check import PreloadedValidationReport, run_preloaded_validation
@@ -121,7 +121,7 @@ def run_checks(
     h = sc.holding if sc.holding.active else default_holding(sc)
     own = None if sc.holding.active else h
     try:
-        check_braces(sc.braced, h, "holding and capacity checks")
+        check_mujoco_contacts(sc.braced, h, "holding and capacity checks")
         check_determinate(sc.braced, qs, h, "holding and capacity checks")
     except InputError as exc:
         suite.skipped["holding"] = suite.skipped["capacity"] = str(exc)
