@@ -86,8 +86,11 @@ class PlaceRun:
 
 
 def check_spec(spec: SweepSpec) -> list[str]:
-    """The links to place on; InputError for a spec with other axes (a task, stiffness, ...) or no link axis."""
-    other = [a for a in spec.axis_names if a not in ("link", "fraction")]
+    """The links to place on; InputError for a spec with other axes (a task, stiffness, ...) or no link axis.
+
+    A 'fraction' or 'angle' axis is the grid's sampling of a variable the placement optimises itself.
+    """
+    other = [a for a in spec.axis_names if a not in ("link", "fraction", "angle")]
     if other:
         raise InputError(
             f"bracekit place varies where the brace is only; the spec {spec.name!r} also sweeps {', '.join(other)} "
