@@ -95,15 +95,16 @@ _SETTLE_TOL = 1e-7  # rad: remaining motion max|q̇|·τ
 def _expected(fraction: float | None, pred: Prediction, s: float) -> tuple[Outcome | None, tuple[Outcome, ...]]:
     """(The outcome the first-order limits predict at scale s, the outcomes that agree with it) off the bands.
 
-    Below HOLD_BELOW × the margin: held. Above FAIL_ABOVE × the margin the braces have failed; a brace past its
-    slip scale may be near its lift-off scale too, so the way follows that scale's own band: lifted off past
-    FAIL_ABOVE × the least lift-off scale, slipped below HOLD_BELOW × it, either in between.
+    Below HOLD_BELOW × the margin: every brace held. Above FAIL_ABOVE × the margin the brace predicted to fail
+    first (i*) has failed; past its slip scale it may be near its own lift-off scale too, so the way follows that
+    scale's band: lifted off past FAIL_ABOVE × s_lift,i*, slipped below HOLD_BELOW × it, either in between. (What
+    the other braces do after i* fails is outside the first-order prediction.)
     """
     if fraction is None or pred.mode is None or fraction <= HOLD_BELOW * (1.0 + 1e-9):
         return "held", ("held",)
     if fraction < FAIL_ABOVE * (1.0 - 1e-9):
         return None, ()
-    lift = float(np.min(pred.liftoff))
+    lift = float(pred.liftoff[pred.brace])
     if s >= FAIL_ABOVE * lift:
         return "lifted_off", ("lifted_off",)
     if s <= HOLD_BELOW * lift:
@@ -394,7 +395,9 @@ def _case(
         outcome=outcome,
         failed_braces=failed,
         expected=expected,
-        agrees=None if expected is None else outcome in agreeing,
+        agrees=None
+        if expected is None
+        else (braces[pred.brace].outcome if expected != "held" else outcome) in agreeing,
         settled=settled,
         steps=steps,
     )
