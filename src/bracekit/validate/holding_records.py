@@ -78,9 +78,10 @@ class HoldingCase:
         outcome: what MuJoCo did: ``lifted_off`` when a brace lifted off, else ``slipped`` when one slipped,
             else ``held``.
         failed_braces: the braces that lifted off or slipped in MuJoCo.
-        expected: what the prediction requires at this fraction (``held`` below HOLD_BELOW, the predicted
-            failure above FAIL_ABOVE), None in between.
-        agrees: outcome == expected (None when nothing is expected).
+        expected: what the prediction requires at this fraction (``held`` below HOLD_BELOW; above FAIL_ABOVE the
+            first-order state of the brace predicted to fail first), None in between.
+        agrees: below HOLD_BELOW every brace held; above FAIL_ABOVE the brace predicted to fail first failed the
+            way its own lift-off band allows (either failure near its lift-off scale); None in between.
         settled: the loaded state met the settling tolerance (a slipping contact may keep sliding).
         steps: MuJoCo steps of the loaded phase.
     """

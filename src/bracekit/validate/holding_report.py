@@ -77,7 +77,13 @@ class HoldingValidationReport:
             "margin_cases": len(judged),
             "margin_agree": sum(bool(c["agrees"]) for c in judged),
             "margin_disagreements": [
-                {"fraction_of_margin": c["fraction_of_margin"], "expected": c["expected"], "mujoco": c["outcome"]}
+                {
+                    "fraction_of_margin": c["fraction_of_margin"],
+                    "expected": c["expected"],
+                    "mujoco": c["outcome"],  # every brace together
+                    "brace": c["brace"],  # the brace judged above the band (predicted to fail first)
+                    "mujoco_brace": c["braces"][c["brace"]]["outcome"],
+                }
                 for c in judged
                 if not c["agrees"]
             ],

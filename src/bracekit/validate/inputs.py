@@ -180,7 +180,7 @@ def validation_configurations(scenario: Scenario | str | os.PathLike[str], n: in
         start = solve_start(
             sc.braced, sc.task.position(0.0), sc.guess, rotation=sc.task.rotation, theta_weight=sc.start_theta_weight
         )
-    except ContactError:  # the one-brace start solve refuses several braces: take the scenario's own run
+    except ContactError:  # no start near the guess: take the configurations of the scenario's own run
         return _run_configurations(sc, n)
     if n == 1:
         return [start.q.copy()]
