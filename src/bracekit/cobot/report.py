@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from bracekit._text_table import text_rows
 from bracekit.cobot.config import CobotScenario
 from bracekit.cobot.loop import CobotRun
 
@@ -98,39 +99,36 @@ def _fmt(v: Any, digits: int = 2) -> str:
     return f"{v:.{digits}f}"
 
 
-_ROWS = (
-    ("tool deflection under the work, steady (mm)", "deflection_mm", 3),
-    ("first-order prediction ‖C w‖ (mm)", "predicted_mm", 3),
-    ("prediction error, worst hole (%)", "prediction_rel_err_max", 1),
-    ("tool deflection, peak (mm)", "deflection_max_mm", 3),
-    ("path error to the holes, mean / max (mm)", ("path_error_mm_mean", "path_error_mm_max"), 2),
-    ("worker force, mean / peak (N)", ("worker_force_mean_N", "worker_force_peak_N"), 2),
-    ("worker's work on the handle (J)", "worker_work_J", 3),
-    (
-        "brace normal force, min / mean / max (N)",
-        ("normal_force_min_N", "normal_force_mean_N", "normal_force_max_N"),
-        1,
-    ),
-    ("ticks with the brace open", "open_ticks", 0),
-    ("least slip margin μf_n − ‖f_t‖ clamped (N)", "slip_margin_min_N", 2),
-    ("pad slip under the work (mm)", "slip_mm", 3),
-    ("pad slip while the clamp engages (mm)", "clamp_slip_mm", 3),
-    ("brace held", "brace_held", 0),
-    ("peak servo torque (N·m) / over effort limit", ("torque_peak_Nm", "torque_over_effort_max"), 2),
-    ("control step, median / p99 (µs)", ("tick_us_median", "tick_us_p99"), 0),
-)
+#: The table's rows: label | summary keys (several: shown a / b) | digits.
+_ROWS_TABLE = """
+tool deflection under the work, steady (mm) | deflection_mm                                             | 3
+first-order prediction ‖C w‖ (mm)           | predicted_mm                                              | 3
+prediction error, worst hole (%)            | prediction_rel_err_max                                    | 1
+tool deflection, peak (mm)                  | deflection_max_mm                                         | 3
+path error to the holes, mean / max (mm)    | path_error_mm_mean path_error_mm_max                      | 2
+worker force, mean / peak (N)               | worker_force_mean_N worker_force_peak_N                   | 2
+worker's work on the handle (J)             | worker_work_J                                             | 3
+brace normal force, min / mean / max (N)    | normal_force_min_N normal_force_mean_N normal_force_max_N | 1
+ticks with the brace open                   | open_ticks                                                | 0
+least slip margin μf_n − ‖f_t‖ clamped (N)  | slip_margin_min_N                                         | 2
+pad slip under the work (mm)                | slip_mm                                                   | 3
+pad slip while the clamp engages (mm)       | clamp_slip_mm                                             | 3
+brace held                                  | brace_held                                                | 0
+peak servo torque (N·m) / over effort limit | torque_peak_Nm torque_over_effort_max                     | 2
+control step, median / p99 (µs)             | tick_us_median tick_us_p99                                | 0
+"""
+_ROWS = [(label, keys.split(), int(digits)) for label, keys, digits in text_rows(_ROWS_TABLE, 3)]
 
 
 def table_markdown(sc: CobotScenario, rows: list[dict[str, Any]]) -> str:
     """The strategies side by side (Markdown)."""
     head = "| | " + " | ".join(r["strategy"] for r in rows) + " |"
     lines = [f"# {sc.name}: a worker guides the braced cobot", "", head, "|---" * (len(rows) + 1) + "|"]
-    for label, key, digits in _ROWS:
+    for label, keys, digits in _ROWS:
         cells = []
         for r in rows:
-            keys = key if isinstance(key, tuple) else (key,)
             vals = [r.get(k) for k in keys]
-            if key == "prediction_rel_err_max":
+            if keys == ["prediction_rel_err_max"]:
                 vals = [None if v is None else 100.0 * v for v in vals]
             cells.append(" / ".join(_fmt(v, digits) for v in vals))
         lines.append(f"| {label} | " + " | ".join(cells) + " |")

@@ -6,6 +6,8 @@ import csv
 import io
 from typing import Any
 
+from bracekit._text_table import text_rows
+
 STRATEGY_LABELS = {
     "free_space_min_norm": "Free space min. norm",
     "braced_min_norm": "Braced min. norm",
@@ -23,24 +25,28 @@ PAPER_TABLE_I: dict[str, dict[str, float]] = {
 }
 PAPER_REDUCTIONS = {"braced_min_norm": 0.497, "braced_gradient_projection": 0.592}
 
-#: The run checks beside Table I: summary key → (header, format).
-_ALWAYS_CHECKS: dict[str, tuple[str, str]] = {
-    "task_space": ("task space", "s"),
-    "redundancy": ("redundancy", "d"),
-    "max_joint_limit_violation_rad": ("max limit violation [rad]", ".2g"),
-    "min_link_clearance_m": ("min link clearance [m]", ".4f"),
-    "max_region_radius_m": ("max r [m]", ".4f"),
-}
+#: The run checks beside Table I: summary key | header | format.
+_ALWAYS_TABLE = """
+task_space                    | task space                | s
+redundancy                    | redundancy                | d
+max_joint_limit_violation_rad | max limit violation [rad] | .2g
+min_link_clearance_m          | min link clearance [m]    | .4f
+max_region_radius_m           | max r [m]                 | .4f
+"""
+_ALWAYS_CHECKS: dict[str, tuple[str, str]] = {key: (header, spec) for key, header, spec in text_rows(_ALWAYS_TABLE, 3)}
 #: Checks shown only when some strategy has a value (the statics of a run with gravity, preload or loads).
+_OPTIONAL_TABLE = """
+holds                         | holds                     | s
+unstable_samples              | unstable samples          | d
+Ci_preloaded_mean             | mean C_i preloaded [m/N]  | .5f
+max_torque_ratio              | max τ/effort              | .3f
+max_contact_force_N           | max contact force [N]     | .2f
+min_liftoff_margin            | min lift-off margin       | .3g
+min_slip_margin               | min slip margin           | .3g
+min_torque_margin             | min torque margin         | .3g
+"""
 _OPTIONAL_CHECKS: dict[str, tuple[str, str]] = {
-    "holds": ("holds", "s"),
-    "unstable_samples": ("unstable samples", "d"),
-    "Ci_preloaded_mean": ("mean C_i preloaded [m/N]", ".5f"),
-    "max_torque_ratio": ("max τ/effort", ".3f"),
-    "max_contact_force_N": ("max contact force [N]", ".2f"),
-    "min_liftoff_margin": ("min lift-off margin", ".3g"),
-    "min_slip_margin": ("min slip margin", ".3g"),
-    "min_torque_margin": ("min torque margin", ".3g"),
+    key: (header, spec) for key, header, spec in text_rows(_OPTIONAL_TABLE, 3)
 }
 #: Every run check, in column order.
 CHECKS: dict[str, tuple[str, str]] = {**_ALWAYS_CHECKS, **_OPTIONAL_CHECKS}

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit._text_table import text_rows
 from bracekit.simulation.samples import Samples
 
 Array = NDArray[np.float64]
@@ -74,22 +76,24 @@ class Trajectory:
         } | ({} if self.braces is None else {"braces": self.braces})
 
 
-#: Table I and the run checks: (summary key, reduction over the run, measure series), in the summary's order.
-_SERIES = (
-    ("prod_sigma_t_mean", np.mean, "prod_sigma_t"),
-    ("prod_sigma_o_mean", np.mean, "prod_sigma_o"),
-    ("sigma_t_min", np.min, "sigma_t_min"),
-    ("sigma_o_min", np.min, "sigma_o_min"),
-    ("k_mean", np.mean, "k"),
-    ("k_free_mean", np.mean, "k_free"),
-    ("theta_z_max_rad", np.max, "theta_z"),
-    ("max_task_error_m", np.max, "task_error"),
-    ("max_contact_violation_m", np.max, "contact_violation"),
-    ("max_region_radius_m", np.max, "region_radius"),
-    ("min_surface_distance_m", np.min, "surface_distance"),
-    ("max_joint_limit_violation_rad", np.max, "joint_limit_violation"),
-    ("max_joint_step_rad", np.max, "joint_step"),
-)
+#: Table I and the run checks: summary key, reduction over the run, measure series; in the summary's order.
+_SERIES_TABLE = """
+prod_sigma_t_mean              | mean | prod_sigma_t
+prod_sigma_o_mean              | mean | prod_sigma_o
+sigma_t_min                    | min  | sigma_t_min
+sigma_o_min                    | min  | sigma_o_min
+k_mean                         | mean | k
+k_free_mean                    | mean | k_free
+theta_z_max_rad                | max  | theta_z
+max_task_error_m               | max  | task_error
+max_contact_violation_m        | max  | contact_violation
+max_region_radius_m            | max  | region_radius
+min_surface_distance_m         | min  | surface_distance
+max_joint_limit_violation_rad  | max  | joint_limit_violation
+max_joint_step_rad             | max  | joint_step
+"""
+_REDUCE: dict[str, Callable[[Array], Any]] = {"mean": np.mean, "min": np.min, "max": np.max}
+_SERIES = tuple((key, _REDUCE[how], name) for key, how, name in text_rows(_SERIES_TABLE, 3))
 
 
 def _finite_or_none(value: float) -> float | None:
