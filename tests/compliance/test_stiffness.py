@@ -152,8 +152,7 @@ def test_several_braces_through_the_same_path_match_the_stacked_static_solve(pre
         [(b.surface.point, b.surface.normal) for b in braced.braces],
     )
     cols = [
-        solve_planes(*args, H * e, preload=preload).deflection
-        - solve_planes(*args, -H * e, preload=preload).deflection
+        solve_planes(*args, H * e, preload=preload).deflection - solve_planes(*args, -H * e, preload=preload).deflection
         for e in np.eye(6)
     ]
     c_fd = np.array(cols).T / (2 * H)
@@ -198,8 +197,27 @@ def test_several_soft_braces_are_the_inverse_of_the_stacked_compliance() -> None
 
 def test_the_export_of_two_braces_with_a_preload_per_brace_inverts_their_preloaded_compliance() -> None:
     braced, q = two_braces(5.0)
-    report = stiffness_report(braced.state(q), "world", preload=(5.0, 3.0), gravity=True)
+    st = braced.state(q)
+    report = stiffness_report(st, tool_stiffness(st, "world", preload=(5.0, 3.0), gravity=True))
     k = np.array(report["preloaded"]["K"])
     c = preloaded_compliance(braced, q, (5.0, 3.0), gravity=True)
     assert rel(k @ c, np.eye(6)) < 1e-9
     assert report["preloaded"]["inverse_check"] < 1e-9
+
+
+def test_the_export_holds_the_loaded_stiffness_given_and_its_first_order_in_the_same_axes(paper_start) -> None:
+    braced, q = paper_start
+    st = braced.state(q)
+    axes = frame_axes("tool", st.R_e)[1] @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    loaded = tool_stiffness(st, axes, preload=20.0, gravity=True, wrench=TOOL)
+    report = stiffness_report(st, loaded)
+    first, pre = report["first_order"], report["preloaded"]
+    assert first["frame"] == pre["frame"] == "given" and np.array_equal(first["R"], axes)
+    np.testing.assert_array_equal(first["K"], tool_stiffness(st, axes).K)
+    np.testing.assert_array_equal(pre["K"], loaded.K)
+    t = np.kron(np.eye(2), axes)
+    c = t.T @ preloaded_compliance(braced, q, 20.0, gravity=True, wrench=TOOL) @ t
+    assert rel(loaded.K @ c, np.eye(6)) < 1e-9 and pre["inverse_check"] < 1e-9
+    assert "preloaded" not in stiffness_report(st, tool_stiffness(st, "tool"))
+    with pytest.raises(InputError, match="same state"):
+        stiffness_report(braced.state(q + 0.01), loaded)

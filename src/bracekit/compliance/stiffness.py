@@ -277,28 +277,32 @@ def _bordered_stiffness(state: BracedState, k_t: Array) -> Array:
     return out
 
 
-def stiffness_report(
-    state: BracedState,
-    frame: str | ArrayLike = "world",
-    *,
-    preload: float | Sequence[float] = 0.0,
-    gravity: bool = False,
-) -> dict[str, Any]:
-    """What ``bracekit evaluate --stiffness-out`` writes: the tool stiffness, first order and preloaded.
+def stiffness_report(state: BracedState, loaded: ToolStiffness) -> dict[str, Any]:
+    """What ``bracekit evaluate --stiffness-out`` writes: `loaded` and the first-order stiffness in its frame.
 
-    ``first_order`` and, with a preload or gravity, ``preloaded`` (each :meth:`ToolStiffness.as_dict`), with
-    ``inverse_check`` = ‖K_x C − I‖_F / √6 against the compliance it must invert (the constrained C_e; the
-    preloaded compliance, one preload per brace).
+    `loaded` is :func:`tool_stiffness` at `state` with the loads of the export (its preloads, gravity and tool
+    wrench; none for the first order). ``first_order`` and, where `loaded` is preloaded, ``preloaded`` (each
+    :meth:`ToolStiffness.as_dict`), with ``inverse_check`` = ‖K_x C − I‖_F / √6 against the compliance it must
+    invert (the constrained C_e; the preloaded compliance under the same loads).
+
+    Raises:
+        InputError: `loaded` was not computed at `state` (another tool point e).
     """
-    first = tool_stiffness(state, frame)
+    if not np.array_equal(loaded.point, state.e):
+        raise InputError("stiffness_report needs the tool stiffness of the same state (tool_stiffness(state, ...))")
+    first = loaded if loaded.model == "first_order" else tool_stiffness(state, _frame_of(loaded))
     t = twist_rotate(first.R)
     out: dict[str, Any] = {"first_order": first.as_dict()}
     c_e = t.T @ end_effector_compliance(state, "constrained") @ t
     out["first_order"]["inverse_check"] = float(np.linalg.norm(first.K @ c_e - np.eye(6)) / np.sqrt(6.0))
-    if gravity or any(_preloads(preload, len(state.braced.braces))):
-        loaded = tool_stiffness(state, frame, preload=preload, gravity=gravity)
+    if loaded.model == "preloaded":
         out["preloaded"] = loaded.as_dict()
-        loads = _preloads(preload, len(state.braced.braces))
-        c = t.T @ preloaded_compliance(state.braced, state.q, loads, gravity=gravity) @ t
+        c_p = preloaded_compliance(state.braced, state.q, loaded.preload, gravity=loaded.gravity, wrench=loaded.wrench)
+        c = t.T @ c_p @ t
         out["preloaded"]["inverse_check"] = float(np.linalg.norm(loaded.K @ c - np.eye(6)) / np.sqrt(6.0))
     return out
+
+
+def _frame_of(stiffness: ToolStiffness) -> str | Array:
+    """The ``frame`` argument of :func:`tool_stiffness` that gives `stiffness`'s axes again."""
+    return stiffness.R if stiffness.frame == "given" else stiffness.frame

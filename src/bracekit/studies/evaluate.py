@@ -22,7 +22,7 @@ from bracekit.compliance.first_order import (
 )
 from bracekit.compliance.measures import SingularValues, frobenius_condition, singular_value_measures, theta_z
 from bracekit.compliance.preloaded import preloaded_compliance
-from bracekit.compliance.stiffness import stiffness_report
+from bracekit.compliance.stiffness import stiffness_report, tool_stiffness
 from bracekit.contact import Brace, ContactType, Surface, contact_type
 from bracekit.errors import ChainSingularWarning, ContactError, InputError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
@@ -190,12 +190,13 @@ def evaluate(
                 entry.update(extra)
     if stiffness_frame is not None:
         count = len(braces)
-        out["tool_stiffness"] = stiffness_report(
+        loaded = tool_stiffness(
             st,
             stiffness_frame,
             preload=(0.0,) * count if holding is None else holding.brace_preloads(count),
             gravity=holding is not None and holding.gravity,
         )
+        out["tool_stiffness"] = stiffness_report(st, loaded)
     return out
 
 
