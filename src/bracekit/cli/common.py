@@ -9,7 +9,7 @@ import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from types import FrameType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -26,6 +26,35 @@ OVERWRITE_HELP = (
     "write into an --out that holds files bracekit did not write: bracekit's earlier files there are replaced, "
     "the other files are kept (never deleted or replaced)"
 )
+
+
+#: Most local Dask worker processes of --workers.
+MAX_WORKERS = 256
+
+
+def check_count(flag: str, value: int, least: int, most: int | None = None) -> None:
+    """InputError unless the whole number `value` of `flag` is from `least` to `most` (no upper bound for None)."""
+    if value < least or (most is not None and value > most):
+        bound = f"at least {least}" if most is None else f"from {least} to {most}"
+        raise InputError(f"{flag} must be {bound}, got {value}")
+
+
+class CountFlag(NamedTuple):
+    """A command's flag that takes a count: its default and range (checked by :meth:`check`, exit 2)."""
+
+    flag: str
+    default: int
+    least: int
+    most: int | None
+    help: str
+
+    def add(self, parser: argparse.ArgumentParser) -> None:
+        """Declare the flag on `parser`."""
+        parser.add_argument(self.flag, type=int, default=self.default, help=self.help)
+
+    def check(self, args: argparse.Namespace) -> None:
+        """InputError when the parsed value is out of range."""
+        check_count(self.flag, getattr(args, self.flag.lstrip("-").replace("-", "_")), self.least, self.most)
 
 
 def floats(text: str, what: str) -> np.ndarray:

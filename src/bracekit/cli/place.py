@@ -11,14 +11,21 @@ from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
-from bracekit.cli.common import needs_sweep_extra, sigterm_as_interrupt
+from bracekit.cli.common import MAX_WORKERS, CountFlag, needs_sweep_extra, sigterm_as_interrupt
 from bracekit.errors import InputError
 
 #: Most seeds per link, places refined and refinement rounds (each a batch of optimisations or whole-task runs).
 MAX_PLACE_COUNT = 64
 
-#: Most local Dask worker processes of --workers.
-MAX_WORKERS = 256
+#: The count flags, in the order of --help.
+COUNTS = (
+    CountFlag("--workers", 1, 1, MAX_WORKERS, "local Dask worker processes (default 1)"),
+    CountFlag("--seeds", 1, 1, MAX_PLACE_COUNT, "inner optimisations per link (default 1)"),
+    CountFlag("--top", 2, 1, MAX_PLACE_COUNT, "places run over the whole task and refined (default 2)"),
+    CountFlag(
+        "--refine", 1, 0, MAX_PLACE_COUNT, "compass rounds on fraction and angle, one batch of 4 runs each (default 1)"
+    ),
+)
 
 
 def add_parser(subparsers: Any) -> None:
@@ -28,15 +35,8 @@ def add_parser(subparsers: Any) -> None:
     )
     pl.add_argument("source", metavar="SCENARIO|SPEC", help="a sweep spec or scenario (TOML file or shipped name)")
     pl.add_argument("--out", type=Path, required=True, help="output folder, written whole at the end")
-    pl.add_argument("--workers", type=int, default=1, help="local Dask worker processes (default 1)")
-    pl.add_argument("--seeds", type=int, default=1, help="inner optimisations per link (default 1)")
-    pl.add_argument("--top", type=int, default=2, help="places run over the whole task and refined (default 2)")
-    pl.add_argument(
-        "--refine",
-        type=int,
-        default=1,
-        help="compass rounds on fraction and angle, one batch of 4 runs each (default 1)",
-    )
+    for count in COUNTS:
+        count.add(pl)
     pl.add_argument(
         "--radius",
         type=float,
@@ -62,15 +62,10 @@ def run(args: argparse.Namespace) -> int:
     """Run `bracekit place`; 0 when it finished (even with no feasible place: the table says why), 1 then too."""
     figures = not args.no_figures
     needs_sweep_extra("bracekit place", figures)
-    if not 1 <= args.workers <= MAX_WORKERS:
-        raise InputError(f"--workers must be from 1 to {MAX_WORKERS} (local worker processes), got {args.workers}")
-    for name in ("seeds", "top"):
-        if not 1 <= getattr(args, name) <= MAX_PLACE_COUNT:
-            raise InputError(f"--{name} must be from 1 to {MAX_PLACE_COUNT}, got {getattr(args, name)}")
+    for count in COUNTS:
+        count.check(args)
     if not (math.isfinite(args.radius) and args.radius >= 0.0):
         raise InputError(f"--radius must be a finite angle >= 0 rad (0: no bound), got {args.radius}")
-    if not 0 <= args.refine <= MAX_PLACE_COUNT:
-        raise InputError(f"--refine must be from 0 to {MAX_PLACE_COUNT}, got {args.refine}")
     from bracekit.report.output import prepare_output
     from bracekit.studies.place.engine import check_spec
     from bracekit.studies.place.report import FILES, table_markdown

@@ -8,11 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from bracekit._linalg import show
-from bracekit.cli.common import needs_sweep_extra, sigterm_as_interrupt
+from bracekit.cli.common import MAX_WORKERS, check_count, needs_sweep_extra, sigterm_as_interrupt
 from bracekit.errors import InputError
-
-#: Most local Dask worker processes of --workers.
-MAX_WORKERS = 256
 
 SWEEP_FILES_HELP = (
     "output folder: the finished candidates are kept in OUT/.sweep as they finish (a re-run skips them) and the "
@@ -44,10 +41,10 @@ def run(args: argparse.Namespace) -> int:
     """Run `bracekit sweep`; the exit code (0 when the sweep finished, whatever its candidates' feasibility)."""
     figures = not args.no_figures
     needs_sweep_extra("bracekit sweep", figures)
-    if args.limit is not None and args.limit < 1:
-        raise InputError(f"--limit must be at least 1, got {args.limit}")
-    if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
-        raise InputError(f"--workers must be from 1 to {MAX_WORKERS} (local worker processes), got {args.workers}")
+    if args.limit is not None:
+        check_count("--limit", args.limit, 1)
+    if args.workers is not None:
+        check_count("--workers", args.workers, 1, MAX_WORKERS)
     if args.scheduler is not None:
         check_address(args.scheduler)
     from bracekit.report.output import prepare_output

@@ -8,23 +8,28 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
-from bracekit.cli.common import OUT_HELP, OVERWRITE_HELP, needs, sigterm_as_interrupt
-from bracekit.errors import InputError
+from bracekit.cli.common import OUT_HELP, OVERWRITE_HELP, CountFlag, needs, sigterm_as_interrupt
 
 VALIDATION_FILES = ("validation.json", "validation.png")
+#: The count flags, in the order of --help.
+COUNTS = (
+    CountFlag("--configs", 3, 1, None, "number of configurations along the path (default 3)"),
+    CountFlag(
+        "--tracking-points",
+        5,
+        0,
+        None,
+        "check points per strategy of the dynamic tracking check in MuJoCo (default 5; 0: skip it)",
+    ),
+)
 
 
 def add_parser(sub: Any) -> None:
     """Add the command to the subparsers of ``bracekit``."""
     va = sub.add_parser("validate", help="check the compliance models against MuJoCo and a nonlinear static solve")
     va.add_argument("scenario", nargs="?", default="paper", help="scenario file or shipped name (default paper)")
-    va.add_argument("--configs", type=int, default=3, help="number of configurations along the path (default 3)")
-    va.add_argument(
-        "--tracking-points",
-        type=int,
-        default=5,
-        help="check points per strategy of the dynamic tracking check in MuJoCo (default 5; 0: skip it)",
-    )
+    for count in COUNTS:
+        count.add(va)
     va.add_argument("--json", action="store_true", help="print one JSON object")
     va.add_argument(
         "--out", type=Path, help=f"also write validation.json and validation.png into this folder; {OUT_HELP}"
@@ -43,10 +48,8 @@ def run(args: argparse.Namespace) -> int:
     from bracekit.validate.runner import DEFAULT_DIRECTIONS
     from bracekit.validate.suite import run_checks
 
-    if args.configs < 1:
-        raise InputError(f"--configs must be at least 1, got {args.configs}")
-    if args.tracking_points < 0:
-        raise InputError(f"--tracking-points must be 0 (skip) or more, got {args.tracking_points}")
+    for count in COUNTS:
+        count.check(args)
     scenario = load_scenario(args.scenario)
     with ExitStack() as stack:
         stack.enter_context(sigterm_as_interrupt())
