@@ -26,7 +26,7 @@ from bracekit.errors import (
 from bracekit.kinematics import BracedRobot
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.statics import contact_responses
-from bracekit.validate.compliance_check import DeflectionCases, _config, _model_stats, _references
+from bracekit.validate.compliance_check import DeflectionCases, _config, _model_stats, _references, _status_counts
 from bracekit.validate.deflection_record import case_record, failed_record
 from bracekit.validate.inputs import (
     DEFAULT_DIRECTIONS,
@@ -98,7 +98,7 @@ class PreloadedValidationReport(DeflectionCases):
                 {
                     "preload_N": p,
                     **{m: self.model_stats(m, p) for m in PRELOADED_MODELS},
-                    "counts": {s: sum(c["status"] == s for c in mine) for s in ("ok", "contact_opened", "failed")},
+                    "counts": _status_counts(mine),
                 }
             )
         return out
