@@ -9,7 +9,7 @@ braces"). The state chooses (``BracedState.motions``); a strategy only uses this
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -51,6 +51,44 @@ def rank_ratio(m: Array) -> float:
     return float(s[-1] / s[0]) if m.shape[1] >= m.shape[0] and s[0] > 0 else 0.0
 
 
+def _ratio_of(form: Callable[[], Array], full_row_rank: bool) -> Callable[[], float]:
+    """The ratio of the matrix `form` gives, computed when called: :func:`rank_ratio` or :func:`singular_ratio`."""
+    return (lambda: rank_ratio(form())) if full_row_rank else (lambda: singular_ratio(form()))
+
+
+def stacked_ratios(ms: Sequence[Array], full_row_rank: bool) -> list[float]:
+    """σ_min/σ_max of each matrix of `ms`, as :func:`rank_ratio` (`full_row_rank`) or :func:`singular_ratio`.
+
+    One SVD over the stack of the matrices of each shape: the singular values of each are those of its own
+    SVD (the same LAPACK call per matrix), so the ratios are the single calls' to the last bit.
+    """
+    out = [0.0] * len(ms)
+    shapes: dict[tuple[int, ...], list[int]] = {}
+    for i, m in enumerate(ms):
+        shapes.setdefault(m.shape, []).append(i)
+    for (r, c), idx in shapes.items():
+        if r * c == 0 or (full_row_rank and c < r):  # no singular values, or more rows than columns
+            value = 1.0 if full_row_rank and r == 0 else 0.0
+            for i in idx:
+                out[i] = value
+            continue
+        s = np.linalg.svd(np.array([ms[i] for i in idx], dtype=np.float64), compute_uv=False)
+        for i, low, high in zip(idx, s[:, -1].tolist(), s[:, 0].tolist(), strict=True):
+            out[i] = low / high if high > 0 else 0.0
+    return out
+
+
+def stacked_conditioning(
+    motions: Sequence[BracedMotions], rows: Sequence[Array | None], keys: tuple[str, ...]
+) -> list[dict[str, float]]:
+    """``motions[i].conditioning(rows[i], keys)`` of every chart, each matrix kind in one stacked SVD."""
+    watched = [m.watched(r) for m, r in zip(motions, rows, strict=True)]
+    columns = {
+        key: stacked_ratios([w[key][0]() for w in watched], watched[0][key][1]) if watched else [] for key in keys
+    }
+    return [{key: columns[key][i] for key in keys} for i in range(len(motions))]
+
+
 class BracedMotions:
     """A chart of the braced motions at one configuration (abstract: :class:`SplitMotions`, :class:`NullMotions`).
 
@@ -71,16 +109,24 @@ class BracedMotions:
         """q̇ = M y (n,) from braced coordinates y (r,)."""
         raise NotImplementedError
 
+    def inverted(self, braced: bool) -> tuple[str, ...]:
+        """Keys of the matrices a braced (or free-space) strategy inverts, which a run keeps from singularity."""
+        raise NotImplementedError
+
+    def watched(self, rows: Array | None) -> dict[str, tuple[Callable[[], Array], bool]]:
+        """Each matrix a run records (keys of MATRIX_LABELS), formed when called, and whether it needs full row rank.
+
+        A matrix that needs full row rank has :func:`rank_ratio` as its ratio, the others :func:`singular_ratio`.
+        `rows`: the task-space selection S (m×6) at the state, None for the whole pose.
+        """
+        raise NotImplementedError
+
     def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
         """σ_min/σ_max of each matrix a run records (keys of MATRIX_LABELS), computed when called.
 
         `rows`: the task-space selection S (m×6) at the state, None for the whole pose.
         """
-        raise NotImplementedError
-
-    def inverted(self, braced: bool) -> tuple[str, ...]:
-        """Keys of the matrices a braced (or free-space) strategy inverts, which a run keeps from singularity."""
-        raise NotImplementedError
+        return {key: _ratio_of(form, full) for key, (form, full) in self.watched(rows).items()}
 
     def conditioning(self, rows: Array | None, keys: tuple[str, ...] | None = None) -> dict[str, float]:
         """σ_min/σ_max of the matrices named in `keys` (every recorded matrix if None)."""
@@ -133,15 +179,15 @@ class SplitMotions(BracedMotions):
         n1 = self.split.n1
         return np.concatenate([self.split.chain1_map.T @ dg_dq[:n1], dg_dq[n1:]])
 
-    def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
+    def watched(self, rows: Array | None) -> dict[str, tuple[Callable[[], Array], bool]]:
         """J1, A (eq:braced_kin), J = J_e and J̃ (eq:J_wave), whole; S A, the task rows of A that a step inverts."""
         sp = self.split
         return {
-            "J1": lambda: singular_ratio(sp.J1),
-            "A": lambda: singular_ratio(sp.A),
-            "SA": lambda: rank_ratio(sp.A if rows is None else rows @ sp.A),
-            "J": lambda: singular_ratio(sp.state.J_e),
-            "J_braced": lambda: singular_ratio(sp.J_braced),
+            "J1": (lambda: sp.J1, False),
+            "A": (lambda: sp.A, False),
+            "SA": ((lambda: sp.A) if rows is None else (lambda: rows @ sp.A), True),
+            "J": (lambda: sp.state.J_e, False),
+            "J_braced": (lambda: sp.J_braced, False),
         }
 
     def inverted(self, braced: bool) -> tuple[str, ...]:
@@ -177,12 +223,12 @@ class NullMotions(BracedMotions):
         """Nᵀ ∂g/∂q."""
         return np.asarray(self.N.T @ dg_dq, dtype=np.float64)
 
-    def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
+    def watched(self, rows: Array | None) -> dict[str, tuple[Callable[[], Array], bool]]:
         """G over its independent rows, the task rows S J_e N of A and J = J_e."""
         return {
-            "G": lambda: rank_ratio(self.G),
-            "SJN": lambda: rank_ratio(self.A if rows is None else rows @ self.A),
-            "J": lambda: singular_ratio(self.J_e),
+            "G": (lambda: self.G, True),
+            "SJN": ((lambda: self.A) if rows is None else (lambda: rows @ self.A), True),
+            "J": (lambda: self.J_e, False),
         }
 
     def inverted(self, braced: bool) -> tuple[str, ...]:

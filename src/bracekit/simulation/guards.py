@@ -10,14 +10,14 @@ than JOINT_LIMIT_TOL.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import JointLimitError, NumericalError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.kinematics.motions import MATRIX_LABELS
+from bracekit.kinematics.motions import MATRIX_LABELS, stacked_conditioning
 from bracekit.model.robot import Robot
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.correction import norm
@@ -38,6 +38,8 @@ MAX_SUBSTEP_DEPTH = 4
 JUMP_PROBES = 17
 #: How far (rad, m for a prismatic joint) a corrected step may leave a joint's URDF range (the correction's round-off).
 JOINT_LIMIT_TOL = 1e-9
+#: Samples whose σ-ratio guard a run takes at once (one stacked SVD per matrix); a singular one undoes the later ones.
+WATCH_BATCH = 16
 #: The scales of the null-space motion a gradient-projection step that leaves the joint limits is retried with.
 LIMIT_SCALES = (0.5, 0.25, 0.125, 0.0625, 0.0)
 
@@ -46,8 +48,10 @@ __all__ = [
     "JUMP_PROBES",
     "LIMIT_SCALES",
     "MAX_SUBSTEP_DEPTH",
+    "WATCH_BATCH",
     "braces_outside",
     "check_conditioning",
+    "first_singular",
     "joint_speeds",
     "joint_step_bound",
     "jump_failure",
@@ -56,6 +60,7 @@ __all__ = [
     "outside_limits",
     "point_label",
     "sigma_ratios",
+    "stacked_sigma_ratios",
 ]
 
 
@@ -116,6 +121,24 @@ def joint_step_bound(robot: Robot, dt: float) -> Array:
 def sigma_ratios(state: BracedState, space: TaskSpace, keys: tuple[str, ...] | None = None) -> dict[str, float]:
     """σ_min/σ_max at the state of the matrices named in `keys` (every matrix a run records if None)."""
     return state.motions.conditioning(None if space.is_pose else space.selection(state.R_e), keys)
+
+
+def stacked_sigma_ratios(
+    states: Sequence[BracedState], space: TaskSpace, keys: tuple[str, ...]
+) -> list[dict[str, float]]:
+    """:func:`sigma_ratios` of every state (the same numbers), each matrix kind in one stacked SVD."""
+    rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
+    return stacked_conditioning([st.motions for st in states], rows, keys)
+
+
+def first_singular(ratios: Sequence[Mapping[str, float]], keys: tuple[str, ...]) -> tuple[int, SingularityError] | None:
+    """The first of the samples' `ratios` that :func:`check_conditioning` refuses, with its error; None if none."""
+    for i, found in enumerate(ratios):
+        try:
+            check_conditioning(found, keys)
+        except SingularityError as exc:
+            return i, exc
+    return None
 
 
 def check_conditioning(ratios: Mapping[str, float], keys: tuple[str, ...]) -> None:

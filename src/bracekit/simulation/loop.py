@@ -53,8 +53,10 @@ from bracekit.simulation.correction import correct, norm, reach, task_error
 from bracekit.simulation.guards import (
     LIMIT_SCALES,
     MAX_SUBSTEP_DEPTH,
+    WATCH_BATCH,
     braces_outside,
     check_conditioning,
+    first_singular,
     joint_step_bound,
     jump_failure,
     limit_bounds,
@@ -62,6 +64,7 @@ from bracekit.simulation.guards import (
     outside_limits,
     point_label,
     sigma_ratios,
+    stacked_sigma_ratios,
 )
 from bracekit.simulation.notes import run_notes
 from bracekit.simulation.path_measures import measure_path, path_ratios
@@ -232,6 +235,34 @@ def simulate(
             check_conditioning(ratios, checked)
         except SingularityError as exc:
             failure = f"start (t = 0.000 s): {exc}"
+        # the steps' σ-ratio guard, WATCH_BATCH samples at a time: (state, joint step, warnings and counts after it)
+        pending: list[tuple[BracedState, float, int, dict[str, int]]] = []
+
+        def settle() -> str | None:
+            """Guard the pending steps: keep them up to the first singular one, whose failure it returns.
+
+            The steps after a singular one are undone: their states, warnings and counts are dropped, so the
+            run is the one a guard after every step gives.
+            """
+            found = stacked_sigma_ratios([p[0] for p in pending], space, checked)
+            bad = first_singular(found, checked)
+            kept = len(pending) if bad is None else bad[0]
+            for (state, jump, _, _), row in zip(pending[:kept], found[:kept], strict=True):
+                states.append(state)
+                ratio_rows.append(row)
+                jumps.append(jump)
+                if progress is not None:
+                    progress(1)
+            if bad is None:
+                pending.clear()
+                return None
+            _, _, mark, after = pending[bad[0]]
+            del caught[mark:]
+            counts.update(after)
+            pending.clear()
+            step = len(states)
+            return f"step {step} (t = {step * dt:.3f} s): {bad[1]}"
+
         for i in range(steps if failure is None else 0):
             t_next = (i + 1) * dt
             try:
@@ -241,16 +272,16 @@ def simulate(
                 if (step > bound).any():
                     gain = getattr(strategy, "objective", None) is not None
                     raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
-                ratios = sigma_ratios(st, space, checked)  # the others after the steps, at once
-                check_conditioning(ratios, checked)
             except BracekitError as exc:
-                failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
+                failure = settle() or f"step {i + 1} (t = {t_next:.3f} s): {exc}"
                 break
-            states.append(st)
-            ratio_rows.append(ratios)
-            jumps.append(float(step.max()))
-            if progress is not None:
-                progress(1)
+            pending.append((st, float(step.max()), len(caught), dict(counts)))
+            if len(pending) == WATCH_BATCH:
+                failure = settle()
+                if failure is not None:
+                    break
+        if failure is None:
+            failure = settle()
         # the measures, from the corrected states, all at once; the run stops at the first it cannot measure
         ratio_rows[1:] = path_ratios(states[1:], space, tuple(start), ratio_rows[1:])
         tail, count, refused = samples_of(states[1:], 1, ratio_rows[1:], jumps[1:])

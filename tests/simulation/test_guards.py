@@ -1,0 +1,79 @@
+"""The σ-ratio guard taken over batches of samples: the same numbers and the same stop as one check per sample.
+
+References: NumPy's SVD of each matrix alone (``singular_ratio``, ``rank_ratio``, ``sigma_ratios`` of each
+state) and, for a run, the ratios a complete run records at each sample, checked one by one here.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+import pytest
+
+from bracekit import BracedMinNorm, Circle, load_scenario, simulate, solve_start
+from bracekit.kinematics.motions import rank_ratio, singular_ratio, stacked_ratios
+from bracekit.simulation.guards import WATCH_BATCH, first_singular, sigma_ratios, stacked_sigma_ratios
+
+GUARDS = importlib.import_module("bracekit.simulation.guards")
+
+
+def _matrices(rng: np.random.Generator) -> list[np.ndarray]:
+    ms = [rng.standard_normal(shape) for shape in [(6, 6), (6, 10), (6, 6), (7, 5), (6, 10), (3, 11)]]
+    ms.append(np.zeros((6, 6)))
+    ms.append(np.outer(rng.standard_normal(6), rng.standard_normal(10)))  # rank 1
+    ms.append(np.zeros((0, 4)))
+    ms.append(np.zeros((3, 0)))
+    return ms
+
+
+@pytest.mark.parametrize("full_row_rank", [False, True])
+def test_stacked_ratios_are_each_matrix_own_svd_ratio_to_the_last_bit(full_row_rank: bool) -> None:
+    rng = np.random.default_rng(3)
+    ms = _matrices(rng)
+    alone = rank_ratio if full_row_rank else singular_ratio
+    assert stacked_ratios(ms, full_row_rank) == [alone(m) for m in ms]
+
+
+@pytest.mark.parametrize(("name", "scale"), [("paper", 0.3), ("panda", 0.1), ("two-braces", 0.05)])
+def test_stacked_sigma_ratios_equal_sigma_ratios_of_each_state(name: str, scale: float) -> None:
+    sc = load_scenario(name)
+    rng = np.random.default_rng(11)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(7)]
+    keys = tuple(sigma_ratios(states[0], sc.task_space))
+    assert stacked_sigma_ratios(states, sc.task_space, keys) == [sigma_ratios(st, sc.task_space, keys) for st in states]
+    assert stacked_sigma_ratios([], sc.task_space, keys) == []
+
+
+def test_first_singular_names_the_first_sample_below_the_ratio() -> None:
+    keys = ("A", "J")
+    rows = [{"A": 0.1, "J": 0.2}, {"A": 0.1, "J": 1e-9}, {"A": 1e-8, "J": 0.2}]
+    found = first_singular(rows, keys)
+    assert found is not None and found[0] == 1 and "J" in str(found[1])
+    assert first_singular(rows[:1], keys) is None
+    assert first_singular(rows, ("A",)) is not None and first_singular(rows, ("A",))[0] == 2  # type: ignore[index]
+
+
+def test_a_run_stops_at_the_first_singular_sample_inside_a_batch(monkeypatch: pytest.MonkeyPatch) -> None:
+    sc = load_scenario("paper")
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
+    c = sc.task
+    assert isinstance(c, Circle)
+    task = Circle(c.centre, c.radius, c.normal, c.period, c.start_direction, turns=1.0)
+    whole = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert whole.completed and whole.steps > 2 * WATCH_BATCH
+    keys = sc.braced.state(start.q).motions.inverted(True)
+    lowest = np.min([whole.measures[f"sigma_ratio_{key}"] for key in keys], axis=0)
+    # a sample past the first batch, not at its end, whose ratio is the lowest so far: the threshold just above it
+    ks = [k for k in range(WATCH_BATCH + 2, whole.steps) if lowest[k] < lowest[:k].min() and k % WATCH_BATCH]
+    assert ks, "the run's ratios never fall past the first batch"
+    k = ks[0]
+    threshold = 0.5 * (lowest[k] + lowest[:k].min())
+    monkeypatch.setattr(GUARDS, "PATH_SINGULAR_RATIO", threshold)
+    cut = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert not cut.completed and cut.failure is not None
+    assert cut.failure.startswith(f"step {k} (t = {k * whole.t[1]:.3f} s)") and "singular on the path" in cut.failure
+    assert cut.q.shape[0] == k and np.array_equal(cut.q, whole.q[:k])
+    for key in keys:
+        assert np.array_equal(cut.measures[f"sigma_ratio_{key}"], whole.measures[f"sigma_ratio_{key}"][:k])
