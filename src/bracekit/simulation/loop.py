@@ -49,7 +49,7 @@ from bracekit.objective import RegionBarrier
 from bracekit.resolution.fused import Backend, GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
-from bracekit.simulation.correction import correct, norm, reach, task_error
+from bracekit.simulation.correction import Correction, norm, reach, task_error
 from bracekit.simulation.guards import (
     LIMIT_SCALES,
     MAX_SUBSTEP_DEPTH,
@@ -158,7 +158,7 @@ def simulate(
     scaled_steps: dict[float, GradientProjectionStep] = {}
     guard = region_guard(braced, strategy)
     scalable = isinstance(strategy, BracedGradientProjection)
-    length = reach(braced.robot)
+    correct = Correction(braced, rotation, anchors, length=reach(braced.robot), space=space)
     bound = joint_step_bound(braced.robot, dt)
     limits = limit_bounds(braced.robot)
     counts = {"substeps": 0, "limited": 0}
@@ -185,11 +185,11 @@ def simulate(
         err = task_error(st, task.position(t), rotation, space)
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
         goal = task.position(t + h)
-        new = correct(braced, st.q + rate(st, t, xdot) * h, goal, rotation, anchors, length=length, space=space)
+        new = correct(st.q + rate(st, t, xdot) * h, goal)
         if outside_limits(braced.robot, new.q, limits).size:
             for scale in LIMIT_SCALES if scalable else ():
                 qdot = rate(st, t, xdot, scale)
-                new = correct(braced, st.q + qdot * h, goal, rotation, anchors, length=length, space=space)
+                new = correct(st.q + qdot * h, goal)
                 if not outside_limits(braced.robot, new.q, limits).size:
                     counts["limited"] += 1
                     break
