@@ -69,7 +69,7 @@ def contact_residual(state: BracedState, anchors: Anchors) -> Array:
 
     For a frictionless point this is n̂ᵀ(b_i − b0_i), the distance of {b_i} from the plane through b0_i.
     """
-    return _contact_rows(state.X_i, [(c.b, c.R_b, c.J_b) for c in state.contacts], anchors)[0]
+    return _contact_residual(state.X_i, [(c.b, c.R_b, c.J_b) for c in state.contacts], anchors)
 
 
 def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
@@ -79,23 +79,33 @@ def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
     grow to O(1 rad) along a run, where the plain rows X_iᵀ J_b_i make the correction converge only linearly.
     A contact without constraint moments (frictionless point, point with friction) gives X_iᵀ J_b_i.
     """
-    return _contact_rows(state.X_i, [(c.b, c.R_b, c.J_b) for c in state.contacts], anchors)[1]
+    return _contact_jacobian(state.X_i, [(c.b, c.R_b, c.J_b) for c in state.contacts], anchors)
 
 
-def _contact_rows(
-    xs: Sequence[Array], contacts: Sequence[tuple[Array, Array, Array]], anchors: Anchors
-) -> tuple[Array, Array]:
-    """:func:`contact_residual` (c,) and :func:`contact_jacobian` (c×n) from each brace's (b_i, ⁰R_b_i, J_b_i)."""
-    res, jac = [], []
-    for x, (b, r_b, j_b), (b0, r0) in zip(xs, contacts, anchors, strict=True):
-        if not x[3:].any():  # no constraint moment: log3 is weighted by zeros, not computed
-            res.append(x.T @ np.concatenate([b - b0, _NO_ANGLE]))
-            jac.append(x.T @ j_b)
+#: Each brace's (b_i (3,), ⁰R_b_i (3×3), J_b_i (6×n)), in brace order.
+Contacts = Sequence[tuple[Array, Array, Array]]
+
+
+def _contact_residual(xs: Sequence[Array], contacts: Contacts, anchors: Anchors) -> Array:
+    """:func:`contact_residual` (c,) from each brace's X_i and (b_i, ⁰R_b_i, J_b_i)."""
+    out = []
+    for x, (b, r_b, _), (b0, r0) in zip(xs, contacts, anchors, strict=True):
+        # no constraint moment (frictionless point, point with friction): log3 is weighted by zeros, not computed
+        angle = pin.log3(r_b @ r0.T) if x[3:].any() else _NO_ANGLE
+        out.append(x.T @ np.concatenate([b - b0, angle]))
+    return out[0] if len(out) == 1 else np.concatenate(out)
+
+
+def _contact_jacobian(xs: Sequence[Array], contacts: Contacts, anchors: Anchors) -> Array:
+    """:func:`contact_jacobian` (c×n) from each brace's X_i and (b_i, ⁰R_b_i, J_b_i)."""
+    out = []
+    for x, (_, r_b, j_b), (_, r0) in zip(xs, contacts, anchors, strict=True):
+        if not x[3:].any():
+            out.append(x.T @ j_b)
             continue
         r = r_b @ r0.T
-        res.append(x.T @ np.concatenate([b - b0, pin.log3(r)]))
-        jac.append(x[:3].T @ j_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ j_b[3:]))
-    return (res[0] if len(res) == 1 else np.concatenate(res)), np.vstack(jac)
+        out.append(x[:3].T @ j_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ j_b[3:]))
+    return np.vstack(out)
 
 
 def reach(robot: Robot) -> float:
@@ -195,57 +205,61 @@ class Correction:
         pin.updateFramePlacements(model, data)
         return q, [(data.oMf[f].homogeneous, pin.getFrameJacobian(model, data, f, LWA)) for f in self._ids]
 
-    def _rows(self, frames: Frames, position: Array) -> tuple[Array, Array]:
-        """The residual (task rows, then −contact residual) and its Jacobian from the frames' kinematics."""
-        tip, j_e = frames[0]
+    def _residual(self, frames: Frames, position: Array) -> Array:
+        """The residual: the task rows, then −(contact residual), from the frames' kinematics."""
+        tip = frames[0][0]
         e, r_e = tip[:3, 3], tip[:3, :3]
         space = self.space
         if space.is_pose:
-            res, rows = np.concatenate([position - e, pin.log3(self.rotation @ r_e.T)]), j_e
+            res = np.concatenate([position - e, pin.log3(self.rotation @ r_e.T)])
         else:
-            sel = space.selection(r_e)
-            res, rows = sel @ space.error(position - e, r_e, self.rotation), sel @ j_e
-        if self.anchors is not None:
-            contacts = [(m[:3, 3], m[:3, :3], j) for m, j in frames[1:]]
-            c_res, c_rows = _contact_rows(self._xs, contacts, self.anchors)
-            res = np.concatenate([res, -c_res])
-            rows = np.vstack([rows, c_rows])
-        return res, rows
+            res = space.selection(r_e) @ space.error(position - e, r_e, self.rotation)
+        if self.anchors is None:
+            return res
+        return np.concatenate([res, -_contact_residual(self._xs, _contacts(frames), self.anchors)])
+
+    def _jacobian(self, frames: Frames) -> Array:
+        """The residual's Jacobian (rows × n): S J_e, then the contact rows."""
+        tip, j_e = frames[0]
+        rows = j_e if self.space.is_pose else self.space.selection(tip[:3, :3]) @ j_e
+        if self.anchors is None:
+            return rows
+        return np.vstack([rows, _contact_jacobian(self._xs, _contacts(frames), self.anchors)])
 
     def __call__(self, q: Array, position: Array) -> BracedState:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
         scale, tol = self.scale, self.tol
         previous = np.inf
         q, frames = self._frames(q)
-        res, rows = self._rows(frames, position)
+        res, rows = self._residual(frames, position), None  # the rows where a step needs them
         for _ in range(self.max_iter):
             size = float((np.abs(res) / scale).max())  # np.max's reduction, without its wrapper
             if size < tol or (size < ACCEPT_TOL and size > 0.5 * previous):
                 return self.braced.state_from_kinematics(q, frames)
+            rows = self._jacobian(frames) if rows is None else rows
             floor = self._roundoff * max(1.0, float(np.abs(q).max())) * norm(rows / scale[:, None])
             if size < floor:  # with the test above: size < max(tol, floor), the round-off floor only where it decides
                 return self.braced.state_from_kinematics(q, frames)
             previous = size
             step = rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
             t_q, t_frames = self._frames(q + step)
-            t_res, t_rows = self._rows(t_frames, position)
+            t_res = self._residual(t_frames, position)
             if size >= ACCEPT_TOL and norm(t_res / scale) > norm(res / scale):
                 damped = self._damped_step(q, res, rows, position)
                 if damped is None:
                     break
-                t_q, t_frames, t_res, t_rows = damped
-            q, frames, res, rows = t_q, t_frames, t_res, t_rows
+                t_q, t_frames, t_res = damped
+            q, frames, res, rows = t_q, t_frames, t_res, None
         size = float(np.max(np.abs(res) / scale))
         blame = _blame(self.braced, res, scale, self.space)
+        rows = self._jacobian(frames) if rows is None else rows
         raise ConvergenceError(
             f"the pose/contact correction did not converge in {self.max_iter} iterations; not closed: {blame} "
             f"(residual {size:.2e} of the robot's reach {self.length:.3g} m and of 1 rad); "
             f"{_where(rows, scale, self.space)}"
         )
 
-    def _damped_step(
-        self, q: Array, res: Array, rows: Array, position: Array
-    ) -> tuple[Array, Frames, Array, Array] | None:
+    def _damped_step(self, q: Array, res: Array, rows: Array, position: Array) -> tuple[Array, Frames, Array] | None:
         """A Levenberg–Marquardt step that lowers ‖res / scale‖ (the first λ and line-search fraction that does).
 
         The step is Jᵀ(J Jᵀ + λ I)⁻¹ r of the scaled rows J = rows / scale and r = res / scale; None if none
@@ -260,10 +274,15 @@ class Correction:
             step = j.T @ np.linalg.solve(jjt + damping * size * np.eye(r.size), r)
             for fraction in LINE_SEARCH:
                 t_q, t_frames = self._frames(q + fraction * step)
-                t_res, t_rows = self._rows(t_frames, position)
+                t_res = self._residual(t_frames, position)
                 if norm(t_res / scale) < base:
-                    return t_q, t_frames, t_res, t_rows
+                    return t_q, t_frames, t_res
         return None
+
+
+def _contacts(frames: Frames) -> list[tuple[Array, Array, Array]]:
+    """(b_i, ⁰R_b_i, J_b_i) of each brace from the frames' kinematics (the tip's first)."""
+    return [(m[:3, 3], m[:3, :3], j) for m, j in frames[1:]]
 
 
 #: σ_min/σ_max of the scaled rows below which a correction's failure is put down to a singular matrix.
