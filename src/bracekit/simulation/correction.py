@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TypedDict, Unpack
 
 import numpy as np
 import pinocchio as pin
@@ -29,6 +30,7 @@ _NO_ANGLE = np.zeros(3)
 __all__ = [
     "Anchors",
     "Correction",
+    "CorrectionOptions",
     "contact_jacobian",
     "contact_residual",
     "correct",
@@ -118,24 +120,29 @@ def reach(robot: Robot) -> float:
     return length if length > 0 else 1.0
 
 
+class CorrectionOptions(TypedDict, total=False):
+    """The keyword options of :class:`Correction` and :func:`correct`."""
+
+    tol: float
+    max_iter: int
+    length: float | None
+    space: TaskSpace
+
+
 def correct(
     braced: BracedRobot,
     q: Array,
     position: Array,
     rotation: Array,
     anchors: Anchors | None,
-    *,
-    tol: float = CORRECTION_TOL,
-    max_iter: int = 20,
-    length: float | None = None,
-    space: TaskSpace = POSE,
+    **options: Unpack[CorrectionOptions],
 ) -> BracedState:
     """Damped Gauss–Newton: the state nearest q with the tip at the pose and every {b_i} on its contact.
 
-    ``Correction(braced, rotation, anchors, ...)(q, position)``; a run that corrects every step keeps one
-    :class:`Correction`.
+    ``Correction(braced, rotation, anchors, **options)(q, position)`` (the options: ``tol``, ``max_iter``,
+    ``length``, ``space``); a run that corrects every step keeps one :class:`Correction`.
     """
-    return Correction(braced, rotation, anchors, tol=tol, max_iter=max_iter, length=length, space=space)(q, position)
+    return Correction(braced, rotation, anchors, **options)(q, position)
 
 
 #: Damping factors λ/‖J‖² of the Levenberg–Marquardt fallback, tried in order.
