@@ -162,16 +162,35 @@ def simulate(
     bound = joint_step_bound(braced.robot, dt)
     limits = limit_bounds(braced.robot)
     counts = {"substeps": 0, "limited": 0}
+    low, high = limits
+    objective = getattr(strategy, "objective", None) is not None
+    # p_d(t) and β_x(t), each evaluated once per time: a step and the samples' measures take them at the same t
+    positions: dict[float, Array] = {}
+    betas: dict[float, Array] = {}
+
+    def position(t: float) -> Array:
+        found = positions.get(t)
+        if found is None:
+            found = positions[t] = task.position(t)
+        return found
+
+    def beta(t: float) -> Array:
+        found = betas.get(t)
+        if found is None:
+            found = betas[t] = beta_x(t)
+        return found
 
     def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
         """Q̇ of the strategy at st, with its null-space motion scaled by `scale` (gradient projection only)."""
         if fast is not None and scale > 0.0:  # the fused step: the same q̇ as the strategy's, to ~1e-13
             if scale == 1.0:
-                return fast(st.q, xdot, beta_x(t))
+                return fast(st.q, xdot, beta(t))
             if scale not in scaled_steps:
                 scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale), backend)  # type: ignore[arg-type]
-            return scaled_steps[scale](st.q, xdot, beta_x(t))
-        current = with_beta_x(strategy if scale == 1.0 else scaled_alpha(strategy, scale), beta_x(t))
+            return scaled_steps[scale](st.q, xdot, beta(t))
+        current = strategy if scale == 1.0 else scaled_alpha(strategy, scale)
+        if objective:
+            current = with_beta_x(current, beta(t))
         if current.needs_hessians:
             st = braced.state(st.q, hessians=True)
         return current.velocity(st, xdot)
@@ -182,11 +201,11 @@ def simulate(
         A step that leaves the joint limits is retried with the null-space motion scaled (LIMIT_SCALES) or
         ends the run (JointLimitError).
         """
-        err = task_error(st, task.position(t), rotation, space)
+        err = task_error(st, position(t), rotation, space)
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
-        goal = task.position(t + h)
+        goal = position(t + h)
         new = correct(st.q + rate(st, t, xdot) * h, goal)
-        if outside_limits(braced.robot, new.q, limits).size:
+        if ((new.q < low) | (new.q > high)).any():  # outside_limits(…).size, without its index array
             for scale in LIMIT_SCALES if scalable else ():
                 qdot = rate(st, t, xdot, scale)
                 new = correct(st.q + qdot * h, goal)
@@ -214,8 +233,8 @@ def simulate(
         states: list[BracedState], first: int, ratios: list[dict[str, float]], jumps: list[float]
     ) -> tuple[Samples | None, int, BracekitError | None]:
         times = [(first + i) * dt for i in range(len(states))]
-        errors = [norm(task.position(t) - st.e) for t, st in zip(times, states, strict=True)]
-        return measure_path(braced, states, [beta_x(t) for t in times], errors, ratios, jumps)
+        errors = [norm(position(t) - st.e) for t, st in zip(times, states, strict=True)]
+        return measure_path(braced, states, [beta(t) for t in times], errors, ratios, jumps)
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnloadedContactWarning)
