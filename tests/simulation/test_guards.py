@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 
 from bracekit import BracedMinNorm, Circle, load_scenario, simulate, solve_start
-from bracekit.kinematics.motions import rank_ratio, singular_ratio, stacked_ratios
+from bracekit.errors import NumericalError
+from bracekit.kinematics.motions import rank_ratio, singular_ratio
 from bracekit.simulation.guards import WATCH_BATCH, first_singular, sigma_ratios, stacked_sigma_ratios
+from bracekit.simulation.stacked_ratios import _split_stacks, stacked_ratios
 
 GUARDS = importlib.import_module("bracekit.simulation.guards")
 
@@ -55,7 +57,14 @@ def test_first_singular_names_the_first_sample_below_the_ratio() -> None:
     assert first_singular(rows, ("A",)) is not None and first_singular(rows, ("A",))[0] == 2  # type: ignore[index]
 
 
-def test_a_run_stops_at_the_first_singular_sample_inside_a_batch(monkeypatch: pytest.MonkeyPatch) -> None:
+def _refuse(*_: object) -> None:
+    raise NumericalError("no stack here")
+
+
+@pytest.mark.parametrize("stacked", [True, False])
+def test_a_run_stops_at_the_first_singular_sample_inside_a_batch(
+    monkeypatch: pytest.MonkeyPatch, stacked: bool
+) -> None:
     sc = load_scenario("paper")
     start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
     c = sc.task
@@ -71,9 +80,47 @@ def test_a_run_stops_at_the_first_singular_sample_inside_a_batch(monkeypatch: py
     k = ks[0]
     threshold = 0.5 * (lowest[k] + lowest[:k].min())
     monkeypatch.setattr(GUARDS, "PATH_SINGULAR_RATIO", threshold)
+    if not stacked:  # the guard takes each sample alone
+        monkeypatch.setattr(importlib.import_module("bracekit.simulation.loop"), "stacked_sigma_ratios", _refuse)
     cut = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
     assert not cut.completed and cut.failure is not None
     assert cut.failure.startswith(f"step {k} (t = {k * whole.t[1]:.3f} s)") and "singular on the path" in cut.failure
     assert cut.q.shape[0] == k and np.array_equal(cut.q, whole.q[:k])
     for key in keys:
         assert np.array_equal(cut.measures[f"sigma_ratio_{key}"], whole.measures[f"sigma_ratio_{key}"][:k])
+
+
+@pytest.mark.parametrize(("name", "scale"), [("paper", 0.3), ("panda", 0.1)])
+def test_one_brace_stacks_are_the_chain_split_matrices_to_the_last_bit(name: str, scale: float) -> None:
+    """Reference: ``state.split`` (J1, A, S A, J̃) and J_e of each state, formed one state at a time."""
+    sc = load_scenario(name)
+    rng = np.random.default_rng(13)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(5)]
+    space = sc.task_space
+    rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
+    stacks = _split_stacks([st.motions for st in states], rows)  # type: ignore[arg-type]
+    assert stacks is not None
+    for i, (st, sel) in enumerate(zip(states, rows, strict=True)):
+        sp = st.split
+        want = {"J1": sp.J1, "A": sp.A, "SA": sp.A if sel is None else sel @ sp.A, "J": st.J_e, "J_braced": sp.J_braced}
+        for key, matrix in want.items():
+            assert np.array_equal(stacks[key][0][i], matrix), key
+
+
+def test_where_the_stacks_cannot_be_formed_the_guard_takes_each_sample_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Reference: the same run with the stacked guard (the same states, ratios and stop)."""
+    sc = load_scenario("paper")
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
+    c = sc.task
+    assert isinstance(c, Circle)
+    task = Circle(c.centre, c.radius, c.normal, c.period, c.start_direction, turns=0.3)
+    stacked = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    loop = importlib.import_module("bracekit.simulation.loop")
+
+    monkeypatch.setattr(loop, "stacked_sigma_ratios", _refuse)
+    alone = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    assert alone.completed == stacked.completed and np.array_equal(alone.q, stacked.q)
+    for key, series in stacked.measures.items():
+        if key.startswith("sigma_ratio_"):
+            assert np.array_equal(alone.measures[key], series), key

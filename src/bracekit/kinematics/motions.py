@@ -9,7 +9,7 @@ braces"). The state chooses (``BracedState.motions``); a strategy only uses this
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -54,39 +54,6 @@ def rank_ratio(m: Array) -> float:
 def _ratio_of(form: Callable[[], Array], full_row_rank: bool) -> Callable[[], float]:
     """The ratio of the matrix `form` gives, computed when called: :func:`rank_ratio` or :func:`singular_ratio`."""
     return (lambda: rank_ratio(form())) if full_row_rank else (lambda: singular_ratio(form()))
-
-
-def stacked_ratios(ms: Sequence[Array], full_row_rank: bool) -> list[float]:
-    """σ_min/σ_max of each matrix of `ms`, as :func:`rank_ratio` (`full_row_rank`) or :func:`singular_ratio`.
-
-    One SVD over the stack of the matrices of each shape: the singular values of each are those of its own
-    SVD (the same LAPACK call per matrix), so the ratios are the single calls' to the last bit.
-    """
-    out = [0.0] * len(ms)
-    shapes: dict[tuple[int, ...], list[int]] = {}
-    for i, m in enumerate(ms):
-        shapes.setdefault(m.shape, []).append(i)
-    for (r, c), idx in shapes.items():
-        if r * c == 0 or (full_row_rank and c < r):  # no singular values, or more rows than columns
-            value = 1.0 if full_row_rank and r == 0 else 0.0
-            for i in idx:
-                out[i] = value
-            continue
-        s = np.linalg.svd(np.array([ms[i] for i in idx], dtype=np.float64), compute_uv=False)
-        for i, low, high in zip(idx, s[:, -1].tolist(), s[:, 0].tolist(), strict=True):
-            out[i] = low / high if high > 0 else 0.0
-    return out
-
-
-def stacked_conditioning(
-    motions: Sequence[BracedMotions], rows: Sequence[Array | None], keys: tuple[str, ...]
-) -> list[dict[str, float]]:
-    """``motions[i].conditioning(rows[i], keys)`` of every chart, each matrix kind in one stacked SVD."""
-    watched = [m.watched(r) for m, r in zip(motions, rows, strict=True)]
-    columns = {
-        key: stacked_ratios([w[key][0]() for w in watched], watched[0][key][1]) if watched else [] for key in keys
-    }
-    return [{key: columns[key][i] for key in keys} for i in range(len(motions))]
 
 
 class BracedMotions:

@@ -17,10 +17,11 @@ from numpy.typing import NDArray
 
 from bracekit.errors import JointLimitError, NumericalError, SingularityError
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.kinematics.motions import MATRIX_LABELS, stacked_conditioning
+from bracekit.kinematics.motions import MATRIX_LABELS
 from bracekit.model.robot import Robot
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.correction import norm
+from bracekit.simulation.stacked_ratios import stacked_conditioning
 from bracekit.tolerances import (
     DEFAULT_JOINT_SPEED,
     JOINT_STEP_SAFETY,

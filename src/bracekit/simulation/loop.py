@@ -254,8 +254,23 @@ def simulate(
             check_conditioning(ratios, checked)
         except SingularityError as exc:
             failure = f"start (t = 0.000 s): {exc}"
-        # the steps' σ-ratio guard, WATCH_BATCH samples at a time: (state, joint step, warnings and counts after it)
+        # the steps' σ-ratio guard, WATCH_BATCH samples at a time, with every ratio a sample records (the measures
+        # need them all): (state, joint step, warnings and counts after it)
+        recorded = tuple(start)
         pending: list[tuple[BracedState, float, int, dict[str, int]]] = []
+
+        def one_by_one() -> tuple[list[dict[str, float]], tuple[int, BracekitError] | None]:
+            """The pending samples' ratios up to the first that fails its check (a matrix the guard cannot form)."""
+            found: list[dict[str, float]] = []
+            for k, (state, *_) in enumerate(pending):
+                try:
+                    ratios = sigma_ratios(state, space, checked)
+                    check_conditioning(ratios, checked)
+                except BracekitError as exc:
+                    return found, (k, exc)
+                rest = tuple(key for key in recorded if key not in ratios)  # raise here as after the run
+                found.append({**ratios, **sigma_ratios(state, space, rest)})
+            return found, None
 
         def settle() -> str | None:
             """Guard the pending steps: keep them up to the first singular one, whose failure it returns.
@@ -263,8 +278,11 @@ def simulate(
             The steps after a singular one are undone: their states, warnings and counts are dropped, so the
             run is the one a guard after every step gives.
             """
-            found = stacked_sigma_ratios([p[0] for p in pending], space, checked)
-            bad = first_singular(found, checked)
+            try:
+                found = stacked_sigma_ratios([p[0] for p in pending], space, recorded)
+                bad: tuple[int, BracekitError] | None = first_singular(found, checked)
+            except BracekitError:  # a matrix that cannot be formed: sample by sample, as a check after each step
+                found, bad = one_by_one()
             kept = len(pending) if bad is None else bad[0]
             for (state, jump, _, _), row in zip(pending[:kept], found[:kept], strict=True):
                 states.append(state)
