@@ -7,9 +7,10 @@ rows of the paper's contact); the same code serves any number of braces.
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Sequence
-from typing import TypedDict, Unpack
+from typing import Any, TypedDict, Unpack, cast
 
 import numpy as np
 import pinocchio as pin
@@ -34,6 +35,7 @@ __all__ = [
     "contact_jacobian",
     "contact_residual",
     "correct",
+    "min_norm_solve",
     "norm",
     "pose_error",
     "reach",
@@ -108,6 +110,25 @@ def _contact_jacobian(xs: Sequence[Array], contacts: Contacts, anchors: Anchors)
         r = r_b @ r0.T
         out.append(x[:3].T @ j_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ j_b[3:]))
     return np.vstack(out)
+
+
+# the LAPACK call (gelsd) of np.linalg.lstsq, without its wrapper's cost (a run takes two per step); None with
+# another NumPy layout (the wrapper then)
+_gelsd: Any = getattr(importlib.import_module("numpy.linalg"), "_umath_linalg", None)
+_gelsd = getattr(_gelsd, "lstsq", None)
+_EPS = float(np.finfo(float).eps)
+
+
+def min_norm_solve(m: Array, r: Array) -> Array:
+    """``np.linalg.lstsq(m, r, rcond=None)[0]`` of a square m (k×k) and r (k,): the same LAPACK call and numbers.
+
+    Where the call gives a non-finite x (it did not converge) np.linalg.lstsq itself runs and raises LinAlgError.
+    """
+    if _gelsd is not None:
+        x = _gelsd(m, r[:, None], _EPS * m.shape[0], signature="ddd->ddid")[0][:, 0]
+        if math.isfinite(x.sum()):
+            return cast(Array, x)
+    return cast(Array, np.linalg.lstsq(m, r, rcond=None)[0])
 
 
 def reach(robot: Robot) -> float:
@@ -248,7 +269,7 @@ class Correction:
             if size < floor:  # with the test above: size < max(tol, floor), the round-off floor only where it decides
                 return self.braced.state_from_kinematics(q, frames)
             previous = size
-            step = rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
+            step = rows.T @ min_norm_solve(rows @ rows.T, res)
             t_q, t_frames = self._frames(q + step)
             t_res = self._residual(t_frames, position)
             if size >= ACCEPT_TOL and norm(t_res / scale) > norm(res / scale):
