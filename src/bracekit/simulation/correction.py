@@ -73,7 +73,8 @@ def contact_residual(state: BracedState, anchors: Anchors) -> Array:
 
     For a frictionless point this is n̂ᵀ(b_i − b0_i), the distance of {b_i} from the plane through b0_i.
     """
-    return _contact_residual(state.X_i, [(c.b, c.R_b, c.J_b) for c in state.contacts], anchors)
+    parts = _contact_residuals(state.X_i, _moments(state.X_i), _of(state), anchors)
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
 def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
@@ -83,33 +84,43 @@ def contact_jacobian(state: BracedState, anchors: Anchors) -> Array:
     grow to O(1 rad) along a run, where the plain rows X_iᵀ J_b_i make the correction converge only linearly.
     A contact without constraint moments (frictionless point, point with friction) gives X_iᵀ J_b_i.
     """
-    return _contact_jacobian(state.X_i, [(c.b, c.R_b, c.J_b) for c in state.contacts], anchors)
+    return np.vstack(_contact_jacobians(state.X_i, _moments(state.X_i), _of(state), anchors))
 
 
 #: Each brace's (b_i (3,), ⁰R_b_i (3×3), J_b_i (6×n)), in brace order.
 Contacts = Sequence[tuple[Array, Array, Array]]
+#: Rows of each brace, in brace order.
+Parts = list[Array]
 
 
-def _contact_residual(xs: Sequence[Array], contacts: Contacts, anchors: Anchors) -> Array:
-    """:func:`contact_residual` (c,) from each brace's X_i and (b_i, ⁰R_b_i, J_b_i)."""
+def _of(state: BracedState) -> list[tuple[Array, Array, Array]]:
+    """(b_i, ⁰R_b_i, J_b_i) of each brace of a state."""
+    return [(c.b, c.R_b, c.J_b) for c in state.contacts]
+
+
+def _moments(xs: Sequence[Array]) -> list[bool]:
+    """Whether each brace's X_i has constraint moments (else log3 is weighted by zeros and not computed)."""
+    return [bool(x[3:].any()) for x in xs]
+
+
+def _contact_residuals(xs: Sequence[Array], moments: Sequence[bool], contacts: Contacts, anchors: Anchors) -> Parts:
+    """Each brace's rows of :func:`contact_residual` from its X_i and (b_i, ⁰R_b_i, J_b_i)."""
+    return [
+        x.T @ np.concatenate([b - b0, pin.log3(r_b @ r0.T) if moment else _NO_ANGLE])
+        for x, moment, (b, r_b, _), (b0, r0) in zip(xs, moments, contacts, anchors, strict=True)
+    ]
+
+
+def _contact_jacobians(xs: Sequence[Array], moments: Sequence[bool], contacts: Contacts, anchors: Anchors) -> Parts:
+    """Each brace's rows of :func:`contact_jacobian` from its X_i and (b_i, ⁰R_b_i, J_b_i)."""
     out = []
-    for x, (b, r_b, _), (b0, r0) in zip(xs, contacts, anchors, strict=True):
-        # no constraint moment (frictionless point, point with friction): log3 is weighted by zeros, not computed
-        angle = pin.log3(r_b @ r0.T) if x[3:].any() else _NO_ANGLE
-        out.append(x.T @ np.concatenate([b - b0, angle]))
-    return out[0] if len(out) == 1 else np.concatenate(out)
-
-
-def _contact_jacobian(xs: Sequence[Array], contacts: Contacts, anchors: Anchors) -> Array:
-    """:func:`contact_jacobian` (c×n) from each brace's X_i and (b_i, ⁰R_b_i, J_b_i)."""
-    out = []
-    for x, (_, r_b, j_b), (_, r0) in zip(xs, contacts, anchors, strict=True):
-        if not x[3:].any():
+    for x, moment, (_, r_b, j_b), (_, r0) in zip(xs, moments, contacts, anchors, strict=True):
+        if not moment:
             out.append(x.T @ j_b)
             continue
         r = r_b @ r0.T
         out.append(x[:3].T @ j_b[:3] + x[3:].T @ (pin.Jlog3(r) @ r.T @ j_b[3:]))
-    return np.vstack(out)
+    return out
 
 
 # the LAPACK call (gelsd) of np.linalg.lstsq, without its wrapper's cost (a run takes two per step); None with
@@ -219,6 +230,7 @@ class Correction:
         self._ids = (robot.tip_id, *braced.brace_ids)
         self._data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
         self._xs = braced.X_i
+        self._moments = _moments(braced.X_i)
 
     def _frames(self, q: Array) -> tuple[Array, Frames]:
         """Q (checked as ``braced.state`` checks it) and the frames' kinematics at q."""
@@ -237,14 +249,12 @@ class Correction:
         """The residual: the task rows, then −(contact residual), from the frames' kinematics."""
         tip = frames[0][0]
         e, r_e = tip[:3, 3], tip[:3, :3]
-        space = self.space
-        if space.is_pose:
-            res = np.concatenate([position - e, pin.log3(self.rotation @ r_e.T)])
-        else:
-            res = space.selection(r_e) @ space.error(position - e, r_e, self.rotation)
-        if self.anchors is None:
-            return res
-        return np.concatenate([res, -_contact_residual(self._xs, _contacts(frames), self.anchors)])
+        space, anchors = self.space, self.anchors
+        contact = [] if anchors is None else _contact_residuals(self._xs, self._moments, _contacts(frames), anchors)
+        if space.is_pose:  # [p_d − e; log3(R_d R_eᵀ); −(each contact's residual)]
+            return np.concatenate([position - e, pin.log3(self.rotation @ r_e.T), *(-c for c in contact)])
+        res = space.selection(r_e) @ space.error(position - e, r_e, self.rotation)
+        return np.concatenate([res, *(-c for c in contact)]) if contact else res
 
     def _jacobian(self, frames: Frames) -> Array:
         """The residual's Jacobian (rows × n): S J_e, then the contact rows."""
@@ -252,7 +262,7 @@ class Correction:
         rows = j_e if self.space.is_pose else self.space.selection(tip[:3, :3]) @ j_e
         if self.anchors is None:
             return rows
-        return np.vstack([rows, _contact_jacobian(self._xs, _contacts(frames), self.anchors)])
+        return np.concatenate([rows, *_contact_jacobians(self._xs, self._moments, _contacts(frames), self.anchors)])
 
     def __call__(self, q: Array, position: Array) -> BracedState:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
