@@ -5,7 +5,9 @@ JOINT_STEP_SAFETY × its URDF velocity limit × dt (at most MAX_JOINT_STEP; DEFA
 gives no limit), or when σ_min/σ_max of a matrix the strategy inverts falls below PATH_SINGULAR_RATIO: J in
 free space; with one brace A, J1 when n1 = 6, and J̃; with several the stacked constraint G and S J_e N
 (:meth:`bracekit.kinematics.motions.BracedMotions.inverted`). No step leaves the URDF joint limits by more
-than JOINT_LIMIT_TOL.
+than JOINT_LIMIT_TOL. The σ-ratios of the steps are taken WATCH_BATCH samples at a time
+(:mod:`bracekit.simulation.stacked_ratios`): a run stops at the first singular sample of a batch and undoes
+the steps after it, so it stops where a check after every step stops it.
 """
 
 from __future__ import annotations

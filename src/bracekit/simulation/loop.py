@@ -6,7 +6,8 @@ tip back on the task and, for braced strategies, every {b_i} back on its contact
 (:mod:`bracekit.simulation.correction`), so neither error accumulates. A gradient-projection step that would
 jump over a region barrier (explicit Euler can) is split in halves, at most MAX_SUBSTEP_DEPTH times, and
 counted in ``Trajectory.substeps``. The guards of :mod:`bracekit.simulation.guards` stop a run at a joint
-jump, a singular matrix or a joint limit. Gradient projection of one brace runs through the fused
+jump, a singular matrix (checked WATCH_BATCH samples at a time, the steps after a singular sample undone) or
+a joint limit. Gradient projection of one brace runs through the fused
 :class:`bracekit.resolution.GradientProjectionStep`, which gives the strategy's own q̇ to ~1e-13.
 
 No step leaves the URDF joint limits (by more than JOINT_LIMIT_TOL). A corrected step that would is, for
