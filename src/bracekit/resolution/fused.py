@@ -163,6 +163,7 @@ class GradientProjectionStep:
         self._normal = braced.split.brace.surface.normal
         self._nl = self._normal.tolist()
         self._fk: FusedKinematics | None = None
+        self._beta: tuple[bytes, Terms] | None = None  # the last β_x (its bytes) and the terms with it
         self._last: tuple[Array, tuple[Any, ...]] | None = None
         obj = strategy.objective
         if not isinstance(obj, Objective):
@@ -308,8 +309,15 @@ class GradientProjectionStep:
         """
         if beta_x is None:
             return self._objective
+        fixed = type(beta_x) is np.ndarray and beta_x.dtype == np.float64 and beta_x.shape == (6,)
+        key = beta_x.tobytes() if fixed else None  # type: ignore[union-attr]
+        last = self._beta
+        if key is not None and last is not None and last[0] == key:  # the same β_x as the last step (a fixed one)
+            return last[1]
         obj = self._objective
-        return Terms([t.with_beta_x(beta_x) if isinstance(t, Term) else t for t in obj.terms], obj.weights)
+        terms = Terms([t.with_beta_x(beta_x) if isinstance(t, Term) else t for t in obj.terms], obj.weights)
+        self._beta = None if key is None else (key, terms)
+        return terms
 
     def last_kinematics(self, q: Array) -> Kinematics | None:
         """(⁰M, J) of the tip, then of each brace, of this step's last Pinocchio pass if it was at this very array q.
