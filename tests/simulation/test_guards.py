@@ -7,6 +7,7 @@ state) and, for a run, the ratios a complete run records at each sample, checked
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -15,7 +16,9 @@ from bracekit import BracedMinNorm, Circle, load_scenario, simulate, solve_start
 from bracekit.errors import NumericalError
 from bracekit.kinematics.motions import rank_ratio, singular_ratio
 from bracekit.simulation.guards import WATCH_BATCH, first_singular, sigma_ratios, stacked_sigma_ratios
+from bracekit.simulation.scenario import Scenario
 from bracekit.simulation.stacked_ratios import _split_stacks, stacked_ratios
+from bracekit.simulation.trajectory import Trajectory
 
 GUARDS = importlib.import_module("bracekit.simulation.guards")
 
@@ -57,6 +60,16 @@ def test_first_singular_names_the_first_sample_below_the_ratio() -> None:
     assert first_singular(rows, ("A",)) is not None and first_singular(rows, ("A",))[0] == 2  # type: ignore[index]
 
 
+def _paper_run(turns: float) -> tuple[Scenario, Callable[[], Trajectory]]:
+    """The paper scenario and a braced minimum-norm run along `turns` of its circle at dt = 0.1 s."""
+    sc = load_scenario("paper")
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
+    c = sc.task
+    assert isinstance(c, Circle)
+    task = Circle(c.centre, c.radius, c.normal, c.period, c.start_direction, turns=turns)
+    return sc, lambda: simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+
+
 def _refuse(*_: object) -> None:
     raise NumericalError("no stack here")
 
@@ -65,14 +78,10 @@ def _refuse(*_: object) -> None:
 def test_a_run_stops_at_the_first_singular_sample_inside_a_batch(
     monkeypatch: pytest.MonkeyPatch, stacked: bool
 ) -> None:
-    sc = load_scenario("paper")
-    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
-    c = sc.task
-    assert isinstance(c, Circle)
-    task = Circle(c.centre, c.radius, c.normal, c.period, c.start_direction, turns=1.0)
-    whole = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    sc, run = _paper_run(1.0)
+    whole = run()
     assert whole.completed and whole.steps > 2 * WATCH_BATCH
-    keys = sc.braced.state(start.q).motions.inverted(True)
+    keys = sc.braced.state(whole.q[0]).motions.inverted(True)
     lowest = np.min([whole.measures[f"sigma_ratio_{key}"] for key in keys], axis=0)
     # a sample past the first batch, not at its end, whose ratio is the lowest so far: the threshold just above it
     ks = [k for k in range(WATCH_BATCH + 2, whole.steps) if lowest[k] < lowest[:k].min() and k % WATCH_BATCH]
@@ -82,7 +91,7 @@ def test_a_run_stops_at_the_first_singular_sample_inside_a_batch(
     monkeypatch.setattr(GUARDS, "PATH_SINGULAR_RATIO", threshold)
     if not stacked:  # the guard takes each sample alone
         monkeypatch.setattr(importlib.import_module("bracekit.simulation.loop"), "stacked_sigma_ratios", _refuse)
-    cut = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    cut = run()
     assert not cut.completed and cut.failure is not None
     assert cut.failure.startswith(f"step {k} (t = {k * whole.t[1]:.3f} s)") and "singular on the path" in cut.failure
     assert cut.q.shape[0] == k and np.array_equal(cut.q, whole.q[:k])
@@ -110,16 +119,12 @@ def test_one_brace_stacks_are_the_chain_split_matrices_to_the_last_bit(name: str
 
 def test_where_the_stacks_cannot_be_formed_the_guard_takes_each_sample_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     """Reference: the same run with the stacked guard (the same states, ratios and stop)."""
-    sc = load_scenario("paper")
-    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
-    c = sc.task
-    assert isinstance(c, Circle)
-    task = Circle(c.centre, c.radius, c.normal, c.period, c.start_direction, turns=0.3)
-    stacked = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    _, run = _paper_run(0.3)
+    stacked = run()
     loop = importlib.import_module("bracekit.simulation.loop")
 
     monkeypatch.setattr(loop, "stacked_sigma_ratios", _refuse)
-    alone = simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+    alone = run()
     assert alone.completed == stacked.completed and np.array_equal(alone.q, stacked.q)
     for key, series in stacked.measures.items():
         if key.startswith("sigma_ratio_"):
