@@ -103,6 +103,22 @@ def test_fused_step_replaces_beta_x_like_a_new_compliance_index_term(paper) -> N
         step(qs[0], xdot, np.zeros(6))
 
 
+def test_fused_step_with_a_repeated_or_changed_beta_x_gives_a_fresh_step_result(paper) -> None:
+    """Reference: a new step for each β_x (the step keeps the terms of the last β_x while it stays the same)."""
+    sc, qs = paper
+    braced = sc.braced
+    base = BracedGradientProjection(_objective(braced, "constrained", np.r_[1.0, 0, 0, 0, 0, 0]))
+    step = GradientProjectionStep(braced, base)
+    xdot = np.array([0.01, 0.0, -0.02, 0.0, 0.01, 0.0])
+    fixed = np.array([0.0, 2.0, 1.0, 0.0, 0.0, 0.0])
+    for beta in (fixed, fixed.copy(), np.array([1.0, 0.0, 1.0, 0.0, 0.0, 0.0]), fixed):
+        assert np.array_equal(step(qs[0], xdot, beta), GradientProjectionStep(braced, base)(qs[0], xdot, beta))
+    fixed[:] = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]  # the same array with another direction
+    assert np.array_equal(step(qs[0], xdot, fixed), GradientProjectionStep(braced, base)(qs[0], xdot, fixed))
+    with pytest.raises(InputError):
+        step(qs[0], xdot, np.zeros(6))
+
+
 @pytest.mark.parametrize("model", ["constrained", "projection"])
 def test_fused_finite_difference_step_equals_the_reference_finite_differences(paper, model: str) -> None:
     sc, qs = paper

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from bracekit.errors import ConvergenceError
-from bracekit.simulation.correction import correct, reach
+from bracekit.simulation.correction import Correction, contact_residual, correct, min_norm_solve, reach, task_error
 from bracekit.simulation.scenario import load_scenario
 
 
@@ -61,3 +61,40 @@ def test_a_failure_says_whether_the_task_itself_or_only_the_braced_task_is_singu
     text = _where(braced_singular, scale, space)
     assert "a braced singularity" in text and "the task itself" not in text
     assert "reduce the time step" in _where(np.vstack([task, rng.normal(size=(1, 5))]), scale, space)
+
+
+@pytest.mark.parametrize("name", ["paper", "panda", "two-braces"])
+def test_one_correction_of_a_run_gives_the_state_of_braced_state_at_its_q_and_closes_every_row(name: str) -> None:
+    """Reference: ``braced.state`` at the corrected q, and the residuals written out from it (one and two braces)."""
+    sc = load_scenario(name)
+    braced, space = sc.braced, sc.task_space
+    rng = np.random.default_rng(5)
+    base = braced.state(np.asarray(sc.guess, dtype=float))
+    anchors = [(c.b.copy(), c.R_b.copy()) for c in base.contacts]
+    correction = Correction(braced, base.R_e, anchors, space=space)
+    for _ in range(3):
+        target = base.e + 0.01 * rng.standard_normal(3)
+        out = correction(base.q + 0.01 * rng.standard_normal(braced.n), target)
+        ref = braced.state(out.q)
+        for got, want in [(out.e, ref.e), (out.R_e, ref.R_e), (out.J_e, ref.J_e)]:
+            assert np.array_equal(got, want)
+        for c, r in zip(out.contacts, ref.contacts, strict=True):
+            assert np.array_equal(c.b, r.b) and np.array_equal(c.R_b, r.R_b) and np.array_equal(c.J_b, r.J_b)
+        assert np.max(np.abs(space.selection(ref.R_e) @ task_error(ref, target, base.R_e, space))) < 1e-9
+        assert np.max(np.abs(contact_residual(ref, anchors))) < 1e-9
+        again = correct(braced, out.q, target, base.R_e, anchors, space=space)  # the function: the same correction
+        assert np.array_equal(again.q, out.q)
+
+
+def test_min_norm_solve_is_numpy_lstsq_to_the_last_bit() -> None:
+    """Reference: ``np.linalg.lstsq(m, r, rcond=None)[0]`` (full rank, rank deficient, zero)."""
+    rng = np.random.default_rng(2)
+    for k in (1, 3, 7, 12):
+        for cols in (k + 3, k - 1 if k > 1 else 1):
+            a = rng.standard_normal((k, cols))
+            m, r = a @ a.T, rng.standard_normal(k)
+            assert np.array_equal(min_norm_solve(m, r), np.linalg.lstsq(m, r, rcond=None)[0])
+        zero = np.zeros((k, k))
+        assert np.array_equal(min_norm_solve(zero, r), np.linalg.lstsq(zero, r, rcond=None)[0])
+    with pytest.raises(np.linalg.LinAlgError), np.errstate(invalid="ignore"):
+        min_norm_solve(np.full((3, 3), np.nan), np.ones(3))

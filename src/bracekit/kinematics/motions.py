@@ -51,6 +51,11 @@ def rank_ratio(m: Array) -> float:
     return float(s[-1] / s[0]) if m.shape[1] >= m.shape[0] and s[0] > 0 else 0.0
 
 
+def _ratio_of(form: Callable[[], Array], full_row_rank: bool) -> Callable[[], float]:
+    """The ratio of the matrix `form` gives, computed when called: :func:`rank_ratio` or :func:`singular_ratio`."""
+    return (lambda: rank_ratio(form())) if full_row_rank else (lambda: singular_ratio(form()))
+
+
 class BracedMotions:
     """A chart of the braced motions at one configuration (abstract: :class:`SplitMotions`, :class:`NullMotions`).
 
@@ -71,16 +76,24 @@ class BracedMotions:
         """q̇ = M y (n,) from braced coordinates y (r,)."""
         raise NotImplementedError
 
+    def inverted(self, braced: bool) -> tuple[str, ...]:
+        """Keys of the matrices a braced (or free-space) strategy inverts, which a run keeps from singularity."""
+        raise NotImplementedError
+
+    def watched(self, rows: Array | None) -> dict[str, tuple[Callable[[], Array], bool]]:
+        """Each matrix a run records (keys of MATRIX_LABELS), formed when called, and whether it needs full row rank.
+
+        A matrix that needs full row rank has :func:`rank_ratio` as its ratio, the others :func:`singular_ratio`.
+        `rows`: the task-space selection S (m×6) at the state, None for the whole pose.
+        """
+        raise NotImplementedError
+
     def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
         """σ_min/σ_max of each matrix a run records (keys of MATRIX_LABELS), computed when called.
 
         `rows`: the task-space selection S (m×6) at the state, None for the whole pose.
         """
-        raise NotImplementedError
-
-    def inverted(self, braced: bool) -> tuple[str, ...]:
-        """Keys of the matrices a braced (or free-space) strategy inverts, which a run keeps from singularity."""
-        raise NotImplementedError
+        return {key: _ratio_of(form, full) for key, (form, full) in self.watched(rows).items()}
 
     def conditioning(self, rows: Array | None, keys: tuple[str, ...] | None = None) -> dict[str, float]:
         """σ_min/σ_max of the matrices named in `keys` (every recorded matrix if None)."""
@@ -133,15 +146,15 @@ class SplitMotions(BracedMotions):
         n1 = self.split.n1
         return np.concatenate([self.split.chain1_map.T @ dg_dq[:n1], dg_dq[n1:]])
 
-    def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
+    def watched(self, rows: Array | None) -> dict[str, tuple[Callable[[], Array], bool]]:
         """J1, A (eq:braced_kin), J = J_e and J̃ (eq:J_wave), whole; S A, the task rows of A that a step inverts."""
         sp = self.split
         return {
-            "J1": lambda: singular_ratio(sp.J1),
-            "A": lambda: singular_ratio(sp.A),
-            "SA": lambda: rank_ratio(sp.A if rows is None else rows @ sp.A),
-            "J": lambda: singular_ratio(sp.state.J_e),
-            "J_braced": lambda: singular_ratio(sp.J_braced),
+            "J1": (lambda: sp.J1, False),
+            "A": (lambda: sp.A, False),
+            "SA": ((lambda: sp.A) if rows is None else (lambda: rows @ sp.A), True),
+            "J": (lambda: sp.state.J_e, False),
+            "J_braced": (lambda: sp.J_braced, False),
         }
 
     def inverted(self, braced: bool) -> tuple[str, ...]:
@@ -177,12 +190,12 @@ class NullMotions(BracedMotions):
         """Nᵀ ∂g/∂q."""
         return np.asarray(self.N.T @ dg_dq, dtype=np.float64)
 
-    def matrices(self, rows: Array | None) -> dict[str, Callable[[], float]]:
+    def watched(self, rows: Array | None) -> dict[str, tuple[Callable[[], Array], bool]]:
         """G over its independent rows, the task rows S J_e N of A and J = J_e."""
         return {
-            "G": lambda: rank_ratio(self.G),
-            "SJN": lambda: rank_ratio(self.A if rows is None else rows @ self.A),
-            "J": lambda: singular_ratio(self.J_e),
+            "G": (lambda: self.G, True),
+            "SJN": ((lambda: self.A) if rows is None else (lambda: rows @ self.A), True),
+            "J": (lambda: self.J_e, False),
         }
 
     def inverted(self, braced: bool) -> tuple[str, ...]:

@@ -48,6 +48,32 @@ _jit = njit(cache=True, error_model="numpy", nogil=True)
 
 
 @_jit
+def _weighted_columns(m: Array, v: Array, kinv: Array, count: int) -> Array:
+    """(Σ_r m[r, i] v[r]) · kinv[i] for the first `count` columns i of m (6×≥count): K⁻¹ mᵀ v, (count,)."""
+    out = np.empty(count)
+    for i in range(count):
+        s = 0.0
+        for r in range(6):
+            s += m[r, i] * v[r]
+        out[i] = s * kinv[i]
+    return out
+
+
+@_jit
+def _split_map(g1: Array, v: Array, out: Array, transpose: bool) -> None:
+    """Out = blkdiag(G1, I) v, or blkdiag(G1ᵀ, I) v with `transpose`: G1 = dq1/db̃ (n1×l), eq:q1 and eq:grad_g."""
+    n1, l_ = g1.shape
+    rows, cols = (l_, n1) if transpose else (n1, l_)
+    for a in range(rows):
+        s = 0.0
+        for b in range(cols):
+            s += (g1[b, a] if transpose else g1[a, b]) * v[b]
+        out[a] = s
+    for c in range(v.shape[0] - cols):
+        out[rows + c] = v[cols + c]
+
+
+@_jit
 def gp_step(
     je: Array,
     jb: Array,
@@ -174,12 +200,7 @@ def gp_step(
                         for i in range(n1):
                             tr += jb[r, i] * jb[r, i] * kinv[i]
                     for c in range(nc):
-                        jx = np.zeros(n1)
-                        for i in range(n1):
-                            s = 0.0
-                            for r in range(6):
-                                s += jb[r, i] * x[r, c]
-                            jx[i] = s * kinv[i]
+                        jx = _weighted_columns(jb, x[:, c], kinv, n1)  # K1⁻¹ J1ᵀ X[:, c]
                         for r in range(6):
                             s = 0.0
                             for i in range(n1):
@@ -210,12 +231,7 @@ def gp_step(
                     jh[r, i] = s
                 for i in range(n1, n):
                     jh[r, i] = je[r, i]
-            uk = np.empty(n)
-            for i in range(n):
-                s = 0.0
-                for r in range(6):
-                    s += ci[term, r] * jh[r, i]
-                uk[i] = s * kinv[i]
+            uk = _weighted_columns(jh, ci[term, :6], kinv, n)  # K⁻¹ Ĵᵀ β
             v = np.zeros(6)  # C_e β
             for r in range(6):
                 s = 0.0
@@ -303,13 +319,7 @@ def gp_step(
 
     # --- ∇g = [(dq1/db̃)ᵀ ∂g/∂q1; ∂g/∂q2] (eq:grad_g) and A⁺ẋ + (I − A⁺A) α ∇g (eq:grad_proj)
     grad = np.empty(kk)
-    for c in range(l_):
-        s = 0.0
-        for i in range(n1):
-            s += g1[i, c] * dg[i]
-        grad[c] = s
-    for c in range(n2):
-        grad[l_ + c] = dg[n1 + c]
+    _split_map(g1, dg, grad, True)
     z = np.zeros(6)  # R⁻ᵀ ẋ − α Qᵀ ∇g
     for c in range(6):
         s = 0.0
@@ -325,11 +335,5 @@ def gp_step(
         for c in range(6):
             s += q[i, c] * z[c]
         yv[i] = s + alpha * grad[i]
-    for i in range(n1):  # q̇1 = dq1/db̃ ḃ (eq:q1)
-        s = 0.0
-        for c in range(l_):
-            s += g1[i, c] * yv[c]
-        out[i] = s
-    for c in range(n2):
-        out[n1 + c] = yv[l_ + c]
+    _split_map(g1, yv, out, False)  # q̇1 = dq1/db̃ ḃ (eq:q1), q̇2
     return OK, out

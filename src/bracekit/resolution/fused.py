@@ -38,9 +38,10 @@ from __future__ import annotations
 
 import importlib
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 from types import ModuleType
-from typing import Any, Literal, cast
+from typing import Any, Literal, NamedTuple, cast
 
 import numpy as np
 import pinocchio as pin
@@ -51,7 +52,7 @@ from bracekit.errors import InputError, ModelError
 from bracekit.kinematics import LWA, BracedRobot, contact_null_space, frame_hessian_rows
 from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
-from bracekit.objective import Objective, central_difference
+from bracekit.objective import Objective, Term, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
 from bracekit.resolution.fused_several import Kinematics, SeveralBraceKernel, kernel_inputs
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
@@ -162,6 +163,7 @@ class GradientProjectionStep:
         self._normal = braced.split.brace.surface.normal
         self._nl = self._normal.tolist()
         self._fk: FusedKinematics | None = None
+        self._beta: tuple[bytes, Terms] | None = None  # the last β_x (its bytes) and the terms with it
         self._last: tuple[Array, tuple[Any, ...]] | None = None
         obj = strategy.objective
         if not isinstance(obj, Objective):
@@ -259,7 +261,7 @@ class GradientProjectionStep:
             qdot = self._step(qa, xd, obj)
             return qdot if math.isfinite(qdot.sum()) else finite_rates(qdot)
         except NotCertified:
-            strategy = replace(self.strategy, objective=obj)
+            strategy = replace(self.strategy, objective=_objective(obj))
             return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
 
     def gradient(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
@@ -274,7 +276,7 @@ class GradientProjectionStep:
                 return self._fd_gradient(qa, obj)
             return self._dg_dq(qa, self._kinematics(qa, True), obj)
         except NotCertified:
-            strategy = replace(self.strategy, objective=obj)
+            strategy = replace(self.strategy, objective=_objective(obj))
             return strategy.dg_dq(self.braced.state(qa, hessians=strategy.needs_hessians))
 
     def value(self, q: ArrayLike, beta_x: ArrayLike | None = None) -> float:
@@ -286,7 +288,7 @@ class GradientProjectionStep:
         try:
             return self._value(qa, obj)
         except NotCertified:
-            return obj.value(self.braced.state(qa))
+            return _objective(obj).value(self.braced.state(qa))
 
     # --- internals ---------------------------------------------------------------------------------
     def _reference(self, beta_x: ArrayLike | None) -> BracedGradientProjection:
@@ -300,8 +302,22 @@ class GradientProjectionStep:
             return q
         return self.braced.robot.check_q(q)
 
-    def _with_beta(self, beta_x: ArrayLike | None) -> Objective:
-        return self._objective if beta_x is None else self._objective.with_beta_x(beta_x)
+    def _with_beta(self, beta_x: ArrayLike | None) -> Objective | Terms:
+        """The objective with β_x of every term that has one replaced (``Objective.with_beta_x``'s terms).
+
+        The terms and weights were checked when the step was built: they are not checked again each step.
+        """
+        if beta_x is None:
+            return self._objective
+        fixed = type(beta_x) is np.ndarray and beta_x.dtype == np.float64 and beta_x.shape == (6,)
+        key = beta_x.tobytes() if fixed else None  # type: ignore[union-attr]
+        last = self._beta
+        if key is not None and last is not None and last[0] == key:  # the same β_x as the last step (a fixed one)
+            return last[1]
+        obj = self._objective
+        terms = Terms([t.with_beta_x(beta_x) if isinstance(t, Term) else t for t in obj.terms], obj.weights)
+        self._beta = None if key is None else (key, terms)
+        return terms
 
     def last_kinematics(self, q: Array) -> Kinematics | None:
         """(⁰M, J) of the tip, then of each brace, of this step's last Pinocchio pass if it was at this very array q.
@@ -352,7 +368,7 @@ class GradientProjectionStep:
             return cast(Array, inv.dot(self._H))
         return contact_null_space(self._X.T @ j1)
 
-    def _step(self, qa: Array, xd: Array, obj: Objective) -> Array:
+    def _step(self, qa: Array, xd: Array, obj: Objective | Terms) -> Array:
         kin = self._kinematics(qa, not self._fd)
         je, jb, mb, me = kin[:4]
         n1 = self._n1
@@ -398,7 +414,7 @@ class GradientProjectionStep:
             )
         return self._fk.at(kin[0], kin[1], kin[2], kin[3], s1, q)
 
-    def _dg_dq(self, qa: Array, kin: tuple[Any, ...], obj: Objective, s1: Array | None = None) -> Array:
+    def _dg_dq(self, qa: Array, kin: tuple[Any, ...], obj: Objective | Terms, s1: Array | None = None) -> Array:
         """∂g/∂q (n,), analytic: each term's fused coefficients, contracted once per Hessian.
 
         A term without fused coefficients adds its own ``gradient`` on a BracedState (computed once).
@@ -413,7 +429,7 @@ class GradientProjectionStep:
                 out.add_extra(weight * term.gradient(state))
         return out.total(fk, kin[4], kin[5])
 
-    def _value(self, qa: Array, obj: Objective) -> float:
+    def _value(self, qa: Array, obj: Objective | Terms) -> float:
         """G at q (eq:objective), term by term as Objective.value."""
         fk = self._fused_kinematics(self._kinematics(qa, False), None, qa)
         total = 0.0
@@ -427,12 +443,24 @@ class GradientProjectionStep:
             total += weight * value
         return total
 
-    def _fd_gradient(self, qa: Array, obj: Objective) -> Array:
+    def _fd_gradient(self, qa: Array, obj: Objective | Terms) -> Array:
         """Central differences of g with δq = the strategy's fd_step (objective.central_difference)."""
         return central_difference(lambda x: self._value(x, obj), qa, self.strategy.fd_step)
 
 
-def _terms(obj: Objective) -> zip[tuple[Any, float]]:
+class Terms(NamedTuple):
+    """An objective's terms and weights (eq:objective) without an Objective's checks: the step's β_x replaced."""
+
+    terms: list[Any]
+    weights: Sequence[float]
+
+
+def _objective(obj: Objective | Terms) -> Objective:
+    """The Objective of `obj` (checked), for the reference path."""
+    return obj if isinstance(obj, Objective) else Objective(obj.terms, obj.weights)
+
+
+def _terms(obj: Objective | Terms) -> zip[tuple[Any, float]]:
     """(term, weight) pairs of an objective."""
     return zip(obj.terms, obj.weights, strict=True)
 

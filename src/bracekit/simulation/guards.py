@@ -5,12 +5,14 @@ JOINT_STEP_SAFETY × its URDF velocity limit × dt (at most MAX_JOINT_STEP; DEFA
 gives no limit), or when σ_min/σ_max of a matrix the strategy inverts falls below PATH_SINGULAR_RATIO: J in
 free space; with one brace A, J1 when n1 = 6, and J̃; with several the stacked constraint G and S J_e N
 (:meth:`bracekit.kinematics.motions.BracedMotions.inverted`). No step leaves the URDF joint limits by more
-than JOINT_LIMIT_TOL.
+than JOINT_LIMIT_TOL. The σ-ratios of the steps are taken WATCH_BATCH samples at a time
+(:mod:`bracekit.simulation.stacked_ratios`): a run stops at the first singular sample of a batch and undoes
+the steps after it, so it stops where a check after every step stops it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,6 +23,7 @@ from bracekit.kinematics.motions import MATRIX_LABELS
 from bracekit.model.robot import Robot
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.correction import norm
+from bracekit.simulation.stacked_ratios import stacked_conditioning
 from bracekit.tolerances import (
     DEFAULT_JOINT_SPEED,
     JOINT_STEP_SAFETY,
@@ -38,6 +41,8 @@ MAX_SUBSTEP_DEPTH = 4
 JUMP_PROBES = 17
 #: How far (rad, m for a prismatic joint) a corrected step may leave a joint's URDF range (the correction's round-off).
 JOINT_LIMIT_TOL = 1e-9
+#: Samples whose σ-ratio guard a run takes at once (one stacked SVD per matrix); a singular one undoes the later ones.
+WATCH_BATCH = 16
 #: The scales of the null-space motion a gradient-projection step that leaves the joint limits is retried with.
 LIMIT_SCALES = (0.5, 0.25, 0.125, 0.0625, 0.0)
 
@@ -46,8 +51,10 @@ __all__ = [
     "JUMP_PROBES",
     "LIMIT_SCALES",
     "MAX_SUBSTEP_DEPTH",
+    "WATCH_BATCH",
     "braces_outside",
     "check_conditioning",
+    "first_singular",
     "joint_speeds",
     "joint_step_bound",
     "jump_failure",
@@ -56,6 +63,7 @@ __all__ = [
     "outside_limits",
     "point_label",
     "sigma_ratios",
+    "stacked_sigma_ratios",
 ]
 
 
@@ -116,6 +124,24 @@ def joint_step_bound(robot: Robot, dt: float) -> Array:
 def sigma_ratios(state: BracedState, space: TaskSpace, keys: tuple[str, ...] | None = None) -> dict[str, float]:
     """σ_min/σ_max at the state of the matrices named in `keys` (every matrix a run records if None)."""
     return state.motions.conditioning(None if space.is_pose else space.selection(state.R_e), keys)
+
+
+def stacked_sigma_ratios(
+    states: Sequence[BracedState], space: TaskSpace, keys: tuple[str, ...]
+) -> list[dict[str, float]]:
+    """:func:`sigma_ratios` of every state (the same numbers), each matrix kind in one stacked SVD."""
+    rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
+    return stacked_conditioning([st.motions for st in states], rows, keys)
+
+
+def first_singular(ratios: Sequence[Mapping[str, float]], keys: tuple[str, ...]) -> tuple[int, SingularityError] | None:
+    """The first of the samples' `ratios` that :func:`check_conditioning` refuses, with its error; None if none."""
+    for i, found in enumerate(ratios):
+        try:
+            check_conditioning(found, keys)
+        except SingularityError as exc:
+            return i, exc
+    return None
 
 
 def check_conditioning(ratios: Mapping[str, float], keys: tuple[str, ...]) -> None:

@@ -6,7 +6,8 @@ tip back on the task and, for braced strategies, every {b_i} back on its contact
 (:mod:`bracekit.simulation.correction`), so neither error accumulates. A gradient-projection step that would
 jump over a region barrier (explicit Euler can) is split in halves, at most MAX_SUBSTEP_DEPTH times, and
 counted in ``Trajectory.substeps``. The guards of :mod:`bracekit.simulation.guards` stop a run at a joint
-jump, a singular matrix or a joint limit. Gradient projection of one brace runs through the fused
+jump, a singular matrix (checked WATCH_BATCH samples at a time, the steps after a singular sample undone) or
+a joint limit. Gradient projection of one brace runs through the fused
 :class:`bracekit.resolution.GradientProjectionStep`, which gives the strategy's own q̇ to ~1e-13.
 
 No step leaves the URDF joint limits (by more than JOINT_LIMIT_TOL). A corrected step that would is, for
@@ -49,12 +50,14 @@ from bracekit.objective import RegionBarrier
 from bracekit.resolution.fused import Backend, GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
-from bracekit.simulation.correction import correct, norm, reach, task_error
+from bracekit.simulation.correction import Correction, norm, reach, task_error
 from bracekit.simulation.guards import (
     LIMIT_SCALES,
     MAX_SUBSTEP_DEPTH,
+    WATCH_BATCH,
     braces_outside,
     check_conditioning,
+    first_singular,
     joint_step_bound,
     jump_failure,
     limit_bounds,
@@ -62,6 +65,7 @@ from bracekit.simulation.guards import (
     outside_limits,
     point_label,
     sigma_ratios,
+    stacked_sigma_ratios,
 )
 from bracekit.simulation.notes import run_notes
 from bracekit.simulation.path_measures import measure_path, path_ratios
@@ -155,20 +159,39 @@ def simulate(
     scaled_steps: dict[float, GradientProjectionStep] = {}
     guard = region_guard(braced, strategy)
     scalable = isinstance(strategy, BracedGradientProjection)
-    length = reach(braced.robot)
+    correct = Correction(braced, rotation, anchors, length=reach(braced.robot), space=space)
     bound = joint_step_bound(braced.robot, dt)
     limits = limit_bounds(braced.robot)
     counts = {"substeps": 0, "limited": 0}
+    low, high = limits
+    objective = getattr(strategy, "objective", None) is not None
+    # p_d(t) and β_x(t), each evaluated once per time: a step and the samples' measures take them at the same t
+    positions: dict[float, Array] = {}
+    betas: dict[float, Array] = {}
+
+    def position(t: float) -> Array:
+        found = positions.get(t)
+        if found is None:
+            found = positions[t] = task.position(t)
+        return found
+
+    def beta(t: float) -> Array:
+        found = betas.get(t)
+        if found is None:
+            found = betas[t] = beta_x(t)
+        return found
 
     def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
         """Q̇ of the strategy at st, with its null-space motion scaled by `scale` (gradient projection only)."""
         if fast is not None and scale > 0.0:  # the fused step: the same q̇ as the strategy's, to ~1e-13
             if scale == 1.0:
-                return fast(st.q, xdot, beta_x(t))
+                return fast(st.q, xdot, beta(t))
             if scale not in scaled_steps:
                 scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale), backend)  # type: ignore[arg-type]
-            return scaled_steps[scale](st.q, xdot, beta_x(t))
-        current = with_beta_x(strategy if scale == 1.0 else scaled_alpha(strategy, scale), beta_x(t))
+            return scaled_steps[scale](st.q, xdot, beta(t))
+        current = strategy if scale == 1.0 else scaled_alpha(strategy, scale)
+        if objective:
+            current = with_beta_x(current, beta(t))
         if current.needs_hessians:
             st = braced.state(st.q, hessians=True)
         return current.velocity(st, xdot)
@@ -179,14 +202,14 @@ def simulate(
         A step that leaves the joint limits is retried with the null-space motion scaled (LIMIT_SCALES) or
         ends the run (JointLimitError).
         """
-        err = task_error(st, task.position(t), rotation, space)
+        err = task_error(st, position(t), rotation, space)
         xdot = np.concatenate([task.velocity(t), np.zeros(3)]) + feedback_gain * err
-        goal = task.position(t + h)
-        new = correct(braced, st.q + rate(st, t, xdot) * h, goal, rotation, anchors, length=length, space=space)
-        if outside_limits(braced.robot, new.q, limits).size:
+        goal = position(t + h)
+        new = correct(st.q + rate(st, t, xdot) * h, goal)
+        if ((new.q < low) | (new.q > high)).any():  # outside_limits(…).size, without its index array
             for scale in LIMIT_SCALES if scalable else ():
                 qdot = rate(st, t, xdot, scale)
-                new = correct(braced, st.q + qdot * h, goal, rotation, anchors, length=length, space=space)
+                new = correct(st.q + qdot * h, goal)
                 if not outside_limits(braced.robot, new.q, limits).size:
                     counts["limited"] += 1
                     break
@@ -211,8 +234,8 @@ def simulate(
         states: list[BracedState], first: int, ratios: list[dict[str, float]], jumps: list[float]
     ) -> tuple[Samples | None, int, BracekitError | None]:
         times = [(first + i) * dt for i in range(len(states))]
-        errors = [norm(task.position(t) - st.e) for t, st in zip(times, states, strict=True)]
-        return measure_path(braced, states, [beta_x(t) for t in times], errors, ratios, jumps)
+        errors = [norm(position(t) - st.e) for t, st in zip(times, states, strict=True)]
+        return measure_path(braced, states, [beta(t) for t in times], errors, ratios, jumps)
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnloadedContactWarning)
@@ -232,6 +255,52 @@ def simulate(
             check_conditioning(ratios, checked)
         except SingularityError as exc:
             failure = f"start (t = 0.000 s): {exc}"
+        # the steps' σ-ratio guard, WATCH_BATCH samples at a time, with every ratio a sample records (the measures
+        # need them all): (state, joint step, warnings and counts after it)
+        recorded = tuple(start)
+        pending: list[tuple[BracedState, float, int, dict[str, int]]] = []
+
+        def one_by_one() -> tuple[list[dict[str, float]], tuple[int, BracekitError] | None]:
+            """The pending samples' ratios up to the first that fails its check (a matrix the guard cannot form)."""
+            found: list[dict[str, float]] = []
+            for k, (state, *_) in enumerate(pending):
+                try:
+                    ratios = sigma_ratios(state, space, checked)
+                    check_conditioning(ratios, checked)
+                except BracekitError as exc:
+                    return found, (k, exc)
+                rest = tuple(key for key in recorded if key not in ratios)  # raise here as after the run
+                found.append({**ratios, **sigma_ratios(state, space, rest)})
+            return found, None
+
+        def settle() -> str | None:
+            """Guard the pending steps: keep them up to the first singular one, whose failure it returns.
+
+            The steps after a singular one are undone: their states, warnings and counts are dropped, so the
+            run is the one a guard after every step gives.
+            """
+            try:
+                found = stacked_sigma_ratios([p[0] for p in pending], space, recorded)
+                bad: tuple[int, BracekitError] | None = first_singular(found, checked)
+            except BracekitError:  # a matrix that cannot be formed: sample by sample, as a check after each step
+                found, bad = one_by_one()
+            kept = len(pending) if bad is None else bad[0]
+            for (state, jump, _, _), row in zip(pending[:kept], found[:kept], strict=True):
+                states.append(state)
+                ratio_rows.append(row)
+                jumps.append(jump)
+                if progress is not None:
+                    progress(1)
+            if bad is None:
+                pending.clear()
+                return None
+            _, _, mark, after = pending[bad[0]]
+            del caught[mark:]
+            counts.update(after)
+            pending.clear()
+            step = len(states)
+            return f"step {step} (t = {step * dt:.3f} s): {bad[1]}"
+
         for i in range(steps if failure is None else 0):
             t_next = (i + 1) * dt
             try:
@@ -241,16 +310,16 @@ def simulate(
                 if (step > bound).any():
                     gain = getattr(strategy, "objective", None) is not None
                     raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
-                ratios = sigma_ratios(st, space, checked)  # the others after the steps, at once
-                check_conditioning(ratios, checked)
             except BracekitError as exc:
-                failure = f"step {i + 1} (t = {t_next:.3f} s): {exc}"
+                failure = settle() or f"step {i + 1} (t = {t_next:.3f} s): {exc}"
                 break
-            states.append(st)
-            ratio_rows.append(ratios)
-            jumps.append(float(step.max()))
-            if progress is not None:
-                progress(1)
+            pending.append((st, float(step.max()), len(caught), dict(counts)))
+            if len(pending) == WATCH_BATCH:
+                failure = settle()
+                if failure is not None:
+                    break
+        if failure is None:
+            failure = settle()
         # the measures, from the corrected states, all at once; the run stops at the first it cannot measure
         ratio_rows[1:] = path_ratios(states[1:], space, tuple(start), ratio_rows[1:])
         tail, count, refused = samples_of(states[1:], 1, ratio_rows[1:], jumps[1:])

@@ -1,0 +1,131 @@
+"""The σ-ratio guard taken over batches of samples: the same numbers and the same stop as one check per sample.
+
+References: NumPy's SVD of each matrix alone (``singular_ratio``, ``rank_ratio``, ``sigma_ratios`` of each
+state) and, for a run, the ratios a complete run records at each sample, checked one by one here.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from bracekit import BracedMinNorm, Circle, load_scenario, simulate, solve_start
+from bracekit.errors import NumericalError
+from bracekit.kinematics.motions import rank_ratio, singular_ratio
+from bracekit.simulation.guards import WATCH_BATCH, first_singular, sigma_ratios, stacked_sigma_ratios
+from bracekit.simulation.scenario import Scenario
+from bracekit.simulation.stacked_ratios import _split_stacks, stacked_ratios
+from bracekit.simulation.trajectory import Trajectory
+
+GUARDS = importlib.import_module("bracekit.simulation.guards")
+
+
+def _matrices(rng: np.random.Generator) -> list[np.ndarray]:
+    ms = [rng.standard_normal(shape) for shape in [(6, 6), (6, 10), (6, 6), (7, 5), (6, 10), (3, 11)]]
+    ms.append(np.zeros((6, 6)))
+    ms.append(np.outer(rng.standard_normal(6), rng.standard_normal(10)))  # rank 1
+    ms.append(np.zeros((0, 4)))
+    ms.append(np.zeros((3, 0)))
+    return ms
+
+
+@pytest.mark.parametrize("full_row_rank", [False, True])
+def test_stacked_ratios_are_each_matrix_own_svd_ratio_to_the_last_bit(full_row_rank: bool) -> None:
+    rng = np.random.default_rng(3)
+    ms = _matrices(rng)
+    alone = rank_ratio if full_row_rank else singular_ratio
+    assert stacked_ratios(ms, full_row_rank) == [alone(m) for m in ms]
+
+
+@pytest.mark.parametrize(("name", "scale"), [("paper", 0.3), ("panda", 0.1), ("two-braces", 0.05)])
+def test_stacked_sigma_ratios_equal_sigma_ratios_of_each_state(name: str, scale: float) -> None:
+    sc = load_scenario(name)
+    rng = np.random.default_rng(11)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(7)]
+    keys = tuple(sigma_ratios(states[0], sc.task_space))
+    assert stacked_sigma_ratios(states, sc.task_space, keys) == [sigma_ratios(st, sc.task_space, keys) for st in states]
+    assert stacked_sigma_ratios([], sc.task_space, keys) == []
+
+
+def test_first_singular_names_the_first_sample_below_the_ratio() -> None:
+    keys = ("A", "J")
+    rows = [{"A": 0.1, "J": 0.2}, {"A": 0.1, "J": 1e-9}, {"A": 1e-8, "J": 0.2}]
+    found = first_singular(rows, keys)
+    assert found is not None and found[0] == 1 and "J" in str(found[1])
+    assert first_singular(rows[:1], keys) is None
+    assert first_singular(rows, ("A",)) is not None and first_singular(rows, ("A",))[0] == 2  # type: ignore[index]
+
+
+def _paper_run(turns: float) -> tuple[Scenario, Callable[[], Trajectory]]:
+    """The paper scenario and a braced minimum-norm run along `turns` of its circle at dt = 0.1 s."""
+    sc = load_scenario("paper")
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
+    c = sc.task
+    assert isinstance(c, Circle)
+    task = Circle(c.centre, c.radius, c.normal, c.period, c.start_direction, turns=turns)
+    return sc, lambda: simulate(sc.braced, BracedMinNorm(), task, start.q, 0.1, sc.beta_x)
+
+
+def _refuse(*_: object) -> None:
+    raise NumericalError("no stack here")
+
+
+@pytest.mark.parametrize("stacked", [True, False])
+def test_a_run_stops_at_the_first_singular_sample_inside_a_batch(
+    monkeypatch: pytest.MonkeyPatch, stacked: bool
+) -> None:
+    sc, run = _paper_run(1.0)
+    whole = run()
+    assert whole.completed and whole.steps > 2 * WATCH_BATCH
+    keys = sc.braced.state(whole.q[0]).motions.inverted(True)
+    lowest = np.min([whole.measures[f"sigma_ratio_{key}"] for key in keys], axis=0)
+    # a sample past the first batch, not at its end, whose ratio is the lowest so far: the threshold just above it
+    ks = [k for k in range(WATCH_BATCH + 2, whole.steps) if lowest[k] < lowest[:k].min() and k % WATCH_BATCH]
+    assert ks, "the run's ratios never fall past the first batch"
+    k = ks[0]
+    threshold = 0.5 * (lowest[k] + lowest[:k].min())
+    monkeypatch.setattr(GUARDS, "PATH_SINGULAR_RATIO", threshold)
+    if not stacked:  # the guard takes each sample alone
+        monkeypatch.setattr(importlib.import_module("bracekit.simulation.loop"), "stacked_sigma_ratios", _refuse)
+    cut = run()
+    assert not cut.completed and cut.failure is not None
+    assert cut.failure.startswith(f"step {k} (t = {k * whole.t[1]:.3f} s)") and "singular on the path" in cut.failure
+    assert cut.q.shape[0] == k and np.array_equal(cut.q, whole.q[:k])
+    for key in keys:
+        assert np.array_equal(cut.measures[f"sigma_ratio_{key}"], whole.measures[f"sigma_ratio_{key}"][:k])
+
+
+@pytest.mark.parametrize(("name", "scale"), [("paper", 0.3), ("panda", 0.1)])
+def test_one_brace_stacks_are_the_chain_split_matrices_to_the_last_bit(name: str, scale: float) -> None:
+    """Reference: ``state.split`` (J1, A, S A, J̃) and J_e of each state, formed one state at a time."""
+    sc = load_scenario(name)
+    rng = np.random.default_rng(13)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(5)]
+    space = sc.task_space
+    rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
+    stacks = _split_stacks([st.motions for st in states], rows)  # type: ignore[arg-type]
+    assert stacks is not None
+    for i, (st, sel) in enumerate(zip(states, rows, strict=True)):
+        sp = st.split
+        want = {"J1": sp.J1, "A": sp.A, "SA": sp.A if sel is None else sel @ sp.A, "J": st.J_e, "J_braced": sp.J_braced}
+        for key, matrix in want.items():
+            assert np.array_equal(stacks[key][0][i], matrix), key
+
+
+def test_where_the_stacks_cannot_be_formed_the_guard_takes_each_sample_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Reference: the same run with the stacked guard (the same states, ratios and stop)."""
+    _, run = _paper_run(0.3)
+    stacked = run()
+    loop = importlib.import_module("bracekit.simulation.loop")
+
+    monkeypatch.setattr(loop, "stacked_sigma_ratios", _refuse)
+    alone = run()
+    assert alone.completed == stacked.completed and np.array_equal(alone.q, stacked.q)
+    for key, series in stacked.measures.items():
+        if key.startswith("sigma_ratio_"):
+            assert np.array_equal(alone.measures[key], series), key
