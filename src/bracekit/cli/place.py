@@ -46,8 +46,9 @@ def add_parser(subparsers: Any) -> None:
     pl.add_argument(
         "--surface",
         choices=("capsule", "collision"),
-        default="capsule",
-        help="the pad on the capsule about the link's joint line (default) or on its collision surface",
+        default=None,
+        help="the pad on the capsule about the link's joint line or on its collision surface (default: the "
+        "collision surface when the spec has an 'angle' axis, as the sweep's candidates, else the capsule)",
     )
     pl.add_argument("--objective", choices=("Ci", "ct"), default="Ci", help="inner objective: C_i or c_t (default C_i)")
     pl.add_argument("--no-figures", action="store_true", help="write the tables, summary and best.toml only")
@@ -104,9 +105,11 @@ def _run(
     from bracekit.studies.place.engine import PlaceSettings, prepare, run_place
     from bracekit.studies.place.inner import InnerSettings
     from bracekit.studies.place.report import write_outputs
+    from bracekit.studies.place.spec import default_surface
 
+    surface = args.surface or default_surface(spec)
     settings = PlaceSettings(
-        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
+        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=surface),
         seeds=args.seeds,
         top=args.top,
         refine_rounds=args.refine,
