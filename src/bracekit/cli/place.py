@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from collections.abc import Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -116,15 +117,15 @@ def _run(
     )
     prepared = prepare(spec, settings)
     client = client_future.result()
-    client.run(_numba_from_environment)  # before any task: a forked worker holds this process's numba settings
     result = run_place(spec, client, settings, prepared)
     with atomic_directory(plan) as tmp:
         names = write_outputs(result, tmp, figures=figures)
     return result, names
 
 
-#: What the workers run: imported here before they are forked, so none of them imports it again.
+#: What the workers run: imported by the fork server before it forks them, so none of them imports it again.
 WORKER_MODULES = (
+    "distributed",
     "scipy.optimize",
     "bracekit.studies.place.inner",
     "bracekit.studies.place.outer",
@@ -137,41 +138,37 @@ WORKER_MODULES = (
 
 @contextmanager
 def _forked_workers() -> Iterator[None]:
-    """Local workers forked from this process (Dask's ``fork`` method), :data:`WORKER_MODULES` imported first.
+    """Local workers forked from a fork server (Dask's ``forkserver`` method) that imported :data:`WORKER_MODULES`.
 
-    A spawned worker imports bracekit, Pinocchio, SciPy and MuJoCo again (seconds of CPU each, more than the
-    placement's own work on a loaded machine); a forked one starts with them. Not when this process already
-    runs numba's threads (a child would inherit a thread pool without its threads): then spawned, as the sweep's.
+    The server starts here, on this thread, before the cluster's thread exists: a fresh process, one thread, in
+    the workers' environment (:data:`bracekit.studies.sweep.engine.WORKER_ENV`: one numba, OpenMP and BLAS
+    thread), that imports the placement's modules (Pinocchio, SciPy, MuJoCo's check) while this process solves
+    the reference start. Every worker, and one the nanny restarts, is forked from that server: it starts with
+    the modules imported, numba's and BLAS's settings its environment's, and no lock another thread held (a
+    worker forked from this process could inherit a lock the solving thread held at that moment, and this
+    process's numba and BLAS settings). A spawned worker would import everything again, each (seconds under load).
     """
-    import importlib
+    import multiprocessing.forkserver
 
     import dask
-    import distributed  # noqa: F401  (its configuration defaults first: leaving the `set` below restores the key only)
+    import distributed.utils
 
-    for name in WORKER_MODULES:
-        importlib.import_module(name)
-    method = "spawn" if _numba_threads_started() else "fork"
-    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+    from bracekit.studies.sweep.engine import WORKER_ENV
+
+    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
+        context = distributed.utils.get_mp_context()  # Dask's own preload list set first, replaced below
+        context.set_forkserver_preload(list(WORKER_MODULES))
+        saved = {k: os.environ.get(k) for k in WORKER_ENV}
+        os.environ.update(WORKER_ENV)
+        try:
+            multiprocessing.forkserver.ensure_running()  # the server's environment: this one, now
+        finally:
+            for key, value in saved.items():
+                if value is None:
+                    os.environ.pop(key, None)
+                else:
+                    os.environ[key] = value
         yield
-
-
-def _numba_threads_started() -> bool:
-    """Whether numba's thread pool was started in this process (True when it cannot tell)."""
-    if "numba" not in sys.modules:
-        return False
-    parallel = sys.modules.get("numba.np.ufunc.parallel")
-    return parallel is not None and bool(getattr(parallel, "_is_initialized", True))
-
-
-def _numba_from_environment() -> None:
-    """Numba's settings re-read from the worker's environment (its ``NUMBA_NUM_THREADS``), before its threads start.
-
-    A forked worker inherits the numba settings this process read at import; the worker's environment (the
-    cluster's, one thread) differs, and numba refuses to compile once its threads run with other settings.
-    """
-    numba = sys.modules.get("numba")
-    if numba is not None and not _numba_threads_started():  # a spawned worker's settings are its environment's
-        numba.core.config.reload_config()
 
 
 @contextmanager
