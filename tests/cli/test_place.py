@@ -50,46 +50,64 @@ def test_a_cobot_scenario_is_named_as_such(tmp_path: Path, capsys: pytest.Captur
     assert not out.exists()
 
 
-def _worker_state() -> dict[str, object]:
-    """What a worker holds before any task: numba's thread setting, BLAS's threads, its parent, the modules."""
-    import ctypes
-    import glob
-    import os
-    import sys
+WORKERS = """
+import ctypes, glob, json, os, sys
 
-    import numba
-    import numpy
-
+def state():
+    import numba, numpy
     found = glob.glob(os.path.join(os.path.dirname(numpy.__file__), "..", "numpy.libs", "libscipy_openblas*"))
     blas = getattr(ctypes.CDLL(found[0]), "scipy_openblas_get_num_threads64_", None) if found else None
     return {
-        "numba": (os.environ.get("NUMBA_NUM_THREADS"), int(numba.config.NUMBA_NUM_THREADS)),
+        "numba": [os.environ.get("NUMBA_NUM_THREADS"), int(numba.config.NUMBA_NUM_THREADS)],
         "blas": None if blas is None else int(blas()),
         "parent": os.getppid(),
         "preloaded": "bracekit.studies.place.inner" in sys.modules,
     }
 
+from bracekit.cli.place import _forked_workers
+from bracekit.studies.place.workers import WorkerThreads
+from bracekit.studies.sweep.engine import dask_client
+
+with _forked_workers(), dask_client(1) as client:
+    client.register_plugin(WorkerThreads())
+    before = list(client.run(state).values())
+    client.restart()
+    after = list(client.run(state).values())
+print(json.dumps({"before": before, "after": after, "pid": os.getpid()}))
+"""
+
 
 @pytest.mark.slow
-def test_workers_are_forked_from_a_server_in_their_own_environment() -> None:
-    """Each worker, and one the nanny restarts, has the workers' numba and BLAS settings and the modules imported.
+def test_forked_workers_take_their_threads_from_their_environment() -> None:
+    """Each forked worker, and one the nanny restarts, has the workers' numba and BLAS settings, modules imported.
 
-    Not forked from this process (a lock another thread held, this process's settings), but from the fork
-    server, which imported the placement's modules once.
+    In a fresh process, as the command (a test session may run numba's threads, and then spawns its workers).
     """
-    import os
+    import json
+    import subprocess
+    import sys
 
-    from bracekit.cli.place import _forked_workers
-    from bracekit.studies.sweep.engine import WORKER_ENV, dask_client
+    from bracekit.studies.sweep.engine import WORKER_ENV
 
-    one = int(WORKER_ENV["NUMBA_NUM_THREADS"])
-    with _forked_workers(), dask_client(1) as client:
-        before = list(client.run(_worker_state).values())
-        client.restart()
-        after = list(client.run(_worker_state).values())
-    for state in before + after:
-        assert state["numba"] == (WORKER_ENV["NUMBA_NUM_THREADS"], one)
+    out = subprocess.run([sys.executable, "-c", WORKERS], capture_output=True, text=True, check=True).stdout
+    got = json.loads(out.splitlines()[-1])
+    states = got["before"] + got["after"]
+    assert len(states) == 2
+    for state in states:
+        assert state["numba"] == [WORKER_ENV["NUMBA_NUM_THREADS"], int(WORKER_ENV["NUMBA_NUM_THREADS"])]
         assert state["blas"] in (None, int(WORKER_ENV["OPENBLAS_NUM_THREADS"]))
         assert state["preloaded"] is True
-        assert state["parent"] != os.getpid()
-    assert before[0]["parent"] == after[0]["parent"]  # the same server
+        assert state["parent"] == got["pid"]  # forked by this process's nanny, not spawned through another
+
+
+def test_numba_threads_started_is_seen() -> None:
+    """Started numba threads are seen (the workers are then spawned, not forked): in a fresh process."""
+    import subprocess
+    import sys
+
+    code = (
+        "import numba\nfrom bracekit.cli.place import _numba_threads_started as f\n"
+        "before = f()\nnumba.set_num_threads(1)\nprint(before, f())\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "True"]

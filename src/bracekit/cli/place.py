@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 from collections.abc import Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from bracekit.cli.common import needs_sweep_extra, sigterm_as_interrupt
+from bracekit.cli.common import needs, needs_sweep_extra, sigterm_as_interrupt
 from bracekit.errors import InputError
 
 #: Most seeds per link, places refined and refinement rounds (each a batch of optimisations or whole-task runs).
@@ -64,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     """Run `bracekit place`; 0 when it finished (even with no feasible place: the table says why), 1 then too."""
     figures = not args.no_figures
     needs_sweep_extra("bracekit place", figures)
+    needs("threadpoolctl", "sweep", "bracekit place")  # each forked worker's BLAS threads (WorkerThreads)
     if not 1 <= args.workers <= MAX_WORKERS:
         raise InputError(f"--workers must be from 1 to {MAX_WORKERS} (local worker processes), got {args.workers}")
     for name in ("seeds", "top"):
@@ -86,9 +85,9 @@ def run(args: argparse.Namespace) -> int:
         sigterm_as_interrupt(),
         prepare_output(args.out, overwrite=args.overwrite, files=FILES, command=command) as plan,
         _forked_workers(),
-        _background(dask_client(args.workers)) as client_future,  # the cluster starts while q_ref is solved here
+        dask_client(args.workers) as client,  # started before this process solves anything (no thread of its own)
     ):
-        result, names = _run(args, spec, client_future, plan, figures)
+        result, names = _run(args, spec, client, plan, figures)
     print(table_markdown(result), end="")
     print(f"wrote {', '.join(names)} to {args.out}/", file=sys.stderr)
     if result.best is None:
@@ -98,15 +97,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run(
-    args: argparse.Namespace, spec: Any, client_future: Future[Any], plan: Any, figures: bool
-) -> tuple[Any, list[str]]:
-    """The placement once the cluster is starting (`client_future`: its client), its outputs written whole."""
+def _run(args: argparse.Namespace, spec: Any, client: Any, plan: Any, figures: bool) -> tuple[Any, list[str]]:
+    """The placement on the cluster of `client`, its outputs written whole."""
     from bracekit.report.output import atomic_directory
     from bracekit.studies.place.engine import PlaceSettings, prepare, run_place
     from bracekit.studies.place.inner import InnerSettings
     from bracekit.studies.place.report import write_outputs
     from bracekit.studies.place.spec import default_surface
+    from bracekit.studies.place.workers import WorkerThreads
 
     surface = args.surface or default_surface(spec)
     settings = PlaceSettings(
@@ -115,20 +113,20 @@ def _run(
         top=args.top,
         refine_rounds=args.refine,
     )
+    client.register_plugin(WorkerThreads())  # every worker, and one the nanny restarts, before its first task
     prepared = prepare(spec, settings)
-    client = client_future.result()
     result = run_place(spec, client, settings, prepared)
     with atomic_directory(plan) as tmp:
         names = write_outputs(result, tmp, figures=figures)
     return result, names
 
 
-#: What the workers run: imported by the fork server before it forks them, so none of them imports it again.
+#: What the workers run: imported here before they are forked, so none of them imports it again.
 WORKER_MODULES = (
-    "distributed",
     "scipy.optimize",
     "bracekit.studies.place.inner",
     "bracekit.studies.place.outer",
+    "bracekit.studies.place.workers",
     "bracekit.studies.sweep.context",
     "bracekit.validate.contacts",
     "bracekit.validate.inputs",
@@ -138,52 +136,29 @@ WORKER_MODULES = (
 
 @contextmanager
 def _forked_workers() -> Iterator[None]:
-    """Local workers forked from a fork server (Dask's ``forkserver`` method) that imported :data:`WORKER_MODULES`.
+    """Local workers forked from this process (Dask's ``fork`` method), :data:`WORKER_MODULES` imported first.
 
-    The server starts here, on this thread, before the cluster's thread exists: a fresh process, one thread, in
-    the workers' environment (:data:`bracekit.studies.sweep.engine.WORKER_ENV`: one numba, OpenMP and BLAS
-    thread), that imports the placement's modules (Pinocchio, SciPy, MuJoCo's check) while this process solves
-    the reference start. Every worker, and one the nanny restarts, is forked from that server: it starts with
-    the modules imported, numba's and BLAS's settings its environment's, and no lock another thread held (a
-    worker forked from this process could inherit a lock the solving thread held at that moment, and this
-    process's numba and BLAS settings). A spawned worker would import everything again, each (seconds under load).
+    A spawned worker imports bracekit, Pinocchio, SciPy and MuJoCo again (seconds of CPU each, more than the
+    placement's own work on a loaded machine); a forked one starts with them. The command starts the cluster
+    before it solves anything, so no thread of its own runs while a worker is forked (Dask's loop thread forks,
+    this one waits); :class:`~bracekit.studies.place.workers.WorkerThreads` then sets each worker's numba and
+    BLAS threads. Not when this process already runs numba's threads (a child would inherit a thread pool
+    without its threads): then spawned, as the sweep's.
     """
-    import multiprocessing.forkserver
+    import importlib
 
     import dask
-    import distributed.utils
+    import distributed  # noqa: F401  (its configuration defaults first: leaving the `set` below restores the key only)
 
-    from bracekit.studies.sweep.engine import WORKER_ENV
-
-    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
-        context = distributed.utils.get_mp_context()  # Dask's own preload list set first, replaced below
-        context.set_forkserver_preload(list(WORKER_MODULES))
-        saved = {k: os.environ.get(k) for k in WORKER_ENV}
-        os.environ.update(WORKER_ENV)
-        try:
-            multiprocessing.forkserver.ensure_running()  # the server's environment: this one, now
-        finally:
-            for key, value in saved.items():
-                if value is None:
-                    os.environ.pop(key, None)
-                else:
-                    os.environ[key] = value
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
+    method = "spawn" if _numba_threads_started() else "fork"
+    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
         yield
 
 
-@contextmanager
-def _background(manager: AbstractContextManager[Any]) -> Iterator[Future[Any]]:
-    """`manager` entered on a thread (its value as a Future) and exited here, with this block's exception if any.
+def _numba_threads_started() -> bool:
+    """Whether numba's thread pool was started in this process (True when it cannot tell)."""
+    from bracekit.studies.place.workers import numba_threads_started
 
-    On an error in the block (bad input, Ctrl-C) it waits for the entry to finish, then exits the manager.
-    """
-    pool = ThreadPoolExecutor(1)
-    entered = pool.submit(manager.__enter__)
-    pool.shutdown(wait=False)
-    try:
-        yield entered
-    except BaseException as exc:
-        if entered.exception() is None and manager.__exit__(type(exc), exc, exc.__traceback__):
-            return
-        raise
-    manager.__exit__(None, None, None)
+    return numba_threads_started()
