@@ -7,7 +7,10 @@
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
-   best links, each run over the whole task (one batch; while none is feasible, the next ``top`` places); then
+   best links, each run over the whole task (one batch); a place whose run fails is optimised again within the
+   posture radius over :data:`NEARER` and run, up to ``nearer`` times (the optimum on its radius R leaves the
+   gradient-projection run a descent to follow past R, which on the Panda's collision surface slides the pad to
+   its region's edge); while none is feasible, the next ``top`` places; then
    ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
    of whole-task runs per round).
 
@@ -260,8 +263,8 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         def nearer(tried: list[InnerResult], rows: list[dict[str, Any]]) -> None:
             """Each place of `tried` whose whole-task row failed, optimised again within R / NEARER and run.
 
-            Up to ``settings.nearer`` times: the inner optimum on its posture radius R keeps descending along
-            the task's self-motion, and the gradient-projection run follows it (see the module).
+            Up to ``settings.nearer`` times: C_i still falls along the self-motion past the inner optimum on its
+            posture radius R, and the gradient-projection run follows that descent (see the module).
             """
             for _ in range(settings.nearer):
                 failed = [r for r, row in zip(tried, rows, strict=True) if not usable(row) and r.radius]
