@@ -50,24 +50,54 @@ def test_a_cobot_scenario_is_named_as_such(tmp_path: Path, capsys: pytest.Captur
     assert not out.exists()
 
 
-def _numba_threads() -> tuple[str | None, int]:
-    import os
+WORKERS = """
+import ctypes, glob, json, os, sys
 
-    import numba
+def state():
+    import numba, numpy
+    found = glob.glob(os.path.join(os.path.dirname(numpy.__file__), "..", "numpy.libs", "libscipy_openblas*"))
+    blas = getattr(ctypes.CDLL(found[0]), "scipy_openblas_get_num_threads64_", None) if found else None
+    return {
+        "numba": [os.environ.get("NUMBA_NUM_THREADS"), int(numba.config.NUMBA_NUM_THREADS)],
+        "blas": None if blas is None else int(blas()),
+        "parent": os.getppid(),
+        "preloaded": "bracekit.studies.place.inner" in sys.modules,
+    }
 
-    return os.environ.get("NUMBA_NUM_THREADS"), int(numba.config.NUMBA_NUM_THREADS)
+from bracekit.cli.place import _forked_workers
+from bracekit.studies.place.workers import WorkerThreads
+from bracekit.studies.sweep.engine import dask_client
+
+with _forked_workers(), dask_client(1) as client:
+    client.register_plugin(WorkerThreads())
+    before = list(client.run(state).values())
+    client.restart()
+    after = list(client.run(state).values())
+print(json.dumps({"before": before, "after": after, "pid": os.getpid()}))
+"""
 
 
 @pytest.mark.slow
-def test_forked_workers_read_numba_settings_from_their_environment() -> None:
-    """A forked worker's numba settings match its environment (else numba refuses to compile a cold kernel)."""
-    from bracekit.cli.place import _forked_workers, _numba_from_environment
-    from bracekit.studies.sweep.engine import WORKER_ENV, dask_client
+def test_forked_workers_take_their_threads_from_their_environment() -> None:
+    """Each forked worker, and one the nanny restarts, has the workers' numba and BLAS settings, modules imported.
 
-    with _forked_workers(), dask_client(1) as client:
-        client.run(_numba_from_environment)
-        got = list(client.run(_numba_threads).values())
-    assert got == [(WORKER_ENV["NUMBA_NUM_THREADS"], int(WORKER_ENV["NUMBA_NUM_THREADS"]))]
+    In a fresh process, as the command (a test session may run numba's threads, and then spawns its workers).
+    """
+    import json
+    import subprocess
+    import sys
+
+    from bracekit.studies.sweep.engine import WORKER_ENV
+
+    out = subprocess.run([sys.executable, "-c", WORKERS], capture_output=True, text=True, check=True).stdout
+    got = json.loads(out.splitlines()[-1])
+    states = got["before"] + got["after"]
+    assert len(states) == 2
+    for state in states:
+        assert state["numba"] == [WORKER_ENV["NUMBA_NUM_THREADS"], int(WORKER_ENV["NUMBA_NUM_THREADS"])]
+        assert state["blas"] in (None, int(WORKER_ENV["OPENBLAS_NUM_THREADS"]))
+        assert state["preloaded"] is True
+        assert state["parent"] == got["pid"]  # forked by this process's nanny, not spawned through another
 
 
 def test_numba_threads_started_is_seen() -> None:

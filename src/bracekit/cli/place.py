@@ -6,12 +6,11 @@ import argparse
 import math
 import sys
 from collections.abc import Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from bracekit.cli.common import MAX_WORKERS, CountFlag, needs_sweep_extra, sigterm_as_interrupt
+from bracekit.cli.common import MAX_WORKERS, CountFlag, needs, needs_sweep_extra, sigterm_as_interrupt
 from bracekit.errors import InputError
 
 #: Most seeds per link, places refined and refinement rounds (each a batch of optimisations or whole-task runs).
@@ -46,8 +45,9 @@ def add_parser(subparsers: Any) -> None:
     pl.add_argument(
         "--surface",
         choices=("capsule", "collision"),
-        default="capsule",
-        help="the pad on the capsule about the link's joint line (default) or on its collision surface",
+        default=None,
+        help="the pad on the capsule about the link's joint line or on its collision surface (default: the "
+        "collision surface when the spec has an 'angle' axis, as the sweep's candidates, else the capsule)",
     )
     pl.add_argument("--objective", choices=("Ci", "ct"), default="Ci", help="inner objective: C_i or c_t (default C_i)")
     pl.add_argument("--no-figures", action="store_true", help="write the tables, summary and best.toml only")
@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     """Run `bracekit place`; 0 when it finished (even with no feasible place: the table says why), 1 then too."""
     figures = not args.no_figures
     needs_sweep_extra("bracekit place", figures)
+    needs("threadpoolctl", "sweep", "bracekit place")  # each forked worker's BLAS threads (WorkerThreads)
     for count in COUNTS:
         count.check(args)
     if not (math.isfinite(args.radius) and args.radius >= 0.0):
@@ -79,9 +80,9 @@ def run(args: argparse.Namespace) -> int:
         sigterm_as_interrupt(),
         prepare_output(args.out, overwrite=args.overwrite, files=FILES, command=command) as plan,
         _forked_workers(),
-        _background(dask_client(args.workers)) as client_future,  # the cluster starts while q_ref is solved here
+        dask_client(args.workers) as client,  # started before this process solves anything (no thread of its own)
     ):
-        result, names = _run(args, spec, client_future, plan, figures)
+        result, names = _run(args, spec, client, plan, figures)
     print(table_markdown(result), end="")
     print(f"wrote {', '.join(names)} to {args.out}/", file=sys.stderr)
     if result.best is None:
@@ -91,24 +92,24 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run(
-    args: argparse.Namespace, spec: Any, client_future: Future[Any], plan: Any, figures: bool
-) -> tuple[Any, list[str]]:
-    """The placement once the cluster is starting (`client_future`: its client), its outputs written whole."""
+def _run(args: argparse.Namespace, spec: Any, client: Any, plan: Any, figures: bool) -> tuple[Any, list[str]]:
+    """The placement on the cluster of `client`, its outputs written whole."""
     from bracekit.report.output import atomic_directory
     from bracekit.studies.place.engine import PlaceSettings, prepare, run_place
     from bracekit.studies.place.inner import InnerSettings
     from bracekit.studies.place.report import write_outputs
+    from bracekit.studies.place.spec import default_surface
+    from bracekit.studies.place.workers import WorkerThreads
 
+    surface = args.surface or default_surface(spec)
     settings = PlaceSettings(
-        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=args.surface),
+        inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=surface),
         seeds=args.seeds,
         top=args.top,
         refine_rounds=args.refine,
     )
+    client.register_plugin(WorkerThreads())  # every worker, and one the nanny restarts, before its first task
     prepared = prepare(spec, settings)
-    client = client_future.result()
-    client.run(_numba_from_environment)  # before any task: a forked worker holds this process's numba settings
     result = run_place(spec, client, settings, prepared)
     with atomic_directory(plan) as tmp:
         names = write_outputs(result, tmp, figures=figures)
@@ -120,6 +121,7 @@ WORKER_MODULES = (
     "scipy.optimize",
     "bracekit.studies.place.inner",
     "bracekit.studies.place.outer",
+    "bracekit.studies.place.workers",
     "bracekit.studies.sweep.context",
     "bracekit.validate.contacts",
     "bracekit.validate.inputs",
@@ -132,8 +134,11 @@ def _forked_workers() -> Iterator[None]:
     """Local workers forked from this process (Dask's ``fork`` method), :data:`WORKER_MODULES` imported first.
 
     A spawned worker imports bracekit, Pinocchio, SciPy and MuJoCo again (seconds of CPU each, more than the
-    placement's own work on a loaded machine); a forked one starts with them. Not when this process already
-    runs numba's threads (a child would inherit a thread pool without its threads): then spawned, as the sweep's.
+    placement's own work on a loaded machine); a forked one starts with them. The command starts the cluster
+    before it solves anything, so no thread of its own runs while a worker is forked (Dask's loop thread forks,
+    this one waits); :class:`~bracekit.studies.place.workers.WorkerThreads` then sets each worker's numba and
+    BLAS threads. Not when this process already runs numba's threads (a child would inherit a thread pool
+    without its threads): then spawned, as the sweep's.
     """
     import importlib
 
@@ -149,36 +154,6 @@ def _forked_workers() -> Iterator[None]:
 
 def _numba_threads_started() -> bool:
     """Whether numba's thread pool was started in this process (True when it cannot tell)."""
-    if "numba" not in sys.modules:
-        return False
-    parallel = sys.modules.get("numba.np.ufunc.parallel")
-    return parallel is not None and bool(getattr(parallel, "_is_initialized", True))
+    from bracekit.studies.place.workers import numba_threads_started
 
-
-def _numba_from_environment() -> None:
-    """Numba's settings re-read from the worker's environment (its ``NUMBA_NUM_THREADS``), before its threads start.
-
-    A forked worker inherits the numba settings this process read at import; the worker's environment (the
-    cluster's, one thread) differs, and numba refuses to compile once its threads run with other settings.
-    """
-    numba = sys.modules.get("numba")
-    if numba is not None and not _numba_threads_started():  # a spawned worker's settings are its environment's
-        numba.core.config.reload_config()
-
-
-@contextmanager
-def _background(manager: AbstractContextManager[Any]) -> Iterator[Future[Any]]:
-    """`manager` entered on a thread (its value as a Future) and exited here, with this block's exception if any.
-
-    On an error in the block (bad input, Ctrl-C) it waits for the entry to finish, then exits the manager.
-    """
-    pool = ThreadPoolExecutor(1)
-    entered = pool.submit(manager.__enter__)
-    pool.shutdown(wait=False)
-    try:
-        yield entered
-    except BaseException as exc:
-        if entered.exception() is None and manager.__exit__(type(exc), exc, exc.__traceback__):
-            return
-        raise
-    manager.__exit__(None, None, None)
+    return numba_threads_started()

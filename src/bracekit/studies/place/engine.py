@@ -7,7 +7,10 @@
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
-   best links, each run over the whole task (one batch; while none is feasible, the next ``top`` places); then
+   best links, each run over the whole task (one batch); a place whose run fails is optimised again within the
+   posture radius over :data:`NEARER` and run, up to ``nearer`` times (the optimum on its radius R leaves the
+   gradient-projection run a descent to follow past R, which on the Panda's collision surface slides the pad to
+   its region's edge); while none is feasible, the next ``top`` places; then
    ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
    of whole-task runs per round).
 
@@ -25,7 +28,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -45,6 +48,9 @@ Array = NDArray[np.float64]
 #: Tasks in flight per worker (:func:`bounded_map`): enough to keep each busy, few to cancel on an interrupt.
 WINDOW_PER_WORKER = 2
 
+#: The factor the posture radius is divided by when a place's whole-task run fails (:func:`run_place`).
+NEARER = 3.0
+
 #: A place to run over the task and the inner optimum whose start posture it is run from.
 Trial = tuple[Place, InnerResult]
 
@@ -54,7 +60,8 @@ class PlaceSettings:
     """The search's settings.
 
     The inner problem's, seeds per link, places run over the task, compass rounds, the compass's first steps
-    (fraction, angle in rad).
+    (fraction, angle in rad), and how many times a place whose whole-task run fails is optimised again nearer
+    the reference start (its posture radius divided by :data:`NEARER`; :func:`run_place`).
     """
 
     inner: InnerSettings = field(default_factory=InnerSettings)
@@ -62,6 +69,7 @@ class PlaceSettings:
     top: int = 2
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))
+    nearer: int = 2
 
 
 @dataclass
@@ -227,10 +235,11 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
 
         spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
 
-        def batch(places: list[Trial], stage: str, ahead: int = 0, check: int = 0) -> None:
+        def batch(places: list[Trial], stage: str, ahead: int = 0, check: int = 0) -> list[dict[str, Any]]:
             """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`.
 
             The first `check` places get MuJoCo's check on their worker right after their run when feasible.
+            Returns the rows of the others, in order.
             """
             first = len(places) - ahead
             todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare]
@@ -239,6 +248,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 for i in todo
             ]
             done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures), strict=True))
+            rows = []
             for i, (p, r) in enumerate(places):
                 row = done[i] if i in done else spare.pop((p, r.seed))
                 if i >= first:
@@ -247,6 +257,35 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 row = {"place": r.seed, "evaluation": len(evaluations), **row}
                 evaluations.append(row)
                 starts[row["evaluation"]] = r
+                rows.append(row)
+            return rows
+
+        def nearer(tried: list[InnerResult], rows: list[dict[str, Any]]) -> None:
+            """Each place of `tried` whose whole-task row failed, optimised again within R / NEARER and run.
+
+            Up to ``settings.nearer`` times: C_i still falls along the self-motion past the inner optimum on its
+            posture radius R, and the gradient-projection run follows that descent (see the module).
+            """
+            for _ in range(settings.nearer):
+                failed = [r for r, row in zip(tried, rows, strict=True) if not usable(row) and r.radius]
+                if not failed:
+                    return
+                calls = [
+                    (
+                        spec_f,
+                        r.place.link,
+                        r.place.fraction,
+                        q_ref,
+                        replace(settings.inner, posture_radius=r.radius / NEARER),
+                        len(inner) + j,
+                    )
+                    for j, r in enumerate(failed)
+                    if r.radius
+                ]
+                again: list[InnerResult] = bounded_map(client, optimise_start, calls, window, futures)
+                inner.extend(again)
+                tried = [r for r in again if r.success]
+                rows = batch([(r.place, r) for r in tried], "task")
 
         def settled_best() -> dict[str, Any] | None:
             """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
@@ -268,11 +307,12 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         top = chosen[0].place if chosen else None
         row0 = {"link": top.link, "fraction": top.fraction, "angle_deg": top.angle_deg} if top else {}
         ahead = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
-        batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead), check=1)  # the likely best: checked now
+        rows = batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead), check=1)  # the likely best: now
+        nearer(list(chosen), rows)
         while settled_best() is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
             chosen += more
-            batch([(r.place, r) for r in more], "task")
+            nearer(more, batch([(r.place, r) for r in more], "task"))
         for _ in range(settings.refine_rounds):
             best = settled_best()
             if best is None:

@@ -69,7 +69,10 @@ class InnerSettings:
 
 @dataclass(frozen=True)
 class InnerResult:
-    """One seed's optimum: the place, the posture q (n,), the objective there (m/N), k, tilt (deg), success."""
+    """One seed's optimum: the place, the posture q (n,), the objective there (m/N), k, tilt (deg), success.
+
+    ``radius``: the posture radius it was found within (rad; None: no bound).
+    """
 
     seed: int
     place: Place
@@ -82,6 +85,7 @@ class InnerResult:
     message: str
     iterations: int
     wall_s: float
+    radius: float | None = None
 
     def row(self) -> dict[str, Any]:
         """The result as a row of the evaluations table (SI units; the angle in degrees)."""
@@ -99,6 +103,7 @@ class InnerResult:
             "start_message": self.message,
             "iterations": self.iterations,
             "wall_s": self.wall_s,
+            "start_radius": self.radius,
         }
 
 
@@ -306,9 +311,10 @@ def optimise_start(
             str(res.message),
             int(res.nit),
             time.perf_counter() - began,
+            settings.posture_radius,
         )
     except (BracekitError, ArithmeticError, np.linalg.LinAlgError, ValueError) as exc:
         msg = f"{type(exc).__name__}: {exc}"
-        return InnerResult(
-            seed, Place(link, fraction0, 0.0), q0, nan, nan, nan, nan, False, msg, 0, time.perf_counter() - began
-        )
+        wall = time.perf_counter() - began
+        place = Place(link, fraction0, 0.0)
+        return InnerResult(seed, place, q0, nan, nan, nan, nan, False, msg, 0, wall, settings.posture_radius)

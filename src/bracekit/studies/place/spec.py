@@ -12,6 +12,7 @@ from pathlib import Path
 from bracekit._io import read_toml
 from bracekit.errors import InputError
 from bracekit.simulation.scenario import shipped_scenarios
+from bracekit.studies.place.surface import SurfaceKind
 from bracekit.studies.sweep.spec import SweepSpec, load_spec, parse_spec, shipped_specs
 
 
@@ -40,3 +41,13 @@ def load_place_spec(source: str) -> SweepSpec:
         )
     base = os.fspath(path.resolve())
     return parse_spec({"name": f"place-{path.stem}", "base": base, "axes": {"link": "all"}}, base=path.parent)
+
+
+def default_surface(spec: SweepSpec) -> SurfaceKind:
+    """The surface `bracekit place` puts the pad on by default: the sweep's for the same spec.
+
+    ``collision`` when the spec has an ``angle`` axis (the sweep then puts each candidate's pad on the link's
+    collision surface at (fraction, angle), docs/geometry.md), else ``capsule`` (the sweep's candidate is then a
+    point of the joint line, and the capsule about it is the surface nearest to it).
+    """
+    return "collision" if spec.axis("angle") is not None else "capsule"
