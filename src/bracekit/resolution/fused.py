@@ -21,17 +21,17 @@ environment under the constrained model, the step is the reference path itself, 
 own value and gradient coefficients (:meth:`bracekit.objective.Term.fused_gradient`); a term without them is
 evaluated by its own ``gradient``/``value`` on a BracedState.
 
-Two backends compute the same step: ``"numpy"`` (the default; no compilation, what :mod:`bracekit.simulation.simulate`
-uses) and ``"numba"`` (``pip install bracekit[fast]``), which hands everything after Pinocchio's pass to one
-compiled kernel (:mod:`bracekit.resolution._numba_step`, cached on disk after the first compilation) with the
-same shortcuts and certificates, for any split n1 (dq1/db̃ = J1⁻¹ H when n1 = 6, else an orthonormal basis of
-the null space of Xᵀ J1); the kernel holds compiled copies of the terms that give
-:meth:`~bracekit.objective.Term.numba_params`. Where the kernel does not apply (finite differences, a term
-without numba parameters, a task space other than the full pose: ``fallback_reason`` says which) or declines at
-a configuration (a certificate fails, an unloaded contact, {b} outside its region), the numba backend runs the
-NumPy code, so errors and warnings are the same. A task space other than the pose resolves its selected rows
-S A and S ẋ (:mod:`bracekit.resolution.task_space`) in the NumPy code.
-``backend="auto"`` is numba when it can be imported, else NumPy.
+Two backends compute the same step: ``"numpy"`` (the default; no compilation) and ``"numba"`` (``pip install
+bracekit[fast]``), which hands everything after Pinocchio's pass to one compiled kernel
+(:mod:`bracekit.resolution._numba_step`, cached on disk after the first compilation) with the same shortcuts and
+certificates, for any split n1 (dq1/db̃ = J1⁻¹ H when n1 = 6, else an orthonormal basis of the null space of Xᵀ J1);
+the kernel holds compiled copies of the terms that give :meth:`~bracekit.objective.Term.numba_params`. Where the
+kernel does not apply (finite differences, a term without numba parameters, a task space other than the full pose:
+``fallback_reason`` says which) or declines at a configuration (a certificate fails, an unloaded contact, {b} outside
+its region), the numba backend runs the NumPy code, so errors and warnings are the same. A task space other than the
+pose resolves its selected rows S A and S ẋ (:mod:`bracekit.resolution.task_space`) in the NumPy code.
+``backend="auto"`` is numba when it can be imported, else NumPy; :mod:`bracekit.simulation.simulate` runs ``"auto"``
+and notes a run that took the NumPy step because numba cannot be imported.
 """
 
 from __future__ import annotations
