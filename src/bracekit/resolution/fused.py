@@ -54,7 +54,7 @@ from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, Term, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
-from bracekit.resolution.fused_several import Kinematics, SeveralBraceKernel, kernel_inputs
+from bracekit.resolution.fused_several import KernelInputs, Kinematics, SeveralBraceKernel
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
 from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
@@ -223,7 +223,7 @@ class GradientProjectionStep:
                 self.fallback_reason = f"term without a compiled copy: {getattr(term, 'name', type(term).__name__)}"
                 return None
             rows[p[0]].append(list(p[1]))
-        self._ci = np.array(rows["Ci"], dtype=float).reshape(-1, 8)
+        self._inputs = KernelInputs(np.array(rows["Ci"], dtype=float).reshape(-1, 8))
         self._nb_const = (
             np.ascontiguousarray(self._H, dtype=float),
             np.ascontiguousarray(self._X, dtype=float),
@@ -349,7 +349,7 @@ class GradientProjectionStep:
 
     def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
         """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
-        ci, xd = kernel_inputs(self._ci, beta_x, xd)
+        ci, xd = self._inputs(beta_x, xd)
         je, jb, mb, me, he, hb = self._kinematics(qa, True)
         h, x, t, kinv = self._nb_const
         assert self._kernel is not None
