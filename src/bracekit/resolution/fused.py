@@ -63,6 +63,8 @@ Array = NDArray[np.float64]
 
 
 Backend = Literal["numpy", "numba", "auto"]
+#: ``fallback_reason`` of a step that asked for ``backend="auto"`` where numba cannot be imported (the NumPy step).
+NO_NUMBA = "numba cannot be imported"
 #: The values of ``GradientProjectionStep(..., backend=...)``.
 BACKENDS: tuple[str, ...] = ("numpy", "numba", "auto")
 #: The term kinds the numba kernel holds a compiled copy of (:meth:`bracekit.objective.Term.numba_params`).
@@ -185,7 +187,7 @@ class GradientProjectionStep:
                 kernels = numba_kernels()
             except InputError:
                 kernels = None
-                self.fallback_reason = "numba cannot be imported"
+                self.fallback_reason = NO_NUMBA
         self.backend = "numpy" if kernels is None else "numba"
         self._kernel = None if kernels is None else self._numba_setup(kernels)
         self.uses_kernel = self._kernel is not None
@@ -198,7 +200,7 @@ class GradientProjectionStep:
             if backend == "numba":
                 numba_kernels()  # the InputError that says how to install numba
                 raise InputError(f"the numba kernel of several braces cannot be imported: {exc}") from exc
-            self.fallback_reason = "numba cannot be imported"
+            self.fallback_reason = NO_NUMBA
             return
         self.backend = "numba"
         self._multi, reason = SeveralBraceKernel.build(self.braced, self.strategy, kernels)

@@ -48,7 +48,7 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective import RegionBarrier
-from bracekit.resolution.fused import Backend, GradientProjectionStep, fused_step
+from bracekit.resolution.fused import NO_NUMBA, Backend, GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
 from bracekit.simulation.correction import Correction, norm, reach, task_error
@@ -79,8 +79,6 @@ Array = NDArray[np.float64]
 
 __all__ = ["STEP_BACKEND_NOTE", "simulate"]
 
-#: ``GradientProjectionStep.fallback_reason`` when numba is not installed: the NumPy step runs.
-NO_NUMBA = "numba cannot be imported"
 #: The run's note when the gradient-projection step ran in NumPy because numba cannot be imported (the same q̇
 #: to ~1e-13, slower).
 STEP_BACKEND_NOTE = (
