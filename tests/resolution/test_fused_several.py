@@ -192,3 +192,24 @@ def test_the_braced_conditioning_barrier_is_certified_inactive_or_left_to_the_re
             else:
                 assert got is not None
                 assert np.max(np.abs(got - ref)) <= RTOL * np.max(np.abs(ref))
+
+
+def test_kernel_inputs_keep_the_rows_of_the_last_beta_x_and_equal_a_fresh_call() -> None:
+    from bracekit.errors import InputError
+    from bracekit.resolution.fused_several import KernelInputs, kernel_inputs
+
+    rows = np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]])
+    inputs = KernelInputs(rows)
+    xd = np.arange(6.0)[::-1]  # not contiguous: copied, as kernel_inputs copies it
+    first = np.array([0.0, 3.0, 4.0, 0.0, 0.0, 0.0])
+    for beta in (first, first.copy(), np.array([1.0, 1.0, 0.0, 0.0, 0.0, 1.0]), [0.0, 0.0, 2.0, 0, 0, 0], None):
+        got_ci, got_xd = inputs(beta, xd)
+        want_ci, want_xd = kernel_inputs(rows, beta, xd)
+        np.testing.assert_array_equal(got_ci, want_ci)
+        np.testing.assert_array_equal(got_xd, want_xd)
+        assert got_xd.flags.c_contiguous and got_xd.flags.writeable
+    np.testing.assert_array_equal(inputs(first, xd)[0][:, :6], [[0.0, 0.6, 0.8, 0.0, 0.0, 0.0]] * 2)
+    assert inputs(first, xd)[0] is inputs(first.copy(), xd)[0]  # one twist: its rows formed once
+    np.testing.assert_array_equal(rows[:, :6], [[0.0, 0.0, 1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    with pytest.raises(InputError):
+        inputs(np.zeros(6), xd)  # a zero twist is refused every time, as ComplianceIndex refuses it

@@ -51,6 +51,29 @@ def test_stacked_sigma_ratios_equal_sigma_ratios_of_each_state(name: str, scale:
     assert stacked_sigma_ratios([], sc.task_space, keys) == []
 
 
+def test_a_stack_watched_under_two_keys_is_decomposed_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    from bracekit.simulation import stacked_ratios as module
+
+    sc = load_scenario("paper")  # the whole pose: S A is A
+    rng = np.random.default_rng(5)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + 0.1 * rng.standard_normal(base.shape)) for _ in range(4)]
+    keys = tuple(sigma_ratios(states[0], sc.task_space))
+    calls = []
+    svd = np.linalg.svd
+
+    def counted(m, **kw):  # type: ignore[no-untyped-def]
+        calls.append(m.shape)
+        return svd(m, **kw)
+
+    monkeypatch.setattr(module.np.linalg, "svd", counted)
+    found = stacked_sigma_ratios(states, sc.task_space, keys)
+    monkeypatch.setattr(module.np.linalg, "svd", svd)
+    assert set(keys) == {"J1", "A", "SA", "J", "J_braced"} and len(calls) == len(keys) - 1
+    assert found == [sigma_ratios(st, sc.task_space, keys) for st in states]
+    assert all(row["A"] == row["SA"] for row in found)
+
+
 def test_first_singular_names_the_first_sample_below_the_ratio() -> None:
     keys = ("A", "J")
     rows = [{"A": 0.1, "J": 0.2}, {"A": 0.1, "J": 1e-9}, {"A": 1e-8, "J": 0.2}]

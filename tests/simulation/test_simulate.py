@@ -349,3 +349,42 @@ def test_runs_record_the_link_clearance_and_warn_when_a_link_passes_through_the_
     np.testing.assert_allclose(tr.measures["link_clearance"], recomputed)
     assert tr.summary()["min_link_clearance_m"] == pytest.approx(min(recomputed)) and min(recomputed) < 0
     assert any("through the bracing plane" in w for w in tr.warnings)
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_without_numba_the_run_takes_the_numpy_step_says_so_and_follows_the_same_path(name, monkeypatch) -> None:
+    import importlib
+
+    from bracekit.errors import InputError as Refused
+    from bracekit.resolution import fused
+    from bracekit.simulation.loop import STEP_BACKEND_NOTE
+
+    if not fused.numba_available():
+        pytest.skip("numba is not installed: every run takes the NumPy step")
+    sc = load_scenario(name)
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess)
+    c = sc.task  # the scenario's circle, its first twentieth
+    task = Circle(c.centre, c.radius, c.normal, c.period, c.start_direction, turns=0.05)
+    gp = sc.strategy("braced_gradient_projection")
+    compiled = simulate(sc.braced, gp, task, start.q, sc.dt, sc.beta_x)
+    assert fused.fused_step(sc.braced, gp, "auto").uses_kernel  # type: ignore[union-attr]
+
+    def no_numba() -> None:
+        raise Refused("numba cannot be imported here")
+
+    def no_module(name: str, *args, **kwargs):  # type: ignore[no-untyped-def]
+        if "_numba" in name:
+            raise ImportError(f"no module named {name}")
+        return importlib.import_module(name, *args, **kwargs)
+
+    monkeypatch.setattr(fused, "numba_kernels", no_numba)
+    monkeypatch.setattr(fused.importlib, "import_module", no_module)
+    assert fused.fused_step(sc.braced, gp, "auto").fallback_reason == "numba cannot be imported"  # type: ignore[union-attr]
+    plain = simulate(sc.braced, gp, task, start.q, sc.dt, sc.beta_x)
+    monkeypatch.undo()
+    assert plain.completed and compiled.completed
+    assert plain.warnings == [*compiled.warnings, f"braced_gradient_projection: {STEP_BACKEND_NOTE}"]
+    # the compiled and the NumPy step give the reference's q̇ to ~1e-13: the paths differ by rounding only
+    assert np.max(np.abs(plain.q - compiled.q)) < 1e-9
+    mn = simulate(sc.braced, sc.strategy("braced_min_norm"), task, start.q, sc.dt, sc.beta_x)
+    assert all(STEP_BACKEND_NOTE not in w for w in mn.warnings)  # no step of its own to fall back from

@@ -21,17 +21,17 @@ environment under the constrained model, the step is the reference path itself, 
 own value and gradient coefficients (:meth:`bracekit.objective.Term.fused_gradient`); a term without them is
 evaluated by its own ``gradient``/``value`` on a BracedState.
 
-Two backends compute the same step: ``"numpy"`` (the default; no compilation, what :mod:`bracekit.simulation.simulate`
-uses) and ``"numba"`` (``pip install bracekit[fast]``), which hands everything after Pinocchio's pass to one
-compiled kernel (:mod:`bracekit.resolution._numba_step`, cached on disk after the first compilation) with the
-same shortcuts and certificates, for any split n1 (dq1/db̃ = J1⁻¹ H when n1 = 6, else an orthonormal basis of
-the null space of Xᵀ J1); the kernel holds compiled copies of the terms that give
-:meth:`~bracekit.objective.Term.numba_params`. Where the kernel does not apply (finite differences, a term
-without numba parameters, a task space other than the full pose: ``fallback_reason`` says which) or declines at
-a configuration (a certificate fails, an unloaded contact, {b} outside its region), the numba backend runs the
-NumPy code, so errors and warnings are the same. A task space other than the pose resolves its selected rows
-S A and S ẋ (:mod:`bracekit.resolution.task_space`) in the NumPy code.
-``backend="auto"`` is numba when it can be imported, else NumPy.
+Two backends compute the same step: ``"numpy"`` (the default; no compilation) and ``"numba"`` (``pip install
+bracekit[fast]``), which hands everything after Pinocchio's pass to one compiled kernel
+(:mod:`bracekit.resolution._numba_step`, cached on disk after the first compilation) with the same shortcuts and
+certificates, for any split n1 (dq1/db̃ = J1⁻¹ H when n1 = 6, else an orthonormal basis of the null space of Xᵀ J1);
+the kernel holds compiled copies of the terms that give :meth:`~bracekit.objective.Term.numba_params`. Where the
+kernel does not apply (finite differences, a term without numba parameters, a task space other than the full pose:
+``fallback_reason`` says which) or declines at a configuration (a certificate fails, an unloaded contact, {b} outside
+its region), the numba backend runs the NumPy code, so errors and warnings are the same. A task space other than the
+pose resolves its selected rows S A and S ẋ (:mod:`bracekit.resolution.task_space`) in the NumPy code.
+``backend="auto"`` is numba when it can be imported, else NumPy; :mod:`bracekit.simulation.simulate` runs ``"auto"``
+and notes a run that took the NumPy step because numba cannot be imported.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, Term, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
-from bracekit.resolution.fused_several import Kinematics, SeveralBraceKernel, kernel_inputs
+from bracekit.resolution.fused_several import KernelInputs, Kinematics, SeveralBraceKernel
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
 from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
@@ -63,6 +63,8 @@ Array = NDArray[np.float64]
 
 
 Backend = Literal["numpy", "numba", "auto"]
+#: ``fallback_reason`` of a step that asked for ``backend="auto"`` where numba cannot be imported (the NumPy step).
+NO_NUMBA = "numba cannot be imported"
 #: The values of ``GradientProjectionStep(..., backend=...)``.
 BACKENDS: tuple[str, ...] = ("numpy", "numba", "auto")
 #: The term kinds the numba kernel holds a compiled copy of (:meth:`bracekit.objective.Term.numba_params`).
@@ -185,7 +187,7 @@ class GradientProjectionStep:
                 kernels = numba_kernels()
             except InputError:
                 kernels = None
-                self.fallback_reason = "numba cannot be imported"
+                self.fallback_reason = NO_NUMBA
         self.backend = "numpy" if kernels is None else "numba"
         self._kernel = None if kernels is None else self._numba_setup(kernels)
         self.uses_kernel = self._kernel is not None
@@ -198,7 +200,7 @@ class GradientProjectionStep:
             if backend == "numba":
                 numba_kernels()  # the InputError that says how to install numba
                 raise InputError(f"the numba kernel of several braces cannot be imported: {exc}") from exc
-            self.fallback_reason = "numba cannot be imported"
+            self.fallback_reason = NO_NUMBA
             return
         self.backend = "numba"
         self._multi, reason = SeveralBraceKernel.build(self.braced, self.strategy, kernels)
@@ -223,7 +225,7 @@ class GradientProjectionStep:
                 self.fallback_reason = f"term without a compiled copy: {getattr(term, 'name', type(term).__name__)}"
                 return None
             rows[p[0]].append(list(p[1]))
-        self._ci = np.array(rows["Ci"], dtype=float).reshape(-1, 8)
+        self._inputs = KernelInputs(np.array(rows["Ci"], dtype=float).reshape(-1, 8))
         self._nb_const = (
             np.ascontiguousarray(self._H, dtype=float),
             np.ascontiguousarray(self._X, dtype=float),
@@ -349,7 +351,7 @@ class GradientProjectionStep:
 
     def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
         """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
-        ci, xd = kernel_inputs(self._ci, beta_x, xd)
+        ci, xd = self._inputs(beta_x, xd)
         je, jb, mb, me, he, hb = self._kinematics(qa, True)
         h, x, t, kinv = self._nb_const
         assert self._kernel is not None

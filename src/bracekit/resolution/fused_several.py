@@ -47,6 +47,31 @@ def kernel_inputs(ci: Array, beta_x: Any, xd: Array) -> tuple[Array, Array]:
     return ci, xd
 
 
+class KernelInputs:
+    """:func:`kernel_inputs` of one kernel's compliance-index rows, those of the last β_x kept while it stays the same.
+
+    A run's β_x(t) is often one twist for every t: its rows are then formed (and β_x made a unit twist) once. The
+    same numbers as :func:`kernel_inputs`: β_x is compared by its bytes (a float64 (6,) array), else formed anew.
+    """
+
+    def __init__(self, ci: Array) -> None:
+        self.ci = ci
+        self._last: tuple[bytes, Array] | None = None
+
+    def __call__(self, beta_x: Any, xd: Array) -> tuple[Array, Array]:
+        """(The compliance-index rows at β_x, ẋ) as :func:`kernel_inputs` gives them."""
+        key = None
+        if type(beta_x) is np.ndarray and beta_x.dtype == np.float64 and beta_x.shape == (6,):
+            key = beta_x.tobytes()
+            last = self._last
+            if last is not None and last[0] == key:
+                return kernel_inputs(last[1], None, xd)
+        ci, xd = kernel_inputs(self.ci, beta_x, xd)
+        if key is not None:
+            self._last = (key, ci)
+        return ci, xd
+
+
 def _conditioning_rows(term: Any) -> int | None:
     """The task rows (6 or 3) of a braced-conditioning barrier whose inactivity the kernel can certify, else None.
 
@@ -110,7 +135,8 @@ class SeveralBraceKernel:
         self._model, self._data = robot.model, robot.model.createData()
         self._tip, self._bids = robot.tip_id, tuple(braced.brace_ids)
         ensure_hessian_layout(self._model, self._data, (self._tip, *self._bids))
-        self._ci, self._reg, self._jl, self._cond = rows
+        ci, self._reg, self._jl, self._cond = rows
+        self._inputs = KernelInputs(ci)
         xrows, rowbrace = [], []
         for i, x in enumerate(braced.X_i):
             for col in range(x.shape[1]):
@@ -147,7 +173,7 @@ class SeveralBraceKernel:
 
     def __call__(self, qa: Array, xd: Array, beta_x: Any = None) -> Array | None:
         """q̇ (n,) at a checked q (n,) for a checked ẋ (6,); None where the kernel declines."""
-        ci, xd = kernel_inputs(self._ci, beta_x, xd)
+        ci, xd = self._inputs(beta_x, xd)
         model, data, tip, bids = self._model, self._data, self._tip, self._bids
         pin.computeJointJacobians(model, data, qa)
         pin.updateFramePlacements(model, data)

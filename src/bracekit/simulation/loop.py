@@ -7,8 +7,9 @@ tip back on the task and, for braced strategies, every {b_i} back on its contact
 jump over a region barrier (explicit Euler can) is split in halves, at most MAX_SUBSTEP_DEPTH times, and
 counted in ``Trajectory.substeps``. The guards of :mod:`bracekit.simulation.guards` stop a run at a joint
 jump, a singular matrix (checked WATCH_BATCH samples at a time, the steps after a singular sample undone) or
-a joint limit. Gradient projection of one brace runs through the fused
-:class:`bracekit.resolution.GradientProjectionStep`, which gives the strategy's own q̇ to ~1e-13.
+a joint limit. Gradient projection runs through the fused :class:`bracekit.resolution.GradientProjectionStep`,
+which gives the strategy's own q̇ to ~1e-13: compiled where numba is installed, else in NumPy, which the run's
+notes then say.
 
 No step leaves the URDF joint limits (by more than JOINT_LIMIT_TOL). A corrected step that would is, for
 gradient projection, taken again with its null-space motion scaled by 1/2, 1/4, … (LIMIT_SCALES, the gain α
@@ -47,7 +48,7 @@ from bracekit.errors import (
 )
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective import RegionBarrier
-from bracekit.resolution.fused import Backend, GradientProjectionStep, fused_step
+from bracekit.resolution.fused import NO_NUMBA, Backend, GradientProjectionStep, fused_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
 from bracekit.simulation.correction import Correction, norm, reach, task_error
@@ -76,7 +77,14 @@ from bracekit.tolerances import MAX_STEPS
 
 Array = NDArray[np.float64]
 
-__all__ = ["simulate"]
+__all__ = ["STEP_BACKEND_NOTE", "simulate"]
+
+#: The run's note when the gradient-projection step ran in NumPy because numba cannot be imported (the same q̇
+#: to ~1e-13, slower).
+STEP_BACKEND_NOTE = (
+    "the gradient-projection step ran in NumPy (numba cannot be imported; `pip install bracekit[fast]` gives the "
+    "compiled step)"
+)
 
 
 def scaled_alpha(strategy: Strategy, scale: float) -> Strategy:
@@ -152,9 +160,9 @@ def simulate(
     free_dims = redundancy(space, st.R_e, st.motions.A if strategy.braced else st.J_e)
     anchors = [(c.b.copy(), c.R_b.copy()) for c in st.contacts] if strategy.braced else None
     checked = st.motions.inverted(strategy.braced)
-    # one brace: the NumPy step (no compilation); several: the compiled step where numba is installed (compiled
-    # once and cached; the same q̇ as the reference to ~1e-15), else the reference
-    backend: Backend = "auto" if len(braced.braces) > 1 else "numpy"
+    # the compiled step where numba is installed (compiled once and cached on disk; the reference's q̇ to
+    # ~1e-13), else the NumPy step, which the run's notes then say (STEP_BACKEND_NOTE)
+    backend: Backend = "auto"
     fast = fused_step(braced, strategy, backend)
     scaled_steps: dict[float, GradientProjectionStep] = {}
     guard = region_guard(braced, strategy)
@@ -330,6 +338,8 @@ def simulate(
     assert head is not None
     samples = head if tail is None else Samples.concat([head, tail])
     notes, per_brace = run_notes(braced, strategy, samples, caught, counts, free_dims, space)
+    if fast is not None and fast.fallback_reason == NO_NUMBA:
+        notes.append(f"{strategy.name}: {STEP_BACKEND_NOTE}")
     return Trajectory(
         strategy=strategy.name,
         braced=strategy.braced,

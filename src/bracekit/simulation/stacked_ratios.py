@@ -11,6 +11,7 @@ forms its own (:meth:`~bracekit.kinematics.motions.BracedMotions.watched`).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,12 +23,19 @@ Array = NDArray[np.float64]
 __all__ = ["stacked_conditioning", "stacked_ratios"]
 
 
-def _ratios(stack: Array, full_row_rank: bool) -> list[float]:
-    """σ_min/σ_max of each matrix of a (k, r, c) stack, as ``rank_ratio`` (`full_row_rank`) or ``singular_ratio``."""
+def _ratios(stack: Array, full_row_rank: bool, known: dict[int, Array] | None = None) -> list[float]:
+    """σ_min/σ_max of each matrix of a (k, r, c) stack, as ``rank_ratio`` (`full_row_rank`) or ``singular_ratio``.
+
+    `known`: the singular values of stacks already decomposed, by the stack's id (a stack watched under two keys,
+    A and S A of the whole pose, is decomposed once).
+    """
     k, r, c = stack.shape
     if r * c == 0 or (full_row_rank and c < r):  # no singular values, or more rows than columns
         return [1.0 if full_row_rank and r == 0 else 0.0] * k
-    s = np.linalg.svd(stack, compute_uv=False)
+    found = None if known is None else known.get(id(stack))
+    s = cast(Array, np.linalg.svd(stack, compute_uv=False)) if found is None else found
+    if known is not None:
+        known[id(stack)] = s
     return [low / high if high > 0 else 0.0 for low, high in zip(s[:, -1].tolist(), s[:, 0].tolist(), strict=True)]
 
 
@@ -100,8 +108,9 @@ def stacked_conditioning(
     stacks = None
     if all(type(m) is SplitMotions for m in motions):
         stacks = _split_stacks(motions, rows)  # type: ignore[arg-type]
-    if stacks is not None:
-        columns = {key: _ratios(*stacks[key]) for key in keys}
+    if stacks is not None:  # the stacks stay alive while `known` holds their ids
+        known: dict[int, Array] = {}
+        columns = {key: _ratios(*stacks[key], known) for key in keys}
     else:
         watched: list[dict[str, tuple[Callable[[], Array], bool]]] = [
             m.watched(r) for m, r in zip(motions, rows, strict=True)

@@ -18,10 +18,10 @@ from scipy.optimize import least_squares
 from bracekit._linalg import show
 from bracekit.errors import BracekitError, BracekitWarning, ConvergenceError, InputError
 from bracekit.kinematics import BracedRobot, BracedState
-from bracekit.kinematics.clearance import link_clearance
 from bracekit.resolution.task_space import POSE, TaskSpace
 from bracekit.simulation.correction import correct
 from bracekit.simulation.guards import braces_outside, point_label, sigma_ratios
+from bracekit.simulation.validity import deepest_link
 
 #: Largest weight of a soft term of the start solve (a larger one overflows the least-squares solve).
 MAX_START_WEIGHT = 1e6
@@ -251,7 +251,7 @@ def _blocked(braced: BracedRobot, st: BracedState) -> str:
     if at.size:
         out += "; at a joint limit: " + ", ".join(f"joint {i + 1} ({robot.joint_names[i]})" for i in at)
     try:
-        clearance, joint = link_clearance(st)
+        clearance, joint = deepest_link(braced, st.q)
     except BracekitError:  # the clearance model has one surface as obstacle
         return out
     if np.isfinite(clearance) and clearance < 0.0 and 0 <= joint < robot.n:
