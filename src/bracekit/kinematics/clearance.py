@@ -45,10 +45,13 @@ only grazes the cylinder (wᵀ(b − a) ≈ 0) the clip point is held fixed (dt*
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
 import math
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 import pinocchio as pin
@@ -195,6 +198,8 @@ class Clearance:
         self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
         self._radius = np.array([c.radius for c in self.capsules], dtype=float)
         self._radii = [float(c.radius) for c in self.capsules]
+        #: each capsule's joint in chain order (the link :meth:`minimum` names)
+        self._capsule_joints = np.array([joints[k] - 1 for k in self._slots], dtype=np.int64)
 
     def _leave_pad(self) -> Clearance:
         """Itself without the capsules that hold its brace's pad {b} at every configuration (several braces).
@@ -398,24 +403,42 @@ class Clearance:
         """:meth:`minimum` of each configuration of a path (N arrays (n,)): the clearances (N,) m and joints (N,).
 
         The capsules of every configuration are placed and bounded at once; each is then searched as by
-        :meth:`minimum`, so the values are the same.
+        :meth:`minimum` (compiled over the path where numba is installed, :func:`path_search`), so the values
+        are the same to rounding. Coal's further obstacles and meshes are taken one configuration at a time.
         """
-        if self.extra is not None:  # one configuration at a time, as minimum
+        if self.mesh is not None or not len(qs):
             found = [self.minimum(q) for q in qs]
             return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
+        values, joints = self._minima(qs)
+        if self.extra is not None:  # the least (clearance, joint) with the further obstacles', as minimum
+            check = self.braced.robot.check_q
+            for i, q in enumerate(qs):
+                v, j = self.extra.minimum(check(q))
+                if (v, j) < (values[i], joints[i]):
+                    values[i], joints[i] = v, j
+        return values, joints
+
+    def _minima(self, qs: Sequence[Array]) -> tuple[Array, NDArray[np.intp]]:
+        """:meth:`minima` from the bracing surfaces alone (capsules)."""
         if self.surfaces:  # the least (clearance, joint) over the surfaces, as minimum
-            values, joints = self.surfaces[0].minima(qs)
+            values, joints = self.surfaces[0]._minima(qs)
             for each in self.surfaces[1:]:
-                v, j = each.minima(qs)
+                v, j = each._minima(qs)
                 better = (v < values) | ((v == values) & (j < joints))
                 values, joints = np.where(better, v, values), np.where(better, j, joints)
             return values, joints
-        if self.mesh is not None or not self.capsules or self._data is None or not len(qs):
-            found = [self.minimum(q) for q in qs]
-            return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
         check = self.braced.robot.check_q
+        if not self.capsules or self._data is None:
+            found = [self._minimum(check(q)) for q in qs]
+            return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
         placements = np.array([self._placements(check(q), False)[0] for q in qs])
         ends, bounds = self._screen_arrays(placements)
+        kernel = compiled_path()
+        if kernel is not None:  # the same search, compiled over the path
+            values, links = np.empty(len(qs)), np.empty(len(qs), dtype=np.int64)
+            r_max = -1.0 if self._r_max is None else self._r_max
+            kernel.least(ends, bounds, self._radius, self._capsule_joints, r_max, values, links)
+            return values, links.astype(np.intp)
         found = [self._least(e, b) for e, b in zip(ends.tolist(), bounds.tolist(), strict=True)]
         return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
 
@@ -439,13 +462,28 @@ def _point_row(u: Array, arm: Array, jac: Array) -> Array:
     return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
 
 
+def compiled_path() -> ModuleType | None:
+    """The compiled search over a path (:mod:`bracekit.kinematics._clearance_path`), None without numba."""
+    if importlib.util.find_spec("numba") is None:
+        return None
+    module = importlib.import_module("bracekit.kinematics._clearance_path")
+    return module if module.COMPILED else None
+
+
+def path_search() -> str:
+    """How a path's capsule clearance is searched: "compiled" (numba, the ``[fast]`` extra) or in Python."""
+    return "compiled" if importlib.util.find_spec("numba") is not None else "Python (numba not installed)"
+
+
 def geometry_of(braced: BracedRobot) -> str:
     """What the clearance of `braced` is computed from, for a run's summary.
 
     E.g. "capsules (no collision geometry in the URDF)" or "meshes and primitives from the URDF (7 elements, coal)".
     """
     robot = braced.robot
-    return geometry_description(robot.geometry, len({c.link for c in robot.collisions}))
+    text = geometry_description(robot.geometry, len({c.link for c in robot.collisions}))
+    search = "" if has_meshes(robot.geometry) or path_search() == "compiled" else f"; path searched in {path_search()}"
+    return text + search
 
 
 def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[float, int]:

@@ -27,16 +27,30 @@ from numpy.typing import NDArray
 from bracekit.errors import BracekitError, ContactError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.clearance import link_clearances
+from bracekit.kinematics.motions import NullMotions
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
-from bracekit.tolerances import MEASURE_SINGULAR_RATIO
+from bracekit.tolerances import MEASURE_SINGULAR_RATIO, UNLOADED_TOL
 
 Array = NDArray[np.float64]
 
 __all__ = ["measure_path", "path_ratios"]
 
-#: The recorded matrices whose σ_min/σ_max is taken over the whole path at once (singular_ratio of each).
-_STACKED: dict[str, Callable[[BracedState], Array]] = {"J": lambda st: st.J_e, "J1": lambda st: st.split.J1}
+#: The recorded matrices whose σ_min/σ_max is taken over the whole path at once: singular_ratio of each (one
+#: brace's J1, A, J̃; J = J_e with any number of braces).
+_STACKED: dict[str, Callable[[BracedState], Array]] = {
+    "J": lambda st: st.J_e,
+    "J1": lambda st: st.split.J1,
+    "A": lambda st: st.split.A,
+    "J_braced": lambda st: st.split.J_braced,
+}
+#: The matrices that must have full row rank (rank_ratio of each), taken at once for the whole pose (S = I):
+#: S A of one brace, G (independent rows) and S J_e N of several.
+_RANKED: dict[str, Callable[[BracedState], Array]] = {
+    "SA": lambda st: st.split.A,
+    "SJN": lambda st: st.motions.A,
+    "G": lambda st: cast(NullMotions, st.motions).G,
+}
 
 
 class _Inputs(NamedTuple):
@@ -87,14 +101,21 @@ def path_ratios(
     missing = [key for key in keys if key not in known[0]]
     found: dict[str, Array] = {}
     for key in missing:
-        if key in _STACKED:
-            try:
-                stack = np.array([_STACKED[key](st) for st in states], dtype=np.float64)
-            except (ValueError, BracekitError):
-                continue
-            s = np.linalg.svd(stack, compute_uv=False)
-            with np.errstate(all="ignore"):
-                found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
+        ranked = key in _RANKED and space.is_pose
+        if key not in _STACKED and not ranked:
+            continue
+        try:
+            stack = np.array([(_RANKED if ranked else _STACKED)[key](st) for st in states], dtype=np.float64)
+        except (ValueError, AttributeError, BracekitError):
+            continue
+        if stack.ndim != 3:
+            continue
+        if ranked and (stack.shape[1] > stack.shape[2] or stack.shape[1] == 0):  # rank_ratio: 0, or 1 without rows
+            found[key] = np.full(len(states), 1.0 if stack.shape[1] == 0 else 0.0)
+            continue
+        s = np.linalg.svd(stack, compute_uv=False)
+        with np.errstate(all="ignore"):
+            found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
     out = []
     for i, (st, have) in enumerate(zip(states, known, strict=True)):
         rest = [key for key in missing if key not in found]
@@ -228,19 +249,58 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) 
 
 def _constrained(states: Sequence[BracedState], jk: Array, free: Array, k: Array) -> Array:
     """C_e of every sample, constrained_compliance's formula over each sample's independent rows of G."""
-    cons = [st.constraint for st in states]
-    rows = cons[0].independent
-    if any(c.independent != rows for c in cons):
-        raise _UncertifiedError
-    out = free
-    if rows:
+    found = _full_rank(states, k)
+    if found is None:
+        cons = [st.constraint for st in states]
+        rows = cons[0].independent
+        if any(c.independent != rows for c in cons):
+            raise _UncertifiedError
         idx = list(rows)
-        g = _stack([c.G[idx] for c in cons])
-        d = _stack([np.diag(c.compliance[idx]) for c in cons])
-        m = _finite((g / k) @ _t(g) + d)
+        found = (_stack([c.G[idx] for c in cons]), cons[0].compliance[idx]) if rows else None
+    out = free
+    if found is not None:
+        g, d = found
+        m = _finite((g / k) @ _t(g) + np.diag(d))
         b = jk @ _t(g)
         out = out - b @ np.linalg.solve(m, _t(b))
     return _sym(out)
+
+
+def _full_rank(states: Sequence[BracedState], k: Array) -> tuple[Array, Array] | None:
+    """(G (N, c, n), 1/k_env of its rows (c,)) of the path when every sample keeps every row, else None.
+
+    The stacked constraint of each sample at once (stacked_constraint's G, weights and threshold): every row is
+    independent when the weighted rigid rows w = G_rigid K^(−1/2) have σ_min² > UNLOADED_TOL · max(σ_max²,
+    max_i tr(J_b_i K⁻¹ J_b_iᵀ)) at every sample (no row dropped, no warning). None hands the path to each
+    state's own stacked constraint (which drops rows and warns, or raises on a non-finite G). A state that has
+    its constraint already gives it.
+    """
+    if any("constraint" in st.__dict__ for st in states):
+        return None
+    braced = states[0].braced
+    blocks, comp = [], []
+    traces: list[Array] = []
+    rigid_of: list[bool] = []
+    with np.errstate(all="ignore"):
+        for i, (brace, x) in enumerate(zip(braced.braces, braced.X_i, strict=True)):
+            j_b = _stack([st.contacts[i].J_b for st in states])
+            blocks.append(x.T @ j_b)
+            k_env = brace.environment_stiffness
+            comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
+            rigid_of.extend([k_env is None] * x.shape[1])
+            traces.append(np.sum(j_b * j_b / k, axis=(1, 2)) if k_env is None else np.zeros(len(states)))
+        g = np.concatenate(blocks, axis=1)
+        rigid = [r for r, yes in enumerate(rigid_of) if yes]
+        if not rigid:
+            return _finite(g), np.array(comp, dtype=np.float64)
+        w = g[:, rigid] / np.sqrt(k)
+        if len(rigid) > g.shape[2] or not (np.isfinite(w).all() and np.isfinite(traces).all()):
+            return None
+        s = np.sqrt(np.einsum("nij,nij->ni", w, w))[:, 0:1] if len(rigid) == 1 else np.linalg.svd(w, compute_uv=False)
+        limit = UNLOADED_TOL * np.maximum(s[:, 0] ** 2, np.max(traces, axis=0))
+        if not (s[:, -1] ** 2 > limit).all():
+            return None
+    return _finite(g), np.array(comp, dtype=np.float64)
 
 
 def _projection(states: Sequence[BracedState], k: Array) -> Array:
