@@ -235,6 +235,21 @@ class Clearance:
         pin.updateFramePlacements(model, data)
         return np.array([data.oMf[f].homogeneous for f in self._frames]), None
 
+    def _path_placements(self, qs: Sequence[Array], frames: Sequence[int]) -> Array:
+        """⁰M of `frames` at each configuration (N, F, 4, 4): :meth:`_placements`'s values, the path at once.
+
+        Forward kinematics and those frames alone, with this object's Pinocchio data.
+        """
+        robot = self.braced.robot
+        model, data, n = robot.model, self._data, robot.n
+        out = np.empty((len(qs), len(frames), 4, 4))
+        for i, q in enumerate(qs):
+            fast = type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum())
+            pin.forwardKinematics(model, data, q if fast else robot.check_q(q))
+            for k, f in enumerate(frames):
+                out[i, k] = pin.updateFramePlacement(model, data, f).homogeneous
+        return out
+
     def _screen(self, placements: Array) -> tuple[list[list[list[float]]], list[float]]:
         """(Each capsule's ends in plane coordinates, [[x_a, x_b], [y_a, y_b], [h_a, h_b]] (m); lower bounds (m)).
 
@@ -420,22 +435,25 @@ class Clearance:
 
     def _minima(self, qs: Sequence[Array]) -> tuple[Array, NDArray[np.intp]]:
         """:meth:`minima` from the bracing surfaces alone (capsules)."""
-        if self.surfaces:  # the least (clearance, joint) over the surfaces, as minimum
-            values, joints = self.surfaces[0]._minima(qs)
-            for each in self.surfaces[1:]:
-                v, j = each._minima(qs)
-                better = (v < values) | ((v == values) & (j < joints))
-                values, joints = np.where(better, v, values), np.where(better, j, joints)
-            return values, joints
-        check = self.braced.robot.check_q
-        if not self.capsules or self._data is None:
-            found = [self._minimum(check(q)) for q in qs]
+        searched = [self] if not self.surfaces else list(self.surfaces)
+        if any(not each.capsules or each._data is None for each in searched):
+            found = [self._minimum(self.braced.robot.check_q(q)) for q in qs]
             return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
-        placements = np.array([self._placements(check(q), False)[0] for q in qs])
+        frames = sorted({f for each in searched for f in each._frames})
+        placed = searched[0]._path_placements(qs, frames)  # every surface's capsule frames, one pass per sample
+        values, joints = searched[0]._search(placed[:, [frames.index(f) for f in searched[0]._frames]])
+        for each in searched[1:]:  # the least (clearance, joint) over the surfaces, as minimum
+            v, j = each._search(placed[:, [frames.index(f) for f in each._frames]])
+            better = (v < values) | ((v == values) & (j < joints))
+            values, joints = np.where(better, v, values), np.where(better, j, joints)
+        return values, joints
+
+    def _search(self, placements: Array) -> tuple[Array, NDArray[np.intp]]:
+        """(Least clearance, its joint) of each configuration from its capsule frames' placements (N, J, 4, 4)."""
         ends, bounds = self._screen_arrays(placements)
         kernel = compiled_path()
         if kernel is not None:  # the same search, compiled over the path
-            values, links = np.empty(len(qs)), np.empty(len(qs), dtype=np.int64)
+            values, links = np.empty(len(placements)), np.empty(len(placements), dtype=np.int64)
             r_max = -1.0 if self._r_max is None else self._r_max
             kernel.least(ends, bounds, self._radius, self._capsule_joints, r_max, values, links)
             return values, links.astype(np.intp)

@@ -44,13 +44,10 @@ _STACKED: dict[str, Callable[[BracedState], Array]] = {
     "A": lambda st: st.split.A,
     "J_braced": lambda st: st.split.J_braced,
 }
-#: The matrices that must have full row rank (rank_ratio of each), taken at once for the whole pose (S = I):
-#: S A of one brace, G (independent rows) and S J_e N of several.
-_RANKED: dict[str, Callable[[BracedState], Array]] = {
-    "SA": lambda st: st.split.A,
-    "SJN": lambda st: st.motions.A,
-    "G": lambda st: cast(NullMotions, st.motions).G,
-}
+#: The matrices that must have full row rank (rank_ratio of each), taken at once: G (independent rows) of
+#: several braces, and the task rows S A of one brace's A or S J_e N of several, S = the space's selection.
+_RANKED: dict[str, Callable[[BracedState], Array]] = {"G": lambda st: cast(NullMotions, st.motions).G}
+_SELECTED: dict[str, Callable[[BracedState], Array]] = {"SA": lambda st: st.split.A, "SJN": lambda st: st.motions.A}
 
 
 class _Inputs(NamedTuple):
@@ -93,22 +90,21 @@ def path_ratios(
 ) -> list[dict[str, float]]:
     """σ_min/σ_max of every matrix in `keys` at each state, in the order of `keys` (guards.sigma_ratios).
 
-    `known`: the ratios already taken at each state (the run's guard); the others are computed here, J and J1
-    as one stacked SVD over the states (σ_min/σ_max of each, 0 for a zero matrix, as ``singular_ratio``).
+    `known`: the ratios already taken at each state (the run's guard); the others are computed here, each
+    matrix as one stacked SVD over the states: σ_min/σ_max (0 for a zero matrix) as ``singular_ratio``, and for
+    G, S A and S J_e N as ``rank_ratio`` (0 with more rows than columns, 1 without rows).
     """
     if not states:
         return []
     missing = [key for key in keys if key not in known[0]]
     found: dict[str, Array] = {}
     for key in missing:
-        ranked = key in _RANKED and space.is_pose
-        if key not in _STACKED and not ranked:
-            continue
+        ranked = key in _RANKED or key in _SELECTED
         try:
-            stack = np.array([(_RANKED if ranked else _STACKED)[key](st) for st in states], dtype=np.float64)
+            stack = _matrices(states, space, key)
         except (ValueError, AttributeError, BracekitError):
             continue
-        if stack.ndim != 3:
+        if stack is None or stack.ndim != 3:
             continue
         if ranked and (stack.shape[1] > stack.shape[2] or stack.shape[1] == 0):  # rank_ratio: 0, or 1 without rows
             found[key] = np.full(len(states), 1.0 if stack.shape[1] == 0 else 0.0)
@@ -124,6 +120,17 @@ def path_ratios(
             {key: have[key] if key in have else float(found[key][i]) if key in found else more[key] for key in keys}
         )
     return out
+
+
+def _matrices(states: Sequence[BracedState], space: TaskSpace, key: str) -> Array | None:
+    """The matrix `key` of every state as one stack (N, ·, ·), its task rows S(⁰R_e) for S A and S J_e N."""
+    if key in _SELECTED:
+        found = np.array([_SELECTED[key](st) for st in states], dtype=np.float64)
+        if space.is_pose:
+            return found
+        return np.array([space.selection(st.R_e) for st in states], dtype=np.float64) @ found
+    get = _RANKED.get(key) or _STACKED.get(key)
+    return None if get is None else np.array([get(st) for st in states], dtype=np.float64)
 
 
 def _one_by_one(
@@ -234,7 +241,7 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) 
             ContactSeries(
                 theta_z=np.arctan2(np.linalg.norm(cross, axis=1), z_b @ n),
                 region_radius=np.linalg.norm(b - brace.surface.point, axis=1),
-                surface_distance=np.array([brace.surface.signed_distance(p) for p in b]),
+                surface_distance=_finite((b - brace.surface.point) @ n),  # n̂ᵀ(b − c), Surface.signed_distance
             )
         )
     keys = tuple(inputs.sigma_ratio[0])
