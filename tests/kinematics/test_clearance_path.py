@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_clearance import same_least
 
 import bracekit.kinematics.clearance as clearance_module
 from bracekit import load_scenario
@@ -30,11 +31,9 @@ def _chain(region: float | None, centre: tuple[float, float]) -> BracedRobot:
 
 
 def _agree(clearance: Clearance, qs: list[np.ndarray]) -> np.ndarray:
-    """The path's minima against minimum at each configuration: 1e-12 m, the same link; the values."""
+    """The path's minima against minimum at each configuration (same_least); the values."""
     values, joints = clearance.minima(qs)
-    one = [clearance.minimum(q) for q in qs]
-    np.testing.assert_allclose(values, [v for v, _ in one], rtol=0.0, atol=1e-12)
-    assert joints.tolist() == [j for _, j in one]
+    same_least(clearance, qs, values, joints)
     return values
 
 
@@ -87,5 +86,20 @@ def test_without_numba_the_python_search_runs_and_the_geometry_line_says_so(monk
     python = Clearance(braced).minima(qs)
     assert python[0].tolist() == [Clearance(braced).minimum(q)[0] for q in qs]
     np.testing.assert_allclose(python[0], compiled[0], rtol=0.0, atol=1e-12)
-    assert python[1].tolist() == compiled[1].tolist()
+    same_least(Clearance(braced), qs, *compiled)
     assert geometry_of(braced).endswith("; path searched in Python (numba not installed)")
+
+
+def test_the_compiled_forward_kinematics_of_a_path_places_the_capsules_as_pinocchio() -> None:
+    """Revolute joints about random axes and a prismatic one: ⁰M of every capsule frame to 1e-12."""
+    text = random_chain_urdf(6, seed=11, brace_link=3).replace(
+        'name="j2" type="revolute"', 'name="j2" type="prismatic"'
+    )
+    robot = Robot.from_urdf(text, tip="tip")
+    braced = BracedRobot(robot, Brace("brace", Surface([0.0, 0.0, -0.2], [0.0, 0.3, 1.0]), region_radius=0.3))
+    clearance = Clearance(braced)
+    qs = list(np.random.default_rng(8).uniform(-1.0, 1.0, (30, robot.n)))
+    placed = clearance._path_placements(qs, clearance._frames)
+    for q, found in zip(qs, placed, strict=True):
+        np.testing.assert_allclose(found, clearance._placements(q, False)[0], rtol=0.0, atol=1e-12)
+    _agree(clearance, qs)

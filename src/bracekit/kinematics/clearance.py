@@ -48,10 +48,12 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import math
+import weakref
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -60,7 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit.geometry.collision import geometry_description, has_meshes
 from bracekit.geometry.distance import MeshClearance, capsule_elements
 from bracekit.kinematics.braced import BracedRobot, BracedState
-from bracekit.model.chain import DATA_JOINT_LIMIT
+from bracekit.model.chain import DATA_JOINT_LIMIT, joint_axis
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
 
 Array = NDArray[np.float64]
@@ -243,9 +245,18 @@ class Clearance:
         robot = self.braced.robot
         model, data, n = robot.model, self._data, robot.n
         out = np.empty((len(qs), len(frames), 4, 4))
+        kernel = compiled_path()
+        chain = _serial_chain(model) if kernel is not None else None
+        if kernel is not None and chain is not None:  # compiled forward kinematics over the path
+            qa = np.array([q if _plain(q, n) else robot.check_q(q) for q in qs], dtype=np.float64).reshape(-1, n)
+            ids = list(frames)
+            rot = np.array([model.frames[f].placement.rotation for f in ids], dtype=np.float64).reshape(-1, 3, 3)
+            trans = np.array([model.frames[f].placement.translation for f in ids], dtype=np.float64).reshape(-1, 3)
+            joints = np.array([int(model.frames[f].parentJoint) for f in ids], dtype=np.int64)
+            kernel.place(qa, *chain, joints, rot, trans, out)
+            return out
         for i, q in enumerate(qs):
-            fast = type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum())
-            pin.forwardKinematics(model, data, q if fast else robot.check_q(q))
+            pin.forwardKinematics(model, data, q if _plain(q, n) else robot.check_q(q))
             for k, f in enumerate(frames):
                 out[i, k] = pin.updateFramePlacement(model, data, f).homogeneous
         return out
@@ -471,6 +482,44 @@ class Clearance:
             if (value, joint) < (low, link):
                 low, link = value, joint
         return low, link
+
+
+def _plain(q: object, n: int) -> bool:
+    """Whether q is already what ``Robot.check_q`` returns: a finite float64 array (n,)."""
+    return type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum())
+
+
+#: pin.Model → its joints as arrays for the compiled forward kinematics, or None (a joint not 1-DoF R or P)
+_CHAINS: weakref.WeakKeyDictionary[pin.Model, tuple[NDArray[Any], ...] | None] = weakref.WeakKeyDictionary()
+
+
+def _serial_chain(model: pin.Model) -> tuple[NDArray[Any], ...] | None:
+    """(parent, rot0, trans0, axis, revolute, column) of every joint of `model` (index 0 the universe), or None.
+
+    None when a joint is not a 1-DoF revolute or prismatic joint (:func:`~bracekit.model.chain.joint_axis`).
+    """
+    try:
+        return _CHAINS[model]
+    except (KeyError, TypeError):
+        pass
+    nj = int(model.njoints)
+    kinds = [joint_axis(model.joints[j]) for j in range(1, nj)]
+    found: tuple[NDArray[Any], ...] | None = None
+    if all(k is not None for k in kinds) and all(model.joints[j].nv == 1 for j in range(1, nj)):
+        axes = [np.zeros(3)] + [np.asarray(k[1], dtype=np.float64) for k in kinds if k is not None]
+        found = (
+            np.array([int(p) for p in model.parents], dtype=np.int64),
+            np.array([np.asarray(model.jointPlacements[j].rotation) for j in range(nj)], dtype=np.float64),
+            np.array([np.asarray(model.jointPlacements[j].translation) for j in range(nj)], dtype=np.float64),
+            np.array(axes, dtype=np.float64),
+            np.array([0] + [int(k[0]) for k in kinds if k is not None], dtype=np.int64),
+            np.array([0] + [int(model.joints[j].idx_v) for j in range(1, nj)], dtype=np.int64),
+        )
+    try:
+        _CHAINS[model] = found
+    except TypeError:
+        pass
+    return found
 
 
 def _point_row(u: Array, arm: Array, jac: Array) -> Array:
