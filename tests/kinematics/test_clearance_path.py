@@ -78,10 +78,7 @@ def test_without_numba_the_python_search_runs_and_the_geometry_line_says_so(monk
     qs = list(np.random.default_rng(5).uniform(-2.0, 2.0, (40, braced.n)))
     compiled = Clearance(braced).minima(qs)
     assert "Python" not in geometry_of(braced) and path_search() == "compiled"
-    real = clearance_module.importlib.util.find_spec
-    monkeypatch.setattr(
-        clearance_module.importlib.util, "find_spec", lambda name, *a: None if name == "numba" else real(name, *a)
-    )
+    monkeypatch.setattr(clearance_module, "_numba_installed", lambda: False)
     assert compiled_path() is None
     python = Clearance(braced).minima(qs)
     assert python[0].tolist() == [Clearance(braced).minimum(q)[0] for q in qs]

@@ -1,6 +1,6 @@
 """The least capsule clearance of every configuration of a path, compiled (internal, numba).
 
-:func:`least` is :meth:`bracekit.kinematics.clearance.Clearance.minimum`'s search over the capsules of one
+:func:`screened_least` is :meth:`bracekit.kinematics.clearance.Clearance.minimum`'s search over the capsules of one
 bracing surface, for the configurations of a whole path at once: each configuration's capsules in the order of
 their lower bounds, each searched exactly (case (a) over the disk, else the bracketed Newton search for t* of
 D² along the segment) until a bound passes the least value found. The rules, tolerances and the order of the
@@ -152,39 +152,94 @@ def _capsule(  # pragma: no cover - compiled
     return math.hypot(max(rho - r_max, 0.0), max(h, 0.0)) - radius
 
 
-@_jit
-def least(  # pragma: no cover - compiled
-    ends: F64, bounds: F64, radii: F64, joints: I64, r_max: float, values: F64, links: I64
-) -> None:
-    """(Least clearance, its joint) of each configuration into values (N,), links (N,).
+@_inline
+def _search(  # pragma: no cover - compiled
+    ends: F64, bounds: F64, radii: F64, joints: I64, r_max: float, order: I64
+) -> tuple[float, int]:
+    """(Least clearance, its joint) of one configuration: ends (k, 3, 2), bounds (k,); order: scratch (k,)."""
+    k = bounds.shape[0]
+    for i in range(k):  # insertion sort of the bounds: stable, as sorted()
+        j = i
+        while j > 0 and bounds[order[j - 1]] > bounds[i]:
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = i
+    low = math.inf
+    link = -1
+    for m in range(k):
+        i = order[m]
+        if bounds[i] - _SLACK > low:
+            break
+        e = ends[i]
+        value = _capsule(e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[2, 0], e[2, 1], radii[i], r_max)
+        joint = joints[i]
+        if value < low or (value == low and joint < link):
+            low = value
+            link = joint
+    return low, link
 
-    ends (N, k, 3, 2): each capsule's ends in plane coordinates (rows x, y, h; columns a, b), m; bounds (N, k):
-    their lower bounds, m; radii (k,) m; joints (k,) each capsule's joint in chain order; r_max < 0 for the
-    half-space. Capsules are searched in the order of their bounds (stable) until a bound passes the least.
+
+@_jit
+def screened_least(  # pragma: no cover - compiled
+    placements: F64,
+    basis: F64,
+    point: F64,
+    slot: I64,
+    local: F64,
+    radii: F64,
+    joints: I64,
+    r_max: float,
+    values: F64,
+    links: I64,
+) -> None:
+    """(Least clearance, its joint) of each configuration into values (N,), links (N,), from its placements.
+
+    placements (N, J, 4, 4): ⁰M of the capsule frames; each capsule is placed and bounded, then searched in the
+    order of the bounds (stable) until a bound passes the least.
+
+    basis (3, 3): rows the plane's x, y axes and normal; point (3,) the surface's point c (m); slot (k,) each
+    capsule's frame in placements; local (k, 3, 2) its ends a, b as columns in that frame (m); radii (k,) m;
+    joints (k,) each capsule's joint in chain order; r_max < 0 for the half-space. The ends in plane coordinates
+    are basis (⁰R a + ⁰p − c), the lower bounds Clearance._screen_arrays's (m).
     """
-    n, k = bounds.shape
+    k = slot.shape[0]
+    ends = np.empty((k, 3, 2))
+    bounds = np.empty(k)
     order = np.empty(k, dtype=np.int64)
-    for s in range(n):
-        for i in range(k):  # insertion sort of the bounds: stable, as sorted()
-            j = i
-            while j > 0 and bounds[s, order[j - 1]] > bounds[s, i]:
-                order[j] = order[j - 1]
-                j -= 1
-            order[j] = i
-        low = math.inf
-        link = -1
-        for m in range(k):
-            i = order[m]
-            if bounds[s, i] - _SLACK > low:
-                break
-            e = ends[s, i]
-            value = _capsule(e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[2, 0], e[2, 1], radii[i], r_max)
-            joint = joints[i]
-            if value < low or (value == low and joint < link):
-                low = value
-                link = joint
-        values[s] = low
-        links[s] = link
+    rot = np.empty((3, 3))
+    origin = np.empty(3)
+    for s in range(placements.shape[0]):
+        for i in range(k):
+            m = placements[s, slot[i]]
+            for a in range(3):
+                for b in range(3):
+                    rot[a, b] = basis[a, 0] * m[0, b] + basis[a, 1] * m[1, b] + basis[a, 2] * m[2, b]
+                origin[a] = (
+                    (m[0, 3] - point[0]) * basis[a, 0]
+                    + (m[1, 3] - point[1]) * basis[a, 1]
+                    + (m[2, 3] - point[2]) * basis[a, 2]
+                )
+            for a in range(3):
+                for c in range(2):
+                    ends[i, a, c] = (
+                        rot[a, 0] * local[i, 0, c] + rot[a, 1] * local[i, 1, c] + rot[a, 2] * local[i, 2, c] + origin[a]
+                    )
+            low = min(ends[i, 2, 0], ends[i, 2, 1])
+            if r_max < 0.0:
+                bounds[i] = low - radii[i]
+                continue
+            xa, ya = ends[i, 0, 0], ends[i, 1, 0]
+            dx, dy = ends[i, 0, 1] - xa, ends[i, 1, 1] - ya
+            quad = dx * dx + dy * dy
+            half = xa * dx + ya * dy
+            tm = min(max(-half / quad, 0.0), 1.0) if quad > _FLAT else 0.0
+            rho = math.sqrt(max((quad * tm + 2.0 * half) * tm + xa * xa + ya * ya, 0.0))
+            side = rho - r_max
+            if low < 0.0 and side <= _SLACK:
+                bounds[i] = low - radii[i]
+            else:
+                bounds[i] = math.hypot(max(side, 0.0), max(low, 0.0)) - radii[i]
+        values[s], links[s] = _search(ends, bounds, radii, joints, r_max, order)
 
 
 @_inline

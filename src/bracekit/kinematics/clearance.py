@@ -52,6 +52,7 @@ import weakref
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cache
 from types import ModuleType
 from typing import Any
 
@@ -461,13 +462,16 @@ class Clearance:
 
     def _search(self, placements: Array) -> tuple[Array, NDArray[np.intp]]:
         """(Least clearance, its joint) of each configuration from its capsule frames' placements (N, J, 4, 4)."""
-        ends, bounds = self._screen_arrays(placements)
         kernel = compiled_path()
-        if kernel is not None:  # the same search, compiled over the path
+        if kernel is not None:  # the same screen and search, compiled over the path
             values, links = np.empty(len(placements)), np.empty(len(placements), dtype=np.int64)
             r_max = -1.0 if self._r_max is None else self._r_max
-            kernel.least(ends, bounds, self._radius, self._capsule_joints, r_max, values, links)
+            local, slot, joints = self._ends, self._slot.astype(np.int64), self._capsule_joints
+            kernel.screened_least(
+                placements, self._basis, self._point, slot, local, self._radius, joints, r_max, values, links
+            )
             return values, links.astype(np.intp)
+        ends, bounds = self._screen_arrays(placements)
         found = [self._least(e, b) for e, b in zip(ends.tolist(), bounds.tolist(), strict=True)]
         return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
 
@@ -529,9 +533,15 @@ def _point_row(u: Array, arm: Array, jac: Array) -> Array:
     return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
 
 
+@cache
+def _numba_installed() -> bool:
+    """Whether numba can be imported (the ``[fast]`` extra); looked up once per process."""
+    return importlib.util.find_spec("numba") is not None
+
+
 def compiled_path() -> ModuleType | None:
     """The compiled search over a path (:mod:`bracekit.kinematics._clearance_path`), None without numba."""
-    if importlib.util.find_spec("numba") is None:
+    if not _numba_installed():
         return None
     module = importlib.import_module("bracekit.kinematics._clearance_path")
     return module if module.COMPILED else None
@@ -539,7 +549,7 @@ def compiled_path() -> ModuleType | None:
 
 def path_search() -> str:
     """How a path's capsule clearance is searched: "compiled" (numba, the ``[fast]`` extra) or in Python."""
-    return "compiled" if importlib.util.find_spec("numba") is not None else "Python (numba not installed)"
+    return "compiled" if _numba_installed() else "Python (numba not installed)"
 
 
 def geometry_of(braced: BracedRobot) -> str:
