@@ -132,3 +132,18 @@ def test_the_stacked_constraint_of_a_path_at_once_is_that_of_each_state() -> Non
     twice = BracedRobot(paper.robot, [paper.braces[0], paper.braces[0]])
     qs = np.random.default_rng(6).uniform(paper.robot.lower, paper.robot.upper, (5, paper.n))
     assert _full_rank([twice.state(q) for q in qs], paper.robot.stiffness) is None
+
+
+def test_a_stack_equal_to_one_taken_shares_its_singular_values_and_any_other_gets_its_own() -> None:
+    from bracekit.simulation.path_measures import _singular_values
+
+    stack = np.random.default_rng(2).standard_normal((50, 6, 7))
+    first = _singular_values(stack)
+    np.testing.assert_array_equal(first, np.linalg.svd(stack, compute_uv=False))
+    assert _singular_values(stack.copy()) is first  # equal entry by entry: the same values, not redone
+    other = stack.copy()
+    other[17, 2, 3] += 1e-9
+    found = _singular_values(other)
+    assert found is not first
+    np.testing.assert_array_equal(found, np.linalg.svd(other, compute_uv=False))
+    assert _singular_values(stack.reshape(50, 7, 6)) is not first  # another shape

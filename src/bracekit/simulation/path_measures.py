@@ -109,7 +109,7 @@ def path_ratios(
         if ranked and (stack.shape[1] > stack.shape[2] or stack.shape[1] == 0):  # rank_ratio: 0, or 1 without rows
             found[key] = np.full(len(states), 1.0 if stack.shape[1] == 0 else 0.0)
             continue
-        s = np.linalg.svd(stack, compute_uv=False)
+        s = _singular_values(stack)
         with np.errstate(all="ignore"):
             found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
     out = []
@@ -131,6 +131,25 @@ def _matrices(states: Sequence[BracedState], space: TaskSpace, key: str) -> Arra
         return np.array([space.selection(st.R_e) for st in states], dtype=np.float64) @ found
     get = _RANKED.get(key) or _STACKED.get(key)
     return None if get is None else np.array([get(st) for st in states], dtype=np.float64)
+
+
+#: The stacks whose singular values were taken last, with them: J_e's SVD serves both the ratio σ_min/σ_max of J
+#: (path_ratios) and k of J_e (measure_path) of the same states, A's both A and S A of a pose task.
+_TAKEN: list[tuple[Array, Array]] = []
+
+
+def _singular_values(stack: Array) -> Array:
+    """The singular values (N, min(m, n)) of a stack (N, m, n), descending: one LAPACK SVD per matrix.
+
+    A stack equal entry by entry to one of the last few taken gets their values (the same SVD, not redone).
+    """
+    for held, found in _TAKEN:
+        if held.shape == stack.shape and np.array_equal(held, stack):
+            return found
+    found = np.asarray(np.linalg.svd(stack, compute_uv=False), dtype=np.float64)
+    _TAKEN.insert(0, (stack, found))
+    del _TAKEN[4:]
+    return found
 
 
 def _one_by_one(
@@ -183,7 +202,7 @@ def _unit(betas: Array) -> Array:
 
 def _frobenius(j: Array) -> Array:
     """K = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) of each 6×n J (N, 6, n), as frobenius_condition takes it."""
-    s = np.linalg.svd(j, compute_uv=False)
+    s = _singular_values(j)
     if s.shape[-1] < 6 or not (s[:, -1] > MEASURE_SINGULAR_RATIO * s[:, 0]).all():
         raise _UncertifiedError
     with np.errstate(over="raise", under="ignore"):
