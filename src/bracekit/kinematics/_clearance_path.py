@@ -14,36 +14,15 @@ Without numba the same loops run as Python; the clearance then keeps its own Pyt
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-try:
-    from numba import njit
+from bracekit._compiled import COMPILED, F64, I64
+from bracekit._compiled import inline as _inline
+from bracekit._compiled import jit as _jit
+from bracekit.kinematics.clearance import _FLAT, _ITERATIONS, _ROUND, _SLACK
 
-    #: Whether the path's clearance runs compiled (numba, the ``[fast]`` extra) or as the Python search.
-    COMPILED = True
-except ImportError:  # pragma: no cover - numba is in the test extras
-    COMPILED = False
-
-    def njit(**_: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:  # type: ignore[no-redef]
-        """Without numba: the loops run as Python (the geometry's description says so)."""
-        return lambda f: f
-
-
-F64 = NDArray[np.float64]
-I64 = NDArray[np.int64]
-
-_jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
-_inline = njit(cache=True, fastmath=False, error_model="numpy", nogil=True, inline="always")
-
-#: The constants of bracekit.kinematics.clearance (the same rules).
-_FLAT = 1e-28
-_SLACK = 1e-9
-_ROUND = 8.0 * 2.0**-52
-_ITERATIONS = 200
+__all__ = ["COMPILED", "place", "screened_least"]
 
 
 @_inline
