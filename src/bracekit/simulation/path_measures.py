@@ -112,12 +112,13 @@ def path_ratios(
         s = _singular_values(stack)
         with np.errstate(all="ignore"):
             found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
+    rest = tuple(key for key in missing if key not in found)
+    columns = {key: values.tolist() for key, values in found.items()}
     out = []
     for i, (st, have) in enumerate(zip(states, known, strict=True)):
-        rest = [key for key in missing if key not in found]
-        more = st.motions.conditioning(None if space.is_pose else space.selection(st.R_e), tuple(rest)) if rest else {}
+        more = st.motions.conditioning(None if space.is_pose else space.selection(st.R_e), rest) if rest else {}
         out.append(
-            {key: have[key] if key in have else float(found[key][i]) if key in found else more[key] for key in keys}
+            {key: have[key] if key in have else columns[key][i] if key in columns else more[key] for key in keys}
         )
     return out
 
