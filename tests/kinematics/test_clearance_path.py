@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from test_clearance import same_least
 
-import bracekit.kinematics.clearance as clearance_module
+import bracekit.kinematics.path_clearance as path_clearance
 from bracekit import load_scenario
 from bracekit.contact import Brace, Surface
 from bracekit.geometry.obstacle_tables import with_obstacles
@@ -78,7 +78,7 @@ def test_without_numba_the_python_search_runs_and_the_geometry_line_says_so(monk
     qs = list(np.random.default_rng(5).uniform(-2.0, 2.0, (40, braced.n)))
     compiled = Clearance(braced).minima(qs)
     assert "Python" not in geometry_of(braced) and path_search() == "compiled"
-    monkeypatch.setattr(clearance_module, "_numba_installed", lambda: False)
+    monkeypatch.setattr(path_clearance, "numba_installed", lambda: False)
     assert compiled_path() is None
     python = Clearance(braced).minima(qs)
     assert python[0].tolist() == [Clearance(braced).minimum(q)[0] for q in qs]
@@ -96,7 +96,7 @@ def test_the_compiled_forward_kinematics_of_a_path_places_the_capsules_as_pinocc
     braced = BracedRobot(robot, Brace("brace", Surface([0.0, 0.0, -0.2], [0.0, 0.3, 1.0]), region_radius=0.3))
     clearance = Clearance(braced)
     qs = list(np.random.default_rng(8).uniform(-1.0, 1.0, (30, robot.n)))
-    placed = clearance._path_placements(qs, clearance._frames)
+    placed = path_clearance.path_placements(robot, clearance._data, qs, clearance._frames)
     for q, found in zip(qs, placed, strict=True):
         np.testing.assert_allclose(found, clearance._placements(q, False)[0], rtol=0.0, atol=1e-12)
     _agree(clearance, qs)

@@ -20,7 +20,10 @@ import numpy as np
 from bracekit._compiled import COMPILED, F64, I64
 from bracekit._compiled import inline as _inline
 from bracekit._compiled import jit as _jit
-from bracekit.kinematics.clearance import _FLAT, _ITERATIONS, _ROUND, _SLACK
+from bracekit.kinematics.capsule_distance import FLAT as _FLAT
+from bracekit.kinematics.capsule_distance import ITERATIONS as _ITERATIONS
+from bracekit.kinematics.capsule_distance import ROUND as _ROUND
+from bracekit.kinematics.clearance import _SLACK
 
 __all__ = ["COMPILED", "place", "screened_least"]
 

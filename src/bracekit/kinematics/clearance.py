@@ -45,16 +45,10 @@ only grazes the cylinder (wᵀ(b − a) ≈ 0) the clip point is held fixed (dt*
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import math
-import weakref
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import cache
-from types import ModuleType
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -63,22 +57,18 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit.geometry.collision import geometry_description, has_meshes
 from bracekit.geometry.distance import MeshClearance, capsule_elements
 from bracekit.kinematics.braced import BracedRobot, BracedState
-from bracekit.model.chain import DATA_JOINT_LIMIT, joint_axis
+from bracekit.kinematics.capsule_distance import FLAT, capsule_distance
+from bracekit.kinematics.path_clearance import compiled_path, path_placements, path_search
+from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
 
 Array = NDArray[np.float64]
 
-#: |L (b − a)|² (m²) at or below which a segment has no lateral extent: it lies over the disk whole or not at all.
-_FLAT = 1e-28
 #: cos of the angle between the segment and the cylinder's outward normal below which a clip point only grazes
 #: the cylinder: its t* is held fixed (∂t*/∂q would grow without bound).
 _GRAZE = 1e-9
 #: Slack (m) on the lower bound of a capsule's distance below which it is computed exactly (rounding guard).
 _SLACK = 1e-9
-#: Relative rounding within which a segment's line touches the cylinder (tangent to it or lying on it).
-_ROUND = 8.0 * 2.0**-52
-#: Iteration cap of the bracketed Newton search for t* (bisection alone needs about 55 to reach rounding).
-_ITERATIONS = 200
 
 
 @dataclass(frozen=True)
@@ -94,55 +84,6 @@ class LinkDistance:
     joint: int
     clearance: float
     gradient: Array
-
-
-def _least_t(h0: float, slope: float, quad: float, half: float, gam: float, r_max: float) -> float:
-    """t* ∈ [0, 1] minimising D² = max(ρ − r_max, 0)² + max(h, 0)² along a segment (Newton bracketed by bisection).
-
-    h = h0 + slope·t and ρ² = quad·t² + 2·half·t + gam; ½ d(D²)/dt is continuous and nondecreasing (D² convex).
-    """
-
-    def slopes(t: float) -> tuple[float, float]:
-        """(½ d(D²)/dt, ½ d²(D²)/dt²) at t."""
-        g = gg = 0.0
-        height = h0 + slope * t
-        if height > 0.0:
-            g, gg = height * slope, slope * slope
-        rho = math.sqrt(max((quad * t + 2.0 * half) * t + gam, 0.0))
-        if rho > r_max:
-            drho = (quad * t + half) / rho
-            g += (rho - r_max) * drho
-            gg += drho * drho + (rho - r_max) * max(quad - drho * drho, 0.0) / rho
-        return g, gg
-
-    g0 = slopes(0.0)[0]
-    if g0 >= 0.0:
-        return 0.0
-    g1 = slopes(1.0)[0]
-    if g1 <= 0.0:
-        return 1.0
-    lo, hi = 0.0, 1.0
-    t = g0 / (g0 - g1)  # the secant's root
-    step = previous = 1.0
-    for _ in range(_ITERATIONS):
-        g, gg = slopes(t)
-        if g == 0.0:
-            return t
-        if g < 0.0:
-            lo = t
-        else:
-            hi = t
-        newton = t - g / gg if gg > 0.0 else math.nan
-        if not lo < newton < hi or abs(2.0 * g) > abs(previous * gg):  # out of the bracket or slow: bisect
-            previous, step = step, 0.5 * (hi - lo)
-            nxt = lo + step
-        else:
-            previous, step = step, g / gg
-            nxt = newton
-        if nxt == t or abs(step) <= 1e-15:
-            return nxt
-        t = nxt
-    return t
 
 
 class Clearance:
@@ -238,30 +179,6 @@ class Clearance:
         pin.updateFramePlacements(model, data)
         return np.array([data.oMf[f].homogeneous for f in self._frames]), None
 
-    def _path_placements(self, qs: Sequence[Array], frames: Sequence[int]) -> Array:
-        """⁰M of `frames` at each configuration (N, F, 4, 4): :meth:`_placements`'s values, the path at once.
-
-        Forward kinematics and those frames alone, with this object's Pinocchio data.
-        """
-        robot = self.braced.robot
-        model, data, n = robot.model, self._data, robot.n
-        out = np.empty((len(qs), len(frames), 4, 4))
-        kernel = compiled_path()
-        chain = _serial_chain(model) if kernel is not None else None
-        if kernel is not None and chain is not None:  # compiled forward kinematics over the path
-            qa = np.array([q if _plain(q, n) else robot.check_q(q) for q in qs], dtype=np.float64).reshape(-1, n)
-            ids = list(frames)
-            rot = np.array([model.frames[f].placement.rotation for f in ids], dtype=np.float64).reshape(-1, 3, 3)
-            trans = np.array([model.frames[f].placement.translation for f in ids], dtype=np.float64).reshape(-1, 3)
-            joints = np.array([int(model.frames[f].parentJoint) for f in ids], dtype=np.int64)
-            kernel.place(qa, *chain, joints, rot, trans, out)
-            return out
-        for i, q in enumerate(qs):
-            pin.forwardKinematics(model, data, q if _plain(q, n) else robot.check_q(q))
-            for k, f in enumerate(frames):
-                out[i, k] = pin.updateFramePlacement(model, data, f).homogeneous
-        return out
-
     def _screen(self, placements: Array) -> tuple[list[list[list[float]]], list[float]]:
         """(Each capsule's ends in plane coordinates, [[x_a, x_b], [y_a, y_b], [h_a, h_b]] (m); lower bounds (m)).
 
@@ -287,50 +204,11 @@ class Clearance:
         quad = dx * dx + dy * dy
         half = xa * dx + ya * dy
         with np.errstate(invalid="ignore", divide="ignore"):
-            tm = np.where(quad > _FLAT, np.clip(-half / quad, 0.0, 1.0), 0.0)  # the least lateral distance's t
+            tm = np.where(quad > FLAT, np.clip(-half / quad, 0.0, 1.0), 0.0)  # the least lateral distance's t
         rho = np.sqrt(np.maximum((quad * tm + 2.0 * half) * tm + xa * xa + ya * ya, 0.0))
         side = rho - r_max
         bound = np.where((low < 0.0) & (side <= _SLACK), low, np.hypot(np.maximum(side, 0.0), np.maximum(low, 0.0)))
         return pts, bound - self._radius
-
-    def _capsule(self, ends: list[list[float]], radius: float) -> tuple[float, float, tuple[float, float, float], bool]:
-        """(Clearance m, t*, unit direction u in plane coordinates, whether t* is a moving clip point) of a capsule.
-
-        `ends` are its ends in plane coordinates, as :meth:`_screen` gives them; the rule is the module's.
-        """
-        (x0, x1), (y0, y1), (h0, h1) = ends
-        dx, dy, slope = x1 - x0, y1 - y0, h1 - h0
-        up = (0.0, 0.0, 1.0)
-        r_max = self._r_max
-        if r_max is None:
-            return (h1 - radius, 1.0, up, False) if slope < 0.0 else (h0 - radius, 0.0, up, False)
-        quad, half, gam = dx * dx + dy * dy, x0 * dx + y0 * dy, x0 * x0 + y0 * y0
-        # the part over the disk, ρ(t)² = quad t² + 2 half t + gam ≤ r_max²: [t0, t1] from the stable roots
-        const = gam - r_max * r_max
-        span: tuple[float, float] | None = None
-        if quad <= _FLAT:  # no lateral extent: over the disk whole (on the rim within rounding) or not at all
-            span = (0.0, 1.0) if const <= _ROUND * (gam + r_max * r_max) else None
-        elif (disc := half * half - quad * const) >= -_ROUND * (half * half + quad * (gam + r_max * r_max)):
-            # a line tangent to the cylinder within rounding touches it: its tangent point is over the disk
-            qq = -(half + math.copysign(math.sqrt(max(disc, 0.0)), half))
-            lo, hi = (qq / quad, const / qq) if qq != 0.0 else (0.0, 0.0)
-            lo, hi = max(min(lo, hi), 0.0), min(max(lo, hi), 1.0)
-            span = (lo, hi) if lo <= hi else None
-        if span is not None:
-            t = span[1] if slope < 0.0 else span[0]
-            height = h0 if t == 0.0 else h1 if t == 1.0 else h0 + t * slope
-            if height < 0.0:  # (a): the least height over the disk, below the top
-                return height - radius, t, up, 0.0 < t < 1.0 and slope != 0.0
-        # (b): the distance from the solid
-        t = _least_t(h0, slope, quad, half, gam, r_max)
-        x, y, h = (x1, y1, h1) if t == 1.0 else (x0 + t * dx, y0 + t * dy, h0 + t * slope)
-        rho = math.hypot(x, y)
-        side, top = max(rho - r_max, 0.0), max(h, 0.0)
-        dist = math.hypot(side, top)
-        if side == 0.0 or dist == 0.0:
-            return dist - radius, t, up, False
-        out = side / (rho * dist)
-        return dist - radius, t, (out * x, out * y, top / dist), False
 
     def _gradient(
         self,
@@ -393,7 +271,7 @@ class Clearance:
             held = best[slot][0] if slot in best else below
             if bounds[i] - _SLACK >= held:
                 continue
-            value, t, direction, clip = self._capsule(ends[i], radii[i])
+            value, t, direction, clip = capsule_distance(ends[i], radii[i], self._r_max)
             if value < held:
                 best[slot] = (value, i, t, direction, clip)
         out = []
@@ -452,7 +330,8 @@ class Clearance:
             found = [self._minimum(self.braced.robot.check_q(q)) for q in qs]
             return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
         frames = sorted({f for each in searched for f in each._frames})
-        placed = searched[0]._path_placements(qs, frames)  # every surface's capsule frames, one pass per sample
+        # every surface's capsule frames, one kinematics pass per configuration
+        placed = path_placements(self.braced.robot, searched[0]._data, qs, frames)
         values, joints = searched[0]._search(placed[:, [frames.index(f) for f in searched[0]._frames]])
         for each in searched[1:]:  # the least (clearance, joint) over the surfaces, as minimum
             v, j = each._search(placed[:, [frames.index(f) for f in each._frames]])
@@ -481,49 +360,11 @@ class Clearance:
         for i in sorted(range(len(bounds)), key=bounds.__getitem__):
             if bounds[i] - _SLACK > low:
                 break
-            value = self._capsule(ends[i], self._radii[i])[0]
+            value = capsule_distance(ends[i], self._radii[i], self._r_max)[0]
             joint = self._joints[self._slots[i]] - 1
             if (value, joint) < (low, link):
                 low, link = value, joint
         return low, link
-
-
-def _plain(q: object, n: int) -> bool:
-    """Whether q is already what ``Robot.check_q`` returns: a finite float64 array (n,)."""
-    return type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum())
-
-
-#: pin.Model → its joints as arrays for the compiled forward kinematics, or None (a joint not 1-DoF R or P)
-_CHAINS: weakref.WeakKeyDictionary[pin.Model, tuple[NDArray[Any], ...] | None] = weakref.WeakKeyDictionary()
-
-
-def _serial_chain(model: pin.Model) -> tuple[NDArray[Any], ...] | None:
-    """(parent, rot0, trans0, axis, revolute, column) of every joint of `model` (index 0 the universe), or None.
-
-    None when a joint is not a 1-DoF revolute or prismatic joint (:func:`~bracekit.model.chain.joint_axis`).
-    """
-    try:
-        return _CHAINS[model]
-    except (KeyError, TypeError):
-        pass
-    nj = int(model.njoints)
-    kinds = [joint_axis(model.joints[j]) for j in range(1, nj)]
-    found: tuple[NDArray[Any], ...] | None = None
-    if all(k is not None for k in kinds) and all(model.joints[j].nv == 1 for j in range(1, nj)):
-        axes = [np.zeros(3)] + [np.asarray(k[1], dtype=np.float64) for k in kinds if k is not None]
-        found = (
-            np.array([int(p) for p in model.parents], dtype=np.int64),
-            np.array([np.asarray(model.jointPlacements[j].rotation) for j in range(nj)], dtype=np.float64),
-            np.array([np.asarray(model.jointPlacements[j].translation) for j in range(nj)], dtype=np.float64),
-            np.array(axes, dtype=np.float64),
-            np.array([0] + [int(k[0]) for k in kinds if k is not None], dtype=np.int64),
-            np.array([0] + [int(model.joints[j].idx_v) for j in range(1, nj)], dtype=np.int64),
-        )
-    try:
-        _CHAINS[model] = found
-    except TypeError:
-        pass
-    return found
 
 
 def _point_row(u: Array, arm: Array, jac: Array) -> Array:
@@ -531,25 +372,6 @@ def _point_row(u: Array, arm: Array, jac: Array) -> Array:
     ax, ay, az = arm.tolist()
     ux, uy, uz = u.tolist()
     return np.array([ux, uy, uz, ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux]) @ jac
-
-
-@cache
-def _numba_installed() -> bool:
-    """Whether numba can be imported (the ``[fast]`` extra); looked up once per process."""
-    return importlib.util.find_spec("numba") is not None
-
-
-def compiled_path() -> ModuleType | None:
-    """The compiled search over a path (:mod:`bracekit.kinematics._clearance_path`), None without numba."""
-    if not _numba_installed():
-        return None
-    module = importlib.import_module("bracekit.kinematics._clearance_path")
-    return module if module.COMPILED else None
-
-
-def path_search() -> str:
-    """How a path's capsule clearance is searched: "compiled" (numba, the ``[fast]`` extra) or in Python."""
-    return "compiled" if _numba_installed() else "Python (numba not installed)"
 
 
 def geometry_of(braced: BracedRobot) -> str:
