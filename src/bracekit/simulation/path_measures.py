@@ -8,7 +8,10 @@ The formulas are the reference's, applied to stacks (N, ·, ·) of the per-sampl
 (eq:compliance_index), k (eq:manip) and Πσ, σ_min of the braced task Jacobian, θ_z (eq:theta), the region
 radius and surface distance of every brace, the joint-limit excursion. A stacked SVD, solve or product runs the
 same LAPACK / BLAS routine per matrix as the single call, so the results equal the per-sample path to round-off
-(tested to 1e-12 relative in tests/simulation/test_path_measures.py).
+(tested to 1e-12 relative in tests/simulation/test_path_measures.py). Each stack's singular values are taken
+once for the ratios and the measures that share it; the stacked constraint G is built for the whole path at
+once where every sample keeps every row; the link clearance is the path's
+:func:`~bracekit.kinematics.clearance.link_clearances` (compiled where numba is installed).
 
 Whenever the batch cannot certify a sample (a singular Jacobian, a non-finite compliance, a β_x that is not a
 finite non-zero twist, samples whose matrices differ in shape), it measures the samples one by one with the
