@@ -45,7 +45,7 @@ def compiled_path() -> ModuleType | None:
 
 def path_search() -> str:
     """How a path's capsule clearance is searched: "compiled" (numba, the ``[fast]`` extra) or in Python."""
-    return "compiled" if numba_installed() else "Python (numba not installed)"
+    return "compiled" if compiled_path() is not None else "Python (numba not installed)"
 
 
 def path_placements(robot: Robot, data: pin.Data, qs: Sequence[Array], frames: Sequence[int]) -> Array:
