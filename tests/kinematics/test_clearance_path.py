@@ -71,6 +71,14 @@ def test_capsules_with_a_further_obstacle_take_the_least_of_the_surface_and_the_
     values = _agree(boxed, qs)
     plain = Clearance(braced).minima(qs)[0]
     assert (values <= plain).all() and (values < plain).any()  # the box is the nearer obstacle somewhere
+    two = load_scenario("two-braces").braced  # two surfaces and a box beside the arm
+    pose[:3, 3] = [0.3, 0.3, 0.4]
+    boxed = Clearance(with_obstacles(two, [box_obstacle("box", np.array([0.3, 0.3, 0.3]), pose)]))
+    assert boxed.extra is not None and len(boxed.surfaces) == 2
+    rng = np.random.default_rng(5)
+    qs = [two.robot.neutral(), *rng.uniform(two.robot.lower, two.robot.upper, (40, two.n))]
+    values = _agree(boxed, qs)
+    assert (values < Clearance(two).minima(qs)[0]).any()
 
 
 def test_without_numba_the_python_search_runs_and_the_geometry_line_says_so(monkeypatch) -> None:
