@@ -186,3 +186,26 @@ def test_an_unstable_loaded_equilibrium_is_reported_not_raised(tmp_path: Path) -
     to_json(result.summaries)  # no inf or NaN reaches the JSON
     lines = result.summary["warnings"]
     assert any("unstable" in w for w in lines) and not any("lifts off" in w for w in lines)  # reported once
+
+
+def test_both_models_share_the_relief_of_a_shared_run_taken_once_per_run(tmp_path: Path, monkeypatch) -> None:
+    """The LPs of a run both models show (not optimising) are solved once: the same relief as a direct call."""
+    import bracekit.simulation.run as run_module
+    from bracekit.simulation.holding import relief_summary
+
+    sc = _scenario(tmp_path, _holding_text())
+    calls: list[int] = []
+
+    def counted(braced, qs, holding):  # type: ignore[no-untyped-def]
+        calls.append(id(qs))
+        return relief_summary(braced, qs, holding)
+
+    monkeypatch.setattr(run_module, "relief_summary", counted)
+    result = bk.run_scenario(sc)
+    braced_runs = {id(tr) for runs in result.trajectories.values() for tr in runs.values() if tr.braced}
+    assert len(calls) == len(braced_runs) < sum(tr.braced for r in result.trajectories.values() for tr in r.values())
+    for model, runs in result.trajectories.items():
+        for name, tr in runs.items():
+            if tr.braced:
+                got = result.summaries[model]["strategies"][name]["actuator_relief"]
+                assert got == relief_summary(sc.braced, tr.q, sc.holding)

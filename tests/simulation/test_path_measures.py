@@ -93,3 +93,57 @@ def test_the_path_ratios_equal_the_guard_s_ratios(name: str) -> None:
     assert [tuple(g) for g in got] == [keys] * len(states)
     for g, r in zip(got, ref, strict=True):
         assert all(abs(g[key] - r[key]) <= 1e-12 * abs(r[key]) for key in keys)
+
+
+@pytest.mark.parametrize(
+    ("name", "strategy"),
+    [("paper", "free_space_min_norm"), ("paper", "braced_min_norm"), ("two-braces", "braced_min_norm")],
+)
+def test_every_ratio_taken_at_once_equals_the_guard_s_ratio(name: str, strategy: str) -> None:
+    """Nothing known from the run: J1, A, S A, J, J̃ (one brace) or G, S J_e N, J (two) all from stacked SVDs."""
+    from bracekit.simulation.guards import sigma_ratios
+
+    sc, states, *_ = _path(name)
+    space = sc.strategy(strategy).space
+    ref = [sigma_ratios(st, space) for st in states]
+    keys = tuple(ref[0])
+    got = path_ratios([sc.braced.state(st.q) for st in states], space, keys, [{}] * len(states))
+    for g, r in zip(got, ref, strict=True):
+        assert tuple(g) == keys
+        assert all(abs(g[key] - r[key]) <= 1e-12 * abs(r[key]) for key in keys)
+
+
+def test_the_stacked_constraint_of_a_path_at_once_is_that_of_each_state() -> None:
+    """Every row kept at every sample: G and 1/k_env as each state's stacked constraint; else the states decide."""
+    from bracekit.kinematics import BracedRobot
+    from bracekit.simulation.path_measures import _full_rank
+
+    sc, states, *_ = _path("two-braces")
+    fresh = [sc.braced.state(st.q) for st in states]
+    found = _full_rank(fresh, sc.braced.robot.stiffness)
+    assert found is not None
+    for st, g in zip(fresh, found[0], strict=True):
+        assert st.constraint.dependent == ()
+        np.testing.assert_array_equal(g, st.constraint.G)
+        np.testing.assert_array_equal(found[1], st.constraint.compliance)
+    assert _full_rank(fresh, sc.braced.robot.stiffness) is None  # their constraints are known now: theirs count
+    # the paper's brace twice: its rows depend on each other at every configuration, the states drop them and warn
+    paper = load_scenario("paper").braced
+    twice = BracedRobot(paper.robot, [paper.braces[0], paper.braces[0]])
+    qs = np.random.default_rng(6).uniform(paper.robot.lower, paper.robot.upper, (5, paper.n))
+    assert _full_rank([twice.state(q) for q in qs], paper.robot.stiffness) is None
+
+
+def test_a_stack_equal_to_one_taken_shares_its_singular_values_and_any_other_gets_its_own() -> None:
+    from bracekit.simulation.path_measures import _singular_values
+
+    stack = np.random.default_rng(2).standard_normal((50, 6, 7))
+    first = _singular_values(stack)
+    np.testing.assert_array_equal(first, np.linalg.svd(stack, compute_uv=False))
+    assert _singular_values(stack.copy()) is first  # equal entry by entry: the same values, not redone
+    other = stack.copy()
+    other[17, 2, 3] += 1e-9
+    found = _singular_values(other)
+    assert found is not first
+    np.testing.assert_array_equal(found, np.linalg.svd(other, compute_uv=False))
+    assert _singular_values(stack.reshape(50, 7, 6)) is not first  # another shape

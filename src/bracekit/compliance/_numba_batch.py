@@ -62,6 +62,38 @@ _jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
 
 @_jit
+def _gram(a: Array, kinv: Array, lo: int, hi: int, out: Array) -> bool:  # pragma: no cover - compiled
+    """Out = A K⁻¹ Aᵀ over the columns lo … hi − 1 of A (6×·), 6×6 (the upper triangle, mirrored); all finite?"""
+    finite = True
+    for r in range(6):
+        for c in range(r, 6):
+            s = 0.0
+            for p in range(lo, hi):
+                s += a[r, p] * kinv[p] * a[c, p]
+            out[r, c] = s
+            out[c, r] = s
+            if not math.isfinite(s):
+                finite = False
+    return finite
+
+
+@_jit
+def _product(a: Array, b: Array, transposed: bool, out: Array) -> bool:  # pragma: no cover - compiled
+    """Out = A B (or Aᵀ B when `transposed`), each entry summed over the inner index in order; all finite?"""
+    finite = True
+    inner = a.shape[0] if transposed else a.shape[1]
+    for r in range(out.shape[0]):
+        for c in range(out.shape[1]):
+            s = 0.0
+            for p in range(inner):
+                s += (a[p, r] if transposed else a[r, p]) * b[p, c]
+            out[r, c] = s
+            if not math.isfinite(s):
+                finite = False
+    return finite
+
+
+@_jit
 def _rows(
     start: int, stop: int, q: Array, chain: Chain, task: Task, out: Outputs
 ) -> None:  # pragma: no cover - compiled
@@ -109,7 +141,6 @@ def _rows(
     mm = np.zeros((6, 6))
     lo = np.zeros((6, 6))
     col6 = np.zeros(6)
-    wk = np.zeros((6, n))
     for i in range(start, stop):
         flag = 0
         # --- frames: M_j = M_parent · placement_j · exp(S_j q_j), each joint about its own z axis
@@ -168,17 +199,8 @@ def _rows(
                     jac[f, 3, cj], jac[f, 4, cj], jac[f, 5, cj] = 0.0, 0.0, 0.0
         d0, d1, d2 = fp[1, 0] - fp[0, 0], fp[1, 1] - fp[0, 1], fp[1, 2] - fp[0, 2]  # b − e
         bi = i if beta.shape[0] > 1 else 0
-        # --- S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ (symmetric: the upper triangle, mirrored)
-        for r in range(6):
-            for p in range(n):
-                wk[r, p] = jac[0, r, p] * kinv[p]
-        for r in range(6):
-            for c in range(r, 6):
-                s = 0.0
-                for p in range(n1, n):
-                    s += wk[r, p] * jac[0, c, p]
-                c2[r, c] = s
-                c2[c, r] = s
+        # --- S_t2 C2 S_t2ᵀ = J_e2 K2⁻¹ J_e2ᵀ
+        _gram(jac[0], kinv, n1, n, c2)
         # --- Ĵ1 = S_t1 (I − P) J1 (projection model and J̃)
         if do_proj or do_kb:
             for r in range(6):
@@ -189,43 +211,20 @@ def _rows(
                     tj1[r, p] = s
             _shift_rows(tj1, d0, d1, d2)
         if do_proj:
-            for r in range(6):
-                for c in range(r, 6):
-                    s = 0.0
-                    for p in range(n1):
-                        s += tj1[r, p] * kinv[p] * tj1[c, p]
-                    work[r, c] = s
-                    work[c, r] = s
+            _gram(tj1, kinv, 0, n1, work)
             cival, ok = _finish(work, c2, ce_proj, beta, i, bi)
             ci_proj[i] = cival
             if not ok:
                 flag |= NOT_FINITE
         if do_con:  # C̃1 = C1 − C1 X G Xᵀ C1, then S_t1 C̃1 S_t1ᵀ
+            if not _gram(jac[1], kinv, 0, n1, c1):
+                flag |= NOT_FINITE
             tr = 0.0
             for r in range(6):
-                for c in range(r, 6):
-                    s = 0.0
-                    for p in range(n1):
-                        s += jac[1, r, p] * kinv[p] * jac[1, c, p]
-                    c1[r, c] = s
-                    c1[c, r] = s
-                    if not math.isfinite(s):
-                        flag |= NOT_FINITE
                 tr += c1[r, r]
-            for r in range(6):
-                for c in range(nc):
-                    s = 0.0
-                    for p in range(6):
-                        s += c1[r, p] * x[p, c]
-                    cx[r, c] = s
-            for a in range(nc):
-                for b in range(nc):
-                    s = 0.0
-                    for p in range(6):
-                        s += x[p, a] * cx[p, b]
-                    m[a, b] = s
-                    if not math.isfinite(s):
-                        flag |= NOT_FINITE
+            _product(c1, x, False, cx)  # C1 X
+            if not _product(x, cx, True, m):  # Xᵀ C1 X
+                flag |= NOT_FINITE
             if flag & NOT_FINITE == 0:
                 dropped, ok = _gain(m, tr, env_inv, unloaded_tol, g)
                 if not ok:

@@ -57,22 +57,18 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit.geometry.collision import geometry_description, has_meshes
 from bracekit.geometry.distance import MeshClearance, capsule_elements
 from bracekit.kinematics.braced import BracedRobot, BracedState
+from bracekit.kinematics.capsule_distance import FLAT, capsule_distance
+from bracekit.kinematics.path_clearance import compiled_path, path_placements, path_search
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
 
 Array = NDArray[np.float64]
 
-#: |L (b − a)|² (m²) at or below which a segment has no lateral extent: it lies over the disk whole or not at all.
-_FLAT = 1e-28
 #: cos of the angle between the segment and the cylinder's outward normal below which a clip point only grazes
 #: the cylinder: its t* is held fixed (∂t*/∂q would grow without bound).
 _GRAZE = 1e-9
 #: Slack (m) on the lower bound of a capsule's distance below which it is computed exactly (rounding guard).
 _SLACK = 1e-9
-#: Relative rounding within which a segment's line touches the cylinder (tangent to it or lying on it).
-_ROUND = 8.0 * 2.0**-52
-#: Iteration cap of the bracketed Newton search for t* (bisection alone needs about 55 to reach rounding).
-_ITERATIONS = 200
 
 
 @dataclass(frozen=True)
@@ -88,55 +84,6 @@ class LinkDistance:
     joint: int
     clearance: float
     gradient: Array
-
-
-def _least_t(h0: float, slope: float, quad: float, half: float, gam: float, r_max: float) -> float:
-    """t* ∈ [0, 1] minimising D² = max(ρ − r_max, 0)² + max(h, 0)² along a segment (Newton bracketed by bisection).
-
-    h = h0 + slope·t and ρ² = quad·t² + 2·half·t + gam; ½ d(D²)/dt is continuous and nondecreasing (D² convex).
-    """
-
-    def slopes(t: float) -> tuple[float, float]:
-        """(½ d(D²)/dt, ½ d²(D²)/dt²) at t."""
-        g = gg = 0.0
-        height = h0 + slope * t
-        if height > 0.0:
-            g, gg = height * slope, slope * slope
-        rho = math.sqrt(max((quad * t + 2.0 * half) * t + gam, 0.0))
-        if rho > r_max:
-            drho = (quad * t + half) / rho
-            g += (rho - r_max) * drho
-            gg += drho * drho + (rho - r_max) * max(quad - drho * drho, 0.0) / rho
-        return g, gg
-
-    g0 = slopes(0.0)[0]
-    if g0 >= 0.0:
-        return 0.0
-    g1 = slopes(1.0)[0]
-    if g1 <= 0.0:
-        return 1.0
-    lo, hi = 0.0, 1.0
-    t = g0 / (g0 - g1)  # the secant's root
-    step = previous = 1.0
-    for _ in range(_ITERATIONS):
-        g, gg = slopes(t)
-        if g == 0.0:
-            return t
-        if g < 0.0:
-            lo = t
-        else:
-            hi = t
-        newton = t - g / gg if gg > 0.0 else math.nan
-        if not lo < newton < hi or abs(2.0 * g) > abs(previous * gg):  # out of the bracket or slow: bisect
-            previous, step = step, 0.5 * (hi - lo)
-            nxt = lo + step
-        else:
-            previous, step = step, g / gg
-            nxt = newton
-        if nxt == t or abs(step) <= 1e-15:
-            return nxt
-        t = nxt
-    return t
 
 
 class Clearance:
@@ -195,6 +142,8 @@ class Clearance:
         self._ends = np.array([np.column_stack([c.a, c.b]) for c in self.capsules], dtype=float).reshape(-1, 3, 2)
         self._radius = np.array([c.radius for c in self.capsules], dtype=float)
         self._radii = [float(c.radius) for c in self.capsules]
+        #: each capsule's joint in chain order (the link :meth:`minimum` names)
+        self._capsule_joints = np.array([joints[k] - 1 for k in self._slots], dtype=np.int64)
 
     def _leave_pad(self) -> Clearance:
         """Itself without the capsules that hold its brace's pad {b} at every configuration (several braces).
@@ -255,50 +204,11 @@ class Clearance:
         quad = dx * dx + dy * dy
         half = xa * dx + ya * dy
         with np.errstate(invalid="ignore", divide="ignore"):
-            tm = np.where(quad > _FLAT, np.clip(-half / quad, 0.0, 1.0), 0.0)  # the least lateral distance's t
+            tm = np.where(quad > FLAT, np.clip(-half / quad, 0.0, 1.0), 0.0)  # the least lateral distance's t
         rho = np.sqrt(np.maximum((quad * tm + 2.0 * half) * tm + xa * xa + ya * ya, 0.0))
         side = rho - r_max
         bound = np.where((low < 0.0) & (side <= _SLACK), low, np.hypot(np.maximum(side, 0.0), np.maximum(low, 0.0)))
         return pts, bound - self._radius
-
-    def _capsule(self, ends: list[list[float]], radius: float) -> tuple[float, float, tuple[float, float, float], bool]:
-        """(Clearance m, t*, unit direction u in plane coordinates, whether t* is a moving clip point) of a capsule.
-
-        `ends` are its ends in plane coordinates, as :meth:`_screen` gives them; the rule is the module's.
-        """
-        (x0, x1), (y0, y1), (h0, h1) = ends
-        dx, dy, slope = x1 - x0, y1 - y0, h1 - h0
-        up = (0.0, 0.0, 1.0)
-        r_max = self._r_max
-        if r_max is None:
-            return (h1 - radius, 1.0, up, False) if slope < 0.0 else (h0 - radius, 0.0, up, False)
-        quad, half, gam = dx * dx + dy * dy, x0 * dx + y0 * dy, x0 * x0 + y0 * y0
-        # the part over the disk, ρ(t)² = quad t² + 2 half t + gam ≤ r_max²: [t0, t1] from the stable roots
-        const = gam - r_max * r_max
-        span: tuple[float, float] | None = None
-        if quad <= _FLAT:  # no lateral extent: over the disk whole (on the rim within rounding) or not at all
-            span = (0.0, 1.0) if const <= _ROUND * (gam + r_max * r_max) else None
-        elif (disc := half * half - quad * const) >= -_ROUND * (half * half + quad * (gam + r_max * r_max)):
-            # a line tangent to the cylinder within rounding touches it: its tangent point is over the disk
-            qq = -(half + math.copysign(math.sqrt(max(disc, 0.0)), half))
-            lo, hi = (qq / quad, const / qq) if qq != 0.0 else (0.0, 0.0)
-            lo, hi = max(min(lo, hi), 0.0), min(max(lo, hi), 1.0)
-            span = (lo, hi) if lo <= hi else None
-        if span is not None:
-            t = span[1] if slope < 0.0 else span[0]
-            height = h0 if t == 0.0 else h1 if t == 1.0 else h0 + t * slope
-            if height < 0.0:  # (a): the least height over the disk, below the top
-                return height - radius, t, up, 0.0 < t < 1.0 and slope != 0.0
-        # (b): the distance from the solid
-        t = _least_t(h0, slope, quad, half, gam, r_max)
-        x, y, h = (x1, y1, h1) if t == 1.0 else (x0 + t * dx, y0 + t * dy, h0 + t * slope)
-        rho = math.hypot(x, y)
-        side, top = max(rho - r_max, 0.0), max(h, 0.0)
-        dist = math.hypot(side, top)
-        if side == 0.0 or dist == 0.0:
-            return dist - radius, t, up, False
-        out = side / (rho * dist)
-        return dist - radius, t, (out * x, out * y, top / dist), False
 
     def _gradient(
         self,
@@ -361,7 +271,7 @@ class Clearance:
             held = best[slot][0] if slot in best else below
             if bounds[i] - _SLACK >= held:
                 continue
-            value, t, direction, clip = self._capsule(ends[i], radii[i])
+            value, t, direction, clip = capsule_distance(ends[i], radii[i], self._r_max)
             if value < held:
                 best[slot] = (value, i, t, direction, clip)
         out = []
@@ -398,23 +308,48 @@ class Clearance:
         """:meth:`minimum` of each configuration of a path (N arrays (n,)): the clearances (N,) m and joints (N,).
 
         The capsules of every configuration are placed and bounded at once; each is then searched as by
-        :meth:`minimum`, so the values are the same.
+        :meth:`minimum` (compiled over the path where numba is installed, :func:`path_search`), so the values
+        are the same to rounding. Coal's further obstacles and meshes are taken one configuration at a time.
         """
-        if self.extra is not None:  # one configuration at a time, as minimum
+        if self.mesh is not None or not len(qs):
             found = [self.minimum(q) for q in qs]
             return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
-        if self.surfaces:  # the least (clearance, joint) over the surfaces, as minimum
-            values, joints = self.surfaces[0].minima(qs)
-            for each in self.surfaces[1:]:
-                v, j = each.minima(qs)
-                better = (v < values) | ((v == values) & (j < joints))
-                values, joints = np.where(better, v, values), np.where(better, j, joints)
-            return values, joints
-        if self.mesh is not None or not self.capsules or self._data is None or not len(qs):
-            found = [self.minimum(q) for q in qs]
+        values, joints = self._minima(qs)
+        if self.extra is not None:  # the least (clearance, joint) with the further obstacles', as minimum
+            check = self.braced.robot.check_q
+            for i, q in enumerate(qs):
+                v, j = self.extra.minimum(check(q))
+                if (v, j) < (values[i], joints[i]):
+                    values[i], joints[i] = v, j
+        return values, joints
+
+    def _minima(self, qs: Sequence[Array]) -> tuple[Array, NDArray[np.intp]]:
+        """:meth:`minima` from the bracing surfaces alone (capsules)."""
+        searched = [self] if not self.surfaces else list(self.surfaces)
+        if any(not each.capsules or each._data is None for each in searched):
+            found = [self._minimum(self.braced.robot.check_q(q)) for q in qs]
             return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
-        check = self.braced.robot.check_q
-        placements = np.array([self._placements(check(q), False)[0] for q in qs])
+        frames = sorted({f for each in searched for f in each._frames})
+        # every surface's capsule frames, one kinematics pass per configuration
+        placed = path_placements(self.braced.robot, searched[0]._data, qs, frames)
+        values, joints = searched[0]._search(placed[:, [frames.index(f) for f in searched[0]._frames]])
+        for each in searched[1:]:  # the least (clearance, joint) over the surfaces, as minimum
+            v, j = each._search(placed[:, [frames.index(f) for f in each._frames]])
+            better = (v < values) | ((v == values) & (j < joints))
+            values, joints = np.where(better, v, values), np.where(better, j, joints)
+        return values, joints
+
+    def _search(self, placements: Array) -> tuple[Array, NDArray[np.intp]]:
+        """(Least clearance, its joint) of each configuration from its capsule frames' placements (N, J, 4, 4)."""
+        kernel = compiled_path()
+        if kernel is not None:  # the same screen and search, compiled over the path
+            values, links = np.empty(len(placements)), np.empty(len(placements), dtype=np.int64)
+            r_max = -1.0 if self._r_max is None else self._r_max
+            local, slot, joints = self._ends, self._slot.astype(np.int64), self._capsule_joints
+            kernel.screened_least(
+                placements, self._basis, self._point, slot, local, self._radius, joints, r_max, values, links
+            )
+            return values, links.astype(np.intp)
         ends, bounds = self._screen_arrays(placements)
         found = [self._least(e, b) for e, b in zip(ends.tolist(), bounds.tolist(), strict=True)]
         return np.array([v for v, _ in found], dtype=float), np.array([j for _, j in found], dtype=np.intp)
@@ -425,7 +360,7 @@ class Clearance:
         for i in sorted(range(len(bounds)), key=bounds.__getitem__):
             if bounds[i] - _SLACK > low:
                 break
-            value = self._capsule(ends[i], self._radii[i])[0]
+            value = capsule_distance(ends[i], self._radii[i], self._r_max)[0]
             joint = self._joints[self._slots[i]] - 1
             if (value, joint) < (low, link):
                 low, link = value, joint
@@ -445,7 +380,9 @@ def geometry_of(braced: BracedRobot) -> str:
     E.g. "capsules (no collision geometry in the URDF)" or "meshes and primitives from the URDF (7 elements, coal)".
     """
     robot = braced.robot
-    return geometry_description(robot.geometry, len({c.link for c in robot.collisions}))
+    text = geometry_description(robot.geometry, len({c.link for c in robot.collisions}))
+    search = "" if has_meshes(robot.geometry) or path_search() == "compiled" else f"; path searched in {path_search()}"
+    return text + search
 
 
 def link_clearance(state: BracedState, link_radius: float = DEFAULT_LINK_RADIUS) -> tuple[float, int]:

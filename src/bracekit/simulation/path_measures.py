@@ -8,7 +8,10 @@ The formulas are the reference's, applied to stacks (N, ·, ·) of the per-sampl
 (eq:compliance_index), k (eq:manip) and Πσ, σ_min of the braced task Jacobian, θ_z (eq:theta), the region
 radius and surface distance of every brace, the joint-limit excursion. A stacked SVD, solve or product runs the
 same LAPACK / BLAS routine per matrix as the single call, so the results equal the per-sample path to round-off
-(tested to 1e-12 relative in tests/simulation/test_path_measures.py).
+(tested to 1e-12 relative in tests/simulation/test_path_measures.py). Each stack's singular values are taken
+once for the ratios and the measures that share it; the stacked constraint G is built for the whole path at
+once where every sample keeps every row; the link clearance is the path's
+:func:`~bracekit.kinematics.clearance.link_clearances` (compiled where numba is installed).
 
 Whenever the batch cannot certify a sample (a singular Jacobian, a non-finite compliance, a β_x that is not a
 finite non-zero twist, samples whose matrices differ in shape), it measures the samples one by one with the
@@ -27,16 +30,27 @@ from numpy.typing import NDArray
 from bracekit.errors import BracekitError, ContactError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.clearance import link_clearances
+from bracekit.kinematics.motions import NullMotions
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
-from bracekit.tolerances import MEASURE_SINGULAR_RATIO
+from bracekit.tolerances import MEASURE_SINGULAR_RATIO, UNLOADED_TOL
 
 Array = NDArray[np.float64]
 
 __all__ = ["measure_path", "path_ratios"]
 
-#: The recorded matrices whose σ_min/σ_max is taken over the whole path at once (singular_ratio of each).
-_STACKED: dict[str, Callable[[BracedState], Array]] = {"J": lambda st: st.J_e, "J1": lambda st: st.split.J1}
+#: The recorded matrices whose σ_min/σ_max is taken over the whole path at once: singular_ratio of each (one
+#: brace's J1, A, J̃; J = J_e with any number of braces).
+_STACKED: dict[str, Callable[[BracedState], Array]] = {
+    "J": lambda st: st.J_e,
+    "J1": lambda st: st.split.J1,
+    "A": lambda st: st.split.A,
+    "J_braced": lambda st: st.split.J_braced,
+}
+#: The matrices that must have full row rank (rank_ratio of each), taken at once: G (independent rows) of
+#: several braces, and the task rows S A of one brace's A or S J_e N of several, S = the space's selection.
+_RANKED: dict[str, Callable[[BracedState], Array]] = {"G": lambda st: cast(NullMotions, st.motions).G}
+_SELECTED: dict[str, Callable[[BracedState], Array]] = {"SA": lambda st: st.split.A, "SJN": lambda st: st.motions.A}
 
 
 class _Inputs(NamedTuple):
@@ -79,30 +93,67 @@ def path_ratios(
 ) -> list[dict[str, float]]:
     """σ_min/σ_max of every matrix in `keys` at each state, in the order of `keys` (guards.sigma_ratios).
 
-    `known`: the ratios already taken at each state (the run's guard); the others are computed here, J and J1
-    as one stacked SVD over the states (σ_min/σ_max of each, 0 for a zero matrix, as ``singular_ratio``).
+    `known`: the ratios already taken at each state (the run's guard); the others are computed here, each
+    matrix as one stacked SVD over the states: σ_min/σ_max (0 for a zero matrix) as ``singular_ratio``, and for
+    G, S A and S J_e N as ``rank_ratio`` (0 with more rows than columns, 1 without rows).
     """
     if not states:
         return []
     missing = [key for key in keys if key not in known[0]]
     found: dict[str, Array] = {}
     for key in missing:
-        if key in _STACKED:
-            try:
-                stack = np.array([_STACKED[key](st) for st in states], dtype=np.float64)
-            except (ValueError, BracekitError):
-                continue
-            s = np.linalg.svd(stack, compute_uv=False)
-            with np.errstate(all="ignore"):
-                found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
+        ranked = key in _RANKED or key in _SELECTED
+        try:
+            stack = _matrices(states, space, key)
+        except (ValueError, AttributeError, BracekitError):
+            continue
+        if stack is None or stack.ndim != 3:
+            continue
+        if ranked and (stack.shape[1] > stack.shape[2] or stack.shape[1] == 0):  # rank_ratio: 0, or 1 without rows
+            found[key] = np.full(len(states), 1.0 if stack.shape[1] == 0 else 0.0)
+            continue
+        s = _singular_values(stack)
+        with np.errstate(all="ignore"):
+            found[key] = np.where(s[:, 0] > 0, s[:, -1] / s[:, 0], 0.0) if s.shape[1] else np.zeros(len(states))
+    rest = tuple(key for key in missing if key not in found)
+    columns = {key: values.tolist() for key, values in found.items()}
     out = []
     for i, (st, have) in enumerate(zip(states, known, strict=True)):
-        rest = [key for key in missing if key not in found]
-        more = st.motions.conditioning(None if space.is_pose else space.selection(st.R_e), tuple(rest)) if rest else {}
+        more = st.motions.conditioning(None if space.is_pose else space.selection(st.R_e), rest) if rest else {}
         out.append(
-            {key: have[key] if key in have else float(found[key][i]) if key in found else more[key] for key in keys}
+            {key: have[key] if key in have else columns[key][i] if key in columns else more[key] for key in keys}
         )
     return out
+
+
+def _matrices(states: Sequence[BracedState], space: TaskSpace, key: str) -> Array | None:
+    """The matrix `key` of every state as one stack (N, ·, ·), its task rows S(⁰R_e) for S A and S J_e N."""
+    if key in _SELECTED:
+        found = np.array([_SELECTED[key](st) for st in states], dtype=np.float64)
+        if space.is_pose:
+            return found
+        return np.array([space.selection(st.R_e) for st in states], dtype=np.float64) @ found
+    get = _RANKED.get(key) or _STACKED.get(key)
+    return None if get is None else np.array([get(st) for st in states], dtype=np.float64)
+
+
+#: The stacks whose singular values were taken last, with them: J_e's SVD serves both the ratio σ_min/σ_max of J
+#: (path_ratios) and k of J_e (measure_path) of the same states, A's both A and S A of a pose task.
+_TAKEN: list[tuple[Array, Array]] = []
+
+
+def _singular_values(stack: Array) -> Array:
+    """The singular values (N, min(m, n)) of a stack (N, m, n), descending: one LAPACK SVD per matrix.
+
+    A stack equal entry by entry to one of the last few taken gets their values (the same SVD, not redone).
+    """
+    for held, found in _TAKEN:
+        if held.shape == stack.shape and np.array_equal(held, stack):
+            return found
+    found = np.asarray(np.linalg.svd(stack, compute_uv=False), dtype=np.float64)
+    _TAKEN.insert(0, (stack, found))
+    del _TAKEN[4:]
+    return found
 
 
 def _one_by_one(
@@ -155,7 +206,7 @@ def _unit(betas: Array) -> Array:
 
 def _frobenius(j: Array) -> Array:
     """K = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) of each 6×n J (N, 6, n), as frobenius_condition takes it."""
-    s = np.linalg.svd(j, compute_uv=False)
+    s = _singular_values(j)
     if s.shape[-1] < 6 or not (s[:, -1] > MEASURE_SINGULAR_RATIO * s[:, 0]).all():
         raise _UncertifiedError
     with np.errstate(over="raise", under="ignore"):
@@ -213,7 +264,7 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) 
             ContactSeries(
                 theta_z=np.arctan2(np.linalg.norm(cross, axis=1), z_b @ n),
                 region_radius=np.linalg.norm(b - brace.surface.point, axis=1),
-                surface_distance=np.array([brace.surface.signed_distance(p) for p in b]),
+                surface_distance=_finite((b - brace.surface.point) @ n),  # n̂ᵀ(b − c), Surface.signed_distance
             )
         )
     keys = tuple(inputs.sigma_ratio[0])
@@ -228,19 +279,58 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) 
 
 def _constrained(states: Sequence[BracedState], jk: Array, free: Array, k: Array) -> Array:
     """C_e of every sample, constrained_compliance's formula over each sample's independent rows of G."""
-    cons = [st.constraint for st in states]
-    rows = cons[0].independent
-    if any(c.independent != rows for c in cons):
-        raise _UncertifiedError
-    out = free
-    if rows:
+    found = _full_rank(states, k)
+    if found is None:
+        cons = [st.constraint for st in states]
+        rows = cons[0].independent
+        if any(c.independent != rows for c in cons):
+            raise _UncertifiedError
         idx = list(rows)
-        g = _stack([c.G[idx] for c in cons])
-        d = _stack([np.diag(c.compliance[idx]) for c in cons])
-        m = _finite((g / k) @ _t(g) + d)
+        found = (_stack([c.G[idx] for c in cons]), cons[0].compliance[idx]) if rows else None
+    out = free
+    if found is not None:
+        g, d = found
+        m = _finite((g / k) @ _t(g) + np.diag(d))
         b = jk @ _t(g)
         out = out - b @ np.linalg.solve(m, _t(b))
     return _sym(out)
+
+
+def _full_rank(states: Sequence[BracedState], k: Array) -> tuple[Array, Array] | None:
+    """(G (N, c, n), 1/k_env of its rows (c,)) of the path when every sample keeps every row, else None.
+
+    The stacked constraint of each sample at once (stacked_constraint's G, weights and threshold): every row is
+    independent when the weighted rigid rows w = G_rigid K^(−1/2) have σ_min² > UNLOADED_TOL · max(σ_max²,
+    max_i tr(J_b_i K⁻¹ J_b_iᵀ)) at every sample (no row dropped, no warning). None hands the path to each
+    state's own stacked constraint (which drops rows and warns, or raises on a non-finite G). A state that has
+    its constraint already gives it.
+    """
+    if any("constraint" in st.__dict__ for st in states):
+        return None
+    braced = states[0].braced
+    blocks, comp = [], []
+    traces: list[Array] = []
+    rigid_of: list[bool] = []
+    with np.errstate(all="ignore"):
+        for i, (brace, x) in enumerate(zip(braced.braces, braced.X_i, strict=True)):
+            j_b = _stack([st.contacts[i].J_b for st in states])
+            blocks.append(x.T @ j_b)
+            k_env = brace.environment_stiffness
+            comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
+            rigid_of.extend([k_env is None] * x.shape[1])
+            traces.append(np.sum(j_b * j_b / k, axis=(1, 2)) if k_env is None else np.zeros(len(states)))
+        g = np.concatenate(blocks, axis=1)
+        rigid = [r for r, yes in enumerate(rigid_of) if yes]
+        if not rigid:
+            return _finite(g), np.array(comp, dtype=np.float64)
+        w = g[:, rigid] / np.sqrt(k)
+        if len(rigid) > g.shape[2] or not (np.isfinite(w).all() and np.isfinite(traces).all()):
+            return None
+        s = np.sqrt(np.einsum("nij,nij->ni", w, w))[:, 0:1] if len(rigid) == 1 else np.linalg.svd(w, compute_uv=False)
+        limit = UNLOADED_TOL * np.maximum(s[:, 0] ** 2, np.max(traces, axis=0))
+        if not (s[:, -1] ** 2 > limit).all():
+            return None
+    return _finite(g), np.array(comp, dtype=np.float64)
 
 
 def _projection(states: Sequence[BracedState], k: Array) -> Array:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import os
 import warnings
 from collections.abc import Callable
@@ -72,6 +73,7 @@ class RunResult:
 
 def _summaries(result: RunResult) -> None:
     sc = result.scenario
+    reliefs: dict[int, dict[str, Any]] = {}  # a run shared by both models (not optimising) gets its LPs once
     for model, runs in result.trajectories.items():
         strategies = {name: tr.summary(model) for name, tr in runs.items()}
         for name, tr in runs.items():
@@ -80,7 +82,9 @@ def _summaries(result: RunResult) -> None:
                 extra = per_brace_summary(tr.measures, len(tr.braces))
                 strategies[name]["braces"] = [b | e for b, e in zip(strategies[name]["braces"], extra, strict=True)]
             if sc.holding.active and tr.braced and tr.q.shape[0] and _has_limits(sc):
-                strategies[name]["actuator_relief"] = relief_summary(sc.braced, tr.q, sc.holding)
+                if id(tr) not in reliefs:
+                    reliefs[id(tr)] = relief_summary(sc.braced, tr.q, sc.holding)
+                strategies[name]["actuator_relief"] = copy.deepcopy(reliefs[id(tr)])
             strategies[name].update(verdict(sc.braced, tr, strategies[name])._asdict())
         out: dict[str, Any] = {
             "scenario": result.scenario.name,
