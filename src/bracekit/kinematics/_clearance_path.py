@@ -25,7 +25,7 @@ from bracekit.kinematics.capsule_distance import ITERATIONS as _ITERATIONS
 from bracekit.kinematics.capsule_distance import ROUND as _ROUND
 from bracekit.kinematics.clearance import _SLACK
 
-__all__ = ["COMPILED", "place", "screened_least"]
+__all__ = ["COMPILED", "screened_least"]
 
 
 @_inline
@@ -222,76 +222,3 @@ def screened_least(  # pragma: no cover - compiled
             else:
                 bounds[i] = math.hypot(max(side, 0.0), max(low, 0.0)) - radii[i]
         values[s], links[s] = _search(ends, bounds, radii, joints, r_max, order)
-
-
-@_inline
-def _times(x: F64, y: F64, out: F64) -> None:  # pragma: no cover - compiled
-    """The 3×3 product x y into out (not x or y)."""
-    for a in range(3):
-        for b in range(3):
-            out[a, b] = x[a, 0] * y[0, b] + x[a, 1] * y[1, b] + x[a, 2] * y[2, b]
-
-
-@_inline
-def _moved(rot: F64, origin: F64, offset: F64, out: F64) -> None:  # pragma: no cover - compiled
-    """The point origin + rot offset (3,) into out."""
-    for a in range(3):
-        out[a] = origin[a] + rot[a, 0] * offset[0] + rot[a, 1] * offset[1] + rot[a, 2] * offset[2]
-
-
-@_jit
-def place(  # pragma: no cover - compiled
-    qs: F64,
-    parent: I64,
-    rot0: F64,
-    trans0: F64,
-    axis: F64,
-    revolute: I64,
-    col: I64,
-    frame_joint: I64,
-    frame_rot: F64,
-    frame_trans: F64,
-    out: F64,
-) -> None:
-    """⁰M (4×4) of each frame at each configuration into out (N, F, 4, 4): forward kinematics of a serial model.
-
-    qs (N, n) joint values; per joint j ≥ 1 of the model (index 0 the universe): its parent, its placement in
-    the parent (rot0 (3, 3), trans0 (3,) m), its unit axis in its own frame, 1 if revolute (else prismatic) and
-    its velocity column. Each frame: its joint and its placement in that joint (rot, trans). The joint frame
-    before its motion is ⁰M_parent · M0; a revolute joint then turns by q about its axis (Rodrigues), a
-    prismatic one moves by q along it (Pinocchio's kinematics, the same to rounding).
-    """
-    nj = parent.shape[0]
-    rot = np.zeros((nj, 3, 3))
-    org = np.zeros((nj, 3))
-    turn = np.zeros((3, 3))
-    r_in = np.zeros((3, 3))
-    for i in range(3):
-        rot[0, i, i] = 1.0
-    for s in range(qs.shape[0]):
-        for j in range(1, nj):
-            p = parent[j]
-            _times(rot[p], rot0[j], r_in)
-            _moved(rot[p], org[p], trans0[j], org[j])
-            value = qs[s, col[j]]
-            x, y, z = axis[j, 0], axis[j, 1], axis[j, 2]
-            if revolute[j]:
-                c, sn = math.cos(value), math.sin(value)
-                v = 1.0 - c
-                turn[0, 0], turn[0, 1], turn[0, 2] = c + v * x * x, v * x * y - sn * z, v * x * z + sn * y
-                turn[1, 0], turn[1, 1], turn[1, 2] = v * x * y + sn * z, c + v * y * y, v * y * z - sn * x
-                turn[2, 0], turn[2, 1], turn[2, 2] = v * x * z - sn * y, v * y * z + sn * x, c + v * z * z
-                _times(r_in, turn, rot[j])
-            else:
-                for a in range(3):
-                    org[j, a] += (r_in[a, 0] * x + r_in[a, 1] * y + r_in[a, 2] * z) * value
-                    for b in range(3):
-                        rot[j, a, b] = r_in[a, b]
-        for f in range(frame_joint.shape[0]):
-            j = frame_joint[f]
-            m = out[s, f]
-            _times(rot[j], frame_rot[f], m[:3, :3])
-            _moved(rot[j], org[j], frame_trans[f], m[:3, 3])
-            for a in range(3):
-                m[3, a] = 0.0
-            m[3, 3] = 1.0
