@@ -2,10 +2,10 @@
 
 :func:`screened_least` is :meth:`bracekit.kinematics.clearance.Clearance.minimum`'s search over the capsules of one
 bracing surface, for the configurations of a whole path at once: each configuration's capsules in the order of
-their lower bounds, each searched exactly (case (a) over the disk, else the bracketed Newton search for t* of
-D² along the segment) until a bound passes the least value found. The rules, tolerances and the order of the
+their lower bounds, each searched exactly by the capsule rule (:func:`bracekit.kinematics.capsule_distance.capsule`,
+inlined) until a bound passes the least value found. The screen, tolerances and the order of the
 floating-point operations are those of :mod:`bracekit.kinematics.clearance` (whose docstring gives the
-geometry), so the values are the same to rounding (tested per sample against the Python search).
+geometry), so the values are the same to rounding (tested per sample against the search of one configuration).
 
 Without numba the same loops run as Python; the clearance then keeps its own Python search
 (:data:`COMPILED` is False) and the run's geometry line says so.
@@ -20,118 +20,11 @@ import numpy as np
 from bracekit._compiled import COMPILED, F64, I64
 from bracekit._compiled import inline as _inline
 from bracekit._compiled import jit as _jit
-from bracekit.kinematics.capsule_distance import FLAT as _FLAT
-from bracekit.kinematics.capsule_distance import ITERATIONS as _ITERATIONS
-from bracekit.kinematics.capsule_distance import ROUND as _ROUND
+from bracekit.kinematics.capsule_distance import capsule as _capsule
 from bracekit.kinematics.clearance import _SLACK
+from bracekit.kinematics.clearance import FLAT as _FLAT
 
-__all__ = ["COMPILED", "place", "screened_least"]
-
-
-@_inline
-def _slopes(  # pragma: no cover - compiled
-    t: float, h0: float, slope: float, quad: float, half: float, gam: float, r_max: float
-) -> tuple[float, float]:
-    """(½ d(D²)/dt, ½ d²(D²)/dt²) at t along the segment (clearance._least_t's slopes)."""
-    g = 0.0
-    gg = 0.0
-    height = h0 + slope * t
-    if height > 0.0:
-        g = height * slope
-        gg = slope * slope
-    rho = math.sqrt(max((quad * t + 2.0 * half) * t + gam, 0.0))
-    if rho > r_max:
-        drho = (quad * t + half) / rho
-        g += (rho - r_max) * drho
-        gg += drho * drho + (rho - r_max) * max(quad - drho * drho, 0.0) / rho
-    return g, gg
-
-
-@_inline
-def _least_t(  # pragma: no cover - compiled
-    h0: float, slope: float, quad: float, half: float, gam: float, r_max: float
-) -> float:
-    """t* ∈ [0, 1] minimising D² along a segment (clearance._least_t: Newton bracketed by bisection)."""
-    g0 = _slopes(0.0, h0, slope, quad, half, gam, r_max)[0]
-    if g0 >= 0.0:
-        return 0.0
-    g1 = _slopes(1.0, h0, slope, quad, half, gam, r_max)[0]
-    if g1 <= 0.0:
-        return 1.0
-    lo = 0.0
-    hi = 1.0
-    t = g0 / (g0 - g1)
-    step = 1.0
-    previous = 1.0
-    for _ in range(_ITERATIONS):
-        g, gg = _slopes(t, h0, slope, quad, half, gam, r_max)
-        if g == 0.0:
-            return t
-        if g < 0.0:
-            lo = t
-        else:
-            hi = t
-        newton = t - g / gg if gg > 0.0 else math.nan
-        if not (lo < newton and newton < hi) or abs(2.0 * g) > abs(previous * gg):
-            previous = step
-            step = 0.5 * (hi - lo)
-            nxt = lo + step
-        else:
-            previous = step
-            step = g / gg
-            nxt = newton
-        if nxt == t or abs(step) <= 1e-15:
-            return nxt
-        t = nxt
-    return t
-
-
-@_inline
-def _capsule(  # pragma: no cover - compiled
-    x0: float, x1: float, y0: float, y1: float, h0: float, h1: float, radius: float, r_max: float
-) -> float:
-    """Clearance (m) of a capsule from its ends in plane coordinates (clearance.Clearance._capsule's value).
-
-    r_max < 0: the half-space below the plane (no radius).
-    """
-    dx = x1 - x0
-    dy = y1 - y0
-    slope = h1 - h0
-    if r_max < 0.0:
-        return h1 - radius if slope < 0.0 else h0 - radius
-    quad = dx * dx + dy * dy
-    half = x0 * dx + y0 * dy
-    gam = x0 * x0 + y0 * y0
-    const = gam - r_max * r_max
-    over = False
-    lo = 0.0
-    hi = 1.0
-    if quad <= _FLAT:
-        over = const <= _ROUND * (gam + r_max * r_max)
-    else:
-        disc = half * half - quad * const
-        if disc >= -_ROUND * (half * half + quad * (gam + r_max * r_max)):
-            qq = -(half + math.copysign(math.sqrt(max(disc, 0.0)), half))
-            if qq != 0.0:
-                lo = qq / quad
-                hi = const / qq
-            else:
-                lo = 0.0
-                hi = 0.0
-            lo, hi = max(min(lo, hi), 0.0), min(max(lo, hi), 1.0)
-            over = lo <= hi
-    if over:
-        t = hi if slope < 0.0 else lo
-        height = h0 if t == 0.0 else h1 if t == 1.0 else h0 + t * slope
-        if height < 0.0:
-            return height - radius
-    t = _least_t(h0, slope, quad, half, gam, r_max)
-    if t == 1.0:
-        x, y, h = x1, y1, h1
-    else:
-        x, y, h = x0 + t * dx, y0 + t * dy, h0 + t * slope
-    rho = math.hypot(x, y)
-    return math.hypot(max(rho - r_max, 0.0), max(h, 0.0)) - radius
+__all__ = ["COMPILED", "screened_least"]
 
 
 @_inline
@@ -153,7 +46,7 @@ def _search(  # pragma: no cover - compiled
         if bounds[i] - _SLACK > low:
             break
         e = ends[i]
-        value = _capsule(e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[2, 0], e[2, 1], radii[i], r_max)
+        value = _capsule(e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[2, 0], e[2, 1], radii[i], r_max)[0]
         joint = joints[i]
         if value < low or (value == low and joint < link):
             low = value
@@ -222,76 +115,3 @@ def screened_least(  # pragma: no cover - compiled
             else:
                 bounds[i] = math.hypot(max(side, 0.0), max(low, 0.0)) - radii[i]
         values[s], links[s] = _search(ends, bounds, radii, joints, r_max, order)
-
-
-@_inline
-def _times(x: F64, y: F64, out: F64) -> None:  # pragma: no cover - compiled
-    """The 3×3 product x y into out (not x or y)."""
-    for a in range(3):
-        for b in range(3):
-            out[a, b] = x[a, 0] * y[0, b] + x[a, 1] * y[1, b] + x[a, 2] * y[2, b]
-
-
-@_inline
-def _moved(rot: F64, origin: F64, offset: F64, out: F64) -> None:  # pragma: no cover - compiled
-    """The point origin + rot offset (3,) into out."""
-    for a in range(3):
-        out[a] = origin[a] + rot[a, 0] * offset[0] + rot[a, 1] * offset[1] + rot[a, 2] * offset[2]
-
-
-@_jit
-def place(  # pragma: no cover - compiled
-    qs: F64,
-    parent: I64,
-    rot0: F64,
-    trans0: F64,
-    axis: F64,
-    revolute: I64,
-    col: I64,
-    frame_joint: I64,
-    frame_rot: F64,
-    frame_trans: F64,
-    out: F64,
-) -> None:
-    """⁰M (4×4) of each frame at each configuration into out (N, F, 4, 4): forward kinematics of a serial model.
-
-    qs (N, n) joint values; per joint j ≥ 1 of the model (index 0 the universe): its parent, its placement in
-    the parent (rot0 (3, 3), trans0 (3,) m), its unit axis in its own frame, 1 if revolute (else prismatic) and
-    its velocity column. Each frame: its joint and its placement in that joint (rot, trans). The joint frame
-    before its motion is ⁰M_parent · M0; a revolute joint then turns by q about its axis (Rodrigues), a
-    prismatic one moves by q along it (Pinocchio's kinematics, the same to rounding).
-    """
-    nj = parent.shape[0]
-    rot = np.zeros((nj, 3, 3))
-    org = np.zeros((nj, 3))
-    turn = np.zeros((3, 3))
-    r_in = np.zeros((3, 3))
-    for i in range(3):
-        rot[0, i, i] = 1.0
-    for s in range(qs.shape[0]):
-        for j in range(1, nj):
-            p = parent[j]
-            _times(rot[p], rot0[j], r_in)
-            _moved(rot[p], org[p], trans0[j], org[j])
-            value = qs[s, col[j]]
-            x, y, z = axis[j, 0], axis[j, 1], axis[j, 2]
-            if revolute[j]:
-                c, sn = math.cos(value), math.sin(value)
-                v = 1.0 - c
-                turn[0, 0], turn[0, 1], turn[0, 2] = c + v * x * x, v * x * y - sn * z, v * x * z + sn * y
-                turn[1, 0], turn[1, 1], turn[1, 2] = v * x * y + sn * z, c + v * y * y, v * y * z - sn * x
-                turn[2, 0], turn[2, 1], turn[2, 2] = v * x * z - sn * y, v * y * z + sn * x, c + v * z * z
-                _times(r_in, turn, rot[j])
-            else:
-                for a in range(3):
-                    org[j, a] += (r_in[a, 0] * x + r_in[a, 1] * y + r_in[a, 2] * z) * value
-                    for b in range(3):
-                        rot[j, a, b] = r_in[a, b]
-        for f in range(frame_joint.shape[0]):
-            j = frame_joint[f]
-            m = out[s, f]
-            _times(rot[j], frame_rot[f], m[:3, :3])
-            _moved(rot[j], org[j], frame_trans[f], m[:3, 3])
-            for a in range(3):
-                m[3, a] = 0.0
-            m[3, 3] = 1.0

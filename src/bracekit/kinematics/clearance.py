@@ -47,8 +47,9 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 import pinocchio as pin
@@ -57,7 +58,6 @@ from numpy.typing import ArrayLike, NDArray
 from bracekit.geometry.collision import geometry_description, has_meshes
 from bracekit.geometry.distance import MeshClearance, capsule_elements
 from bracekit.kinematics.braced import BracedRobot, BracedState
-from bracekit.kinematics.capsule_distance import FLAT, capsule_distance
 from bracekit.kinematics.path_clearance import compiled_path, path_placements, path_search
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.geometry import DEFAULT_LINK_RADIUS, Capsule
@@ -67,6 +67,12 @@ Array = NDArray[np.float64]
 #: cos of the angle between the segment and the cylinder's outward normal below which a clip point only grazes
 #: the cylinder: its t* is held fixed (∂t*/∂q would grow without bound).
 _GRAZE = 1e-9
+#: |L (b − a)|² (m²) at or below which a segment has no lateral extent: it lies over the disk whole or not at all.
+FLAT = 1e-28
+#: Relative rounding within which a segment's line touches the cylinder (tangent to it or lying on it).
+ROUND = 8.0 * 2.0**-52
+#: Iteration cap of the bracketed Newton search for t* (bisection alone needs about 55 to reach rounding).
+ITERATIONS = 200
 #: Slack (m) on the lower bound of a capsule's distance below which it is computed exactly (rounding guard).
 _SLACK = 1e-9
 
@@ -271,7 +277,7 @@ class Clearance:
             held = best[slot][0] if slot in best else below
             if bounds[i] - _SLACK >= held:
                 continue
-            value, t, direction, clip = capsule_distance(ends[i], radii[i], self._r_max)
+            value, t, direction, clip = _rule()(ends[i], radii[i], self._r_max)
             if value < held:
                 best[slot] = (value, i, t, direction, clip)
         out = []
@@ -360,11 +366,19 @@ class Clearance:
         for i in sorted(range(len(bounds)), key=bounds.__getitem__):
             if bounds[i] - _SLACK > low:
                 break
-            value = capsule_distance(ends[i], self._radii[i], self._r_max)[0]
+            value = _rule()(ends[i], self._radii[i], self._r_max)[0]
             joint = self._joints[self._slots[i]] - 1
             if (value, joint) < (low, link):
                 low, link = value, joint
         return low, link
+
+
+@cache
+def _rule() -> Callable[..., tuple[float, float, tuple[float, float, float], bool]]:
+    """:func:`~bracekit.kinematics.capsule_distance.capsule_distance`, imported on first use (it imports numba)."""
+    from bracekit.kinematics.capsule_distance import capsule_distance
+
+    return capsule_distance
 
 
 def _point_row(u: Array, arm: Array, jac: Array) -> Array:
