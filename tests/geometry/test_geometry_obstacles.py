@@ -9,6 +9,7 @@ minus both radii; central differences for the gradient.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import subprocess
 import sys
@@ -20,8 +21,10 @@ import pytest
 from test_geometry_distance import MESH_TOLERANCE, POST, Q0, _braced
 
 from bracekit.errors import ScenarioError
+from bracekit.geometry.collision import solids_of
 from bracekit.geometry.obstacle_tables import with_obstacles
 from bracekit.geometry.obstacles import box_obstacle
+from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.clearance import Clearance
 from bracekit.objective import central_difference
 from bracekit.simulation.scenario import load_scenario
@@ -161,6 +164,13 @@ position = [-1.0, -1.0, 0.5]
     block = sc.braced.obstacles[0]
     assert block.radius == pytest.approx(float(np.linalg.norm(HALF)), abs=1e-9)  # the mm mesh scaled to m
     assert Clearance(sc.braced).minimum(sc.guess)[0] < np.inf
+    # a run's clearance note names what it measures against: the surface's solid and each obstacle by kind
+    assert solids_of(sc.braced) == (
+        "the body under the bracing disk (radius 0.15 m) or an obstacle (mesh 'block', box 'obstacle[2]', "
+        "cylinder 'obstacle[3]', sphere 'obstacle[4]')"
+    )
+    plane = dataclasses.replace(sc.braced.brace, region_radius=None, surface_radius=None)
+    assert solids_of(BracedRobot(sc.braced.robot, plane)) == "the half-space below the bracing plane"
 
 
 @pytest.mark.parametrize(
