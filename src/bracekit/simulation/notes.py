@@ -26,7 +26,7 @@ from bracekit.simulation.samples import Samples
 __all__ = ["run_notes"]
 
 #: The warnings a run gathers into one note each (with the count of evaluations that raised them).
-GATHERED = (UnloadedContactWarning, RedundantContactWarning)
+GATHERED = (UnloadedContactWarning, RedundantContactWarning, ClearanceWarning)
 
 
 def run_notes(
