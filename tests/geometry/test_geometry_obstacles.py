@@ -171,6 +171,8 @@ position = [-1.0, -1.0, 0.5]
     )
     plane = dataclasses.replace(sc.braced.brace, region_radius=None, surface_radius=None)
     assert solids_of(BracedRobot(sc.braced.robot, plane)) == "the half-space below the bracing plane"
+    two = load_scenario("two-braces").braced
+    assert solids_of(two) == "the bodies under the bracing disks (radii 0.15, 0.2 m)"
 
 
 @pytest.mark.parametrize(

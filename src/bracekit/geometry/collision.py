@@ -177,16 +177,22 @@ def solids_of(braced: BracedRobot) -> str:
     body below it) and the further obstacles by kind and name, e.g. "the body under the bracing disk (radius
     0.15 m) or an obstacle (box 'fixture')".
     """
+    radii = [b.obstacle_radius for b in braced.braces]
+    disks = sorted({r for r in radii if r is not None})
+    planes = len(radii) - sum(r is not None for r in radii)
     surfaces = []
-    for brace in braced.braces:
-        radius = brace.obstacle_radius
-        text = (
-            "the half-space below the bracing plane"
-            if radius is None
-            else f"the body under the bracing disk (radius {radius:.3g} m)"
+    if disks:
+        sizes = ", ".join(f"{r:.3g}" for r in disks)
+        one = len(radii) - planes == 1
+        surfaces.append(
+            f"the body under the bracing disk (radius {sizes} m)"
+            if one
+            else f"the bodies under the bracing disks (radii {sizes} m)"
         )
-        if text not in surfaces:
-            surfaces.append(text)
+    if planes:
+        surfaces.append(
+            "the half-space below the bracing plane" if planes == 1 else "the half-spaces below the bracing planes"
+        )
     out = " or ".join(surfaces)
     if braced.obstacles:
         named = ", ".join(f"{_KINDS.get(type(o.shape).__name__, 'solid')} '{o.name}'" for o in braced.obstacles)
