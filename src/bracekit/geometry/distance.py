@@ -241,9 +241,9 @@ class MeshClearance:
     def _sampled(self, piece: int, obstacle: int, place: Array) -> tuple[float, Array, Array]:
         """(Least signed distance, its point, the gradient there) over barycentric grids of a piece's triangles.
 
-        For the rare flat piece (a triangle, a thin patch) whose corners are all outside the surface's solid but
-        which crosses its rim, where coal's EPA fails (it needs volume), or a sliver where GJK's witness is not at
-        the distance it reports: the value to within a sixteenth of its triangles.
+        For the rare piece outside the surface's solid (one reaching into it is :meth:`_deepest`'s) where coal's
+        answer is not finite or, on a sliver, GJK's witness is not at the distance it reports: the value to
+        within a sixteenth of its triangles.
         """
         faces = self.pieces[piece].faces
         assert faces is not None
