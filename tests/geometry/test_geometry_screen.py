@@ -21,11 +21,23 @@ from bracekit.objective import central_difference
 from geometry_refs import deepest_in_solid, read_stl, solid_distance, xarm7
 
 
+def _below(world: np.ndarray, centre: np.ndarray, normal: np.ndarray) -> float:
+    """A lower bound of max(h, ρ − r_max) over the hull of the points `world` (k, 3): for any α ∈ [0, 1] and
+    horizontal unit ŵ, max(h, ρ − r_max) ≥ α h + (1 − α)(ŵᵀx − r_max), linear, so least at a point; ŵ toward
+    the points' mean, α on a grid of tenths."""
+    rel = world - centre
+    h = rel @ normal
+    flat = rel - np.outer(h, normal)
+    mean = flat.mean(axis=0)
+    w = mean / np.linalg.norm(mean) if np.linalg.norm(mean) > 0.0 else np.zeros(3)
+    side = flat @ w - POST
+    return max(float(np.min(a * h + (1.0 - a) * side)) for a in np.linspace(0.0, 1.0, 11))
+
+
 def _full(mesh: MeshClearance, q: np.ndarray) -> dict[int, float]:
     """Each link's least value over every pair, coal's for every pair but those reaching into the post.
 
-    A piece reaching in is solved (SLSQP) unless its depth cannot beat its link's least value: its hull's least
-    height over the plane (h is linear) and −r_max bound it below.
+    A piece reaching in is solved (SLSQP) unless its depth cannot beat its link's least value (:func:`_below`).
     """
     robot = mesh.braced.robot
     data = robot.model.createData()
@@ -44,14 +56,13 @@ def _full(mesh: MeshClearance, q: np.ndarray) -> dict[int, float]:
                 world = piece.points @ place[:3, :3].T + place[:3, 3]
                 corner = float(solid_distance(world, surface.point, surface.normal, POST).min())
                 if corner <= 0.0 or pair <= 0.0:
-                    low = max(float(((world - surface.point) @ surface.normal).min()), -POST)
-                    inside.append((low, joint, world))
+                    inside.append((_below(world, surface.point, surface.normal), joint, world))
                     pair = min(corner, 0.0)  # a point of the piece at least this deep
             value = min(value, pair)
         out[joint] = min(out.get(joint, math.inf), value)
     for low, joint, world in sorted(inside, key=lambda e: e[0]):
         if low < out[joint]:
-            out[joint] = min(out[joint], deepest_in_solid(world, surface.point, surface.normal, POST))
+            out[joint] = min(out[joint], deepest_in_solid(world, surface.point, surface.normal, POST, starts=2))
     return out
 
 
