@@ -1,10 +1,11 @@
-"""Tests of the deepest point of a polytope piece in the post's solid (bracekit.geometry._depth).
+"""Tests of the deepest point of a polytope piece in the post's solid (bracekit.geometry._depth) and in a further
+obstacle (bracekit.geometry.inside).
 
-References: the post's signed distance written out in geometry_refs, at a dense sampling of the piece (a grid of
-convex combinations of its corners, and of its faces) — every sample is a point of the piece, so the least
-value is never below the sampled least and is within the sampling pitch of it; SciPy's SLSQP on the epigraph of
-the same problem (geometry_refs.deepest_in_solid); central differences of the value under translations of the
-piece for its gradient.
+References: the post's and the obstacles' signed distances written out (geometry_refs, here) at a dense sampling
+of the piece (a grid of convex combinations of its corners): every sample is a point of the piece, so the least
+value is never above the sampled least and is within the sampling pitch below it; SciPy's SLSQP on the
+epigraph of the same problem (geometry_refs.deepest_in_solid); central differences of the value under
+translations of the piece for its gradient.
 """
 
 from __future__ import annotations
@@ -14,8 +15,11 @@ import itertools
 import numpy as np
 import pytest
 from scipy.optimize import linprog
+from scipy.spatial.transform import Rotation
 
 from bracekit.geometry._depth import deepest_in
+from bracekit.geometry.inside import deepest_inside
+from bracekit.geometry.obstacles import box_obstacle, cylinder_obstacle, mesh_obstacle, sphere_obstacle
 from geometry_refs import deepest_in_solid, solid_distance
 
 #: The post's radius (m), its top the plane z = 0 about the origin.
@@ -122,3 +126,64 @@ def test_the_gradient_is_the_value_s_change_under_a_translation() -> None:
         np.testing.assert_allclose(slope, fd, atol=1e-5)
         checked += abs(slope[2]) not in (0.0, 1.0)  # the kink: both the top and the side count
     assert checked >= 1
+
+
+def _pose(rng: np.random.Generator) -> np.ndarray:
+    pose = np.eye(4)
+    pose[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    pose[:3, 3] = rng.uniform(-0.5, 0.5, 3)
+    return pose
+
+
+def _signed(kind: str, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """The obstacles' signed distances written out (half edges 0.05, 0.04, 0.06; radius 0.05, length 0.12)."""
+    local = (np.atleast_2d(points) - pose[:3, 3]) @ pose[:3, :3]
+    if kind == "sphere":
+        return np.linalg.norm(local, axis=1) - 0.05
+    if kind == "cylinder":
+        d = np.column_stack([np.hypot(local[:, 0], local[:, 1]) - 0.05, np.abs(local[:, 2]) - 0.06])
+    else:  # the box, and the mesh of its corners
+        d = np.abs(local) - np.array([0.05, 0.04, 0.06])
+    return np.linalg.norm(np.maximum(d, 0.0), axis=1) + np.minimum(d.max(axis=1), 0.0)
+
+
+def _obstacle(kind: str, pose: np.ndarray):
+    half = np.array([0.05, 0.04, 0.06])
+    if kind == "box":
+        return box_obstacle("box", 2.0 * half, pose)
+    if kind == "mesh":
+        return mesh_obstacle(
+            "mesh", np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half, pose
+        )
+    if kind == "cylinder":
+        return cylinder_obstacle("cylinder", 0.05, 0.12, pose)
+    return sphere_obstacle("sphere", 0.05, pose)
+
+
+@pytest.mark.parametrize("kind", ["box", "mesh", "cylinder", "sphere"])
+def test_a_piece_inside_a_further_obstacle_against_a_dense_sampling(kind: str) -> None:
+    """Random tetrahedra about points near the obstacle's surface: the deepest point of each in the obstacle."""
+    rng = np.random.default_rng(["box", "mesh", "cylinder", "sphere"].index(kind))
+    pose = _pose(rng)
+    obstacle = _obstacle(kind, pose)
+    checked = 0
+    while checked < 8:
+        direction = rng.normal(size=3)
+        centre = pose[:3, :3] @ (0.055 * direction / np.linalg.norm(direction)) + pose[:3, 3]
+        v = centre + rng.normal(size=(4, 3)) * 0.015
+        samples = _signed(kind, _dense(v, 16), pose)
+        if samples.min() > -1e-3:
+            continue
+        checked += 1
+        found = deepest_inside(obstacle, v)
+        assert found is not None
+        value, point, slope = found
+        assert samples.min() - _pitch(v, 16) <= value <= samples.min() + 1e-9  # a point of the piece
+        assert _signed(kind, point, pose)[0] == pytest.approx(value, abs=1e-9) and _in_hull(v, point)
+        step = 1e-6
+        fd = [
+            (deepest_inside(obstacle, v + step * e)[0] - deepest_inside(obstacle, v - step * e)[0]) / (2 * step)
+            for e in np.eye(3)
+        ]
+        np.testing.assert_allclose(slope, fd, atol=1e-5)
+    assert deepest_inside(obstacle, pose[:3, 3] + np.array([[1.0, 0, 0], [1.1, 0, 0], [1.0, 0.1, 0]])) is None

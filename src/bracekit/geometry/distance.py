@@ -17,8 +17,9 @@ for :meth:`MeshClearance.minimum`). Coal's answer is checked (outside, its witne
 reports; a polytope it finds inside the surface's solid is given its deepest point instead of EPA's penetration
 depth); where GJK fails on a thin piece its triangles are sampled instead. Outside, the values are those of coal
 over every pair; inside the surface's solid, minus the depth of the deepest point (tests/geometry compares both).
-Inside a further obstacle (box, cylinder, sphere, mesh) and for a primitive piece inside the surface's solid the
-value is coal's EPA penetration depth, which is at least the deepest point's depth.
+A polytope coal finds inside a further obstacle (box, cylinder, sphere, mesh) gets its deepest point there too
+(:mod:`bracekit.geometry.inside`); a primitive piece inside a solid keeps coal's EPA penetration depth, which is
+at least the deepest point's depth.
 
 Gradient: coal gives the witness points p₁ (on the link) and p₂ (on the obstacle) and the unit normal ν from
 the link toward the obstacle; with n = −ν (from the obstacle to the link)
@@ -46,6 +47,7 @@ from numpy.typing import NDArray
 
 from bracekit.errors import InputError, NumericalError
 from bracekit.geometry.collision import CollisionElement
+from bracekit.geometry.inside import deepest_inside
 from bracekit.geometry.obstacles import Obstacle, surface_obstacle
 from bracekit.geometry.pieces import (
     PATCH,
@@ -211,6 +213,12 @@ class MeshClearance:
             # coal's answer checked: outside, its witness is `value` from the solid; EPA needs volume
             if not abs(value) < 1e6 or (value > 0.0 and abs(solid.signed_at(witness) - value) > 1e-6):
                 return self._sampled(piece, obstacle, place)
+        elif self.pieces[piece].points is not None and (not abs(value) < 1e6 or value <= 0.0):
+            points = self.pieces[piece].points
+            assert points is not None
+            found = deepest_inside(solid, points @ place[:3, :3].T + place[:3, 3])  # not EPA's depth
+            if found is not None:
+                return found
         if not abs(value) < 1e6:
             raise NumericalError(
                 f"coal's distance between a piece of link {self.pieces[piece].link!r} and "
