@@ -100,3 +100,47 @@ def surface_points(triangles: np.ndarray, step: float = 0.002) -> np.ndarray:
         weights = np.array([(i, j, n - i - j) for i in range(n + 1) for j in range(n + 1 - i)]) / n
         out.append(np.einsum("wc,tci->twi", weights, triangles[count == n]).reshape(-1, 3))
     return np.concatenate(out)
+
+
+def deepest_in_solid(
+    vertices: np.ndarray, centre: np.ndarray, normal: np.ndarray, r_max: float, starts: int = 3, seed: int = 0
+) -> float:
+    """The least signed distance from the post's solid over the convex hull of `vertices` (k, 3), where ≤ 0.
+
+    Minus the depth of the hull's deepest point: min over x = Σ λ_k v_k (λ on the simplex) of
+    max(h, ρ − r_max), as SciPy's SLSQP solves its epigraph (min t: h ≤ t, ρ² ≤ (r_max + t)², t ≥ −r_max) from
+    the deepest vertex and from random weights; the least of their points' and the vertices' signed distances.
+    """
+    from scipy.optimize import minimize
+
+    v = np.asarray(vertices, dtype=float).reshape(-1, 3)
+    k = len(v)
+    n = np.asarray(normal, dtype=float) / np.linalg.norm(normal)
+    rel = v - centre
+    heights = rel @ n
+    flat = rel - np.outer(heights, n)
+
+    def parts(lam: np.ndarray) -> tuple[float, np.ndarray]:
+        return float(lam @ heights), lam @ flat
+
+    corners = solid_distance(v, centre, n, r_max)
+    best = float(corners.min())
+    rng = np.random.default_rng(seed)
+    firsts = [np.eye(k)[int(np.argmin(corners))], *(rng.dirichlet(np.ones(k)) for _ in range(starts - 1))]
+    for lam0 in firsts:
+        h0, p0 = parts(lam0)
+        z0 = np.append(lam0, max(h0, float(np.linalg.norm(p0)) - r_max) + 1e-3)
+        constraints = [
+            {"type": "eq", "fun": lambda z: z[:k].sum() - 1.0},
+            {"type": "ineq", "fun": lambda z: z[k] - parts(z[:k])[0]},
+            {"type": "ineq", "fun": lambda z: (r_max + z[k]) ** 2 - float(np.sum(parts(z[:k])[1] ** 2))},
+            {"type": "ineq", "fun": lambda z: r_max + z[k]},
+        ]
+        res = minimize(
+            lambda z: z[k], z0, jac=lambda z: np.eye(k + 1)[k], constraints=constraints,
+            bounds=[(0.0, 1.0)] * k + [(None, None)], method="SLSQP", options={"ftol": 1e-14, "maxiter": 500},
+        )  # fmt: skip
+        lam = np.clip(res.x[:k], 0.0, None)
+        point = (lam / lam.sum()) @ v
+        best = min(best, float(solid_distance(point[None], centre, n, r_max)[0]))
+    return best

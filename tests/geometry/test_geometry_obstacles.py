@@ -9,6 +9,7 @@ minus both radii; central differences for the gradient.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import subprocess
 import sys
@@ -20,8 +21,10 @@ import pytest
 from test_geometry_distance import MESH_TOLERANCE, POST, Q0, _braced
 
 from bracekit.errors import ScenarioError
+from bracekit.geometry.collision import solids_of
 from bracekit.geometry.obstacle_tables import with_obstacles
 from bracekit.geometry.obstacles import box_obstacle
+from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.clearance import Clearance
 from bracekit.objective import central_difference
 from bracekit.simulation.scenario import load_scenario
@@ -60,7 +63,7 @@ def test_a_box_beside_the_xarm7_counts_as_its_stl_vertices_say() -> None:
     surface = braced.brace.surface
     data = boxed.robot.model.createData()
     rng = np.random.default_rng(21)
-    near_box = 0
+    near_box = inside = 0
     for q in [Q0, *(Q0 + rng.uniform(-0.2, 0.2, 7) for _ in range(5))]:
         found = {d.joint: d.clearance for d in clearance.links(q, gradient=False)}
         pin.framesForwardKinematics(boxed.robot.model, data, q)
@@ -77,14 +80,16 @@ def test_a_box_beside_the_xarm7_counts_as_its_stl_vertices_say() -> None:
                 values.append((float(post.min()), float(_box_distance(world, pose).min())))
             (post, box), (post_corner, box_corner) = values
             brute = min(post, box)
-            if brute < 0.0:  # in the box: coal's penetration depth (EPA) of a piece, at least its deepest point's
-                assert found[joint] <= brute + MESH_TOLERANCE, (link, q)
+            if brute < 0.0:  # in the box or the post: the deepest point of the link's pieces
+                inside += box < 0.0
+                assert found[joint] == pytest.approx(brute, abs=MESH_TOLERANCE), (link, q)
             elif brute < 0.1:
                 near_box += box < post
                 assert found[joint] == pytest.approx(brute, abs=MESH_TOLERANCE), (link, q)
                 if min(post_corner, box_corner) > 0.0:
                     assert found[joint] <= min(post_corner, box_corner) + 1e-8  # vertices are points of the mesh
     assert near_box >= 4  # the box is the nearer solid of a link outside it
+    assert inside >= 1
 
 
 def test_the_clearance_gradient_with_a_box_matches_central_differences() -> None:
@@ -161,6 +166,15 @@ position = [-1.0, -1.0, 0.5]
     block = sc.braced.obstacles[0]
     assert block.radius == pytest.approx(float(np.linalg.norm(HALF)), abs=1e-9)  # the mm mesh scaled to m
     assert Clearance(sc.braced).minimum(sc.guess)[0] < np.inf
+    # a run's clearance note names what it measures against: the surface's solid and each obstacle by kind
+    assert solids_of(sc.braced) == (
+        "the body under the bracing disk (radius 0.15 m) or an obstacle (mesh 'block', box 'obstacle[2]', "
+        "cylinder 'obstacle[3]', sphere 'obstacle[4]')"
+    )
+    plane = dataclasses.replace(sc.braced.brace, region_radius=None, surface_radius=None)
+    assert solids_of(BracedRobot(sc.braced.robot, plane)) == "the half-space below the bracing plane"
+    two = load_scenario("two-braces").braced
+    assert solids_of(two) == "the bodies under the bracing disks (radii 0.15, 0.2 m)"
 
 
 @pytest.mark.parametrize(

@@ -343,12 +343,12 @@ def test_runs_record_the_link_clearance_and_warn_when_a_link_passes_through_the_
     from bracekit.kinematics.clearance import link_clearance
 
     sc, start, task = setup
-    with pytest.warns(ClearanceWarning, match="through the bracing plane"):
+    with pytest.warns(ClearanceWarning, match=r"into the body under the bracing disk \(radius 0\.15 m\)"):
         tr = simulate(sc.braced, FreeSpaceMinNorm(), task, start.q, 0.1, sc.beta_x)
     recomputed = [link_clearance(sc.braced.state(q))[0] for q in tr.q]
     np.testing.assert_allclose(tr.measures["link_clearance"], recomputed)
     assert tr.summary()["min_link_clearance_m"] == pytest.approx(min(recomputed)) and min(recomputed) < 0
-    assert any("through the bracing plane" in w for w in tr.warnings)
+    assert any("m into the body under the bracing disk (radius 0.15 m)" in w for w in tr.warnings)
 
 
 @pytest.mark.parametrize("name", ["paper", "two-braces"])

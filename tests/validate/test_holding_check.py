@@ -14,9 +14,16 @@ import bracekit as bk
 from bracekit.errors import InputError
 from bracekit.simulation.holding import Holding
 from bracekit.statics import contact_response, load_contact_wrenches
+from bracekit.validate import holding_check
 from bracekit.validate.capacity_check import mujoco_capacity_ramp, static_capacity_scale
 from bracekit.validate.contacts import plane_contacts
-from bracekit.validate.holding_check import FAIL_ABOVE, HOLD_BELOW, HoldingCheck, mujoco_holding_check
+from bracekit.validate.holding_check import (
+    FAIL_ABOVE,
+    HOLD_BELOW,
+    HOLDING_SETTINGS,
+    HoldingCheck,
+    mujoco_holding_check,
+)
 from bracekit.validate.mjcf import brace_geom_names, build_mujoco_model
 from bracekit.validate.runner import run_capacity_validation, run_holding_validation, validation_configurations
 from bracekit.validate.statics import solve_static_equilibrium
@@ -121,6 +128,51 @@ def test_mujoco_slips_only_beyond_the_predicted_slip_margin(setup: dict, down: H
     assert max(c.braces[0].cone_ratio for c in below) < 1.0
     # at 0.8× the margin the first-order contact force is still within a few %
     assert max(c.rel_err for c in below) < 0.04
+
+
+def _cut_short(real, motions: list[float]):
+    """holding_check._settle with the loaded phase cut short (half a τ of ramp, no hold); its end motions."""
+
+    def short(sim, w, phase):  # the unloaded state as always
+        if not phase.startswith("loaded"):
+            return real(sim, w, phase)
+        steps = sim.settle_ramped(w, phase, ramp=0.5, min_hold=0.0, max_hold=0.0, tol=holding_check._SETTLE_TOL)
+        motions.append(sim.motion())
+        return steps, sim.motion() < holding_check._SETTLE_TOL
+
+    return short
+
+
+def test_a_case_still_creeping_below_the_band_is_not_counted_as_held(setup: dict, monkeypatch) -> None:
+    """A settling budget too short for the loaded state (half a τ of ramp, no hold): the braces creep on.
+
+    Reference: MuJoCo's own remaining motion max|q̇|·τ at the end of the loaded phase (above the tolerance), and
+    the same check with the full budget, where every case below the band settles and agrees.
+    """
+    real = holding_check._settle
+    motions: list[float] = []
+    monkeypatch.setattr(holding_check, "_settle", _cut_short(real, motions))
+    sc = setup["sc"]
+    chk = mujoco_holding_check(sc.braced, setup["q"], sc.holding, sc.holding.wrenches[0], fractions=(0.25, 0.5))
+    assert len(motions) == 2 and min(motions) > holding_check._SETTLE_TOL
+    for c in chk.cases:
+        assert c.outcome == "held" and c.braces[0].slip_displacement < HOLDING_SETTINGS["slip_tol_m"]
+        assert not c.settled and c.expected == "held" and c.agrees is False
+        assert c.rel_err is None and c.torque_rel_err is None  # a moving state is not an equilibrium
+    monkeypatch.setattr(holding_check, "_settle", real)
+    full = mujoco_holding_check(sc.braced, setup["q"], sc.holding, sc.holding.wrenches[0], fractions=(0.25, 0.5))
+    assert all(c.settled and c.agrees and c.rel_err is not None for c in full.cases)
+
+
+def test_the_report_counts_a_creeping_case_as_a_disagreement(setup: dict, monkeypatch) -> None:
+    monkeypatch.setattr(holding_check, "_settle", _cut_short(holding_check._settle, []))
+    report = run_holding_validation(setup["path"], [setup["q"]], fractions=(0.5,))
+    s = report.summary()
+    assert s["margin_cases"] == 2 and s["margin_agree"] == 0
+    assert [(d["expected"], d["mujoco"], d["settled"]) for d in s["margin_disagreements"]] == [
+        ("held", "held", False)
+    ] * 2
+    assert "2 case(s) below 0.8× still creeping" in report.table_text()
 
 
 def test_frictionless_brace_lifts_off_only_beyond_the_predicted_liftoff_margin(setup: dict) -> None:

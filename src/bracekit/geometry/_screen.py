@@ -9,9 +9,12 @@ Obstacle kinds: 0 the surface's solid with a radius (the disk of radius r_max ab
 
 For a piece with bounding sphere (centre p, radius r): its distance from the surface's solid is at least
 s(p) − r and at most s(p) + r (s the solid's signed distance, 1-Lipschitz; a point of the piece lies within r
-of p), and at least |p − o| − R − r from another obstacle's sphere (o, R). A polytope with an extreme point
-inside the surface's solid, or with all of them over the disk (or any polytope and the half-space), is settled
-exactly: its value is its extreme points' least signed distance. A polytope beside the disk (every extreme point
+of p), and at least |p − o| − R − r from another obstacle's sphere (o, R). A polytope with all its extreme points
+over the disk and above it (or any polytope and the half-space) is settled exactly: its value is its extreme
+points' least height (h is linear). A polytope reaching into the disk's solid (an extreme point inside, or a point
+the steps below find inside) is settled at its deepest point (:func:`bracekit.geometry._depth.deepest`: the least
+of max(h, ρ − r_max) over its hull, which may lie between its extreme points), unless its least height or −r_max
+already bounds it below what the link holds. A polytope beside the disk (every extreme point
 outside the solid, some not over the disk) starts from its nearest extreme point: Frank–Wolfe steps on the convex
 distance D = |(max(ρ − r_max, 0), max(h, 0))| over its hull move to a nearer point x, and the separating axis
 u = ∇D(x) bounds the piece below (the solid reaches r_max |u_xy| along u; the piece is at least
@@ -22,29 +25,15 @@ is settled there; else it is left to coal with the bound raised to its least hei
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-try:
-    from numba import njit
+from bracekit.geometry._compiled import COMPILED, F64, I64
+from bracekit.geometry._compiled import inline as _inline
+from bracekit.geometry._compiled import jit as _jit
+from bracekit.geometry._depth import deepest, deepest_in, workspace
 
-    #: Whether the broad phase runs compiled (numba, the ``[fast]`` extra) or as plain Python (same loops, slower).
-    COMPILED = True
-except ImportError:  # pragma: no cover - numba is in the test extras
-    COMPILED = False
-
-    def njit(**_: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:  # type: ignore[no-redef]
-        """Without numba: the loops run as Python (the geometry's description says so)."""
-        return lambda f: f
-
-F64 = NDArray[np.float64]
-I64 = NDArray[np.int64]
-
-_jit = njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
-_inline = njit(cache=True, fastmath=False, error_model="numpy", nogil=True, inline="always")
+__all__ = ["COMPILED", "DISK", "HALFSPACE", "SPHERE", "deepest_in", "screen"]
 
 #: obstacle kinds
 DISK, HALFSPACE, SPHERE = 0, 1, 2
@@ -171,6 +160,29 @@ def _keep(
 
 
 @_inline
+def _found(
+    best: F64,
+    piece: I64,
+    obstacle: I64,
+    point: F64,
+    s: int,
+    value: float,
+    p: int,
+    o: int,
+    x: float,
+    y: float,
+    h: float,
+    origins: F64,
+    axes: F64,
+) -> None:  # pragma: no cover - compiled
+    """Record `value` of piece p and obstacle o at the point (x, y, h) of o's plane coordinates as link s's best."""
+    best[s] = value
+    piece[s], obstacle[s] = p, o
+    for i in range(3):
+        point[s, i] = origins[o, i] + axes[o, i, 0] * x + axes[o, i, 1] * y + axes[o, i, 2] * h
+
+
+@_inline
 def _sphere(
     place: F64,
     j: int,
@@ -270,6 +282,9 @@ def screen(
     for p in range(npieces):
         widest = max(widest, offsets[p + 1] - offsets[p])
     local = np.empty((widest, 3))  # one piece's points in plane coordinates
+    work, hull = workspace(widest)
+    deep = np.zeros(nlinks, dtype=np.bool_)  # each link's best from :func:`deepest`, with its slope (plane axes)
+    slope = np.zeros((nlinks, 3))
     first = np.empty(ngroups)
     for g in range(ngroups):
         first[g] = math.inf
@@ -315,27 +330,45 @@ def screen(
                     if value < least:
                         least, at = value, k
                     low = min(low, h)
-                if least <= 0.0 or over:  # settled: its extreme points' least signed distance
+                if kinds[o] == HALFSPACE or (over and least > 0.0):  # settled: the least height (linear)
                     if least < best[s]:
                         _keep(best, best_piece, best_obstacle, best_point, s, least, p, o, m, points[at])
+                        deep[s] = False
                     continue
-                # beside the disk: Frank–Wolfe from the nearest extreme point, its gap closed by a separating axis
-                value, x, y, h, axis = _nearest(local, hi - lo, at - lo, r_max[o], min(cap[s], best[s]))
-                bound = max(lower, low, axis)
-                cap[s] = min(cap[s], value)  # a point of the piece: its distance is at most this
-                if bound >= value - SETTLED:  # the nearest point found: settled
-                    if value < best[s]:
-                        best[s] = value
-                        best_piece[s], best_obstacle[s] = p, o
-                        for i in range(3):
-                            best_point[s, i] = origins[o, i] + axes[o, i, 0] * x + axes[o, i, 1] * y + axes[o, i, 2] * h
+                if least > 0.0:  # beside the disk: Frank–Wolfe from the nearest extreme point, closed by an axis
+                    value, x, y, h, axis = _nearest(local, hi - lo, at - lo, r_max[o], min(cap[s], best[s]))
+                    bound = max(lower, low, axis)
+                    cap[s] = min(cap[s], value)  # a point of the piece: its distance is at most this
+                    if bound >= value - SETTLED:  # the nearest point found: settled
+                        if value < best[s]:
+                            _found(best, best_piece, best_obstacle, best_point, s, value, p, o, x, y, h, origins, axes)
+                            deep[s] = False
+                        continue
+                    if value > 0.0:  # left to coal
+                        if bound < min(cap[s], best[s]):
+                            pairs[count, 0], pairs[count, 1] = p, o
+                            bounds[count] = bound
+                            count += 1
+                        continue
+                    least = value  # a point of the piece inside the solid
+                if max(low, -r_max[o]) >= min(cap[s], best[s]):  # f ≥ h and ≥ −r_max: no deeper than held
                     continue
-                if bound < min(cap[s], best[s]):
-                    pairs[count, 0], pairs[count, 1] = p, o
-                    bounds[count] = bound
-                    count += 1
+                # into the solid: its deepest point
+                found = deepest(local, hi - lo, r_max[o], least, min(cap[s], best[s]), work, hull)
+                if found[0]:
+                    cap[s] = min(cap[s], found[1])
+                    x, y, h = found[2], found[3], found[4]
+                    _found(best, best_piece, best_obstacle, best_point, s, found[1], p, o, x, y, h, origins, axes)
+                    deep[s] = True
+                    slope[s, 0], slope[s, 1], slope[s, 2] = found[5], found[6], found[7]
     best_normal = np.zeros((nlinks, 3))
     for s in range(nlinks):
-        if best_obstacle[s] >= 0:
-            _outward(best_point[s], best_obstacle[s], kinds, origins, axes, r_max, best_normal[s])
+        o = best_obstacle[s]
+        if o >= 0 and deep[s]:  # ∂f*/∂(motion of the deepest point), from plane coordinates
+            for i in range(3):
+                best_normal[s, i] = (
+                    axes[o, i, 0] * slope[s, 0] + axes[o, i, 1] * slope[s, 1] + axes[o, i, 2] * slope[s, 2]
+                )
+        elif o >= 0:
+            _outward(best_point[s], o, kinds, origins, axes, r_max, best_normal[s])
     return best, best_piece, best_obstacle, best_point, pairs[:count], bounds[:count], best_normal

@@ -18,12 +18,16 @@ import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
 from bracekit.errors import InputError, ModelError
+
+if TYPE_CHECKING:
+    from bracekit.kinematics.braced import BracedRobot
 
 Array = NDArray[np.float64]
 
@@ -160,3 +164,37 @@ def geometry_description(elements: Sequence[CollisionElement], capsules: int) ->
 def broad_phase() -> str:
     """How the mesh clearance's broad phase runs: "compiled" (numba, the ``[fast]`` extra) or as plain Python."""
     return "compiled" if importlib.util.find_spec("numba") is not None else "Python (numba not installed)"
+
+
+#: Coal's shape classes as a scenario's ``[[obstacle]]`` tables name them.
+_KINDS = {"Box": "box", "Cylinder": "cylinder", "Sphere": "sphere", "Convex": "mesh"}
+
+
+def solids_of(braced: BracedRobot) -> str:
+    """What the link clearance of `braced` is measured against, in words for a run's notes.
+
+    Each brace's surface solid (the half-space below its plane, or the disk of its ``obstacle_radius`` and the
+    body below it) and the further obstacles by kind and name, e.g. "the body under the bracing disk (radius
+    0.15 m) or an obstacle (box 'fixture')".
+    """
+    radii = [b.obstacle_radius for b in braced.braces]
+    disks = sorted({r for r in radii if r is not None})
+    planes = len(radii) - sum(r is not None for r in radii)
+    surfaces = []
+    if disks:
+        sizes = ", ".join(f"{r:.3g}" for r in disks)
+        one = len(radii) - planes == 1
+        surfaces.append(
+            f"the body under the bracing disk (radius {sizes} m)"
+            if one
+            else f"the bodies under the bracing disks (radii {sizes} m)"
+        )
+    if planes:
+        surfaces.append(
+            "the half-space below the bracing plane" if planes == 1 else "the half-spaces below the bracing planes"
+        )
+    out = " or ".join(surfaces)
+    if braced.obstacles:
+        named = ", ".join(f"{_KINDS.get(type(o.shape).__name__, 'solid')} '{o.name}'" for o in braced.obstacles)
+        out += f" or an obstacle ({named})"
+    return out

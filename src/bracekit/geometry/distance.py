@@ -8,19 +8,26 @@ with the surface within ``Brace.pad_radius`` of its pad left out (the pad touche
 Broad phase (:mod:`bracekit.geometry._screen`, compiled, all pieces at once): each piece's bounding sphere gives
 a lower and, for the surface's solid, an upper bound of its distance; a pair whose lower bound is not below the
 least upper bound (or the least value found, or the asked `below`) is never computed. A polytope piece over the
-surface's disk (its extreme points all over it; any piece for the half-space) is its extreme points' least height
-away (h is linear), one with an extreme point inside the solid gets the deepest one's signed distance, and one
-beside the disk whose nearest extreme point lies on a separating axis is that point's distance: these are exact
-without coal. Coal runs on the pairs left, in the order of their bounds, only while the bound is below the least
-value found (of their link, or of all links for :meth:`MeshClearance.minimum`). Coal's answer is checked
-(outside, its witness must be at the distance it reports); where GJK or EPA fail on a thin piece its triangles
-are sampled instead. The values are those of coal over every pair (tests/geometry compares them).
+surface's disk and above it (any piece for the half-space) is its extreme points' least height away (h is
+linear), one reaching into the solid gets the signed distance of its deepest point (:mod:`bracekit.geometry._depth`,
+the least over its hull, not only its extreme points), and one beside the disk whose nearest point a few
+Frank–Wolfe steps reach is that point's distance: these are exact without coal. Coal runs on the pairs left, in
+the order of their bounds, only while the bound is below the least value found (of their link, or of all links
+for :meth:`MeshClearance.minimum`). Coal's answer is checked (outside, its witness must be at the distance it
+reports; a polytope it finds inside the surface's solid is given its deepest point instead of EPA's penetration
+depth); where GJK fails on a thin piece its triangles are sampled instead. Outside, the values are those of coal
+over every pair; inside the surface's solid, minus the depth of the deepest point (tests/geometry compares both).
+A polytope coal finds inside a further obstacle (box, cylinder, sphere, mesh) gets its deepest point there too
+(:mod:`bracekit.geometry.inside`); a primitive piece inside a solid keeps coal's EPA penetration depth, which is
+at least the deepest point's depth.
 
 Gradient: coal gives the witness points p₁ (on the link) and p₂ (on the obstacle) and the unit normal ν from
 the link toward the obstacle; with n = −ν (from the obstacle to the link)
 ∂d/∂q = nᵀ (J_p(p₁) − J_p(p₂)) = nᵀ J_p(p₁) (the obstacle is fixed), J_p(p₁) = J_v − [p₁ − o]× J_ω the linear
 rows of the link joint's LOCAL_WORLD_ALIGNED Jacobian moved to p₁ (the witness is held fixed on the link: its
-own motion along the surface does not change d to first order).
+own motion along the surface does not change d to first order). For a piece settled at its deepest point the
+row is gᵀ J_p(x*) with g from :mod:`bracekit.geometry._depth` (the height's and the side's directions weighted by
+their multipliers where both count).
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ from numpy.typing import NDArray
 
 from bracekit.errors import InputError, NumericalError
 from bracekit.geometry.collision import CollisionElement
+from bracekit.geometry.inside import deepest_inside
 from bracekit.geometry.obstacles import Obstacle, surface_obstacle
 from bracekit.geometry.pieces import (
     PATCH,
@@ -198,9 +206,19 @@ class MeshClearance:
         witness = np.array(result.getNearestPoint1())
         solid = self.obstacles[obstacle]
         if solid.plane is not None and self.pieces[piece].faces is not None:
+            if not abs(value) < 1e6 or value <= 0.0:  # into the solid: its deepest point (coal's is EPA's depth)
+                inside = self._deepest(piece, obstacle, place)
+                if inside[0] <= 0.0:
+                    return inside
             # coal's answer checked: outside, its witness is `value` from the solid; EPA needs volume
             if not abs(value) < 1e6 or (value > 0.0 and abs(solid.signed_at(witness) - value) > 1e-6):
                 return self._sampled(piece, obstacle, place)
+        elif self.pieces[piece].points is not None and (not abs(value) < 1e6 or value <= 0.0):
+            points = self.pieces[piece].points
+            assert points is not None
+            found = deepest_inside(solid, points @ place[:3, :3].T + place[:3, 3])  # not EPA's depth
+            if found is not None:
+                return found
         if not abs(value) < 1e6:
             raise NumericalError(
                 f"coal's distance between a piece of link {self.pieces[piece].link!r} and "
@@ -208,12 +226,32 @@ class MeshClearance:
             )
         return float(value), witness, -np.array(result.normal)
 
+    def _deepest(self, piece: int, obstacle: int, place: Array) -> tuple[float, Array, Array]:
+        """(Least signed distance, its point, ∂/∂(its motion)) over a polytope piece's hull, from the surface's solid.
+
+        Where that is ≤ 0: minus the depth of the piece's deepest point (:mod:`bracekit.geometry._depth`, the
+        half-space's at an extreme point); > 0 (the piece is outside after all) is not its distance.
+        """
+        c, n, r_max = self.obstacles[obstacle].plane or (np.zeros(3), np.zeros(3), None)
+        points = self.pieces[piece].points
+        assert points is not None
+        world = points @ place[:3, :3].T + place[:3, 3]
+        if r_max is None:
+            heights = (world - c) @ n
+            k = int(np.argmin(heights))
+            return float(heights[k]), world[k], np.asarray(n, dtype=float)
+        axes = self.obstacles[obstacle].placement[:3, :3]
+        local = (world - c) @ axes
+        upper = float(self.obstacles[obstacle].signed(world)[0].min())
+        value, point, slope = _kernel().deepest_in(local, r_max, upper)
+        return value, c + axes @ point, axes @ slope
+
     def _sampled(self, piece: int, obstacle: int, place: Array) -> tuple[float, Array, Array]:
         """(Least signed distance, its point, the gradient there) over barycentric grids of a piece's triangles.
 
-        For the rare flat piece (a triangle, a thin patch) whose corners are all outside the surface's solid but
-        which crosses its rim, where coal's EPA fails (it needs volume), or a sliver where GJK's witness is not at
-        the distance it reports: the value to within a sixteenth of its triangles.
+        For the rare piece outside the surface's solid (one reaching into it is :meth:`_deepest`'s) where coal's
+        answer is not finite or, on a sliver, GJK's witness is not at the distance it reports: the value to
+        within a sixteenth of its triangles.
         """
         faces = self.pieces[piece].faces
         assert faces is not None
@@ -417,4 +455,3 @@ def _point_row(u: Array, arm: Array, jac: Array) -> Array:
 def _kernel() -> ModuleType:
     """The broad phase (:mod:`bracekit.geometry._screen`), imported on first use: numba is an optional extra."""
     return importlib.import_module("bracekit.geometry._screen")
-

@@ -15,6 +15,7 @@ from bracekit.errors import (
     RegionWarning,
     UnloadedContactWarning,
 )
+from bracekit.geometry.collision import solids_of
 from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.clearance import geometry_of
 from bracekit.resolution.strategies import BracedGradientProjection, Strategy
@@ -25,7 +26,7 @@ from bracekit.simulation.samples import Samples
 __all__ = ["run_notes"]
 
 #: The warnings a run gathers into one note each (with the count of evaluations that raised them).
-GATHERED = (UnloadedContactWarning, RedundantContactWarning)
+GATHERED = (UnloadedContactWarning, RedundantContactWarning, ClearanceWarning)
 
 
 def run_notes(
@@ -78,7 +79,7 @@ def run_notes(
     clearance = m["link_clearance"]
     if float(np.min(clearance)) < 0:
         note(
-            f"a link passes {-float(np.min(clearance)):.3g} m through the bracing plane into the obstacle (at "
+            f"a link reaches {-float(np.min(clearance)):.3g} m into {solids_of(braced)} (at "
             f"{int(np.sum(clearance < 0))} of {clearance.size} samples; the link geometry: {geometry_of(braced)})",
             ClearanceWarning,
         )
