@@ -29,9 +29,9 @@ import math
 
 import numpy as np
 
-from bracekit.geometry._compiled import F64, I64
-from bracekit.geometry._compiled import inline as _inline
-from bracekit.geometry._compiled import jit as _jit
+from bracekit._compiled import F64, I64
+from bracekit._compiled import inline as _inline
+from bracekit._compiled import jit as _jit
 
 __all__ = ["DEPTH_TOLERANCE", "deepest", "deepest_in", "workspace"]
 

@@ -28,9 +28,9 @@ import math
 
 import numpy as np
 
-from bracekit.geometry._compiled import COMPILED, F64, I64
-from bracekit.geometry._compiled import inline as _inline
-from bracekit.geometry._compiled import jit as _jit
+from bracekit._compiled import COMPILED, F64, I64
+from bracekit._compiled import inline as _inline
+from bracekit._compiled import jit as _jit
 from bracekit.geometry._depth import deepest, deepest_in, workspace
 
 __all__ = ["COMPILED", "DISK", "HALFSPACE", "SPHERE", "deepest_in", "screen"]
