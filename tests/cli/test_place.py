@@ -64,6 +64,10 @@ def state():
         "preloaded": "bracekit.studies.place.inner" in sys.modules,
     }
 
+def openmp():  # OpenMP's thread counts seen by a task's thread (per thread: not what the event loop sees)
+    from threadpoolctl import threadpool_info
+    return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "openmp"]
+
 from bracekit.cli.place import _forked_workers
 from bracekit.studies.place.workers import WorkerThreads
 from bracekit.studies.sweep.engine import dask_client
@@ -71,9 +75,11 @@ from bracekit.studies.sweep.engine import dask_client
 with _forked_workers(), dask_client(1) as client:
     client.register_plugin(WorkerThreads())
     before = list(client.run(state).values())
+    tasks = [client.submit(openmp, pure=False).result()]
     client.restart()
     after = list(client.run(state).values())
-print(json.dumps({"before": before, "after": after, "pid": os.getpid()}))
+    tasks.append(client.submit(openmp, pure=False).result())
+print(json.dumps({"before": before, "after": after, "pid": os.getpid(), "tasks": tasks}))
 """
 
 
@@ -98,6 +104,8 @@ def test_forked_workers_take_their_threads_from_their_environment() -> None:
         assert state["blas"] in (None, int(WORKER_ENV["OPENBLAS_NUM_THREADS"]))
         assert state["preloaded"] is True
         assert state["parent"] == got["pid"]  # forked by this process's nanny, not spawned through another
+    for found in got["tasks"]:  # OpenMP's count is per thread: a task's own thread is limited too
+        assert all(n == int(WORKER_ENV["OMP_NUM_THREADS"]) for n in found)
 
 
 def test_numba_threads_started_is_seen() -> None:

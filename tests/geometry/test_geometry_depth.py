@@ -113,6 +113,17 @@ def test_a_piece_wholly_inside_is_deepest_at_the_axis_not_at_a_corner() -> None:
     assert _in_hull(v, point)
 
 
+def test_a_piece_crossing_the_axis_deeper_than_the_radius_is_flat() -> None:
+    """Below the top by more than r_max on the axis, f = max(h, ρ − r_max) is −r_max: no motion changes f*."""
+    v = np.array([[x, y, z] for x in (-0.02, 0.03) for y in (-0.01, 0.02) for z in (-R - 0.2, -R - 0.05)])
+    value, _, slope = deepest_in(v, R, float(_f(v).min()))
+    assert value == pytest.approx(-R, abs=1e-12)
+    step = 1e-6
+    fd = [(deepest_in(v + step * a, R, 0.0)[0] - deepest_in(v - step * a, R, 0.0)[0]) / (2 * step) for a in np.eye(3)]
+    np.testing.assert_allclose(fd, 0.0, atol=1e-9)
+    np.testing.assert_allclose(slope, fd, atol=1e-9)
+
+
 def test_the_gradient_is_the_value_s_change_under_a_translation() -> None:
     rng = np.random.default_rng(5)
     checked = 0

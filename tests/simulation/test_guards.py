@@ -152,3 +152,38 @@ def test_where_the_stacks_cannot_be_formed_the_guard_takes_each_sample_alone(mon
     for key, series in stacked.measures.items():
         if key.startswith("sigma_ratio_"):
             assert np.array_equal(alone.measures[key], series), key
+
+
+def test_an_error_after_a_singular_sample_not_yet_guarded_reports_the_singularity(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A step that raises something else than bracekit's errors inside a batch: the earlier singular sample wins."""
+    from bracekit.simulation.correction import Correction
+
+    loop = importlib.import_module("bracekit.simulation.loop")
+    sc, run = _paper_run(1.0)
+    whole = run()
+    keys = sc.braced.state(whole.q[0]).motions.inverted(True)
+    lowest = np.min([whole.measures[f"sigma_ratio_{key}"] for key in keys], axis=0)
+    ks = [k for k in range(WATCH_BATCH + 2, whole.steps - 1) if lowest[k] < lowest[:k].min() and (k + 1) % WATCH_BATCH]
+    assert ks, "the run's ratios never fall past the first batch"
+    k = ks[0]
+
+    class Failing(Correction):
+        calls = 0
+
+        def __call__(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+            Failing.calls += 1
+            if Failing.calls == k + 1:  # the step after the singular sample k, in the same batch
+                raise FloatingPointError("not a bracekit error")
+            return super().__call__(*args, **kwargs)
+
+    monkeypatch.setattr(loop, "Correction", Failing)
+    with pytest.raises(FloatingPointError):  # no singular sample before it: the error is not hidden
+        run()
+    Failing.calls = 0
+    monkeypatch.setattr(GUARDS, "PATH_SINGULAR_RATIO", 0.5 * (lowest[k] + lowest[:k].min()))
+    cut = run()
+    assert not cut.completed and cut.failure is not None
+    assert cut.failure.startswith(f"step {k} (t = {k * whole.t[1]:.3f} s)") and "singular on the path" in cut.failure
+    assert np.array_equal(cut.q, whole.q[:k])

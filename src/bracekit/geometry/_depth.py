@@ -206,8 +206,8 @@ def deepest(
         if lo > h_min:  # lo = −r_max: the axis itself
             rho_lo, x_lo, y_lo, h_lo = _phi(local, count, lo, work, hull)
             f_lo = rho_lo - r_max - lo
-            if f_lo <= 0.0:
-                return True, max(h_lo, rho_lo - r_max), x_lo, y_lo, h_lo, 0.0, 0.0, 1.0
+            if f_lo <= 0.0:  # the axis crosses P below the top by r_max or more: f* = −r_max, flat under any motion
+                return True, max(h_lo, rho_lo - r_max), x_lo, y_lo, h_lo, 0.0, 0.0, 0.0
         side = 0
         for step in range(200):
             if hi - lo <= DEPTH_TOLERANCE:
@@ -233,8 +233,8 @@ def deepest(
     value = max(h, rho - r_max)  # (f_hi ≥ 0: hi = h_max, the point of P nearest the axis is below the side)
     if value >= stop:
         return False, value, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
-    if rho <= 0.0:  # on the axis (f* = −r_max): no horizontal direction
-        return True, value, x, y, h, 0.0, 0.0, 1.0
+    if rho <= 0.0:  # on the axis: no horizontal direction; below −r_max the value is −r_max, flat
+        return True, value, x, y, h, 0.0, 0.0, 1.0 if h >= -r_max else 0.0
     wx, wy = x / rho, y / rho
     alpha = 0.0 if h < rho - r_max - 1e-12 else _multiplier(local, count, r_max, wx, wy)
     return True, value, x, y, h, (1.0 - alpha) * wx, (1.0 - alpha) * wy, alpha

@@ -55,11 +55,15 @@ def _signed(x: float, y: float, h: float, r_max: float) -> float:  # pragma: no 
     return math.sqrt(a * a + b * b)
 
 
+#: Within this (m) of −r_max a point's signed distance from the disk's solid is at its floor (on the axis, deep).
+FLOOR = 1e-12
+
+
 @_jit
 def _outward(  # pragma: no cover - compiled
     point: F64, o: int, kinds: I64, origins: F64, axes: F64, r_max: F64, out: F64
 ) -> None:
-    """∇ of the surface solid o's signed distance (unit, world) at a point (3,) into out (3,)."""
+    """∇ of the surface solid o's signed distance (unit, world; 0 on its floor −r_max) at a point (3,) into out (3,)."""
     if kinds[o] == HALFSPACE:
         for i in range(3):
             out[i] = axes[o, i, 2]
@@ -71,7 +75,9 @@ def _outward(  # pragma: no cover - compiled
     rho = math.sqrt(x * x + y * y)
     rx, ry = (x / rho, y / rho) if rho > 0.0 else (0.0, 0.0)
     side = rho - r_max[o]
-    if h <= 0.0 and side <= 0.0:
+    if max(h, side) <= FLOOR - r_max[o]:  # on the axis at least r_max under the top: f = −r_max, flat
+        gx, gy, gz = 0.0, 0.0, 0.0
+    elif h <= 0.0 and side <= 0.0:
         gx, gy, gz = (0.0, 0.0, 1.0) if h >= side else (rx, ry, 0.0)
     else:
         a, b = max(side, 0.0), max(h, 0.0)

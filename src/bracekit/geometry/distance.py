@@ -211,7 +211,8 @@ class MeshClearance:
                 if inside[0] <= 0.0:
                     return inside
             # coal's answer checked: outside, its witness is `value` from the solid; EPA needs volume
-            if not abs(value) < 1e6 or (value > 0.0 and abs(solid.signed_at(witness) - value) > 1e-6):
+            # (value ≤ 0 with the hull found outside: coal's penetration is not the distance either)
+            if not abs(value) < 1e6 or value <= 0.0 or abs(solid.signed_at(witness) - value) > 1e-6:
                 return self._sampled(piece, obstacle, place)
         elif self.pieces[piece].points is not None and (not abs(value) < 1e6 or value <= 0.0):
             points = self.pieces[piece].points

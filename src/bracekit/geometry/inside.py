@@ -18,6 +18,7 @@ which is at least that). In the obstacle's frame:
 
 from __future__ import annotations
 
+import importlib
 import weakref
 from typing import Any
 
@@ -28,7 +29,6 @@ from scipy.optimize import linprog
 from scipy.spatial import ConvexHull
 
 from bracekit.errors import NumericalError
-from bracekit.geometry._depth import deepest_in
 from bracekit.geometry.obstacles import Obstacle
 
 __all__ = ["deepest_inside"]
@@ -130,7 +130,7 @@ def _cylinder(local: Array, radius: float, half: float) -> Deepest | None:
         plane = part - np.array([0.0, 0.0, half])
         at = np.hypot(plane[:, 0], plane[:, 1]) - radius
         upper = float(np.min(np.maximum(plane[:, 2], at)))
-        value, point, slope = deepest_in(plane, radius, upper)
+        value, point, slope = importlib.import_module("bracekit.geometry._depth").deepest_in(plane, radius, upper)
         if best is None or value < best[0]:
             flip = np.array([1.0, 1.0, sign])
             best = value, (point + np.array([0.0, 0.0, half])) * flip, slope * flip

@@ -290,7 +290,7 @@ def simulate(
             try:
                 found = stacked_sigma_ratios([p[0] for p in pending], space, recorded)
                 bad: tuple[int, BracekitError] | None = first_singular(found, checked)
-            except BracekitError:  # a matrix that cannot be formed: sample by sample, as a check after each step
+            except (BracekitError, np.linalg.LinAlgError):  # a matrix not formed or decomposed: sample by sample
                 found, bad = one_by_one()
             kept = len(pending) if bad is None else bad[0]
             for (state, jump, _, _), row in zip(pending[:kept], found[:kept], strict=True):
@@ -320,6 +320,11 @@ def simulate(
                     raise jump_failure(braced, space, checked, before, st.q, bound, dt, start, gain)
             except BracekitError as exc:
                 failure = settle() or f"step {i + 1} (t = {t_next:.3f} s): {exc}"
+                break
+            except Exception:  # from a step after a sample not yet guarded: that sample's singularity first
+                failure = settle()
+                if failure is None:
+                    raise
                 break
             pending.append((st, float(step.max()), len(caught), dict(counts)))
             if len(pending) == WATCH_BATCH:

@@ -31,12 +31,23 @@ class WorkerThreads(WorkerPlugin):
     name = "bracekit-worker-threads"
 
     def setup(self, worker: Any) -> None:
-        """Re-read numba's settings (before its threads start); limit BLAS and OpenMP to ``OMP_NUM_THREADS``."""
+        """Re-read numba's settings (before its threads start); limit BLAS and OpenMP to ``OMP_NUM_THREADS``.
+
+        Dask calls this on the worker's event-loop thread. BLAS pools are process-wide, but OpenMP's thread count
+        belongs to the calling thread: it is also set on each executor's task thread (one a worker here).
+        """
         numba = sys.modules.get("numba")
         if numba is not None and not numba_threads_started():
             numba.core.config.reload_config()
         threads = os.environ.get("OMP_NUM_THREADS", "")
         if threads.isdigit():
-            from threadpoolctl import threadpool_limits
+            limit_threads(int(threads))
+            for executor in getattr(worker, "executors", {}).values():
+                executor.submit(limit_threads, int(threads))  # queued before any task: the thread runs it first
 
-            threadpool_limits(int(threads))
+
+def limit_threads(threads: int) -> None:
+    """BLAS (process-wide) and OpenMP (this thread's) pools limited to `threads` (threadpoolctl)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(threads)
