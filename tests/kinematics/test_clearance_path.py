@@ -61,6 +61,7 @@ def test_the_path_search_of_two_braces_and_of_the_paper_robot_is_that_of_each_co
         assert (values < 0.0).any() and (values > 0.0).any()
 
 
+@pytest.mark.slow  # the two-brace robot's 11 000 link pieces against a box: about 15 s
 def test_capsules_with_a_further_obstacle_take_the_least_of_the_surface_and_the_obstacle() -> None:
     braced = _chain(0.3, (0.0, 0.0))
     pose = np.eye(4)
