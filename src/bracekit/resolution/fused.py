@@ -260,8 +260,10 @@ class GradientProjectionStep:
                 return out
         obj = self._with_beta(beta_x)
         try:
-            qdot = self._step(qa, xd, obj)
-            return qdot if math.isfinite(qdot.sum()) else finite_rates(qdot)
+            with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by finite_rates, by name
+                qdot = self._step(qa, xd, obj)
+                finite = math.isfinite(qdot.sum())
+            return qdot if finite else finite_rates(qdot)
         except NotCertified:
             strategy = replace(self.strategy, objective=_objective(obj))
             return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
