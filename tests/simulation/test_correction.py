@@ -86,8 +86,14 @@ def test_one_correction_of_a_run_gives_the_state_of_braced_state_at_its_q_and_cl
         assert np.array_equal(again.q, out.q)
 
 
-def test_min_norm_solve_is_numpy_lstsq_to_the_last_bit() -> None:
-    """Reference: ``np.linalg.lstsq(m, r, rcond=None)[0]`` (full rank, rank deficient, zero)."""
+@pytest.mark.parametrize("private", [True, False])
+def test_min_norm_solve_is_numpy_lstsq_to_the_last_bit(private: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Reference: ``np.linalg.lstsq(m, r, rcond=None)[0]`` (full rank, rank deficient, zero), through NumPy's
+    internal call where this NumPy has it and through the public one where it does not."""
+    import bracekit.simulation.correction as module
+
+    if not private:
+        monkeypatch.setattr(module, "_gelsd", None)
     rng = np.random.default_rng(2)
     for k in (1, 3, 7, 12):
         for cols in (k + 3, k - 1 if k > 1 else 1):

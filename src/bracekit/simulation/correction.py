@@ -123,11 +123,27 @@ def _contact_jacobians(xs: Sequence[Array], moments: Sequence[bool], contacts: C
     return out
 
 
-# the LAPACK call (gelsd) of np.linalg.lstsq, without its wrapper's cost (a run takes two per step); None with
-# another NumPy layout (the wrapper then)
-_gelsd: Any = getattr(importlib.import_module("numpy.linalg"), "_umath_linalg", None)
-_gelsd = getattr(_gelsd, "lstsq", None)
 _EPS = float(np.finfo(float).eps)
+
+
+def _private_gelsd() -> Any:
+    """The LAPACK call (gelsd) inside np.linalg.lstsq, without its wrapper's cost (a run takes two per step).
+
+    NumPy's internal: kept only where it exists, takes this call and gives lstsq's very numbers on a check
+    at import; None otherwise (the public lstsq then).
+    """
+    found = getattr(getattr(importlib.import_module("numpy.linalg"), "_umath_linalg", None), "lstsq", None)
+    if found is None:
+        return None
+    m, r = np.array([[2.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 1e-17]]), np.array([1.0, -2.0, 0.5])
+    try:
+        x = found(m, r[:, None], _EPS * 3, signature="ddd->ddid")[0][:, 0]
+    except Exception:  # another signature in another NumPy: the public call
+        return None
+    return found if np.array_equal(x, np.linalg.lstsq(m, r, rcond=None)[0]) else None
+
+
+_gelsd = _private_gelsd()
 
 
 def min_norm_solve(m: Array, r: Array) -> Array:
