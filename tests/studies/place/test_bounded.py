@@ -43,16 +43,3 @@ def test_bounded_map_keeps_order_and_window() -> None:
     assert got == [i * i for i in range(12)]
     assert futures.most == 3 and _running[1] <= 3  # never more than the window submitted, nor running
     assert futures == []  # the finished ones are dropped: an interrupt cancels only what is in flight
-
-
-def test_bounded_map_reports_each_result_as_it_returns() -> None:
-    from distributed import Client
-
-    seen: list[tuple[int, int]] = []
-    with Client(processes=False, n_workers=1, threads_per_worker=4, dashboard_address=None) as client:
-        futures: list[Any] = []
-        calls = [(i, 0.2 * (8 - i) / 8) for i in range(8)]  # later calls finish first
-        got = bounded_map(client, _slow_square, calls, 4, futures, lambda i, r: seen.append((i, r)))
-    assert sorted(seen) == [(i, i * i) for i in range(8)]  # each call once, with its own result
-    assert seen != sorted(seen)  # in the order they finished, not the calls'
-    assert got == [i * i for i in range(8)]

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
@@ -158,21 +157,12 @@ def _warm() -> None:
     import bracekit.studies.place.inner  # noqa: F401
 
 
-def bounded_map(
-    client: Any,
-    fn: Any,
-    calls: list[tuple[Any, ...]],
-    window: int,
-    futures: list[Any],
-    returned: Callable[[int, Any], None] | None = None,
-) -> list[Any]:
+def bounded_map(client: Any, fn: Any, calls: list[tuple[Any, ...]], window: int, futures: list[Any]) -> list[Any]:
     """fn(*call) for every call on the Dask `client`, results in the calls' order, at most `window` submitted at once.
 
     Each finished task lets the next one in, so the workers never wait for a batch, and an interrupt (Ctrl-C,
     SIGTERM) leaves at most `window` tasks to cancel: closing the cluster then takes seconds whatever the number
     of calls. The submitted futures are appended to `futures` (the caller cancels them on an interrupt).
-    `returned(i, result)` is called as each call's result comes back (in the order they finish), after the
-    next call is submitted.
     """
     from distributed import as_completed
 
@@ -192,12 +182,9 @@ def bounded_map(
     for _ in range(min(window, len(calls))):
         submit(queue)
     for fut in queue:
-        i = index[fut.key]
-        results[i] = fut.result()
+        results[index[fut.key]] = fut.result()
         futures.remove(fut)
         submit(queue)
-        if returned is not None:
-            returned(i, results[i])
     return results
 
 
@@ -234,8 +221,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
         futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
         links, q_ref, spans = prepare(spec, settings) if prepared is None else prepared
-        workers = max(1, _workers(client))
-        window = WINDOW_PER_WORKER * workers
+        window = WINDOW_PER_WORKER * max(1, _workers(client))
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
         calls = [(spec_f, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
         inner: list[InnerResult] = bounded_map(client, optimise_start, calls, window, futures)
@@ -248,25 +234,6 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         kind = settings.inner.surface
 
         spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
-        early: dict[tuple[Any, ...], Any] = {}  # MuJoCo's checks submitted as their rows came back (by _key)
-        back: list[dict[str, Any]] = []  # every whole-task row as it came back from its worker
-
-        def check_early(r: InnerResult, row: dict[str, Any]) -> None:
-            """Submit MuJoCo's check of a row that has just come back when it may be the best.
-
-            Feasible, not checked on its worker, and a lower C_i than every row known to settle and every row
-            whose check is under way: the check runs on a worker the batch leaves idle while its last runs
-            finish, and :func:`settled_best` takes its result when it gets to that row (else it is not used).
-            """
-            if not usable(row) or row.get("mujoco_settles") is not None:
-                return
-            known = [e["Ci_mean_gp"] for e in back + evaluations if usable(e) and e.get("mujoco_settles") is True]
-            least = min(known + [c for c, _ in early.values()], default=math.inf)
-            if row["Ci_mean_gp"] < least:
-                place = _place(row)
-                fut = client.submit(settle_place, spec_f, place, r.q, kind, pure=False)
-                futures.append(fut)
-                early[_key(row, r.seed)] = (row["Ci_mean_gp"], fut)
 
         def batch(places: list[Trial], stage: str, ahead: int = 0, check: int = 0) -> list[dict[str, Any]]:
             """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`.
@@ -280,16 +247,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
                 for i in todo
             ]
-
-            running = [len(todo)]  # the batch's runs not back yet
-
-            def returned(j: int, row: dict[str, Any]) -> None:
-                running[0] -= 1
-                back.append(row)
-                if running[0] < workers:  # a worker is idle until the batch ends: it checks now
-                    check_early(places[todo[j]][1], row)
-
-            done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures, returned), strict=True))
+            done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures), strict=True))
             rows = []
             for i, (p, r) in enumerate(places):
                 row = done[i] if i in done else spare.pop((p, r.seed))
@@ -332,13 +290,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         def settled_best() -> dict[str, Any] | None:
             """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
             while (row := _unchecked(evaluations)) is not None:
-                start = starts[row["evaluation"]]
-                fut = early.pop(_key(row, start.seed), (None, None))[1]
-                if fut is None:
-                    fut = client.submit(settle_place, spec_f, _place(row), start.q, kind, pure=False)
-                    futures.append(fut)
+                place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
+                fut = client.submit(settle_place, spec_f, place, starts[row["evaluation"]].q, kind, pure=False)
+                futures.append(fut)
                 row["mujoco_settles"], row["mujoco_message"] = fut.result()
-                futures.remove(fut)
             return _best(evaluations)
 
         def trials(centre: InnerResult, row: dict[str, Any], step: tuple[float, float]) -> list[Trial]:
@@ -366,27 +321,16 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             batch(trials(centre, best, step), "refine")
             if settled_best() is best:
                 step = (0.5 * step[0], 0.5 * step[1])
-        best = settled_best()
-        client.cancel([fut for _, fut in early.values()])  # checks of rows no longer the best: not used
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:
         client.cancel(futures)
         raise
+    best = settled_best()
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     return PlaceRun(
         spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), len(spare)
     )
-
-
-def _place(row: dict[str, Any]) -> Place:
-    """The place of a whole-task row (its link, fraction and angle_deg)."""
-    return Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
-
-
-def _key(row: dict[str, Any], seed: int) -> tuple[Any, ...]:
-    """A whole-task row's run: its place's columns and its start's seed."""
-    return row["link"], row["fraction"], row["angle_deg"], seed
 
 
 def _workers(client: Any) -> int:
