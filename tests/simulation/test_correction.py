@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from bracekit.errors import ConvergenceError
-from bracekit.simulation.correction import Correction, contact_residual, correct, min_norm_solve, reach, task_error
+from bracekit.simulation.correction import Correction, contact_residual, correct, reach, task_error
 from bracekit.simulation.scenario import load_scenario
 
 
@@ -84,23 +84,3 @@ def test_one_correction_of_a_run_gives_the_state_of_braced_state_at_its_q_and_cl
         assert np.max(np.abs(contact_residual(ref, anchors))) < 1e-9
         again = correct(braced, out.q, target, base.R_e, anchors, space=space)  # the function: the same correction
         assert np.array_equal(again.q, out.q)
-
-
-@pytest.mark.parametrize("private", [True, False])
-def test_min_norm_solve_is_numpy_lstsq_to_the_last_bit(private: bool, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Reference: ``np.linalg.lstsq(m, r, rcond=None)[0]`` (full rank, rank deficient, zero), through NumPy's
-    internal call where this NumPy has it and through the public one where it does not."""
-    import bracekit.simulation.correction as module
-
-    if not private:
-        monkeypatch.setattr(module, "_gelsd", None)
-    rng = np.random.default_rng(2)
-    for k in (1, 3, 7, 12):
-        for cols in (k + 3, k - 1 if k > 1 else 1):
-            a = rng.standard_normal((k, cols))
-            m, r = a @ a.T, rng.standard_normal(k)
-            assert np.array_equal(min_norm_solve(m, r), np.linalg.lstsq(m, r, rcond=None)[0])
-        zero = np.zeros((k, k))
-        assert np.array_equal(min_norm_solve(zero, r), np.linalg.lstsq(zero, r, rcond=None)[0])
-    with pytest.raises(np.linalg.LinAlgError), np.errstate(invalid="ignore"):
-        min_norm_solve(np.full((3, 3), np.nan), np.ones(3))

@@ -7,10 +7,10 @@ rows of the paper's contact); the same code serves any number of braces.
 
 from __future__ import annotations
 
-import importlib
 import math
 from collections.abc import Sequence
-from typing import Any, TypedDict, Unpack, cast
+from types import ModuleType
+from typing import TypedDict, Unpack
 
 import numpy as np
 import pinocchio as pin
@@ -35,7 +35,6 @@ __all__ = [
     "contact_jacobian",
     "contact_residual",
     "correct",
-    "min_norm_solve",
     "norm",
     "pose_error",
     "reach",
@@ -123,41 +122,6 @@ def _contact_jacobians(xs: Sequence[Array], moments: Sequence[bool], contacts: C
     return out
 
 
-_EPS = float(np.finfo(float).eps)
-
-
-def _private_gelsd() -> Any:
-    """The LAPACK call (gelsd) inside np.linalg.lstsq, without its wrapper's cost (a run takes two per step).
-
-    NumPy's internal: kept only where it exists, takes this call and gives lstsq's very numbers on a check
-    at import; None otherwise (the public lstsq then).
-    """
-    found = getattr(getattr(importlib.import_module("numpy.linalg"), "_umath_linalg", None), "lstsq", None)
-    if found is None:
-        return None
-    m, r = np.array([[2.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 1e-17]]), np.array([1.0, -2.0, 0.5])
-    try:
-        x = found(m, r[:, None], _EPS * 3, signature="ddd->ddid")[0][:, 0]
-    except Exception:  # another signature in another NumPy: the public call
-        return None
-    return found if np.array_equal(x, np.linalg.lstsq(m, r, rcond=None)[0]) else None
-
-
-_gelsd = _private_gelsd()
-
-
-def min_norm_solve(m: Array, r: Array) -> Array:
-    """``np.linalg.lstsq(m, r, rcond=None)[0]`` of a square m (k×k) and r (k,): the same LAPACK call and numbers.
-
-    Where the call gives a non-finite x (it did not converge) np.linalg.lstsq itself runs and raises LinAlgError.
-    """
-    if _gelsd is not None:
-        x = _gelsd(m, r[:, None], _EPS * m.shape[0], signature="ddd->ddid")[0][:, 0]
-        if math.isfinite(x.sum()):
-            return cast(Array, x)
-    return cast(Array, np.linalg.lstsq(m, r, rcond=None)[0])
-
-
 def reach(robot: Robot) -> float:
     """Length (m) of the chain from the first joint to the tip at the neutral configuration (1 if zero).
 
@@ -199,6 +163,22 @@ LM_DAMPING = (1e-6, 1e-4, 1e-2, 1.0)
 LINE_SEARCH = (1.0, 0.5, 0.25, 0.125, 0.0625)
 #: The kinematics of the tip, then of each brace: (⁰M (4×4), J (6×n)), as ``BracedRobot.state`` reads them.
 Frames = list[tuple[Array, Array]]
+#: One point of a correction, as :func:`~bracekit.simulation._correction_kernel.evaluate` gives it: (status,
+#: scaled size, scaled norm, residual (m,), rows (m×n) or empty, step (n,) or empty).
+Point = tuple[int, float, float, Array, Array, Array]
+#: The kernel's task-space codes (its POSE, POSITION, POSITION_AXIS) and its status of an accepted point.
+_KINDS = {"pose": 0, "position": 1, "position+axis": 2}
+_DONE = 1
+
+
+def kernel() -> ModuleType:
+    """The correction's kernel module (:mod:`bracekit.simulation._correction_kernel`), imported on first use.
+
+    Its ``COMPILED`` says whether it runs compiled (numba) or as Python (a run's notes then say so).
+    """
+    from bracekit.simulation import _correction_kernel
+
+    return _correction_kernel
 
 
 class Correction:
@@ -217,9 +197,12 @@ class Correction:
     falling below ACCEPT_TOL; raises ConvergenceError otherwise, naming what did not close (the tip or which
     contact) and its residual.
 
-    The iterations read the frames' kinematics from their own Pinocchio data, the calls and numbers of
-    ``braced.state``; the state is built once, at the corrected q. Call it as ``correction(q, position)``
-    (q (n,) the start, `position` (3,) m the tip's target); one instance per thread.
+    Each point takes one Pinocchio pass (the calls and numbers of ``braced.state``, into the correction's own
+    arrays) and one call of the compiled kernel (:mod:`bracekit.simulation._correction_kernel`: the residual,
+    the stopping test, the rows and the minimum-norm step, the formulas of :func:`task_error`,
+    :func:`contact_residual` and :func:`contact_jacobian`); the state is built once, at the corrected q. Call it
+    as ``correction(q, position)`` (q (n,) the start, `position` (3,) m the tip's target); one instance per
+    thread.
     """
 
     def __init__(
@@ -240,103 +223,117 @@ class Correction:
         if anchors is not None:  # unit force and moment columns: a length and an angle residual
             scale = np.concatenate([scale, *(self.length * f + m for f, m in braced.wrench_column_norms)])
         self.scale = scale
-        self._roundoff = CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n)
+        self._roundoff = float(CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n))
         robot = braced.robot
         self._robot, self._n = robot, robot.n
         self._ids = (robot.tip_id, *braced.brace_ids)
         self._data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
-        self._xs = braced.X_i
-        self._moments = _moments(braced.X_i)
+        # the kernel's inputs: the frames' kinematics of the last pass, and the constants of the problem
+        self._mats, self._jacs = np.zeros((len(self._ids), 4, 4)), np.zeros((len(self._ids), 6, robot.n))
+        xs = braced.X_i if anchors is not None else []
+        self._widths = np.array([x.shape[1] for x in xs], dtype=np.int64)
+        self._xs = np.zeros((len(xs), 6, max((x.shape[1] for x in xs), default=1)))
+        self._anchors = np.zeros((len(xs), 4, 4))
+        for i, (x, (b0, r0)) in enumerate(zip(xs, anchors or [], strict=True)):
+            self._xs[i, :, : x.shape[1]] = x
+            self._anchors[i, :3, :3], self._anchors[i, :3, 3] = r0, b0
+        self._target = np.array(rotation, dtype=np.float64, order="C")
+        self._kind = _KINDS[space.kind]
+        self._axis = np.zeros(3) if space.axis is None else np.array(space.axis, dtype=np.float64)
+        self._kernel = kernel().evaluate
 
-    def _frames(self, q: Array) -> tuple[Array, Frames]:
-        """Q (checked as ``braced.state`` checks it) and the frames' kinematics at q."""
+    def _pass(self, q: Array) -> Array:
+        """Q (checked as ``braced.state`` checks it), with the frames' kinematics at q in the pass's arrays."""
         n = self._n
         if not (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum())):
             q = self._robot.check_q(q)
-        data = self._data
+        if not q.flags.c_contiguous:
+            q = q.copy()
+        mats, jacs, data = self._mats, self._jacs, self._data
         if data is None:
-            return q, self._robot.frame_kinematics(q, self._ids)
-        model = self._robot.model
+            for i, (m, j) in enumerate(self._robot.frame_kinematics(q, self._ids)):
+                mats[i], jacs[i] = m, j
+            return q
+        model, placements = self._robot.model, data.oMf
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        return q, [(data.oMf[f].homogeneous, pin.getFrameJacobian(model, data, f, LWA)) for f in self._ids]
+        for i, f in enumerate(self._ids):
+            mats[i] = placements[f].homogeneous
+            jacs[i] = pin.getFrameJacobian(model, data, f, LWA)
+        return q
 
-    def _residual(self, frames: Frames, position: Array) -> Array:
-        """The residual: the task rows, then −(contact residual), from the frames' kinematics."""
-        tip = frames[0][0]
-        e, r_e = tip[:3, 3], tip[:3, :3]
-        space, anchors = self.space, self.anchors
-        contact = [] if anchors is None else _contact_residuals(self._xs, self._moments, _contacts(frames), anchors)
-        if space.is_pose:  # [p_d − e; log3(R_d R_eᵀ); −(each contact's residual)]
-            return np.concatenate([position - e, pin.log3(self.rotation @ r_e.T), *(-c for c in contact)])
-        res = space.selection(r_e) @ space.error(position - e, r_e, self.rotation)
-        return np.concatenate([res, *(-c for c in contact)]) if contact else res
+    def _evaluate(self, q: Array, position: Array, previous: float, tol: float | None = None) -> Point:
+        """The kernel at the last pass (at q): the point's status, sizes, residual, rows and step."""
+        return self._kernel(  # type: ignore[no-any-return]
+            self._mats,
+            self._jacs,
+            q,
+            position,
+            self._target,
+            self._anchors,
+            self._xs,
+            self._widths,
+            self.scale,
+            self._kind,
+            self._axis,
+            self.tol if tol is None else tol,
+            previous,
+            ACCEPT_TOL,
+            self._roundoff,
+        )
 
-    def _jacobian(self, frames: Frames) -> Array:
-        """The residual's Jacobian (rows × n): S J_e, then the contact rows."""
-        tip, j_e = frames[0]
-        rows = j_e if self.space.is_pose else self.space.selection(tip[:3, :3]) @ j_e
-        if self.anchors is None:
-            return rows
-        return np.concatenate([rows, *_contact_jacobians(self._xs, self._moments, _contacts(frames), self.anchors)])
+    def _state(self, q: Array) -> BracedState:
+        """The state at q from the last pass (at q), on copies of the pass's arrays."""
+        mats, jacs = self._mats.copy(), self._jacs.copy()
+        return self.braced.state_from_kinematics(q, [(mats[i], jacs[i]) for i in range(len(mats))])
 
     def __call__(self, q: Array, position: Array) -> BracedState:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
-        scale, tol = self.scale, self.tol
-        previous = np.inf
-        q, frames = self._frames(q)
-        res, rows = self._residual(frames, position), None  # the rows where a step needs them
+        position = np.ascontiguousarray(position, dtype=np.float64)
+        q = self._pass(q)
+        status, size, scaled, res, rows, step = self._evaluate(q, position, math.inf)
         for _ in range(self.max_iter):
-            size = float((np.abs(res) / scale).max())  # np.max's reduction, without its wrapper
-            if size < tol or (size < ACCEPT_TOL and size > 0.5 * previous):
-                return self.braced.state_from_kinematics(q, frames)
-            rows = self._jacobian(frames) if rows is None else rows
-            floor = self._roundoff * max(1.0, float(np.abs(q).max())) * norm(rows / scale[:, None])
-            if size < floor:  # with the test above: size < max(tol, floor), the round-off floor only where it decides
-                return self.braced.state_from_kinematics(q, frames)
-            previous = size
-            step = rows.T @ min_norm_solve(rows @ rows.T, res)
-            t_q, t_frames = self._frames(q + step)
-            t_res = self._residual(t_frames, position)
-            if size >= ACCEPT_TOL and norm(t_res / scale) > norm(res / scale):
-                damped = self._damped_step(q, res, rows, position)
+            if status == _DONE:  # below tol, stalled below ACCEPT_TOL, or below the round-off floor
+                return self._state(q)
+            t_q = self._pass(q + step)  # the minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res
+            trial = self._evaluate(t_q, position, size)
+            if size >= ACCEPT_TOL and trial[2] > scaled:
+                damped = self._damped_step(q, res, rows, scaled, size, position)
                 if damped is None:
                     break
-                t_q, t_frames, t_res = damped
-            q, frames, res, rows = t_q, t_frames, t_res, None
+                t_q, trial = damped
+            q, (status, size, scaled, res, rows, step) = t_q, trial
+        scale = self.scale
         size = float(np.max(np.abs(res) / scale))
         blame = _blame(self.braced, res, scale, self.space)
-        rows = self._jacobian(frames) if rows is None else rows
+        if not rows.size:  # the last point's rows, where its test did not need them
+            rows = self._evaluate(self._pass(q), position, math.inf, tol=-1.0)[4]
         raise ConvergenceError(
             f"the pose/contact correction did not converge in {self.max_iter} iterations; not closed: {blame} "
             f"(residual {size:.2e} of the robot's reach {self.length:.3g} m and of 1 rad); "
             f"{_where(rows, scale, self.space)}"
         )
 
-    def _damped_step(self, q: Array, res: Array, rows: Array, position: Array) -> tuple[Array, Frames, Array] | None:
-        """A Levenberg–Marquardt step that lowers ‖res / scale‖ (the first λ and line-search fraction that does).
+    def _damped_step(
+        self, q: Array, res: Array, rows: Array, base: float, previous: float, position: Array
+    ) -> tuple[Array, Point] | None:
+        """A Levenberg–Marquardt step that lowers ‖res / scale‖ (`base`), with its point; None if none does.
 
-        The step is Jᵀ(J Jᵀ + λ I)⁻¹ r of the scaled rows J = rows / scale and r = res / scale; None if none
-        lowers it.
+        The first λ and line-search fraction that lowers it. The step is Jᵀ(J Jᵀ + λ I)⁻¹ r of the scaled rows
+        J = rows / scale and r = res / scale; `previous` is the size at q, for the stopping test of the new point.
         """
         scale = self.scale
         j, r = rows / scale[:, None], res / scale
         jjt = j @ j.T
-        base = norm(r)
         size = max(float(np.trace(jjt)), 1e-300)
         for damping in LM_DAMPING:
             step = j.T @ np.linalg.solve(jjt + damping * size * np.eye(r.size), r)
             for fraction in LINE_SEARCH:
-                t_q, t_frames = self._frames(q + fraction * step)
-                t_res = self._residual(t_frames, position)
-                if norm(t_res / scale) < base:
-                    return t_q, t_frames, t_res
+                t_q = self._pass(q + fraction * step)
+                trial = self._evaluate(t_q, position, previous)
+                if trial[2] < base:
+                    return t_q, trial
         return None
-
-
-def _contacts(frames: Frames) -> list[tuple[Array, Array, Array]]:
-    """(b_i, ⁰R_b_i, J_b_i) of each brace from the frames' kinematics (the tip's first)."""
-    return [(m[:3, 3], m[:3, :3], j) for m, j in frames[1:]]
 
 
 #: σ_min/σ_max of the scaled rows below which a correction's failure is put down to a singular matrix.
