@@ -33,7 +33,18 @@ from bracekit._compiled import COMPILED, F64, I64
 from bracekit._compiled import inline as _inline
 from bracekit._compiled import jit as _jit
 
-__all__ = ["COMPILED", "DONE", "POSE", "POSITION", "POSITION_AXIS", "STEP", "evaluate", "jlog3", "log3"]
+__all__ = [
+    "COMPILED",
+    "DONE",
+    "POSE",
+    "POSITION",
+    "POSITION_AXIS",
+    "STEP",
+    "evaluate",
+    "jlog3",
+    "log3",
+    "min_norm_step",
+]
 
 #: Task-space codes of :func:`evaluate` (``TaskSpace.kind``).
 POSE, POSITION, POSITION_AXIS = 0, 1, 2
@@ -104,12 +115,11 @@ def log3(r: F64) -> tuple[float, float, float, float]:
 @_inline
 def jlog3(theta: float, w0: float, w1: float, w2: float) -> F64:
     """Pinocchio's Jlog3 (3×3) at the log3 (θ, ω) of a rotation: d log3 against a right perturbation."""
-    st, ct = math.sin(theta), math.cos(theta)
-    st_1mct = st / (1.0 - ct)
     if theta < _PREC3:
         alpha = 1.0 / 12.0 + theta * theta / 720.0
         diag = 0.5 * (2.0 - theta * theta / 6.0)
     else:
+        st_1mct = math.sin(theta) / (1.0 - math.cos(theta))
         alpha = 1.0 / (theta * theta) - st_1mct / (2.0 * theta)
         diag = 0.5 * (theta * st_1mct)
     w = (w0, w1, w2)
@@ -322,7 +332,18 @@ def evaluate(
             frobenius += (rows[j, c] / scale[j]) ** 2
     if size < roundoff * big * math.sqrt(frobenius):
         return DONE, size, norm, res, rows, np.empty(0)
-    gram = np.empty((m, m))  # rows rowsᵀ
+    return STEP, size, norm, res, rows, min_norm_step(rows, res)
+
+
+@_inline
+def min_norm_step(rows: F64, res: F64) -> F64:
+    """The minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res (n,) of rows (m×n) and res (m,).
+
+    ``rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]``: LAPACK's gelsd, singular values of
+    rows rowsᵀ below eps · m · σ_max dropped (dependent rows give the least-squares compromise, not a blow-up).
+    """
+    m, n = rows.shape
+    gram = np.empty((m, m))
     for i in range(m):
         for j in range(i + 1):
             acc = 0.0
@@ -334,4 +355,4 @@ def evaluate(
     for j in range(m):
         for c in range(n):
             step[c] += rows[j, c] * y[j]
-    return STEP, size, norm, res, rows, step
+    return step

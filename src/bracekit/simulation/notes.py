@@ -20,10 +20,18 @@ from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.clearance import geometry_of
 from bracekit.resolution.strategies import BracedGradientProjection, Strategy
 from bracekit.resolution.task_space import TaskSpace
+from bracekit.simulation.correction import kernel
 from bracekit.simulation.guards import point_label
 from bracekit.simulation.samples import Samples
 
-__all__ = ["run_notes"]
+__all__ = ["CORRECTION_BACKEND_NOTE", "run_notes"]
+
+#: The run's note when the correction's kernel ran as Python because numba cannot be imported (the same
+#: corrected states to rounding, slower).
+CORRECTION_BACKEND_NOTE = (
+    "the pose/contact correction ran as Python (numba cannot be imported; `pip install bracekit[fast]` gives the "
+    "compiled correction)"
+)
 
 #: The warnings a run gathers into one note each (with the count of evaluations that raised them).
 GATHERED = (UnloadedContactWarning, RedundantContactWarning, ClearanceWarning)
@@ -93,6 +101,8 @@ def run_notes(
             "'position' or 'position+axis') leave it room",
             NoRedundancyWarning,
         )
+    if not kernel().COMPILED:
+        note(CORRECTION_BACKEND_NOTE)
     per_brace = []
     for i, (brace, c) in enumerate(zip(braced.braces, samples.contacts, strict=True)):
         radius = float(np.max(c.region_radius))
