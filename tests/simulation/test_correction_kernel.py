@@ -54,7 +54,7 @@ def _both(f):  # type: ignore[no-untyped-def]
 def _braced(contacts: tuple[str, ...]) -> tuple[BracedRobot, np.ndarray]:
     """The two-braces robot (paper robot + a wall pad) with its braces' contact types replaced, and its guess."""
     sc = load_scenario("two-braces")
-    braces = [dataclasses.replace(b, contact=c) for b, c in zip(sc.braced.braces, contacts, strict=False)]  # the first ones
+    braces = [dataclasses.replace(b, contact=c) for b, c in zip(sc.braced.braces, contacts, strict=False)]
     return BracedRobot(sc.braced.robot, braces), np.asarray(sc.guess, dtype=float)
 
 
