@@ -22,7 +22,6 @@ from bracekit.errors import InputError, NumericalError
 
 Array = NDArray[np.float64]
 
-
 def _lapack() -> Any:
     """SciPy's LAPACK wrappers (the low-overhead routines of the hot paths)."""
     return lapack

@@ -23,7 +23,9 @@ def test_the_brace_task_jacobian_is_the_derivative_of_its_error(which: str, requ
     err = task.compute_error(config(sc, q1))
     assert err.shape == (len(sc.braced.braces),) and np.max(np.abs(err)) > 1e-4
     # the frictionless point's error is the signed distance of b_i from its plane
-    dist = [b.surface.signed_distance(p) for b, p in zip(sc.braced.braces, sc.braced.state(q1).b_i, strict=True)]
+    dist = [
+        b.surface.signed_distance(p) for b, p in zip(sc.braced.braces, sc.braced.state(q1).b_i, strict=True)
+    ]
     assert np.allclose(err, dist, atol=1e-12)
     fd = fd(lambda x: task.compute_error(config(sc, x)), q1)
     assert np.max(np.abs(task.compute_jacobian(config(sc, q1)) - fd)) < 1e-7

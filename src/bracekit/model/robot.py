@@ -28,8 +28,6 @@ Array = NDArray[np.float64]
 
 #: Accepted joint stiffnesses, N·m/rad (N/m for prismatic joints).
 STIFFNESS_RANGE = (1e-6, 1e12)
-
-
 def _as_stiffness(stiffness: float | Sequence[float] | ArrayLike, names: Sequence[str]) -> Array:
     n = len(names)
     k = as_array(stiffness, "joint stiffness (N·m/rad)", finite=False)
