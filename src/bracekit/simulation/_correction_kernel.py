@@ -40,6 +40,7 @@ __all__ = [
     "POSITION",
     "POSITION_AXIS",
     "STEP",
+    "WELL_CONDITIONED",
     "evaluate",
     "jlog3",
     "log3",
@@ -339,8 +340,11 @@ def evaluate(
 def min_norm_step(rows: F64, res: F64) -> F64:
     """The minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res (n,) of rows (m×n) and res (m,).
 
-    ``rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]``: LAPACK's gelsd, singular values of
-    rows rowsᵀ below eps · m · σ_max dropped (dependent rows give the least-squares compromise, not a blow-up).
+    ``rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]``: LAPACK's gelsd, eigenvalues of
+    G = rows rowsᵀ below eps · m · λ_max dropped (dependent rows give the least-squares compromise, not a blow-up).
+    Where G is certified well conditioned, none is dropped and the step is G⁻¹ res by Cholesky (the same step to
+    rounding, without gelsd's cost): G = L Lᵀ with λ_min ≥ 1 / ‖L⁻¹‖_F² and λ_max ≤ tr G, and
+    λ_min / λ_max ≥ :data:`WELL_CONDITIONED`. Elsewhere gelsd itself.
     """
     m, n = rows.shape
     gram = np.empty((m, m))
@@ -350,9 +354,62 @@ def min_norm_step(rows: F64, res: F64) -> F64:
             for c in range(n):
                 acc += rows[i, c] * rows[j, c]
             gram[i, j] = gram[j, i] = acc
-    y = np.linalg.lstsq(gram, res, _EPS * m)[0]
+    y = _cholesky_solve(gram, res)
+    if y.shape[0] != m:  # not certified: gelsd
+        y = np.linalg.lstsq(gram, res, _EPS * m)[0]
     step = np.zeros(n)
     for j in range(m):
         for c in range(n):
             step[c] += rows[j, c] * y[j]
     return step
+
+
+#: The least certified λ_min / λ_max of rows rowsᵀ solved by Cholesky (far above gelsd's cutoff eps · m).
+WELL_CONDITIONED = 1e-8
+
+
+@_inline
+def _cholesky_solve(gram: F64, res: F64) -> F64:
+    """G⁻¹ res of a symmetric G (m×m) certified to λ_min / λ_max ≥ WELL_CONDITIONED, else an empty array."""
+    m = gram.shape[0]
+    low = np.zeros((m, m))
+    trace = 0.0
+    for j in range(m):
+        trace += gram[j, j]
+        d = gram[j, j]
+        for k in range(j):
+            d -= low[j, k] * low[j, k]
+        if not d > 0.0:
+            return np.empty(0)
+        low[j, j] = math.sqrt(d)
+        for i in range(j + 1, m):
+            acc = gram[i, j]
+            for k in range(j):
+                acc -= low[i, k] * low[j, k]
+            low[i, j] = acc / low[j, j]
+    inverse = np.zeros((m, m))  # L⁻¹, lower triangular, by forward substitution
+    frobenius = 0.0
+    for j in range(m):
+        inverse[j, j] = 1.0 / low[j, j]
+        frobenius += inverse[j, j] * inverse[j, j]
+        for i in range(j + 1, m):
+            acc = 0.0
+            for k in range(j, i):
+                acc -= low[i, k] * inverse[k, j]
+            inverse[i, j] = acc / low[i, i]
+            frobenius += inverse[i, j] * inverse[i, j]
+    if not 1.0 >= WELL_CONDITIONED * trace * frobenius:
+        return np.empty(0)
+    z = np.empty(m)  # L z = res, then Lᵀ y = z
+    for i in range(m):
+        acc = res[i]
+        for k in range(i):
+            acc -= low[i, k] * z[k]
+        z[i] = acc / low[i, i]
+    y = np.empty(m)
+    for i in range(m - 1, -1, -1):
+        acc = z[i]
+        for k in range(i + 1, m):
+            acc -= low[k, i] * y[k]
+        y[i] = acc / low[i, i]
+    return y
