@@ -36,6 +36,7 @@ from bracekit._compiled import jit as _jit
 __all__ = [
     "COMPILED",
     "DONE",
+    "FLOOR",
     "POSE",
     "POSITION",
     "POSITION_AXIS",
@@ -49,9 +50,9 @@ __all__ = [
 
 #: Task-space codes of :func:`evaluate` (``TaskSpace.kind``).
 POSE, POSITION, POSITION_AXIS = 0, 1, 2
-#: What :func:`evaluate` found: a step to take, or the point is accepted (below the tolerance, stalled, or
-#: below its round-off floor).
-STEP, DONE = 0, 1
+#: What :func:`evaluate` found: a step to take, or the point is accepted: below the tolerance or stalled (DONE,
+#: before its rows), or below its round-off floor (FLOOR, after its rows).
+STEP, DONE, FLOOR = 0, 1, 2
 
 _EPS = float(np.finfo(np.float64).eps)
 #: Pinocchio's Taylor thresholds: eps^(1/3) (log3, degree 2) and eps^(1/4) (Jlog3, degree 3).
@@ -283,27 +284,31 @@ def evaluate(
     scale: F64,
     kind: int,
     axis: F64,
-    tol: float,
-    previous: float,
     accept: float,
     roundoff: float,
-) -> tuple[int, float, float, F64, F64, F64]:
-    """One point of the correction: (status, size, norm, residual (m,), rows (m×n), step (n,)).
+    tol: float,
+    previous: float,
+    res: F64,
+    rows: F64,
+    step: F64,
+) -> tuple[int, float, float]:
+    """One point of the correction: (status, size, norm); its residual, rows and step into `res`, `rows`, `step`.
 
+    Outputs: `res` (m,), `rows` (m×n), `step` (n,), written as far as the status needs them.
     Inputs: `mats` (k, 4, 4) ⁰M and `jacs` (k, 6, n) J of the tip then each brace; q (n,) rad; the tip's target
     `position` (3,) m and `target` ⁰R_d (3×3); each brace's anchor [⁰R_b0_i b0_i] (B, 4, 4) (B = 0: contacts
     free), X_i padded to (B, 6, w) and its width (B,); `scale` (m,) of the rows (m for positions, 1 rad);
     the task space `kind` (:data:`POSE`, :data:`POSITION`, :data:`POSITION_AXIS`) and tool `axis` (3,, tip
-    coordinates); the tolerance `tol`, the previous point's size (inf at the start), ACCEPT_TOL, and the
-    round-off factor CORRECTION_ROUNDOFF · eps · √n.
+    coordinates); ACCEPT_TOL, the round-off factor CORRECTION_ROUNDOFF · eps · √n, the tolerance `tol` and
+    the previous point's size (inf at the start).
 
-    size = max|r_j / s_j|, norm = ‖r / s‖. DONE where size < tol, or size < `accept` and above half the
-    previous size (stalled), or size below the round-off floor `roundoff` · max(1, ‖q‖∞) · ‖rows / s‖_F;
-    then rows and step are empty where the floor was not needed. Else STEP with the step rowsᵀ (rows rowsᵀ)⁺ r.
+    size = max|r_j / s_j|, norm = ‖r / s‖. :data:`DONE` where size < tol or size < `accept` and above half the
+    previous size (stalled): only the residual is written; :data:`FLOOR` where size is below the round-off floor
+    `roundoff` · max(1, ‖q‖∞) · ‖rows / s‖_F: the residual and rows; else :data:`STEP` with the step
+    rowsᵀ (rows rowsᵀ)⁺ r as well.
     """
     n = q.shape[0]
     m = scale.shape[0]
-    res = np.empty(m)
     start = _task_residual(mats[0], position, target, kind, axis, res)
     task = start
     for i in range(anchors.shape[0]):
@@ -317,8 +322,7 @@ def evaluate(
         total += (res[j] / scale[j]) ** 2
     norm = math.sqrt(total)
     if size < tol or (size < accept and size > 0.5 * previous):
-        return DONE, size, norm, res, np.empty((0, n)), np.empty(0)
-    rows = np.empty((m, n))
+        return DONE, size, norm
     _task_rows(mats[0], jacs[0], kind, axis, rows)
     start = task
     for i in range(anchors.shape[0]):
@@ -332,13 +336,14 @@ def evaluate(
         for c in range(n):
             frobenius += (rows[j, c] / scale[j]) ** 2
     if size < roundoff * big * math.sqrt(frobenius):
-        return DONE, size, norm, res, rows, np.empty(0)
-    return STEP, size, norm, res, rows, min_norm_step(rows, res)
+        return FLOOR, size, norm
+    min_norm_step(rows, res, step)
+    return STEP, size, norm
 
 
 @_inline
-def min_norm_step(rows: F64, res: F64) -> F64:
-    """The minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res (n,) of rows (m×n) and res (m,).
+def min_norm_step(rows: F64, res: F64, step: F64) -> None:
+    """The minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res (n,) of rows (m×n) and res (m,), into `step`.
 
     ``rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]``: LAPACK's gelsd, eigenvalues of
     G = rows rowsᵀ below eps · m · λ_max dropped (dependent rows give the least-squares compromise, not a blow-up).
@@ -356,12 +361,12 @@ def min_norm_step(rows: F64, res: F64) -> F64:
             gram[i, j] = gram[j, i] = acc
     y = _cholesky_solve(gram, res)
     if y.shape[0] != m:  # not certified: gelsd
-        y = np.linalg.lstsq(gram, res, _EPS * m)[0]
-    step = np.zeros(n)
+        y = np.linalg.lstsq(gram, res, _EPS * m)[0].astype(np.float64)
+    for c in range(n):
+        step[c] = 0.0
     for j in range(m):
         for c in range(n):
             step[c] += rows[j, c] * y[j]
-    return step
 
 
 #: The least certified λ_min / λ_max of rows rowsᵀ solved by Cholesky (far above gelsd's cutoff eps · m).

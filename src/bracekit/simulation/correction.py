@@ -164,11 +164,11 @@ LINE_SEARCH = (1.0, 0.5, 0.25, 0.125, 0.0625)
 #: The kinematics of the tip, then of each brace: (⁰M (4×4), J (6×n)), as ``BracedRobot.state`` reads them.
 Frames = list[tuple[Array, Array]]
 #: One point of a correction, as :func:`~bracekit.simulation._correction_kernel.evaluate` gives it: (status,
-#: scaled size, scaled norm, residual (m,), rows (m×n) or empty, step (n,) or empty).
-Point = tuple[int, float, float, Array, Array, Array]
-#: The kernel's task-space codes (its POSE, POSITION, POSITION_AXIS) and its status of an accepted point.
+#: scaled size, scaled norm); its residual, rows and step are in the correction's buffers (:class:`Correction`).
+Point = tuple[int, float, float]
+#: The kernel's task-space codes (its POSE, POSITION, POSITION_AXIS) and statuses (STEP, DONE, FLOOR).
 _KINDS = {"pose": 0, "position": 1, "position+axis": 2}
-_DONE = 1
+_STEP, _DONE = 0, 1
 
 
 def kernel() -> ModuleType:
@@ -237,9 +237,12 @@ class Correction:
         for i, (x, (b0, r0)) in enumerate(zip(xs, anchors or [], strict=True)):
             self._xs[i, :, : x.shape[1]] = x
             self._anchors[i, :3, :3], self._anchors[i, :3, 3] = r0, b0
-        self._target = np.array(rotation, dtype=np.float64, order="C")
-        self._kind = _KINDS[space.kind]
-        self._axis = np.zeros(3) if space.axis is None else np.array(space.axis, dtype=np.float64)
+        target = np.array(rotation, dtype=np.float64, order="C")
+        axis = np.zeros(3) if space.axis is None else np.array(space.axis, dtype=np.float64)
+        self._problem = (target, self._anchors, self._xs, self._widths, scale, _KINDS[space.kind], axis)
+        self._limits = (ACCEPT_TOL, self._roundoff)
+        # two sets of (residual, rows, step): the current point's and a trial's (swapped when a trial is taken)
+        self._buffers = [(np.zeros(scale.size), np.zeros((scale.size, robot.n)), np.zeros(robot.n)) for _ in "ab"]
         self._kernel = kernel().evaluate
 
     def _pass(self, q: Array) -> Array:
@@ -262,25 +265,16 @@ class Correction:
             jacs[i] = pin.getFrameJacobian(model, data, f, LWA)
         return q
 
-    def _evaluate(self, q: Array, position: Array, previous: float, tol: float | None = None) -> Point:
-        """The kernel at the last pass (at q): the point's status, sizes, residual, rows and step."""
-        return self._kernel(  # type: ignore[no-any-return]
-            self._mats,
-            self._jacs,
-            q,
-            position,
-            self._target,
-            self._anchors,
-            self._xs,
-            self._widths,
-            self.scale,
-            self._kind,
-            self._axis,
-            self.tol if tol is None else tol,
-            previous,
-            ACCEPT_TOL,
-            self._roundoff,
+    def _evaluate(self, q: Array, position: Array, previous: float, slot: int, tol: float | None = None) -> Point:
+        """The kernel at the last pass (at q): the point's status and sizes.
+
+        Its residual, rows and step go into buffer set `slot` (rows and step as far as its status needed them).
+        """
+        tol = self.tol if tol is None else tol
+        point: Point = self._kernel(
+            self._mats, self._jacs, q, position, *self._problem, *self._limits, tol, previous, *self._buffers[slot]
         )
+        return point
 
     def _state(self, q: Array) -> BracedState:
         """The state at q from the last pass (at q), on copies of the pass's arrays."""
@@ -291,23 +285,25 @@ class Correction:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
         position = np.ascontiguousarray(position, dtype=np.float64)
         q = self._pass(q)
-        status, size, scaled, res, rows, step = self._evaluate(q, position, math.inf)
+        now = 0  # the buffer set of the current point; the trial's is 1 - now
+        status, size, scaled = self._evaluate(q, position, math.inf, now)
         for _ in range(self.max_iter):
-            if status == _DONE:  # below tol, stalled below ACCEPT_TOL, or below the round-off floor
+            if status != _STEP:  # below tol, stalled below ACCEPT_TOL, or below the round-off floor
                 return self._state(q)
-            t_q = self._pass(q + step)  # the minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res
-            trial = self._evaluate(t_q, position, size)
+            t_q = self._pass(q + self._buffers[now][2])  # the minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res
+            trial = self._evaluate(t_q, position, size, 1 - now)
             if size >= ACCEPT_TOL and trial[2] > scaled:
-                damped = self._damped_step(q, res, rows, scaled, size, position)
+                damped = self._damped_step(q, now, scaled, size, position)
                 if damped is None:
                     break
                 t_q, trial = damped
-            q, (status, size, scaled, res, rows, step) = t_q, trial
+            q, (status, size, scaled), now = t_q, trial, 1 - now
+        res, rows, _ = self._buffers[now]
         scale = self.scale
         size = float(np.max(np.abs(res) / scale))
         blame = _blame(self.braced, res, scale, self.space)
-        if not rows.size:  # the last point's rows, where its test did not need them
-            rows = self._evaluate(self._pass(q), position, math.inf, tol=-1.0)[4]
+        if status == _DONE:  # its test stopped before its rows: the rows at q
+            self._evaluate(self._pass(q), position, math.inf, now, tol=-1.0)
         raise ConvergenceError(
             f"the pose/contact correction did not converge in {self.max_iter} iterations; not closed: {blame} "
             f"(residual {size:.2e} of the robot's reach {self.length:.3g} m and of 1 rad); "
@@ -315,14 +311,16 @@ class Correction:
         )
 
     def _damped_step(
-        self, q: Array, res: Array, rows: Array, base: float, previous: float, position: Array
+        self, q: Array, now: int, base: float, previous: float, position: Array
     ) -> tuple[Array, Point] | None:
-        """A Levenberg–Marquardt step that lowers ‖res / scale‖ (`base`), with its point; None if none does.
+        """A Levenberg–Marquardt step from q that lowers ‖res / scale‖ (`base`), with its point; None if none does.
 
-        The first λ and line-search fraction that lowers it. The step is Jᵀ(J Jᵀ + λ I)⁻¹ r of the scaled rows
-        J = rows / scale and r = res / scale; `previous` is the size at q, for the stopping test of the new point.
+        res and rows: q's, in buffer set `now`; the trials go into the other. The first λ and line-search
+        fraction that lowers the norm. The step is Jᵀ(J Jᵀ + λ I)⁻¹ r of the scaled rows J = rows / scale and
+        r = res / scale; `previous` is the size at q, for the stopping test of the new point.
         """
         scale = self.scale
+        res, rows, _ = self._buffers[now]
         j, r = rows / scale[:, None], res / scale
         jjt = j @ j.T
         size = max(float(np.trace(jjt)), 1e-300)
@@ -330,7 +328,7 @@ class Correction:
             step = j.T @ np.linalg.solve(jjt + damping * size * np.eye(r.size), r)
             for fraction in LINE_SEARCH:
                 t_q = self._pass(q + fraction * step)
-                trial = self._evaluate(t_q, position, previous)
+                trial = self._evaluate(t_q, position, previous, 1 - now)
                 if trial[2] < base:
                     return t_q, trial
         return None
