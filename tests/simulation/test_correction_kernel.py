@@ -344,3 +344,25 @@ def run():
         tr = simulate(sc.braced, sc.strategy("braced_min_norm"), task, start.q, sc.dt, sc.beta_x)
     return {"q": tr.q.tolist(), "warnings": list(tr.warnings)}
 """
+
+
+def test_a_chain_beyond_pinocchios_data_corrects_through_the_chain_kinematics() -> None:
+    """n > DATA_JOINT_LIMIT: the passes read ChainFK's frames (no Pinocchio Data); the reference reads braced.state."""
+    from bracekit.contact import Brace, Surface
+    from bracekit.model.chain import DATA_JOINT_LIMIT
+    from bracekit.model.robot import Robot
+    from helpers import random_chain_urdf
+
+    n = DATA_JOINT_LIMIT + 4
+    robot = Robot.from_urdf(random_chain_urdf(n, seed=5, brace_link=n // 2), tip="tip")
+    braced = BracedRobot(robot, Brace("brace", Surface(np.zeros(3), np.array([0.0, 0.0, 1.0])), "soft_finger"))
+    rng = np.random.default_rng(8)
+    q0 = 0.3 * rng.standard_normal(n)
+    base = braced.state(q0)
+    anchors = [(c.b.copy(), c.R_b.copy()) for c in base.contacts]
+    correction = Correction(braced, base.R_e.copy(), anchors)
+    assert correction._pin is None
+    start, target = q0 + 0.01 * rng.standard_normal(n), base.e + 0.005 * _unit(rng)
+    out = correction(start, target)
+    np.testing.assert_allclose(out.q, _reference_correct(correction, start, target)[0], rtol=0.0, atol=1e-11)
+    assert np.max(np.abs(contact_residual(out, anchors))) < 1e-10

@@ -227,7 +227,9 @@ class Correction:
         robot = braced.robot
         self._robot, self._n = robot, robot.n
         self._ids = (robot.tip_id, *braced.brace_ids)
-        self._data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
+        data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
+        #: Pinocchio's model, the correction's own data and its frame placements (None: the chain's kinematics)
+        self._pin = None if data is None else (robot.model, data, data.oMf)
         # the kernel's inputs: the frames' kinematics of the last pass, and the constants of the problem
         self._mats, self._jacs = np.zeros((len(self._ids), 4, 4)), np.zeros((len(self._ids), 6, robot.n))
         xs = braced.X_i if anchors is not None else []
@@ -252,12 +254,12 @@ class Correction:
             q = self._robot.check_q(q)
         if not q.flags.c_contiguous:
             q = q.copy()
-        mats, jacs, data = self._mats, self._jacs, self._data
-        if data is None:
+        mats, jacs = self._mats, self._jacs
+        if self._pin is None:
             for i, (m, j) in enumerate(self._robot.frame_kinematics(q, self._ids)):
                 mats[i], jacs[i] = m, j
             return q
-        model, placements = self._robot.model, data.oMf
+        model, data, placements = self._pin
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         for i, f in enumerate(self._ids):
