@@ -230,7 +230,8 @@ class Correction:
         data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
         #: Pinocchio's model, the correction's own data and its frame placements (None: the chain's kinematics)
         self._pin = None if data is None else (robot.model, data, data.oMf)
-        # the kernel's inputs: the frames' kinematics of the last pass, and the constants of the problem
+        # the kernel's inputs: the frames' kinematics of the last pass (new arrays each call: the returned state
+        # holds views of them), and the constants of the problem
         self._mats, self._jacs = np.zeros((len(self._ids), 4, 4)), np.zeros((len(self._ids), 6, robot.n))
         xs = braced.X_i if anchors is not None else []
         self._widths = np.array([x.shape[1] for x in xs], dtype=np.int64)
@@ -279,13 +280,14 @@ class Correction:
         return point
 
     def _state(self, q: Array) -> BracedState:
-        """The state at q from the last pass (at q), on copies of the pass's arrays."""
-        mats, jacs = self._mats.copy(), self._jacs.copy()
+        """The state at q from the last pass (at q), on views of the pass's arrays (this call's own)."""
+        mats, jacs = self._mats, self._jacs
         return self.braced.state_from_kinematics(q, [(mats[i], jacs[i]) for i in range(len(mats))])
 
     def __call__(self, q: Array, position: Array) -> BracedState:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
         position = np.ascontiguousarray(position, dtype=np.float64)
+        self._mats, self._jacs = np.empty_like(self._mats), np.empty_like(self._jacs)
         q = self._pass(q)
         now = 0  # the buffer set of the current point; the trial's is 1 - now
         status, size, scaled = self._evaluate(q, position, math.inf, now)
