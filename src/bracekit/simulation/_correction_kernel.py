@@ -75,7 +75,7 @@ def _renormalised(r: F64) -> F64:
     return out
 
 
-@_inline
+@_jit
 def log3(r: F64) -> tuple[float, float, float, float]:
     """(θ, ω) = Pinocchio's log3 of a rotation r (3×3): ω (3,) rad with exp(ω̂) = r, θ = |ω| ∈ [0, π]."""
     rn = _renormalised(r)
@@ -114,7 +114,7 @@ def log3(r: F64) -> tuple[float, float, float, float]:
     return theta, theta * (axis[0] / length), theta * (axis[1] / length), theta * (axis[2] / length)
 
 
-@_inline
+@_jit
 def jlog3(theta: float, w0: float, w1: float, w2: float) -> F64:
     """Pinocchio's Jlog3 (3×3) at the log3 (θ, ω) of a rotation: d log3 against a right perturbation."""
     if theta < _PREC3:
@@ -164,7 +164,7 @@ def _turned(r: F64, v: F64) -> F64:
     return out
 
 
-@_inline
+@_jit
 def _perpendicular(a: F64) -> F64:
     """:func:`bracekit.resolution.task_space.perpendicular_basis`: rows u₁, u₂ (2×3) ⟂ the unit vector a."""
     helper = np.zeros(3)
@@ -341,7 +341,7 @@ def evaluate(
     return STEP, size, norm
 
 
-@_inline
+@_jit
 def min_norm_step(rows: F64, res: F64, step: F64) -> None:
     """The minimum-norm step rowsᵀ (rows rowsᵀ)⁺ res (n,) of rows (m×n) and res (m,), into `step`.
 
@@ -373,7 +373,7 @@ def min_norm_step(rows: F64, res: F64, step: F64) -> None:
 WELL_CONDITIONED = 1e-8
 
 
-@_inline
+@_jit
 def _cholesky_solve(gram: F64, res: F64) -> F64:
     """G⁻¹ res of a symmetric G (m×m) certified to λ_min / λ_max ≥ WELL_CONDITIONED, else an empty array."""
     m = gram.shape[0]
