@@ -10,8 +10,10 @@ LOCAL_WORLD_ALIGNED J (6×n) of the tip, then of each brace) and does the rest o
 * its scaled size max|r_j / s_j| and norm ‖r / s‖, and the stopping test of the correction;
 * the rows (the residual's Jacobian, sign as the correction takes it): S J_e, then
   X_iᵀ [J_b_i,v; Jlog3(R) Rᵀ J_b_i,ω] of each brace (R = R_b_i R_b0_iᵀ), and their round-off floor;
-* the minimum-norm step rowsᵀ (rows rowsᵀ)⁺ r, by LAPACK's gelsd with NumPy's default cutoff
-  (σ ≤ eps · k · σ_max counts as zero), so dependent rows (two braces constraining the same motion) are harmless.
+* the minimum-norm step rowsᵀ (rows rowsᵀ)⁺ r with the semantics of LAPACK's gelsd and NumPy's default cutoff
+  (σ ≤ eps · k · σ_max counts as zero), so dependent rows (two braces constraining the same motion) are harmless:
+  by Cholesky where rows rowsᵀ is certified well conditioned (no σ is cut; the same step to rounding), by gelsd
+  itself elsewhere (:func:`min_norm_step`).
 
 log3 and Jlog3 are Pinocchio's (``pinocchio/src/spatial/log.hxx``: the rotation renormalised, its Taylor
 expansions below eps^(1/3) and eps^(1/4), the branch near π from the largest diagonal), so the values are
@@ -19,8 +21,10 @@ expansions below eps^(1/3) and eps^(1/4), the branch near π from the largest di
 stacked, X_i padded with zero columns to the widest brace.
 
 Compiled with numba where it is installed (:mod:`bracekit._compiled`), else the same functions run as Python
-(:data:`COMPILED` is False) and a run's notes say so. This module imports numba: the correction imports it when
-a correction is first built, so that ``import bracekit`` does not.
+(:data:`COMPILED` is False) and a run's notes say so. log3, Jlog3, the perpendicular basis and the solve are
+compiled once and called, the small helpers inlined (the first compilation, once per machine, about 7 s of CPU).
+This module imports numba: the correction imports it when a correction is first built, so that ``import bracekit``
+does not.
 """
 
 from __future__ import annotations
