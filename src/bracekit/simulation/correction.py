@@ -161,8 +161,6 @@ def correct(
 LM_DAMPING = (1e-6, 1e-4, 1e-2, 1.0)
 #: Step fractions of the line search along each damped step.
 LINE_SEARCH = (1.0, 0.5, 0.25, 0.125, 0.0625)
-#: The kinematics of the tip, then of each brace: (⁰M (4×4), J (6×n)), as ``BracedRobot.state`` reads them.
-Frames = list[tuple[Array, Array]]
 #: One point of a correction, as :func:`~bracekit.simulation._correction_kernel.evaluate` gives it: (status,
 #: scaled size, scaled norm); its residual, rows and step are in the correction's buffers (:class:`Correction`).
 Point = tuple[int, float, float]
