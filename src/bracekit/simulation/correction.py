@@ -223,7 +223,7 @@ class Correction:
         self.scale = scale
         self._roundoff = float(CORRECTION_ROUNDOFF * np.finfo(float).eps * np.sqrt(braced.n))
         robot = braced.robot
-        self._robot, self._n = robot, robot.n
+        self._robot, self._n, self._ones = robot, robot.n, np.ones(robot.n)
         self._ids = (robot.tip_id, *braced.brace_ids)
         data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
         #: Pinocchio's model, the correction's own data and its frame placements (None: the chain's kinematics)
@@ -248,8 +248,10 @@ class Correction:
 
     def _pass(self, q: Array) -> Array:
         """Q (checked as ``braced.state`` checks it), with the frames' kinematics at q in the pass's arrays."""
-        n = self._n
-        if not (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum())):
+        n = self._n  # a finite Σ q_i (by a dot product: a reduction's cost is 5× its): finite q
+        if not (
+            type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.dot(self._ones))
+        ):
             q = self._robot.check_q(q)
         if not q.flags.c_contiguous:
             q = q.copy()
