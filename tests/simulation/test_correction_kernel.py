@@ -366,3 +366,15 @@ def test_a_chain_beyond_pinocchios_data_corrects_through_the_chain_kinematics() 
     out = correction(start, target)
     np.testing.assert_allclose(out.q, _reference_correct(correction, start, target)[0], rtol=0.0, atol=1e-11)
     assert np.max(np.abs(contact_residual(out, anchors))) < 1e-10
+
+
+def test_a_target_position_of_another_shape_is_refused_by_name() -> None:
+    from bracekit.errors import InputError
+
+    braced, guess = _braced(("frictionless_point",))
+    st = braced.state(guess)
+    correction = Correction(braced, st.R_e.copy(), [(c.b.copy(), c.R_b.copy()) for c in st.contacts])
+    for bad in (st.e[:2], np.append(st.e, 0.0), st.e[:, None]):
+        with pytest.raises(InputError, match="3 numbers"):
+            correction(guess, bad)
+    assert np.allclose(correction(guess, list(st.e)).e, st.e, atol=1e-12)  # a list of 3 numbers is fine

@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from bracekit.errors import ConvergenceError
+from bracekit.errors import ConvergenceError, InputError
 from bracekit.kinematics import LWA, BracedRobot, BracedState, skeleton
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.robot import Robot
@@ -287,6 +287,8 @@ class Correction:
     def __call__(self, q: Array, position: Array) -> BracedState:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
         position = np.ascontiguousarray(position, dtype=np.float64)
+        if position.shape != (3,):
+            raise InputError(f"the tip's target position must be 3 numbers (m), got shape {position.shape}")
         self._mats, self._jacs = np.empty_like(self._mats), np.empty_like(self._jacs)
         q = self._pass(q)
         now = 0  # the buffer set of the current point; the trial's is 1 - now
