@@ -17,7 +17,7 @@ from bracekit.errors import NumericalError
 from bracekit.kinematics.motions import rank_ratio, singular_ratio
 from bracekit.simulation.guards import WATCH_BATCH, first_singular, sigma_ratios, stacked_sigma_ratios
 from bracekit.simulation.scenario import Scenario
-from bracekit.simulation.stacked_ratios import _split_stacks, stacked_ratios
+from bracekit.simulation.stacked_ratios import Decomposed, _split_stacks, stacked_ratios
 from bracekit.simulation.trajectory import Trajectory
 
 GUARDS = importlib.import_module("bracekit.simulation.guards")
@@ -131,7 +131,7 @@ def test_one_brace_stacks_are_the_chain_split_matrices_to_the_last_bit(name: str
     states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(5)]
     space = sc.task_space
     rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
-    stacks = _split_stacks([st.motions for st in states], rows)  # type: ignore[arg-type]
+    stacks = _split_stacks(states, rows)
     assert stacks is not None
     for i, (st, sel) in enumerate(zip(states, rows, strict=True)):
         sp = st.split
@@ -187,3 +187,27 @@ def test_an_error_after_a_singular_sample_not_yet_guarded_reports_the_singularit
     assert not cut.completed and cut.failure is not None
     assert cut.failure.startswith(f"step {k} (t = {k * whole.t[1]:.3f} s)") and "singular on the path" in cut.failure
     assert np.array_equal(cut.q, whole.q[:k])
+
+
+@pytest.mark.parametrize(("name", "scale"), [("paper", 0.3), ("panda", 0.1), ("two-braces", 0.05)])
+def test_the_kept_stacks_are_each_state_s_own_matrix_and_svd(name: str, scale: float) -> None:
+    """Reference: each state's watched matrix formed alone (``motions.watched``) and NumPy's SVD of it alone."""
+    sc = load_scenario(name)
+    rng = np.random.default_rng(17)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(6)]
+    keys = tuple(sigma_ratios(states[0], sc.task_space))
+    kept: dict[str, Decomposed] = {}
+    found = stacked_sigma_ratios(states, sc.task_space, keys, kept)
+    assert found == [sigma_ratios(st, sc.task_space, keys) for st in states]
+    task = states[0].motions.task_key(sc.task_space.is_pose)
+    assert "J" in kept and (task in kept if name != "two-braces" else task is None)  # two braces: a position task
+    for i, st in enumerate(states):
+        rows = None if sc.task_space.is_pose else sc.task_space.selection(st.R_e)
+        watched = st.motions.watched(rows)
+        for key, (stack, s) in kept.items():
+            matrix = watched[key][0]()
+            assert np.array_equal(stack[i], matrix), key
+            assert np.array_equal(s[i], np.linalg.svd(matrix, compute_uv=False)), key
+        if task is not None:
+            assert np.array_equal(kept[task].stack[i], st.motions.task_jacobian)
