@@ -103,6 +103,20 @@ def fused_step(braced: BracedRobot, strategy: object, backend: Backend = "numpy"
     return GradientProjectionStep(braced, strategy, backend=backend)
 
 
+def chain1_map(jb: Array, n1: int, h: Array, x: Array, cert2: float) -> Array:
+    """dq1/db̃ (n1×l) from J_b (6×n): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as ChainSplit).
+
+    NotCertified where ‖J1‖²_F ‖J1⁻¹‖²_F ≥ `cert2` (a bound of cond(J1)²) or J1 has an exactly zero pivot.
+    """
+    j1 = jb[:, :n1]
+    if n1 == 6:
+        inv = inverse(j1)
+        if inv is None or not float(np.vdot(j1, j1)) * float(np.vdot(inv, inv)) < cert2:
+            raise NotCertified  # ‖J1‖²_F ‖J1⁻¹‖²_F ≥ cond(J1)²
+        return cast(Array, inv.dot(h))
+    return contact_null_space(x.T @ j1)
+
+
 class GradientProjectionStep:
     """q̇ = [dq1/db̃ · ḃ; q̇2] with [ḃ; q̇2] = A⁺ẋ + (I − A⁺A) α ∇g (eq:grad_proj), fused.
 
@@ -364,13 +378,7 @@ class GradientProjectionStep:
 
     def _chain1(self, jb: Array) -> Array:
         """dq1/db̃ (n1×l): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as BracedState)."""
-        j1 = jb[:, : self._n1]
-        if self._n1 == 6:
-            inv = inverse(j1)
-            if inv is None or not float(np.vdot(j1, j1)) * float(np.vdot(inv, inv)) < self._cert2:
-                raise NotCertified  # ‖J1‖²_F ‖J1⁻¹‖²_F ≥ cond(J1)²
-            return cast(Array, inv.dot(self._H))
-        return contact_null_space(self._X.T @ j1)
+        return chain1_map(jb, self._n1, self._H, self._X, self._cert2)
 
     def _step(self, qa: Array, xd: Array, obj: Objective | Terms) -> Array:
         kin = self._kinematics(qa, not self._fd)

@@ -9,7 +9,8 @@ counted in ``Trajectory.substeps``. The guards of :mod:`bracekit.simulation.guar
 jump, a singular matrix (checked WATCH_BATCH samples at a time, the steps after a singular sample undone) or
 a joint limit. Gradient projection runs through the fused :class:`bracekit.resolution.GradientProjectionStep`,
 which gives the strategy's own q̇ to ~1e-13: compiled where numba is installed, else in NumPy, which the run's
-notes then say.
+notes then say; the minimum-norm strategies through :class:`bracekit.resolution.min_norm.MinNormStep` (their
+q̇ to ~1e-13 from the state's own Jacobians).
 
 No step leaves the URDF joint limits (by more than JOINT_LIMIT_TOL). A corrected step that would is, for
 gradient projection, taken again with its null-space motion scaled by 1/2, 1/4, … (LIMIT_SCALES, the gain α
@@ -49,6 +50,7 @@ from bracekit.errors import (
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective import RegionBarrier
 from bracekit.resolution.fused import NO_NUMBA, Backend, GradientProjectionStep, fused_step
+from bracekit.resolution.min_norm import min_norm_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
 from bracekit.simulation.correction import Correction, norm, reach, task_error
@@ -178,6 +180,7 @@ def simulate(
     # ~1e-13), else the NumPy step, which the run's notes then say (STEP_BACKEND_NOTE)
     backend: Backend = "auto"
     fast = fused_step(braced, strategy, backend)
+    lean = min_norm_step(braced, strategy)  # the minimum-norm strategies' q̇ from the state's Jacobians
     scaled_steps: dict[float, GradientProjectionStep] = {}
     guard = region_guard(braced, strategy)
     scalable = isinstance(strategy, BracedGradientProjection)
@@ -211,6 +214,8 @@ def simulate(
             if scale not in scaled_steps:
                 scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale), backend)  # type: ignore[arg-type]
             return scaled_steps[scale](st.q, xdot, beta(t))
+        if lean is not None:
+            return lean(st, xdot)
         current = strategy if scale == 1.0 else scaled_alpha(strategy, scale)
         if objective:
             current = with_beta_x(current, beta(t))

@@ -1,0 +1,107 @@
+"""The minimum-norm steps of a run from the state's own Jacobians, without the chain split's objects.
+
+:class:`MinNormStep` gives the q̇ of ``strategy.velocity(state, ẋ)`` for :class:`FreeSpaceMinNorm` (q̇ = J⁺ ẋ)
+and :class:`BracedMinNorm` ([ḃ; q̇2] = A⁺ ẋ, eq:general_inv with η = 0, then q̇1 = dq1/db̃ ḃ, eq:q1) from the
+state's J_e, J_b and placements, with the fused gradient-projection step's shortcuts
+(:mod:`bracekit.resolution.fused`):
+
+* A = [S_t1 J1 dq1/db̃, J_e[:, n1:]] (eq:braced_kin; S_t2 J2 = J_e[:, n1:], and S_t1 J1 dq1/db̃ = S_t1 H when
+  n1 = 6), dq1/db̃ = J1⁻¹ H by LU when n1 = 6, else the null space of Xᵀ J1
+  (:func:`~bracekit.resolution.fused.chain1_map`);
+* M⁺ S ẋ = Q R⁻ᵀ S ẋ from a Householder QR Mᵀ = QR of the full-row-rank M = S A or S J (no SVD), S the
+  task space's selection (:mod:`bracekit.resolution.task_space`).
+
+The shortcuts are taken only where certified (‖J1‖_F ‖J1⁻¹‖_F and ‖M‖_F ‖R⁻¹‖_F below CERTIFIED_COND, far
+below the reference's singularity thresholds); elsewhere, and for several braces of a braced strategy (the null
+space of their stacked constraint is the state's), the step is the strategy's own ``velocity``, so errors and
+warnings stay the reference's. Where certified, q̇ equals the reference's to ~1e-13 relative.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bracekit._linalg import row_basis
+from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.objective.fused import NotCertified
+from bracekit.resolution.fused import chain1_map
+from bracekit.resolution.strategies import BracedMinNorm, FreeSpaceMinNorm, tip_twist
+from bracekit.resolution.task_space import select
+from bracekit.spatial import twist_shift
+from bracekit.tolerances import CERTIFIED_COND
+
+Array = NDArray[np.float64]
+
+__all__ = ["MinNormStep", "min_norm_step"]
+
+
+def min_norm_step(braced: BracedRobot, strategy: object) -> MinNormStep | None:
+    """The lean step of a minimum-norm strategy (FreeSpaceMinNorm, BracedMinNorm), None for another strategy."""
+    if type(strategy) not in (FreeSpaceMinNorm, BracedMinNorm):
+        return None
+    return MinNormStep(braced, strategy)  # type: ignore[arg-type]
+
+
+class MinNormStep:
+    """Q̇ of a minimum-norm strategy at a state: ``step(state, xdot)`` is ``strategy.velocity(state, xdot)``.
+
+    Args:
+        braced: the braced robot.
+        strategy: a :class:`FreeSpaceMinNorm` or :class:`BracedMinNorm`.
+
+    ``lean`` says whether the shortcuts apply (one brace for a braced strategy); where they do not, or a
+    certificate fails at a state, the strategy's own ``velocity`` runs.
+    """
+
+    def __init__(self, braced: BracedRobot, strategy: FreeSpaceMinNorm | BracedMinNorm) -> None:
+        self.strategy = strategy
+        self._braced = bool(strategy.braced)
+        self.lean = not self._braced or len(braced.braces) == 1
+        self._cert2 = CERTIFIED_COND**2
+        if self.lean and self._braced:
+            model = braced.split
+            self._n1, self._h, self._x = model.n1, model.H, model.X
+
+    def __call__(self, state: BracedState, xdot: Array) -> Array:
+        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
+        if self.lean:
+            xd = tip_twist(xdot)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by the reference
+                    qdot = self._braced_rates(state, xd) if self._braced else self._free_rates(state, xd)
+                if math.isfinite(qdot.sum()):
+                    return qdot
+            except NotCertified:
+                pass
+        return self.strategy.velocity(state, xdot)
+
+    def _pinv_times(self, state: BracedState, m: Array, xd: Array) -> Array:
+        """(S M)⁺ S ẋ = Q R⁻ᵀ S ẋ from (S M)ᵀ = QR, S the task rows at the state (m: 6×k).
+
+        NotCertified where S M has more rows than columns or cond(S M) may reach the bound.
+        """
+        m, xd = select(self.strategy.space, state.R_e, m, xd)
+        if m.shape[0] > m.shape[1]:
+            raise NotCertified
+        qr = row_basis(m)
+        if qr is None or not float(np.vdot(m, m)) * float(np.vdot(qr[1], qr[1])) < self._cert2:
+            raise NotCertified  # ‖M‖²_F ‖R⁻¹‖²_F ≥ cond(M)²
+        q, rinv = qr
+        return np.asarray(q.dot(rinv.T.dot(xd)), dtype=np.float64)
+
+    def _free_rates(self, state: BracedState, xd: Array) -> Array:
+        """Q̇ = (S J)⁺ S ẋ (FreeSpaceMinNorm)."""
+        return self._pinv_times(state, state.J_e, xd)
+
+    def _braced_rates(self, state: BracedState, xd: Array) -> Array:
+        """[ḃ; q̇2] = (S A)⁺ S ẋ, q̇ = [dq1/db̃ ḃ; q̇2] (eq:general_inv with η = 0, eq:q1)."""
+        contact = state.contacts[0]
+        n1, jb, je = self._n1, contact.J_b, state.J_e
+        s1 = twist_shift(contact.b, state.e)
+        g1 = chain1_map(jb, n1, self._h, self._x, self._cert2)
+        a = np.concatenate((s1.dot(self._h if n1 == 6 else jb[:, :n1].dot(g1)), je[:, n1:]), axis=1)
+        y = self._pinv_times(state, a, xd)
+        return np.concatenate((g1.dot(y[: g1.shape[1]]), y[g1.shape[1] :]))
