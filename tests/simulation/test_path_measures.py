@@ -116,7 +116,7 @@ def test_every_ratio_taken_at_once_equals_the_guard_s_ratio(name: str, strategy:
 def test_the_stacked_constraint_of_a_path_at_once_is_that_of_each_state() -> None:
     """Every row kept at every sample: G and 1/k_env as each state's stacked constraint; else the states decide."""
     from bracekit.kinematics import BracedRobot
-    from bracekit.simulation.path_measures import _full_rank
+    from bracekit.simulation.stacked_ratios import full_rank_constraint as _full_rank
 
     sc, states, *_ = _path("two-braces")
     fresh = [sc.braced.state(st.q) for st in states]
@@ -161,7 +161,7 @@ def test_the_measures_from_the_guard_s_stacks_equal_the_samples_one_by_one(name:
     space = sc.strategy("braced_gradient_projection").space
     keys = tuple(states[0].motions.conditioning(None if space.is_pose else space.selection(states[0].R_e)))
     task = states[0].motions.task_key(space.is_pose)
-    assert (task is None) == (name == "two-braces")  # two braces: a position task, S J_e N is not J_e N
+    assert task == ("J_braced" if name == "paper" else "JN")  # two braces: a position task, J_e N beside S J_e N
     batches = []
     for first in range(0, len(fresh), WATCH_BATCH):  # as the run's guard takes them
         kept: dict[str, Decomposed] = {}
@@ -175,8 +175,8 @@ def test_the_measures_from_the_guard_s_stacks_equal_the_samples_one_by_one(name:
     known = Known(joined(task), joined("J"))
     samples, count, error = measure_path(sc.braced, fresh, betas, errors, ratios, steps, known)
     assert error is None and count == len(fresh) and samples is not None
-    if name == "paper":  # nothing of the chain split formed state by state: the stacks served
-        assert all("split" not in st.__dict__ for st in fresh)
+    # nothing of the chain split or of the stacked constraint formed state by state: the stacks served
+    assert all("split" not in st.__dict__ and "motions" not in st.__dict__ for st in fresh)
     ref = Samples.stack(sc.braced, [measure(*row) for row in zip(states, betas, errors, ratios, steps, strict=True)])
     _assert_equal(samples, ref)
     for key in ("k", "k_free"):  # the very numbers of the path's own SVDs

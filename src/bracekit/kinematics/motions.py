@@ -191,8 +191,8 @@ class NullMotions(BracedMotions):
         return self.A
 
     def task_key(self, whole_pose: bool) -> str | None:
-        """S J_e N, which is J_e N for the whole pose only."""
-        return "SJN" if whole_pose else None
+        """S J_e N, which is J_e N for the whole pose; else J_e N itself ("JN"), which stacks give beside it."""
+        return "SJN" if whole_pose else "JN"
 
     def to_joint(self, y: Array) -> Array:
         """q̇ = N y."""

@@ -38,8 +38,8 @@ from bracekit.kinematics.clearance import link_clearances
 from bracekit.kinematics.motions import NullMotions
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
-from bracekit.simulation.stacked_ratios import Decomposed, split_parts
-from bracekit.tolerances import MEASURE_SINGULAR_RATIO, UNLOADED_TOL
+from bracekit.simulation.stacked_ratios import Decomposed, full_rank_constraint, split_parts
+from bracekit.tolerances import MEASURE_SINGULAR_RATIO
 
 Array = NDArray[np.float64]
 
@@ -307,7 +307,7 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs, 
 
 def _constrained(states: Sequence[BracedState], jk: Array, free: Array, k: Array) -> Array:
     """C_e of every sample, constrained_compliance's formula over each sample's independent rows of G."""
-    found = _full_rank(states, k)
+    found = full_rank_constraint(states, k)
     if found is None:
         cons = [st.constraint for st in states]
         rows = cons[0].independent
@@ -322,43 +322,6 @@ def _constrained(states: Sequence[BracedState], jk: Array, free: Array, k: Array
         b = jk @ _t(g)
         out = out - b @ np.linalg.solve(m, _t(b))
     return _sym(out)
-
-
-def _full_rank(states: Sequence[BracedState], k: Array) -> tuple[Array, Array] | None:
-    """(G (N, c, n), 1/k_env of its rows (c,)) of the path when every sample keeps every row, else None.
-
-    The stacked constraint of each sample at once (stacked_constraint's G, weights and threshold): every row is
-    independent when the weighted rigid rows w = G_rigid K^(−1/2) have σ_min² > UNLOADED_TOL · max(σ_max²,
-    max_i tr(J_b_i K⁻¹ J_b_iᵀ)) at every sample (no row dropped, no warning). None hands the path to each
-    state's own stacked constraint (which drops rows and warns, or raises on a non-finite G). A state that has
-    its constraint already gives it.
-    """
-    if any("constraint" in st.__dict__ for st in states):
-        return None
-    braced = states[0].braced
-    blocks, comp = [], []
-    traces: list[Array] = []
-    rigid_of: list[bool] = []
-    with np.errstate(all="ignore"):
-        for i, (brace, x) in enumerate(zip(braced.braces, braced.X_i, strict=True)):
-            j_b = _stack([st.contacts[i].J_b for st in states])
-            blocks.append(x.T @ j_b)
-            k_env = brace.environment_stiffness
-            comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
-            rigid_of.extend([k_env is None] * x.shape[1])
-            traces.append(np.sum(j_b * j_b / k, axis=(1, 2)) if k_env is None else np.zeros(len(states)))
-        g = np.concatenate(blocks, axis=1)
-        rigid = [r for r, yes in enumerate(rigid_of) if yes]
-        if not rigid:
-            return _finite(g), np.array(comp, dtype=np.float64)
-        w = g[:, rigid] / np.sqrt(k)
-        if len(rigid) > g.shape[2] or not (np.isfinite(w).all() and np.isfinite(traces).all()):
-            return None
-        s = np.sqrt(np.einsum("nij,nij->ni", w, w))[:, 0:1] if len(rigid) == 1 else np.linalg.svd(w, compute_uv=False)
-        limit = UNLOADED_TOL * np.maximum(s[:, 0] ** 2, np.max(traces, axis=0))
-        if not (s[:, -1] ** 2 > limit).all():
-            return None
-    return _finite(g), np.array(comp, dtype=np.float64)
 
 
 def _projection(states: Sequence[BracedState], k: Array) -> Array:

@@ -7,6 +7,11 @@ S A, J = J_e and J̃ (eq:J_wave) are formed as stacks, with the products and the
 :class:`~bracekit.kinematics.split.ChainSplit` (S_t1, S_t2 and J2 of eq:twists, eq:J2); otherwise each chart
 forms its own (:meth:`~bracekit.kinematics.motions.BracedMotions.watched`).
 
+With several braces, where no state has its stacked constraint yet and every sample keeps every row of G
+(:func:`full_rank_constraint`: no row dropped, so no warning), G, N (the null space of G from one stacked SVD,
+as ``contact_null_space`` takes it per matrix), J_e N and S J_e N are formed as stacks too; otherwise each
+state's own constraint (which drops rows and warns) forms them.
+
 A caller may keep the stacks and their singular values (``kept``): the run's measures take k of the braced task
 Jacobian and of J_e from them (:mod:`bracekit.simulation.path_measures`) instead of forming and decomposing them
 again. :func:`split_parts` gives the chain-split factors of many one-brace states as stacks (J1, J2, S_t1, S_t2),
@@ -21,12 +26,21 @@ from typing import TYPE_CHECKING, NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from bracekit.tolerances import NULL_SPACE_RTOL, UNLOADED_TOL
+
 if TYPE_CHECKING:
     from bracekit.kinematics import BracedState
 
 Array = NDArray[np.float64]
 
-__all__ = ["Decomposed", "SplitParts", "split_parts", "stacked_conditioning", "stacked_ratios"]
+__all__ = [
+    "Decomposed",
+    "SplitParts",
+    "full_rank_constraint",
+    "split_parts",
+    "stacked_conditioning",
+    "stacked_ratios",
+]
 
 
 class Decomposed(NamedTuple):
@@ -141,6 +155,72 @@ def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -
     return {"J1": (j1, False), "A": (a, False), "SA": (sa, True), "J": (j_e, False), "J_braced": (j_braced, False)}
 
 
+def full_rank_constraint(states: Sequence[BracedState], k: Array) -> tuple[Array, Array] | None:
+    """(G (N, c, n), 1/k_env of its rows (c,)) of the states when every one keeps every row, else None.
+
+    The stacked constraint of each state at once (stacked_constraint's G, weights and threshold): every row is
+    independent when the weighted rigid rows w = G_rigid K^(−1/2) have σ_min² > UNLOADED_TOL · max(σ_max²,
+    max_i tr(J_b_i K⁻¹ J_b_iᵀ)) at every state (no row dropped, no warning). None hands the states to their own
+    stacked constraint (which drops rows and warns, or raises on a non-finite G): also where a state has its
+    constraint already (its own counts) or the states brace different models. `k`: the joint stiffnesses (n,).
+    """
+    braced = states[0].braced
+    if any("constraint" in st.__dict__ or st.braced is not braced for st in states):
+        return None
+    blocks, comp = [], []
+    traces: list[Array] = []
+    rigid_of: list[bool] = []
+    with np.errstate(all="ignore"):
+        for i, (brace, x) in enumerate(zip(braced.braces, braced.X_i, strict=True)):
+            j_b = np.array([st.contacts[i].J_b for st in states], dtype=np.float64)
+            blocks.append(x.T @ j_b)
+            k_env = brace.environment_stiffness
+            comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
+            rigid_of.extend([k_env is None] * x.shape[1])
+            traces.append(np.sum(j_b * j_b / k, axis=(1, 2)) if k_env is None else np.zeros(len(states)))
+        g = np.concatenate(blocks, axis=1)
+        if not np.isfinite(g).all():
+            return None
+        rigid = [r for r, yes in enumerate(rigid_of) if yes]
+        if not rigid:
+            return g, np.array(comp, dtype=np.float64)
+        w = g[:, rigid] / np.sqrt(k)
+        if len(rigid) > g.shape[2] or not (np.isfinite(w).all() and np.isfinite(traces).all()):
+            return None
+        s = np.sqrt(np.einsum("nij,nij->ni", w, w))[:, 0:1] if len(rigid) == 1 else np.linalg.svd(w, compute_uv=False)
+        limit = UNLOADED_TOL * np.maximum(s[:, 0] ** 2, np.max(traces, axis=0))
+        if not (s[:, -1] ** 2 > limit).all():
+            return None
+    return g, np.array(comp, dtype=np.float64)
+
+
+def _null_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
+    """The watched matrices G, S J_e N and J = J_e of several-brace states as stacks, and J_e N ("JN").
+
+    N = ``contact_null_space(G)`` of each state from one stacked SVD (the same LAPACK call per matrix), where
+    every state keeps every row of G (:func:`full_rank_constraint`) and N has one width; None otherwise.
+    """
+    if any(r is None for r in rows) and not all(r is None for r in rows):
+        return None
+    found = full_rank_constraint(states, states[0].K)
+    if found is None:
+        return None
+    g = found[0]
+    _, s, vt = np.linalg.svd(g)
+    if s.shape[1] == 0:
+        return None
+    big = np.maximum(1.0, s[:, 0])
+    ranks = np.sum(s > NULL_SPACE_RTOL * big[:, None], axis=1)
+    rank = int(ranks[0])
+    if not (ranks == rank).all():
+        return None
+    null = np.ascontiguousarray(vt[:, rank:].transpose(0, 2, 1), dtype=np.float64)  # N (k, n, n − rank G)
+    j_e = np.array([st.J_e for st in states], dtype=np.float64)
+    a = j_e @ null  # J_e N
+    sa = a if rows[0] is None else np.array(rows, dtype=np.float64) @ a
+    return {"G": (g, True), "SJN": (sa, True), "J": (j_e, False), "JN": (a, False)}
+
+
 def stacked_conditioning(
     states: Sequence[BracedState],
     rows: Sequence[Array | None],
@@ -156,6 +236,8 @@ def stacked_conditioning(
     stacks = None
     if all(len(st.contacts) == 1 for st in states):  # the paper's chart (SplitMotions), formed as stacks
         stacks = _split_stacks(states, rows)
+    elif all(len(st.contacts) > 1 for st in states):  # the null space of G (NullMotions), formed as stacks
+        stacks = _null_stacks(states, rows)
     if stacks is None:  # each chart forms its own matrices, stacked where they have one shape
         watched: list[dict[str, tuple[Callable[[], Array], bool]]] = [
             st.motions.watched(r) for st, r in zip(states, rows, strict=True)
@@ -177,4 +259,7 @@ def stacked_conditioning(
             columns[key] = _ratios(stack, full, known)
             if kept is not None and id(stack) in known:
                 kept[key] = Decomposed(stack, known[id(stack)])
+    if kept is not None and "JN" in stacks and "JN" not in kept:  # J_e N of a task space other than the pose
+        stack = stacks["JN"][0]
+        kept["JN"] = Decomposed(stack, np.asarray(np.linalg.svd(stack, compute_uv=False), dtype=np.float64))
     return [{key: columns[key][i] for key in keys} for i in range(len(states))]
