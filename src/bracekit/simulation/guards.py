@@ -42,7 +42,7 @@ JUMP_PROBES = 17
 #: How far (rad, m for a prismatic joint) a corrected step may leave a joint's URDF range (the correction's round-off).
 JOINT_LIMIT_TOL = 1e-9
 #: Samples whose σ-ratio guard a run takes at once (one stacked SVD per matrix); a singular one undoes the later ones.
-WATCH_BATCH = 16
+WATCH_BATCH = 64
 #: The scales of the null-space motion a gradient-projection step that leaves the joint limits is retried with.
 LIMIT_SCALES = (0.5, 0.25, 0.125, 0.0625, 0.0)
 
