@@ -9,8 +9,10 @@ import pytest
 
 from bracekit import BracedMinNorm, FreeSpaceMinNorm, load_scenario
 from bracekit.errors import SingularityError
+from bracekit.resolution import numba_available
 from bracekit.resolution.min_norm import MinNormStep, min_norm_step
 from bracekit.resolution.task_space import TASK_SPACES, TaskSpace
+from bracekit.tolerances import NULL_SPACE_RTOL
 
 
 def _states(name: str, count: int = 8, scale: float = 0.2):  # type: ignore[no-untyped-def]
@@ -23,14 +25,22 @@ def _states(name: str, count: int = 8, scale: float = 0.2):  # type: ignore[no-u
 @pytest.mark.parametrize("name", ["paper", "panda", "two-braces"])
 @pytest.mark.parametrize("kind", [FreeSpaceMinNorm, BracedMinNorm])
 @pytest.mark.parametrize("space", ["pose", "position"])
-def test_the_lean_step_is_the_strategy_s_velocity(name: str, kind: type, space: str) -> None:
-    """Reference: ``strategy.velocity`` (the SVD pseudo-inverse of S J or S A, q̇1 from the chain split)."""
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_the_lean_step_is_the_strategy_s_velocity(name: str, kind: type, space: str, backend: str) -> None:
+    """Reference: ``strategy.velocity`` (the SVD pseudo-inverse of S J or S A, q̇1 from the chain split).
+
+    Both the NumPy code and, for the full pose, the compiled kernel (numba installed; panda: n1 ≠ 6).
+    """
     sc, states, rng = _states(name)
     strategy = kind(space=TaskSpace(space))
-    step = min_norm_step(sc.braced, strategy)
+    step = min_norm_step(sc.braced, strategy, backend)  # type: ignore[arg-type]
     assert isinstance(step, MinNormStep)
     assert step.lean == (kind is FreeSpaceMinNorm or name != "two-braces")  # several braces: the reference
-    checked = 0
+    if backend == "auto" and numba_available():
+        assert step.uses_kernel == (step.lean and space == "pose")
+    else:
+        assert not step.uses_kernel
+    checked = compiled = 0
     for st in states:
         xd = rng.standard_normal(6)
         try:
@@ -38,11 +48,18 @@ def test_the_lean_step_is_the_strategy_s_velocity(name: str, kind: type, space: 
         except SingularityError:
             continue
         got = step(st, xd)
+        if step.uses_kernel:  # the kernel itself, not a fallback, gave it
+            c = st.contacts[0]
+            constants = (step._h, step._x, step._n1, step._braced, step._cert2, NULL_SPACE_RTOL)
+            status, alone = step._kernel(st.J_e, c.J_b, c.b, st.e, xd, *constants)
+            compiled += status == 0
+            assert status != 0 or np.array_equal(alone, got)
         assert np.all(np.abs(got - want) <= 1e-11 * np.max(np.abs(want)))
         if not step.lean:
             assert np.array_equal(got, want)
         checked += 1
     assert checked >= len(states) // 2
+    assert compiled >= checked // 2 if step.uses_kernel else compiled == 0
 
 
 def test_the_lean_step_is_only_for_the_minimum_norm_strategies() -> None:
@@ -52,11 +69,12 @@ def test_the_lean_step_is_only_for_the_minimum_norm_strategies() -> None:
 
 
 @pytest.mark.parametrize("kind", [FreeSpaceMinNorm, BracedMinNorm])
-def test_an_uncertified_state_takes_the_strategy_s_own_velocity_and_its_error(kind: type) -> None:
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_an_uncertified_state_takes_the_strategy_s_own_velocity_and_its_error(kind: type, backend: str) -> None:
     """No certificate passes (a bound of 1 on the condition number): every q̇ and error is the reference's."""
     sc, states, rng = _states("paper", 4)
     strategy = kind()
-    step = MinNormStep(sc.braced, strategy)
+    step = MinNormStep(sc.braced, strategy, backend)  # type: ignore[arg-type]
     step._cert2 = 1.0  # cond ≥ 1: never certified
     for st in states:
         xd = rng.standard_normal(6)
@@ -70,5 +88,5 @@ def test_an_uncertified_state_takes_the_strategy_s_own_velocity_and_its_error(ki
     with pytest.raises(SingularityError) as ref:
         strategy.velocity(st, np.ones(6))
     with pytest.raises(SingularityError) as got:
-        MinNormStep(sc.braced, strategy)(st, np.ones(6))
+        MinNormStep(sc.braced, strategy, backend)(st, np.ones(6))  # type: ignore[arg-type]
     assert str(got.value) == str(ref.value)

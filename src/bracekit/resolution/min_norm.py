@@ -11,6 +11,9 @@ state's J_e, J_b and placements, with the fused gradient-projection step's short
 * M⁺ S ẋ = Q R⁻ᵀ S ẋ from a Householder QR Mᵀ = QR of the full-row-rank M = S A or S J (no SVD), S the
   task space's selection (:mod:`bracekit.resolution.task_space`).
 
+Where numba can be imported, a full-pose step is one compiled call (:mod:`bracekit.resolution._numba_min_norm`,
+the same formulas and certificates); where the kernel declines, the NumPy code runs.
+
 The shortcuts are taken only where certified (‖J1‖_F ‖J1⁻¹‖_F and ‖M‖_F ‖R⁻¹‖_F below CERTIFIED_COND, far
 below the reference's singularity thresholds); elsewhere, and for several braces of a braced strategy (the null
 space of their stacked constraint is the state's), the step is the strategy's own ``velocity``, so errors and
@@ -19,7 +22,9 @@ warnings stay the reference's. Where certified, q̇ equals the reference's to ~1
 
 from __future__ import annotations
 
+import importlib
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,22 +32,36 @@ from numpy.typing import NDArray
 from bracekit._linalg import row_basis
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective.fused import NotCertified
-from bracekit.resolution.fused import chain1_map
+from bracekit.resolution.fused import Backend, chain1_map
 from bracekit.resolution.strategies import BracedMinNorm, FreeSpaceMinNorm, tip_twist
 from bracekit.resolution.task_space import select
 from bracekit.spatial import twist_shift
-from bracekit.tolerances import CERTIFIED_COND
+from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL
 
 Array = NDArray[np.float64]
 
 __all__ = ["MinNormStep", "min_norm_step"]
 
 
-def min_norm_step(braced: BracedRobot, strategy: object) -> MinNormStep | None:
+def min_norm_step(braced: BracedRobot, strategy: object, backend: Backend = "auto") -> MinNormStep | None:
     """The lean step of a minimum-norm strategy (FreeSpaceMinNorm, BracedMinNorm), None for another strategy."""
     if type(strategy) not in (FreeSpaceMinNorm, BracedMinNorm):
         return None
-    return MinNormStep(braced, strategy)  # type: ignore[arg-type]
+    return MinNormStep(braced, strategy, backend)  # type: ignore[arg-type]
+
+
+def _kernel(backend: Backend) -> Any:
+    """The compiled minimum-norm step, or None for the NumPy backend or where numba cannot be imported."""
+    if backend == "numpy":
+        return None
+    try:
+        return importlib.import_module("bracekit.resolution._numba_min_norm").min_norm_step
+    except ImportError:
+        if backend == "numba":
+            from bracekit.resolution.fused import numba_kernels
+
+            numba_kernels()  # the InputError that says how to install numba
+        return None
 
 
 class MinNormStep:
@@ -51,24 +70,41 @@ class MinNormStep:
     Args:
         braced: the braced robot.
         strategy: a :class:`FreeSpaceMinNorm` or :class:`BracedMinNorm`.
+        backend: ``"auto"`` (the compiled kernel where numba can be imported), ``"numba"`` (InputError without
+            numba) or ``"numpy"``.
 
     ``lean`` says whether the shortcuts apply (one brace for a braced strategy); where they do not, or a
-    certificate fails at a state, the strategy's own ``velocity`` runs.
+    certificate fails at a state, the strategy's own ``velocity`` runs. ``uses_kernel``: whether the compiled
+    kernel computes the step (the full pose only).
     """
 
-    def __init__(self, braced: BracedRobot, strategy: FreeSpaceMinNorm | BracedMinNorm) -> None:
+    def __init__(
+        self, braced: BracedRobot, strategy: FreeSpaceMinNorm | BracedMinNorm, backend: Backend = "auto"
+    ) -> None:
         self.strategy = strategy
         self._braced = bool(strategy.braced)
         self.lean = not self._braced or len(braced.braces) == 1
         self._cert2 = CERTIFIED_COND**2
+        self._n1, self._h, self._x = 1, np.zeros((6, 1)), np.zeros((6, 1))  # unused in free space
         if self.lean and self._braced:
             model = braced.split
-            self._n1, self._h, self._x = model.n1, model.H, model.X
+            self._n1 = model.n1
+            self._h, self._x = np.ascontiguousarray(model.H, dtype=float), np.ascontiguousarray(model.X, dtype=float)
+        self._kernel = _kernel(backend) if self.lean and strategy.space.is_pose else None
+        self.uses_kernel = self._kernel is not None
 
     def __call__(self, state: BracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
         if self.lean:
             xd = tip_twist(xdot)
+            if self._kernel is not None:
+                contact = state.contacts[0]
+                status, qdot = self._kernel(
+                    state.J_e, contact.J_b, contact.b, state.e, xd, self._h, self._x, self._n1, self._braced,
+                    self._cert2, NULL_SPACE_RTOL,
+                )  # fmt: skip
+                if status == 0 and math.isfinite(qdot.sum()):
+                    return np.asarray(qdot, dtype=np.float64)
             try:
                 with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by the reference
                     qdot = self._braced_rates(state, xd) if self._braced else self._free_rates(state, xd)
