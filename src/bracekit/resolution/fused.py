@@ -355,10 +355,10 @@ class GradientProjectionStep:
         """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows (n×6n) if asked."""
         model, data = self._model, self._data
         pin.computeJointJacobians(model, data, qa)
-        pin.updateFramePlacements(model, data)
+        mb = pin.updateFramePlacement(model, data, self._bid).homogeneous  # the two frames, not all the model's
+        me = pin.updateFramePlacement(model, data, self._tip).homogeneous
         je = pin.getFrameJacobian(model, data, self._tip, LWA)
         jb = pin.getFrameJacobian(model, data, self._bid, LWA)
-        mb, me = data.oMf[self._bid].homogeneous, data.oMf[self._tip].homogeneous
         self._last = (qa, (je, jb, mb, me))
         if not hessians:
             return je, jb, mb, me, None, None
