@@ -29,7 +29,7 @@ def _states(name: str, count: int = 8, scale: float = 0.2):  # type: ignore[no-u
 def test_the_lean_step_is_the_strategy_s_velocity(name: str, kind: type, space: str, backend: str) -> None:
     """Reference: ``strategy.velocity`` (the SVD pseudo-inverse of S J or S A, q̇1 from the chain split).
 
-    Both the NumPy code and, for the full pose, the compiled kernel (numba installed; panda: n1 ≠ 6).
+    Both the NumPy code and the compiled kernel (numba installed; panda: n1 ≠ 6; pose and position rows).
     """
     sc, states, rng = _states(name)
     strategy = kind(space=TaskSpace(space))
@@ -37,7 +37,7 @@ def test_the_lean_step_is_the_strategy_s_velocity(name: str, kind: type, space: 
     assert isinstance(step, MinNormStep)
     assert step.lean == (kind is FreeSpaceMinNorm or name != "two-braces")  # several braces: the reference
     if backend == "auto" and numba_available():
-        assert step.uses_kernel == (step.lean and space == "pose")
+        assert step.uses_kernel == step.lean
     else:
         assert not step.uses_kernel
     checked = compiled = 0
@@ -50,7 +50,7 @@ def test_the_lean_step_is_the_strategy_s_velocity(name: str, kind: type, space: 
         got = step(st, xd)
         if step.uses_kernel:  # the kernel itself, not a fallback, gave it
             c = st.contacts[0]
-            constants = (step._h, step._x, step._n1, step._braced, step._cert2, NULL_SPACE_RTOL)
+            constants = (step._h, step._x, step._n1, step._braced, step._rows, step._cert2, NULL_SPACE_RTOL)
             status, alone = step._kernel(st.J_e, c.J_b, c.b, st.e, xd, *constants)
             compiled += status == 0
             assert status != 0 or np.array_equal(alone, got)

@@ -3,7 +3,8 @@
 :class:`bracekit.resolution.min_norm.MinNormStep` imports this module on first use. :func:`min_norm_step` takes
 the state's J_e, J_b and the points b, e and gives, in one compiled call, the q̇ of
 :class:`~bracekit.resolution.FreeSpaceMinNorm` (J⁺ ẋ) or of :class:`~bracekit.resolution.BracedMinNorm` with one
-brace ([ḃ; q̇2] = A⁺ ẋ, eq:general_inv with η = 0, q̇1 = dq1/db̃ ḃ, eq:q1) for the full pose, with the formulas,
+brace ([ḃ; q̇2] = A⁺ ẋ, eq:general_inv with η = 0, q̇1 = dq1/db̃ ḃ, eq:q1) for the full pose or the position
+(S = [I 0]: the first three rows of J, A and ẋ), with the formulas,
 shortcuts and certificates of the NumPy code of :mod:`bracekit.resolution.min_norm` and of the fused
 gradient-projection kernel (:mod:`bracekit.resolution._numba_step`): dq1/db̃ = J1⁻¹ H by LU when n1 = 6, else an
 orthonormal basis of the null space of Xᵀ J1 (q̇ does not depend on the choice of basis); M⁺ = Q R⁻ᵀ from a
@@ -30,21 +31,23 @@ _jit = njit(cache=True, error_model="numpy", nogil=True)
 
 @_jit
 def _pinv_times(at: Array, xd: Array, cert2: float) -> tuple[bool, Array]:  # pragma: no cover - compiled
-    """(ok, M⁺ ẋ) from Mᵀ = at (k×6, k ≥ 6) = QR: Q R⁻ᵀ ẋ, ok where ‖M‖²_F ‖R⁻¹‖²_F < cert2."""
-    k = at.shape[0]
+    """(ok, M⁺ ẋ) from Mᵀ = at (k×m, k ≥ m) = QR: Q R⁻ᵀ ẋ[:m], ok where ‖M‖²_F ‖R⁻¹‖²_F < cert2."""
+    k, m = at.shape
     y = np.zeros(k)
+    if k < m:
+        return False, y
     q, rinv, ok = _row_basis(at)
     if not ok or not _frobenius2(at) * _frobenius2(rinv) < cert2:
         return False, y
-    z = np.zeros(6)  # R⁻ᵀ ẋ
-    for c in range(6):
+    z = np.zeros(m)  # R⁻ᵀ ẋ
+    for c in range(m):
         s = 0.0
-        for r in range(6):
+        for r in range(m):
             s += rinv[r, c] * xd[r]
         z[c] = s
     for i in range(k):
         s = 0.0
-        for c in range(6):
+        for c in range(m):
             s += q[i, c] * z[c]
         y[i] = s
     return True, y
@@ -61,10 +64,11 @@ def min_norm_step(
     x: Array,
     n1: int,
     braced: bool,
+    rows: int,
     cert2: float,
     null_rtol: float,
 ) -> tuple[int, Array]:  # pragma: no cover - compiled
-    """(status, q̇) of a minimum-norm step for the full pose: J⁺ ẋ, or with `braced` eq:general_inv and eq:q1.
+    """(status, q̇) of a minimum-norm step: (S J)⁺ S ẋ, or with `braced` eq:general_inv and eq:q1 in S's rows.
 
     Args:
         je: the frame Jacobian of {e} (6×n, world axes, LOCAL_WORLD_ALIGNED).
@@ -76,17 +80,16 @@ def min_norm_step(
         x: X (6×(6−l)) of the contact.
         n1: joints of chain 1 (1 ≤ n1 < n).
         braced: BracedMinNorm (else FreeSpaceMinNorm).
+        rows: 6 for the full pose, 3 for the position (S = [I 0]).
         cert2: CERTIFIED_COND².
         null_rtol: NULL_SPACE_RTOL.
     """
     n = je.shape[1]
     out = np.zeros(n)
     if not braced:
-        if n < 6:
-            return NOT_CERTIFIED, out
-        at = np.empty((n, 6))
+        at = np.empty((n, rows))
         for i in range(n):
-            for r in range(6):
+            for r in range(rows):
                 at[i, r] = je[r, i]
         ok, y = _pinv_times(at, xd, cert2)
         if not ok:
@@ -98,7 +101,7 @@ def min_norm_step(
         return NOT_CERTIFIED, out
     l_ = h.shape[1] if n1 == 6 else max(n1 - nc, 0)
     kk = l_ + n2
-    if kk < 6:  # fewer braced coordinates than twist components: A has no full row rank
+    if kk < rows:  # fewer braced coordinates than task rows: S A has no full row rank
         return NOT_CERTIFIED, out
     d0, d1, d2 = b[0] - e[0], b[1] - e[1], b[2] - e[2]
     s1 = np.eye(6)  # S_t1 = [[I, [b − e]×], [0, I]] (eq:twists)
@@ -121,12 +124,12 @@ def min_norm_step(
         if not ok or g1.shape[1] != l_:
             return NOT_CERTIFIED, out
         first = _mm(s1, _mm(j1, g1))
-    at = np.empty((kk, 6))  # Aᵀ = [S_t1 J1 dq1/db̃, J_e[:, n1:]]ᵀ (eq:braced_kin)
+    at = np.empty((kk, rows))  # (S A)ᵀ, A = [S_t1 J1 dq1/db̃, J_e[:, n1:]] (eq:braced_kin)
     for c in range(l_):
-        for r in range(6):
+        for r in range(rows):
             at[c, r] = first[r, c]
     for c in range(n2):
-        for r in range(6):
+        for r in range(rows):
             at[l_ + c, r] = je[r, n1 + c]
     ok, y = _pinv_times(at, xd, cert2)
     if not ok:

@@ -11,8 +11,9 @@ state's J_e, J_b and placements, with the fused gradient-projection step's short
 * M⁺ S ẋ = Q R⁻ᵀ S ẋ from a Householder QR Mᵀ = QR of the full-row-rank M = S A or S J (no SVD), S the
   task space's selection (:mod:`bracekit.resolution.task_space`).
 
-Where numba can be imported, a full-pose step is one compiled call (:mod:`bracekit.resolution._numba_min_norm`,
-the same formulas and certificates); where the kernel declines, the NumPy code runs.
+Where numba can be imported, a step in the full pose or the position is one compiled call
+(:mod:`bracekit.resolution._numba_min_norm`, the same formulas and certificates); where the kernel declines, the
+NumPy code runs.
 
 The shortcuts are taken only where certified (‖J1‖_F ‖J1⁻¹‖_F and ‖M‖_F ‖R⁻¹‖_F below CERTIFIED_COND, far
 below the reference's singularity thresholds); elsewhere, and for several braces of a braced strategy (the null
@@ -75,7 +76,7 @@ class MinNormStep:
 
     ``lean`` says whether the shortcuts apply (one brace for a braced strategy); where they do not, or a
     certificate fails at a state, the strategy's own ``velocity`` runs. ``uses_kernel``: whether the compiled
-    kernel computes the step (the full pose only).
+    kernel computes the step (the task spaces whose rows do not turn with the tool: pose, position).
     """
 
     def __init__(
@@ -90,7 +91,8 @@ class MinNormStep:
             model = braced.split
             self._n1 = model.n1
             self._h, self._x = np.ascontiguousarray(model.H, dtype=float), np.ascontiguousarray(model.X, dtype=float)
-        self._kernel = _kernel(backend) if self.lean and strategy.space.is_pose else None
+        self._rows = {"pose": 6, "position": 3}.get(strategy.space.kind, 0)  # S = [I 0] of these spaces
+        self._kernel = _kernel(backend) if self.lean and self._rows else None
         self.uses_kernel = self._kernel is not None
 
     def __call__(self, state: BracedState, xdot: Array) -> Array:
@@ -101,7 +103,7 @@ class MinNormStep:
                 contact = state.contacts[0]
                 status, qdot = self._kernel(
                     state.J_e, contact.J_b, contact.b, state.e, xd, self._h, self._x, self._n1, self._braced,
-                    self._cert2, NULL_SPACE_RTOL,
+                    self._rows, self._cert2, NULL_SPACE_RTOL,
                 )  # fmt: skip
                 if status == 0 and math.isfinite(qdot.sum()):
                     return np.asarray(qdot, dtype=np.float64)
