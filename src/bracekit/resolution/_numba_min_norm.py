@@ -18,8 +18,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from bracekit.resolution._numba_linalg import _frobenius2, _lu, _lu_solve, _mm, _null_space, _row_basis, _tmm
-from bracekit.resolution._numba_step import _split_map
+from bracekit.resolution._numba_linalg import _frobenius2, _row_basis
+from bracekit.resolution._numba_step import _split_map, chain1
 
 #: Status codes of :func:`min_norm_step`.
 OK, NOT_CERTIFIED = 0, 1
@@ -103,27 +103,9 @@ def min_norm_step(
     kk = l_ + n2
     if kk < rows:  # fewer braced coordinates than task rows: S A has no full row rank
         return NOT_CERTIFIED, out
-    d0, d1, d2 = b[0] - e[0], b[1] - e[1], b[2] - e[2]
-    s1 = np.eye(6)  # S_t1 = [[I, [b − e]×], [0, I]] (eq:twists)
-    s1[0, 4], s1[0, 5], s1[1, 3], s1[1, 5], s1[2, 3], s1[2, 4] = -d2, d1, d2, -d0, -d1, d0
-    j1 = np.empty((6, n1))
-    for r in range(6):
-        for i in range(n1):
-            j1[r, i] = jb[r, i]
-    if n1 == 6:  # dq1/db̃ = J1⁻¹ H (eq:q1), and S_t1 J1 dq1/db̃ = S_t1 H
-        lu, piv, ok = _lu(j1)
-        if not ok:
-            return NOT_CERTIFIED, out
-        j1inv = _lu_solve(lu, piv, np.eye(6))
-        if not _frobenius2(j1) * _frobenius2(j1inv) < cert2:
-            return NOT_CERTIFIED, out
-        g1 = _mm(j1inv, h)
-        first = _mm(s1, h)
-    else:  # dq1/db̃ = an orthonormal basis of the null space of Xᵀ J1
-        g1, ok = _null_space(_tmm(x, j1), cert2, null_rtol)
-        if not ok or g1.shape[1] != l_:
-            return NOT_CERTIFIED, out
-        first = _mm(s1, _mm(j1, g1))
+    ok, _, _, g1, first = chain1(jb, b[0] - e[0], b[1] - e[1], b[2] - e[2], h, x, n1, cert2, null_rtol)
+    if not ok:
+        return NOT_CERTIFIED, out
     at = np.empty((kk, rows))  # (S A)ᵀ, A = [S_t1 J1 dq1/db̃, J_e[:, n1:]] (eq:braced_kin)
     for c in range(l_):
         for r in range(rows):
