@@ -277,7 +277,7 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs, 
     }
     contacts = []
     for i, brace in enumerate(braced.braces):
-        z_b = np.array([st.contacts[i].z_b for st in states])
+        z_b = np.array([st.contacts[i].R_b for st in states])[:, :, 2]  # ẑ_b, the third column of each ⁰R_b_i
         b = np.array([st.contacts[i].b for st in states])
         n = brace.surface.normal
         cross = np.stack(
