@@ -116,7 +116,7 @@ def test_every_ratio_taken_at_once_equals_the_guard_s_ratio(name: str, strategy:
 def test_the_stacked_constraint_of_a_path_at_once_is_that_of_each_state() -> None:
     """Every row kept at every sample: G and 1/k_env as each state's stacked constraint; else the states decide."""
     from bracekit.kinematics import BracedRobot
-    from bracekit.simulation.stacked_ratios import full_rank_constraint as _full_rank
+    from bracekit.kinematics.constraint import full_rank_constraint as _full_rank
 
     sc, states, *_ = _path("two-braces")
     fresh = [sc.braced.state(st.q) for st in states]

@@ -15,10 +15,14 @@ Where numba can be imported, a step in the full pose or the position is one comp
 (:mod:`bracekit.resolution._numba_min_norm`, the same formulas and certificates); where the kernel declines, the
 NumPy code runs.
 
+With several braces, BracedMinNorm's q̇ = N (S J_e N)⁺ S ẋ takes N = ``contact_null_space(G)`` of the stacked
+constraint G where every row of G is kept (:func:`~bracekit.kinematics.constraint.full_rank_constraint`: no row
+dropped, no warning), and the same QR pseudo-inverse.
+
 The shortcuts are taken only where certified (‖J1‖_F ‖J1⁻¹‖_F and ‖M‖_F ‖R⁻¹‖_F below CERTIFIED_COND, far
-below the reference's singularity thresholds); elsewhere, and for several braces of a braced strategy (the null
-space of their stacked constraint is the state's), the step is the strategy's own ``velocity``, so errors and
-warnings stay the reference's. Where certified, q̇ equals the reference's to ~1e-13 relative.
+below the reference's singularity thresholds); elsewhere (several braces with a dependent or unloaded row, whose
+state's own constraint drops it and warns) the step is the strategy's own ``velocity``, so errors and warnings stay
+the reference's. Where certified, q̇ equals the reference's to ~1e-13 relative.
 """
 
 from __future__ import annotations
@@ -31,7 +35,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit._linalg import row_basis
-from bracekit.kinematics import BracedRobot, BracedState
+from bracekit.kinematics import BracedRobot, BracedState, contact_null_space
+from bracekit.kinematics.constraint import full_rank_constraint
 from bracekit.objective.fused import NotCertified
 from bracekit.resolution.fused import Backend, chain1_map
 from bracekit.resolution.strategies import BracedMinNorm, FreeSpaceMinNorm, tip_twist
@@ -74,9 +79,9 @@ class MinNormStep:
         backend: ``"auto"`` (the compiled kernel where numba can be imported), ``"numba"`` (InputError without
             numba) or ``"numpy"``.
 
-    ``lean`` says whether the shortcuts apply (one brace for a braced strategy); where they do not, or a
-    certificate fails at a state, the strategy's own ``velocity`` runs. ``uses_kernel``: whether the compiled
-    kernel computes the step (the task spaces whose rows do not turn with the tool: pose, position).
+    Where a certificate fails at a state, or with several braces a row of G is dropped there, the strategy's own
+    ``velocity`` runs. ``uses_kernel``: whether the compiled kernel computes the step (free space or one brace, in
+    the task spaces whose rows do not turn with the tool: pose, position).
     """
 
     def __init__(
@@ -84,36 +89,36 @@ class MinNormStep:
     ) -> None:
         self.strategy = strategy
         self._braced = bool(strategy.braced)
-        self.lean = not self._braced or len(braced.braces) == 1
+        self._split = self._braced and len(braced.braces) == 1  # the paper's chart (b̃, q2); else N y
         self._cert2 = CERTIFIED_COND**2
         self._n1, self._h, self._x = 1, np.zeros((6, 1)), np.zeros((6, 1))  # unused in free space
-        if self.lean and self._braced:
+        if self._split:
             model = braced.split
             self._n1 = model.n1
             self._h, self._x = np.ascontiguousarray(model.H, dtype=float), np.ascontiguousarray(model.X, dtype=float)
         self._rows = {"pose": 6, "position": 3}.get(strategy.space.kind, 0)  # S = [I 0] of these spaces
-        self._kernel = _kernel(backend) if self.lean and self._rows else None
+        self._kernel = _kernel(backend) if self._rows and (self._split or not self._braced) else None
         self.uses_kernel = self._kernel is not None
 
     def __call__(self, state: BracedState, xdot: Array) -> Array:
         """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) at the state."""
-        if self.lean:
-            xd = tip_twist(xdot)
-            if self._kernel is not None:
-                contact = state.contacts[0]
-                status, qdot = self._kernel(
-                    state.J_e, contact.J_b, contact.b, state.e, xd, self._h, self._x, self._n1, self._braced,
-                    self._rows, self._cert2, NULL_SPACE_RTOL,
-                )  # fmt: skip
-                if status == 0 and math.isfinite(qdot.sum()):
-                    return np.asarray(qdot, dtype=np.float64)
-            try:
-                with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by the reference
-                    qdot = self._braced_rates(state, xd) if self._braced else self._free_rates(state, xd)
-                if math.isfinite(qdot.sum()):
-                    return qdot
-            except NotCertified:
-                pass
+        xd = tip_twist(xdot)
+        if self._kernel is not None:
+            contact = state.contacts[0]
+            status, qdot = self._kernel(
+                state.J_e, contact.J_b, contact.b, state.e, xd, self._h, self._x, self._n1, self._braced,
+                self._rows, self._cert2, NULL_SPACE_RTOL,
+            )  # fmt: skip
+            if status == 0 and math.isfinite(qdot.sum()):
+                return np.asarray(qdot, dtype=np.float64)
+        rates = self._braced_rates if self._split else self._null_rates if self._braced else self._free_rates
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by the reference
+                qdot = rates(state, xd)
+            if math.isfinite(qdot.sum()):
+                return qdot
+        except NotCertified:
+            pass
         return self.strategy.velocity(state, xdot)
 
     def _pinv_times(self, state: BracedState, m: Array, xd: Array) -> Array:
@@ -143,3 +148,13 @@ class MinNormStep:
         a = np.concatenate((s1.dot(self._h if n1 == 6 else jb[:, :n1].dot(g1)), je[:, n1:]), axis=1)
         y = self._pinv_times(state, a, xd)
         return np.concatenate((g1.dot(y[: g1.shape[1]]), y[g1.shape[1] :]))
+
+    def _null_rates(self, state: BracedState, xd: Array) -> Array:
+        """Q̇ = N (S J_e N)⁺ S ẋ of several braces, N the null space of G; NotCertified where a row of G drops."""
+        if "constraint" in state.__dict__:  # the state's own (rows dropped and warned there, or not): the reference
+            raise NotCertified
+        found = full_rank_constraint([state], state.K)
+        if found is None:
+            raise NotCertified
+        null = contact_null_space(found[0][0])
+        return np.asarray(null.dot(self._pinv_times(state, np.asarray(state.J_e @ null), xd)), dtype=np.float64)

@@ -35,10 +35,11 @@ from numpy.typing import NDArray
 from bracekit.errors import BracekitError, ContactError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.clearance import link_clearances
+from bracekit.kinematics.constraint import full_rank_constraint
 from bracekit.kinematics.motions import NullMotions
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
-from bracekit.simulation.stacked_ratios import Decomposed, full_rank_constraint, split_parts
+from bracekit.simulation.stacked_ratios import Decomposed, split_parts
 from bracekit.tolerances import MEASURE_SINGULAR_RATIO
 
 Array = NDArray[np.float64]

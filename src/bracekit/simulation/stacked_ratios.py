@@ -8,9 +8,9 @@ S A, J = J_e and J̃ (eq:J_wave) are formed as stacks, with the products and the
 forms its own (:meth:`~bracekit.kinematics.motions.BracedMotions.watched`).
 
 With several braces, where no state has its stacked constraint yet and every sample keeps every row of G
-(:func:`full_rank_constraint`: no row dropped, so no warning), G, N (the null space of G from one stacked SVD,
-as ``contact_null_space`` takes it per matrix), J_e N and S J_e N are formed as stacks too; otherwise each
-state's own constraint (which drops rows and warns) forms them.
+(:func:`~bracekit.kinematics.constraint.full_rank_constraint`: no row dropped, so no warning), G, N (the null
+space of G from one stacked SVD, as ``contact_null_space`` takes it per matrix), J_e N and S J_e N are formed as
+stacks too; otherwise each state's own constraint (which drops rows and warns) forms them.
 
 A caller may keep the stacks and their singular values (``kept``): the run's measures take k of the braced task
 Jacobian and of J_e from them (:mod:`bracekit.simulation.path_measures`) instead of forming and decomposing them
@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING, NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.tolerances import NULL_SPACE_RTOL, UNLOADED_TOL
+from bracekit.kinematics.constraint import full_rank_constraint
+from bracekit.tolerances import NULL_SPACE_RTOL
 
 if TYPE_CHECKING:
     from bracekit.kinematics import BracedState
@@ -36,7 +37,6 @@ Array = NDArray[np.float64]
 __all__ = [
     "Decomposed",
     "SplitParts",
-    "full_rank_constraint",
     "split_parts",
     "stacked_conditioning",
     "stacked_ratios",
@@ -155,50 +155,12 @@ def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -
     return {"J1": (j1, False), "A": (a, False), "SA": (sa, True), "J": (j_e, False), "J_braced": (j_braced, False)}
 
 
-def full_rank_constraint(states: Sequence[BracedState], k: Array) -> tuple[Array, Array] | None:
-    """(G (N, c, n), 1/k_env of its rows (c,)) of the states when every one keeps every row, else None.
-
-    The stacked constraint of each state at once (stacked_constraint's G, weights and threshold): every row is
-    independent when the weighted rigid rows w = G_rigid K^(−1/2) have σ_min² > UNLOADED_TOL · max(σ_max²,
-    max_i tr(J_b_i K⁻¹ J_b_iᵀ)) at every state (no row dropped, no warning). None hands the states to their own
-    stacked constraint (which drops rows and warns, or raises on a non-finite G): also where a state has its
-    constraint already (its own counts) or the states brace different models. `k`: the joint stiffnesses (n,).
-    """
-    braced = states[0].braced
-    if any("constraint" in st.__dict__ or st.braced is not braced for st in states):
-        return None
-    blocks, comp = [], []
-    traces: list[Array] = []
-    rigid_of: list[bool] = []
-    with np.errstate(all="ignore"):
-        for i, (brace, x) in enumerate(zip(braced.braces, braced.X_i, strict=True)):
-            j_b = np.array([st.contacts[i].J_b for st in states], dtype=np.float64)
-            blocks.append(x.T @ j_b)
-            k_env = brace.environment_stiffness
-            comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
-            rigid_of.extend([k_env is None] * x.shape[1])
-            traces.append(np.sum(j_b * j_b / k, axis=(1, 2)) if k_env is None else np.zeros(len(states)))
-        g = np.concatenate(blocks, axis=1)
-        if not np.isfinite(g).all():
-            return None
-        rigid = [r for r, yes in enumerate(rigid_of) if yes]
-        if not rigid:
-            return g, np.array(comp, dtype=np.float64)
-        w = g[:, rigid] / np.sqrt(k)
-        if len(rigid) > g.shape[2] or not (np.isfinite(w).all() and np.isfinite(traces).all()):
-            return None
-        s = np.sqrt(np.einsum("nij,nij->ni", w, w))[:, 0:1] if len(rigid) == 1 else np.linalg.svd(w, compute_uv=False)
-        limit = UNLOADED_TOL * np.maximum(s[:, 0] ** 2, np.max(traces, axis=0))
-        if not (s[:, -1] ** 2 > limit).all():
-            return None
-    return g, np.array(comp, dtype=np.float64)
-
-
 def _null_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
     """The watched matrices G, S J_e N and J = J_e of several-brace states as stacks, and J_e N ("JN").
 
     N = ``contact_null_space(G)`` of each state from one stacked SVD (the same LAPACK call per matrix), where
-    every state keeps every row of G (:func:`full_rank_constraint`) and N has one width; None otherwise.
+    every state keeps every row of G (:func:`~bracekit.kinematics.constraint.full_rank_constraint`) and N has
+    one width; None otherwise.
     """
     if any(r is None for r in rows) and not all(r is None for r in rows):
         return None
