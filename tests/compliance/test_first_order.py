@@ -503,3 +503,30 @@ def test_a_robot_whose_compliance_overflows_float64_gives_a_numerical_error_not_
         with pytest.raises(NumericalError) as info:
             call()
         assert "\n" not in str(info.value)
+
+
+def test_unit6_of_a_float_twist_is_spatial_unit_bit_for_bit_and_refuses_what_it_refuses() -> None:
+    """Reference: :func:`bracekit.spatial.unit` (any scale) and its InputError; a non-finite entry anywhere."""
+    from bracekit.compliance.first_order import unit6
+    from bracekit.errors import InputError
+    from bracekit.spatial import unit
+
+    rng = np.random.default_rng(29)
+    for _ in range(2000):
+        v = rng.standard_normal(6) * 10.0 ** float(rng.integers(-300, 300))
+        try:
+            want = unit(v.copy(), "beta_x")
+        except InputError:
+            with pytest.raises(InputError):
+                unit6(v, "beta_x")
+            continue
+        assert np.array_equal(unit6(v, "beta_x"), want)
+        assert np.array_equal(unit6(v.tolist(), "beta_x"), want)  # the general path
+    for k in range(6):
+        for bad in (np.nan, np.inf, -np.inf):
+            v = np.ones(6)
+            v[k] = bad
+            with pytest.raises(InputError):
+                unit6(v, "beta_x")
+    with pytest.raises(InputError):
+        unit6(np.zeros(6), "beta_x")

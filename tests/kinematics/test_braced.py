@@ -443,3 +443,36 @@ def test_braced_robot_and_state_refuse_wrong_types() -> None:
     for q in ("0 0 0 0 0 0 0", [[0, 1], [2]], None, np.full(7, np.inf)):
         with pytest.raises(InputError):
             braced.state(q)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_a_state_from_kinematics_is_the_dataclass_built_from_its_fields(name: str) -> None:
+    """Reference: BracedState and ContactState built by their own __init__ from the same fields, and Pinocchio."""
+    import dataclasses
+
+    from bracekit import load_scenario
+    from bracekit.kinematics.braced import BracedState, ContactState
+    from bracekit.kinematics.hessian import LWA
+
+    braced = load_scenario(name).braced
+    q = np.random.default_rng(31).uniform(braced.robot.lower, braced.robot.upper)
+    for hessians in (False, True):
+        st = braced.state(q, hessians=hessians)
+        for obj, cls in [(st, BracedState)] + [(c, ContactState) for c in st.contacts]:
+            assert not hasattr(cls, "__post_init__")  # the fields are all its __init__ sets
+            ref = cls(**{f.name: getattr(obj, f.name) for f in dataclasses.fields(cls)})
+            assert obj.__dict__.keys() == ref.__dict__.keys()
+            assert all(getattr(obj, key) is getattr(ref, key) for key in ref.__dict__)
+            with pytest.raises(dataclasses.FrozenInstanceError):
+                obj.q = q  # type: ignore[misc]
+        data = braced.robot.model.createData()  # a fresh pass: every frame placed
+        pin.computeJointJacobians(braced.robot.model, data, q)
+        pin.updateFramePlacements(braced.robot.model, data)
+        for fid, (m, j) in zip(
+            (braced.robot.tip_id, *braced.brace_ids),
+            [(np.vstack([np.hstack([st.R_e, st.e[:, None]]), [0, 0, 0, 1]]), st.J_e)]
+            + [(np.vstack([np.hstack([c.R_b, c.b[:, None]]), [0, 0, 0, 1]]), c.J_b) for c in st.contacts],
+            strict=True,
+        ):
+            assert np.array_equal(m, data.oMf[fid].homogeneous)
+            assert np.array_equal(j, pin.getFrameJacobian(braced.robot.model, data, fid, LWA))

@@ -7,6 +7,7 @@ state) and, for a run, the ratios a complete run records at each sample, checked
 from __future__ import annotations
 
 import importlib
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -17,7 +18,7 @@ from bracekit.errors import NumericalError
 from bracekit.kinematics.motions import rank_ratio, singular_ratio
 from bracekit.simulation.guards import WATCH_BATCH, first_singular, sigma_ratios, stacked_sigma_ratios
 from bracekit.simulation.scenario import Scenario
-from bracekit.simulation.stacked_ratios import _split_stacks, stacked_ratios
+from bracekit.simulation.stacked_ratios import Decomposed, _split_stacks, stacked_ratios
 from bracekit.simulation.trajectory import Trajectory
 
 GUARDS = importlib.import_module("bracekit.simulation.guards")
@@ -131,7 +132,7 @@ def test_one_brace_stacks_are_the_chain_split_matrices_to_the_last_bit(name: str
     states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(5)]
     space = sc.task_space
     rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
-    stacks = _split_stacks([st.motions for st in states], rows)  # type: ignore[arg-type]
+    stacks = _split_stacks(states, rows)
     assert stacks is not None
     for i, (st, sel) in enumerate(zip(states, rows, strict=True)):
         sp = st.split
@@ -187,3 +188,74 @@ def test_an_error_after_a_singular_sample_not_yet_guarded_reports_the_singularit
     assert not cut.completed and cut.failure is not None
     assert cut.failure.startswith(f"step {k} (t = {k * whole.t[1]:.3f} s)") and "singular on the path" in cut.failure
     assert np.array_equal(cut.q, whole.q[:k])
+
+
+@pytest.mark.parametrize(("name", "scale"), [("paper", 0.3), ("panda", 0.1), ("two-braces", 0.05)])
+def test_the_kept_stacks_are_each_state_s_own_matrix_and_svd(name: str, scale: float) -> None:
+    """Reference: each state's watched matrix formed alone (``motions.watched``) and NumPy's SVD of it alone."""
+    sc = load_scenario(name)
+    rng = np.random.default_rng(17)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(6)]
+    keys = tuple(sigma_ratios(states[0], sc.task_space))
+    fresh = [sc.braced.state(st.q) for st in states]  # nothing formed yet: the stacks form every matrix
+    kept: dict[str, Decomposed] = {}
+    found = stacked_sigma_ratios(fresh, sc.task_space, keys, kept)
+    assert found == [sigma_ratios(st, sc.task_space, keys) for st in states]
+    task = states[0].motions.task_key(sc.task_space.is_pose)
+    assert task is not None and {task, "J"} <= set(kept)
+    for i, st in enumerate(states):
+        rows = None if sc.task_space.is_pose else sc.task_space.selection(st.R_e)
+        watched = st.motions.watched(rows)
+        for key, (stack, s) in kept.items():
+            matrix = watched[key][0]() if key in watched else st.motions.task_jacobian
+            assert np.array_equal(stack[i], matrix), key
+            assert np.array_equal(s[i], np.linalg.svd(matrix, compute_uv=False)), key
+        assert np.array_equal(kept[task].stack[i], st.motions.task_jacobian)
+
+
+@pytest.mark.parametrize("space", ["pose", "position"])
+def test_several_brace_stacks_are_each_state_s_constraint_matrices_to_the_last_bit(space: str) -> None:
+    """Reference: each state's stacked constraint (G, N by ``contact_null_space``), J_e N and S J_e N, alone."""
+    from bracekit.resolution.task_space import TaskSpace
+    from bracekit.simulation.stacked_ratios import _null_stacks
+
+    sc = load_scenario("two-braces")
+    task_space = TaskSpace(space)
+    rng = np.random.default_rng(19)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + 0.05 * rng.standard_normal(base.shape)) for _ in range(5)]
+    rows = [None if task_space.is_pose else task_space.selection(st.R_e) for st in states]
+    stacks = _null_stacks(states, rows)
+    assert stacks is not None
+    for i, (st, sel) in enumerate(zip(states, rows, strict=True)):
+        m = st.motions
+        assert st.constraint.dependent == ()
+        want = {"G": m.G, "SJN": m.A if sel is None else sel @ m.A, "J": st.J_e, "JN": m.A}
+        for key, matrix in want.items():
+            assert np.array_equal(stacks[key][0][i], matrix), key
+    assert _null_stacks(states, rows) is None  # their constraints are known now: each state's own counts
+
+
+def test_dependent_braces_are_left_to_each_state_s_constraint_and_its_warning() -> None:
+    """The paper's brace twice: rows of G depend on each other, the states drop them and warn, not the stacks."""
+    from bracekit.errors import RedundantContactWarning, UnloadedContactWarning
+    from bracekit.kinematics import BracedRobot
+    from bracekit.simulation.stacked_ratios import _null_stacks
+
+    sc = load_scenario("paper")
+    twice = BracedRobot(sc.braced.robot, [sc.braced.braces[0], sc.braced.braces[0]])
+    base = np.asarray(sc.guess, dtype=float)
+    rng = np.random.default_rng(21)
+    qs = [base + 0.1 * rng.standard_normal(base.shape) for _ in range(4)]
+    assert _null_stacks([twice.state(q) for q in qs], [None] * len(qs)) is None
+    with pytest.warns((RedundantContactWarning, UnloadedContactWarning)):
+        keys = tuple(sigma_ratios(twice.state(qs[0]), sc.task_space))
+    with warnings.catch_warnings(record=True) as stacked:
+        warnings.simplefilter("always")
+        found = stacked_sigma_ratios([twice.state(q) for q in qs], sc.task_space, keys)
+    with warnings.catch_warnings(record=True) as alone:
+        warnings.simplefilter("always")
+        ref = [sigma_ratios(twice.state(q), sc.task_space, keys) for q in qs]
+    assert found == ref
+    assert [str(w.message) for w in stacked] == [str(w.message) for w in alone] and alone

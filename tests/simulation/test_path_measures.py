@@ -116,7 +116,7 @@ def test_every_ratio_taken_at_once_equals_the_guard_s_ratio(name: str, strategy:
 def test_the_stacked_constraint_of_a_path_at_once_is_that_of_each_state() -> None:
     """Every row kept at every sample: G and 1/k_env as each state's stacked constraint; else the states decide."""
     from bracekit.kinematics import BracedRobot
-    from bracekit.simulation.path_measures import _full_rank
+    from bracekit.kinematics.constraint import full_rank_constraint as _full_rank
 
     sc, states, *_ = _path("two-braces")
     fresh = [sc.braced.state(st.q) for st in states]
@@ -147,3 +147,39 @@ def test_a_stack_equal_to_one_taken_shares_its_singular_values_and_any_other_get
     assert found is not first
     np.testing.assert_array_equal(found, np.linalg.svd(other, compute_uv=False))
     assert _singular_values(stack.reshape(50, 7, 6)) is not first  # another shape
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_the_measures_from_the_guard_s_stacks_equal_the_samples_one_by_one(name: str) -> None:
+    """The run hands k's Jacobians and their SVDs over from its guard; reference: ``measure`` of each sample."""
+    from bracekit.simulation.guards import WATCH_BATCH, stacked_sigma_ratios
+    from bracekit.simulation.path_measures import Known
+    from bracekit.simulation.stacked_ratios import Decomposed
+
+    sc, states, betas, errors, ratios, steps = _path(name)
+    fresh = [sc.braced.state(st.q) for st in states]
+    space = sc.strategy("braced_gradient_projection").space
+    keys = tuple(states[0].motions.conditioning(None if space.is_pose else space.selection(states[0].R_e)))
+    task = states[0].motions.task_key(space.is_pose)
+    assert task == ("J_braced" if name == "paper" else "JN")  # two braces: a position task, J_e N beside S J_e N
+    batches = []
+    for first in range(0, len(fresh), WATCH_BATCH):  # as the run's guard takes them
+        kept: dict[str, Decomposed] = {}
+        stacked_sigma_ratios(fresh[first : first + WATCH_BATCH], space, keys, kept)
+        batches.append(kept)
+    def joined(key: str | None) -> Decomposed | None:
+        if key is None:
+            return None
+        return Decomposed(np.concatenate([b[key].stack for b in batches]), np.concatenate([b[key].s for b in batches]))
+
+    known = Known(joined(task), joined("J"))
+    samples, count, error = measure_path(sc.braced, fresh, betas, errors, ratios, steps, known)
+    assert error is None and count == len(fresh) and samples is not None
+    # nothing of the chain split or of the stacked constraint formed state by state: the stacks served
+    assert all("split" not in st.__dict__ and "motions" not in st.__dict__ for st in fresh)
+    ref = Samples.stack(sc.braced, [measure(*row) for row in zip(states, betas, errors, ratios, steps, strict=True)])
+    _assert_equal(samples, ref)
+    for key in ("k", "k_free"):  # the very numbers of the path's own SVDs
+        alone, *_ = measure_path(sc.braced, [sc.braced.state(st.q) for st in states], betas, errors, ratios, steps)
+        assert alone is not None
+        np.testing.assert_array_equal(samples.series[key], alone.series[key])

@@ -275,6 +275,11 @@ def compliance_ellipsoids(c_e: ArrayLike) -> ComplianceEllipsoids:
 
 def unit6(v: ArrayLike, what: str) -> Array:
     """`v` (6 numbers [v; ω], not all zero) scaled to unit length; InputError naming `what` otherwise."""
+    if type(v) is np.ndarray and v.dtype == np.float64 and v.shape == (6,):  # a run's β_x(t), once a step
+        values = v.tolist()
+        big = max(map(abs, values))
+        if 1e-150 < big < 1e150 and math.isfinite(sum(values)):  # ‖v‖ neither overflows nor underflows: unit's
+            return np.asarray(v / math.sqrt(float(v.dot(v))), dtype=np.float64)
     a = as_array(v, what, finite=False).reshape(-1)
     if a.size != 6:
         raise InputError(f"{what} must have 6 components [v; ω], got {a.size}")

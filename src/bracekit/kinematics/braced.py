@@ -14,7 +14,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -168,8 +168,8 @@ class BracedRobot:
         if hessians:  # the first time: check Pinocchio's Hessian layout with this data (before it is filled at q)
             ensure_hessian_layout(model, data, ids)
         pin.computeJointJacobians(model, data, qa)
-        pin.updateFramePlacements(model, data)
-        kin = [(data.oMf[f].homogeneous, pin.getFrameJacobian(model, data, f, LWA)) for f in ids]  # fresh arrays
+        place, jacobian = pin.updateFramePlacement, pin.getFrameJacobian  # the frames asked for, not all the model's
+        kin = [(place(model, data, f).homogeneous, jacobian(model, data, f, LWA)) for f in ids]  # fresh arrays
         if not hessians:
             return self.state_from_kinematics(qa, kin)
         pin.computeJointKinematicHessians(model, data)
@@ -190,10 +190,14 @@ class BracedRobot:
         (tip, j_e), frames = kinematics[0], kinematics[1:]
         d = [None] * len(kinematics) if hessians is None else list(hessians)
         contacts = tuple(
-            ContactState(brace=brace, b=m[:3, 3], R_b=m[:3, :3], J_b=j, dJ_b=dj)
-            for brace, (m, j), dj in zip(self.braces, frames, d[1:], strict=True)
+            [
+                _built(ContactState, {"brace": brace, "b": m[:3, 3], "R_b": m[:3, :3], "J_b": j, "dJ_b": dj})
+                for brace, (m, j), dj in zip(self.braces, frames, d[1:], strict=True)
+            ]
         )
-        return BracedState(braced=self, q=q, e=tip[:3, 3], R_e=tip[:3, :3], J_e=j_e, contacts=contacts, dJ_e=d[0])
+        fields = {"braced": self, "q": q, "e": tip[:3, 3], "R_e": tip[:3, :3], "J_e": j_e, "contacts": contacts}
+        fields["dJ_e"] = d[0]
+        return _built(BracedState, fields)
 
     def frame_placements(self, q: ArrayLike) -> FramePlacements:
         """e, ⁰R_e and each b_i, ⁰R_b_i at q by forward kinematics alone: the values of ``state(q)``, cheaper."""
@@ -214,6 +218,20 @@ class BracedRobot:
             b_i=tuple(m[:3, 3] for m in ms[1:]),
             R_b_i=tuple(m[:3, :3] for m in ms[1:]),
         )
+
+
+_Built = TypeVar("_Built")
+
+
+def _built(cls: type[_Built], fields: dict[str, Any]) -> _Built:
+    """``cls(**fields)`` of a frozen dataclass whose __init__ only stores its fields (no __post_init__), cheaper.
+
+    Its __dict__ is filled at once instead of one ``object.__setattr__`` a field: the same object (a run builds
+    one state a step).
+    """
+    out = object.__new__(cls)
+    out.__dict__.update(fields)
+    return out
 
 
 def _brace_frame(robot: Robot, name: str) -> tuple[int, int]:

@@ -11,11 +11,13 @@ constrain the same motion (the same frame twice, or two links that only move tog
 then dependent. :func:`stacked_constraint` keeps a maximal independent set of the rigid rows, in the order of
 the braces, and warns which rows it dropped and on which kept rows they depend (docs/model.md, "Several
 braces"). The compliance with these constraints is :func:`bracekit.compliance.first_order.constrained_compliance`.
+:func:`full_rank_constraint` gives G of many states at once where each keeps every row (no warning).
 """
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
@@ -140,6 +142,45 @@ def stacked_constraint(state: BracedState) -> StackedConstraint:
         independent=independent,
         dependent=tuple(sorted(dropped)),
     )
+
+
+def full_rank_constraint(states: Sequence[BracedState], k: Array) -> tuple[Array, Array] | None:
+    """(G (N, c, n), 1/k_env of its rows (c,)) of the states when every one keeps every row, else None.
+
+    The stacked constraint of each state at once (stacked_constraint's G, weights and threshold): every row is
+    independent when the weighted rigid rows w = G_rigid K^(−1/2) have σ_min² > UNLOADED_TOL · max(σ_max²,
+    max_i tr(J_b_i K⁻¹ J_b_iᵀ)) at every state (no row dropped, no warning). None hands the states to their own
+    stacked constraint (which drops rows and warns, or raises on a non-finite G): also where a state has its
+    constraint already (its own counts) or the states brace different models. `k`: the joint stiffnesses (n,).
+    """
+    braced = states[0].braced
+    if any("constraint" in st.__dict__ or st.braced is not braced for st in states):
+        return None
+    blocks, comp = [], []
+    traces: list[Array] = []
+    rigid_of: list[bool] = []
+    with np.errstate(all="ignore"):
+        for i, (brace, x) in enumerate(zip(braced.braces, braced.X_i, strict=True)):
+            j_b = np.array([st.contacts[i].J_b for st in states], dtype=np.float64)
+            blocks.append(x.T @ j_b)
+            k_env = brace.environment_stiffness
+            comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
+            rigid_of.extend([k_env is None] * x.shape[1])
+            traces.append(np.sum(j_b * j_b / k, axis=(1, 2)) if k_env is None else np.zeros(len(states)))
+        g = np.concatenate(blocks, axis=1)
+        if not np.isfinite(g).all():
+            return None
+        rigid = [r for r, yes in enumerate(rigid_of) if yes]
+        if not rigid:
+            return g, np.array(comp, dtype=np.float64)
+        w = g[:, rigid] / np.sqrt(k)
+        if len(rigid) > g.shape[2] or not (np.isfinite(w).all() and np.isfinite(traces).all()):
+            return None
+        s = np.sqrt(np.einsum("nij,nij->ni", w, w))[:, 0:1] if len(rigid) == 1 else np.linalg.svd(w, compute_uv=False)
+        limit = UNLOADED_TOL * np.maximum(s[:, 0] ** 2, np.max(traces, axis=0))
+        if not (s[:, -1] ** 2 > limit).all():
+            return None
+    return g, np.array(comp, dtype=np.float64)
 
 
 def _independent_rows(

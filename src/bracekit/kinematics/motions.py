@@ -72,6 +72,10 @@ class BracedMotions:
         """The braced task Jacobian the measures k and Πσ take (eq:manip): J̃ for one brace, J_e N for several."""
         raise NotImplementedError
 
+    def task_key(self, whole_pose: bool) -> str | None:
+        """The key of :meth:`watched` whose matrix is ``task_jacobian`` (`whole_pose`: S = I), None if none is."""
+        raise NotImplementedError
+
     def to_joint(self, y: Array) -> Array:
         """q̇ = M y (n,) from braced coordinates y (r,)."""
         raise NotImplementedError
@@ -135,6 +139,10 @@ class SplitMotions(BracedMotions):
         """J̃ = [S_t1 (I − P) J1, S_t2 J2] (eq:J_wave): the paper's measures' Jacobian."""
         return self.split.J_braced
 
+    def task_key(self, whole_pose: bool) -> str | None:
+        """J̃, watched whole."""
+        return "J_braced"
+
     def to_joint(self, y: Array) -> Array:
         """[ḃ; q̇2] → q̇ = [dq1/db̃ · ḃ; q̇2] (eq:q1)."""
         chain1 = self.split.chain1_map
@@ -181,6 +189,10 @@ class NullMotions(BracedMotions):
     def task_jacobian(self) -> Array:
         """J_e N (6×(n − rank G))."""
         return self.A
+
+    def task_key(self, whole_pose: bool) -> str | None:
+        """S J_e N, which is J_e N for the whole pose; else J_e N itself ("JN"), which stacks give beside it."""
+        return "SJN" if whole_pose else "JN"
 
     def to_joint(self, y: Array) -> Array:
         """q̇ = N y."""

@@ -74,6 +74,36 @@ def _split_map(g1: Array, v: Array, out: Array, transpose: bool) -> None:
 
 
 @_jit
+def chain1(
+    jb: Array, d0: float, d1: float, d2: float, h: Array, x: Array, n1: int, cert2: float, null_rtol: float
+) -> tuple[bool, Array, Array, Array, Array]:  # pragma: no cover - compiled
+    """(ok, S_t1, J1, dq1/db̃, S_t1 J1 dq1/db̃) of one brace from J_b (6×n) and b − e = (d0, d1, d2).
+
+    S_t1 = [[I, [b − e]×], [0, I]] (eq:twists); dq1/db̃ = J1⁻¹ H (eq:q1) by LU when n1 = 6, certified by
+    ‖J1‖²_F ‖J1⁻¹‖²_F < cert2 (then S_t1 J1 dq1/db̃ = S_t1 H), else an orthonormal basis of the null space of
+    Xᵀ J1 (:func:`~bracekit.resolution._numba_linalg._null_space`); ok False where not certified.
+    """
+    s1 = np.eye(6)
+    s1[0, 4], s1[0, 5], s1[1, 3], s1[1, 5], s1[2, 3], s1[2, 4] = -d2, d1, d2, -d0, -d1, d0
+    j1 = np.empty((6, n1))
+    for r in range(6):
+        for i in range(n1):
+            j1[r, i] = jb[r, i]
+    if n1 == 6:  # dq1/db̃ = J1⁻¹ H (eq:q1), and S_t1 J1 dq1/db̃ = S_t1 H
+        lu, piv, ok = _lu(j1)
+        if not ok:
+            return False, s1, j1, j1, j1
+        j1inv = _lu_solve(lu, piv, np.eye(6))
+        if not _frobenius2(j1) * _frobenius2(j1inv) < cert2:
+            return False, s1, j1, j1, j1
+        return True, s1, j1, _mm(j1inv, h), _mm(s1, h)
+    g1, ok = _null_space(_tmm(x, j1), cert2, null_rtol)  # dq1/db̃: the null space of Xᵀ J1
+    if not ok:
+        return False, s1, j1, j1, j1
+    return True, s1, j1, g1, _mm(s1, _mm(j1, g1))
+
+
+@_jit
 def gp_step(
     je: Array,
     jb: Array,
@@ -126,27 +156,9 @@ def gp_step(
     if kk < 6:  # fewer braced coordinates than twist components: no null space (as the NumPy code)
         return NOT_CERTIFIED, out
     d0, d1, d2 = mb[0, 3] - me[0, 3], mb[1, 3] - me[1, 3], mb[2, 3] - me[2, 3]
-    # S_t1 = [[I, [b − e]×], [0, I]] (eq:twists)
-    s1 = np.eye(6)
-    s1[0, 4], s1[0, 5], s1[1, 3], s1[1, 5], s1[2, 3], s1[2, 4] = -d2, d1, d2, -d0, -d1, d0
-    j1 = np.empty((6, n1))
-    for r in range(6):
-        for i in range(n1):
-            j1[r, i] = jb[r, i]
-    if n1 == 6:  # dq1/db̃ = J1⁻¹ H (eq:q1), and S_t1 J1 dq1/db̃ = S_t1 H
-        lu, piv, ok = _lu(j1)
-        if not ok:
-            return NOT_CERTIFIED, out
-        j1inv = _lu_solve(lu, piv, np.eye(6))
-        if not _frobenius2(j1) * _frobenius2(j1inv) < cert2:
-            return NOT_CERTIFIED, out
-        g1 = _mm(j1inv, h)
-        first = _mm(s1, h)
-    else:  # dq1/db̃ = an orthonormal basis of the null space of Xᵀ J1
-        g1, ok = _null_space(_tmm(x, j1), cert2, null_rtol)
-        if not ok:
-            return NOT_CERTIFIED, out
-        first = _mm(s1, _mm(j1, g1))
+    ok, s1, j1, g1, first = chain1(jb, d0, d1, d2, h, x, n1, cert2, null_rtol)
+    if not ok:
+        return NOT_CERTIFIED, out
     # Aᵀ = [S_t1 J1 dq1/db̃, J_e[:, n1:]]ᵀ (eq:braced_kin) and its QR
     at = np.empty((kk, 6))
     for c in range(l_):

@@ -103,6 +103,20 @@ def fused_step(braced: BracedRobot, strategy: object, backend: Backend = "numpy"
     return GradientProjectionStep(braced, strategy, backend=backend)
 
 
+def chain1_map(jb: Array, n1: int, h: Array, x: Array, cert2: float) -> Array:
+    """dq1/db̃ (n1×l) from J_b (6×n): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as ChainSplit).
+
+    NotCertified where ‖J1‖²_F ‖J1⁻¹‖²_F ≥ `cert2` (a bound of cond(J1)²) or J1 has an exactly zero pivot.
+    """
+    j1 = jb[:, :n1]
+    if n1 == 6:
+        inv = inverse(j1)
+        if inv is None or not float(np.vdot(j1, j1)) * float(np.vdot(inv, inv)) < cert2:
+            raise NotCertified  # ‖J1‖²_F ‖J1⁻¹‖²_F ≥ cond(J1)²
+        return cast(Array, inv.dot(h))
+    return contact_null_space(x.T @ j1)
+
+
 class GradientProjectionStep:
     """q̇ = [dq1/db̃ · ḃ; q̇2] with [ḃ; q̇2] = A⁺ẋ + (I − A⁺A) α ∇g (eq:grad_proj), fused.
 
@@ -341,10 +355,10 @@ class GradientProjectionStep:
         """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows (n×6n) if asked."""
         model, data = self._model, self._data
         pin.computeJointJacobians(model, data, qa)
-        pin.updateFramePlacements(model, data)
+        mb = pin.updateFramePlacement(model, data, self._bid).homogeneous  # the two frames, not all the model's
+        me = pin.updateFramePlacement(model, data, self._tip).homogeneous
         je = pin.getFrameJacobian(model, data, self._tip, LWA)
         jb = pin.getFrameJacobian(model, data, self._bid, LWA)
-        mb, me = data.oMf[self._bid].homogeneous, data.oMf[self._tip].homogeneous
         self._last = (qa, (je, jb, mb, me))
         if not hessians:
             return je, jb, mb, me, None, None
@@ -364,13 +378,7 @@ class GradientProjectionStep:
 
     def _chain1(self, jb: Array) -> Array:
         """dq1/db̃ (n1×l): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as BracedState)."""
-        j1 = jb[:, : self._n1]
-        if self._n1 == 6:
-            inv = inverse(j1)
-            if inv is None or not float(np.vdot(j1, j1)) * float(np.vdot(inv, inv)) < self._cert2:
-                raise NotCertified  # ‖J1‖²_F ‖J1⁻¹‖²_F ≥ cond(J1)²
-            return cast(Array, inv.dot(self._H))
-        return contact_null_space(self._X.T @ j1)
+        return chain1_map(jb, self._n1, self._H, self._X, self._cert2)
 
     def _step(self, qa: Array, xd: Array, obj: Objective | Terms) -> Array:
         kin = self._kinematics(qa, not self._fd)

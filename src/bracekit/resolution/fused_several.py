@@ -176,11 +176,10 @@ class SeveralBraceKernel:
         ci, xd = self._inputs(beta_x, xd)
         model, data, tip, bids = self._model, self._data, self._tip, self._bids
         pin.computeJointJacobians(model, data, qa)
-        pin.updateFramePlacements(model, data)
+        me = pin.updateFramePlacement(model, data, tip).homogeneous  # the frames asked for, not all the model's
+        mbs = tuple(pin.updateFramePlacement(model, data, f).homogeneous for f in bids)
         je = pin.getFrameJacobian(model, data, tip, LWA)
         jbs = tuple(pin.getFrameJacobian(model, data, f, LWA) for f in bids)
-        me = data.oMf[tip].homogeneous
-        mbs = tuple(data.oMf[f].homogeneous for f in bids)
         self._last = (qa, ((me, je), *zip(mbs, jbs, strict=True)))
         pin.computeJointKinematicHessians(model, data)
         he = frame_hessian_rows(model, data, tip)

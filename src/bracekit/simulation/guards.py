@@ -23,7 +23,7 @@ from bracekit.kinematics.motions import MATRIX_LABELS
 from bracekit.model.robot import Robot
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.correction import norm
-from bracekit.simulation.stacked_ratios import stacked_conditioning
+from bracekit.simulation.stacked_ratios import Decomposed, stacked_conditioning
 from bracekit.tolerances import (
     DEFAULT_JOINT_SPEED,
     JOINT_STEP_SAFETY,
@@ -42,7 +42,7 @@ JUMP_PROBES = 17
 #: How far (rad, m for a prismatic joint) a corrected step may leave a joint's URDF range (the correction's round-off).
 JOINT_LIMIT_TOL = 1e-9
 #: Samples whose σ-ratio guard a run takes at once (one stacked SVD per matrix); a singular one undoes the later ones.
-WATCH_BATCH = 16
+WATCH_BATCH = 64
 #: The scales of the null-space motion a gradient-projection step that leaves the joint limits is retried with.
 LIMIT_SCALES = (0.5, 0.25, 0.125, 0.0625, 0.0)
 
@@ -127,11 +127,17 @@ def sigma_ratios(state: BracedState, space: TaskSpace, keys: tuple[str, ...] | N
 
 
 def stacked_sigma_ratios(
-    states: Sequence[BracedState], space: TaskSpace, keys: tuple[str, ...]
+    states: Sequence[BracedState],
+    space: TaskSpace,
+    keys: tuple[str, ...],
+    kept: dict[str, Decomposed] | None = None,
 ) -> list[dict[str, float]]:
-    """:func:`sigma_ratios` of every state (the same numbers), each matrix kind in one stacked SVD."""
+    """:func:`sigma_ratios` of every state (the same numbers), each matrix kind in one stacked SVD.
+
+    `kept`: filled with each decomposed stack and its singular values, by key (for the run's measures).
+    """
     rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
-    return stacked_conditioning([st.motions for st in states], rows, keys)
+    return stacked_conditioning(states, rows, keys, kept)
 
 
 def first_singular(ratios: Sequence[Mapping[str, float]], keys: tuple[str, ...]) -> tuple[int, SingularityError] | None:

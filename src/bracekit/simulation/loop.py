@@ -9,7 +9,8 @@ counted in ``Trajectory.substeps``. The guards of :mod:`bracekit.simulation.guar
 jump, a singular matrix (checked WATCH_BATCH samples at a time, the steps after a singular sample undone) or
 a joint limit. Gradient projection runs through the fused :class:`bracekit.resolution.GradientProjectionStep`,
 which gives the strategy's own q̇ to ~1e-13: compiled where numba is installed, else in NumPy, which the run's
-notes then say.
+notes then say; the minimum-norm strategies through :class:`bracekit.resolution.min_norm.MinNormStep` (their
+q̇ to ~1e-13 from the state's own Jacobians).
 
 No step leaves the URDF joint limits (by more than JOINT_LIMIT_TOL). A corrected step that would is, for
 gradient projection, taken again with its null-space motion scaled by 1/2, 1/4, … (LIMIT_SCALES, the gain α
@@ -49,6 +50,7 @@ from bracekit.errors import (
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.objective import RegionBarrier
 from bracekit.resolution.fused import NO_NUMBA, Backend, GradientProjectionStep, fused_step
+from bracekit.resolution.min_norm import min_norm_step
 from bracekit.resolution.strategies import BracedGradientProjection, BracedMinNorm, Strategy, with_beta_x
 from bracekit.resolution.task_space import POSE, TaskSpace, redundancy
 from bracekit.simulation.correction import Correction, norm, reach, task_error
@@ -69,8 +71,9 @@ from bracekit.simulation.guards import (
     stacked_sigma_ratios,
 )
 from bracekit.simulation.notes import run_notes
-from bracekit.simulation.path_measures import measure_path, path_ratios
+from bracekit.simulation.path_measures import Known, measure_path, path_ratios
 from bracekit.simulation.samples import Samples
+from bracekit.simulation.stacked_ratios import Decomposed
 from bracekit.simulation.tasks import Task
 from bracekit.simulation.trajectory import Trajectory
 from bracekit.tolerances import MAX_STEPS
@@ -127,6 +130,19 @@ def _check_inputs(
     return max(1, round(task.duration / dt))
 
 
+def _known(decomposed: list[tuple[dict[str, Decomposed], int]], task_key: str | None) -> Known | None:
+    """The guard's stacks of the braced task Jacobian and J_e over the kept samples (None where a batch lacks one)."""
+    kept = [(found, count) for found, count in decomposed if count]
+
+    def joined(key: str | None) -> Decomposed | None:
+        if key is None or not kept or any(key not in found for found, _ in kept):
+            return None
+        parts = [(found[key], count) for found, count in kept]
+        return Decomposed(np.concatenate([d.stack[:c] for d, c in parts]), np.concatenate([d.s[:c] for d, c in parts]))
+
+    return Known(joined(task_key), joined("J"))
+
+
 def simulate(
     braced: BracedRobot,
     strategy: Strategy,
@@ -164,6 +180,7 @@ def simulate(
     # ~1e-13), else the NumPy step, which the run's notes then say (STEP_BACKEND_NOTE)
     backend: Backend = "auto"
     fast = fused_step(braced, strategy, backend)
+    lean = min_norm_step(braced, strategy)  # the minimum-norm strategies' q̇ from the state's Jacobians
     scaled_steps: dict[float, GradientProjectionStep] = {}
     guard = region_guard(braced, strategy)
     scalable = isinstance(strategy, BracedGradientProjection)
@@ -197,6 +214,8 @@ def simulate(
             if scale not in scaled_steps:
                 scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale), backend)  # type: ignore[arg-type]
             return scaled_steps[scale](st.q, xdot, beta(t))
+        if lean is not None:
+            return lean(st, xdot)
         current = strategy if scale == 1.0 else scaled_alpha(strategy, scale)
         if objective:
             current = with_beta_x(current, beta(t))
@@ -239,11 +258,15 @@ def simulate(
         return new
 
     def samples_of(
-        states: list[BracedState], first: int, ratios: list[dict[str, float]], jumps: list[float]
+        states: list[BracedState],
+        first: int,
+        ratios: list[dict[str, float]],
+        jumps: list[float],
+        known: Known | None = None,
     ) -> tuple[Samples | None, int, BracekitError | None]:
         times = [(first + i) * dt for i in range(len(states))]
         errors = [norm(position(t) - st.e) for t, st in zip(times, states, strict=True)]
-        return measure_path(braced, states, [beta(t) for t in times], errors, ratios, jumps)
+        return measure_path(braced, states, [beta(t) for t in times], errors, ratios, jumps, known)
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnloadedContactWarning)
@@ -267,6 +290,9 @@ def simulate(
         # need them all): (state, joint step, warnings and counts after it)
         recorded = tuple(start)
         pending: list[tuple[BracedState, float, int, dict[str, int]]] = []
+        # the stacks the guard decomposed, with the samples kept of each batch: the measures' k and k_free
+        task_key = st.motions.task_key(space.is_pose)
+        decomposed: list[tuple[dict[str, Decomposed], int]] = []
 
         def one_by_one() -> tuple[list[dict[str, float]], tuple[int, BracekitError] | None]:
             """The pending samples' ratios up to the first that fails its check (a matrix the guard cannot form)."""
@@ -287,12 +313,15 @@ def simulate(
             The steps after a singular one are undone: their states, warnings and counts are dropped, so the
             run is the one a guard after every step gives.
             """
+            stacks: dict[str, Decomposed] = {}
             try:
-                found = stacked_sigma_ratios([p[0] for p in pending], space, recorded)
+                found = stacked_sigma_ratios([p[0] for p in pending], space, recorded, stacks)
                 bad: tuple[int, BracekitError] | None = first_singular(found, checked)
             except (BracekitError, np.linalg.LinAlgError):  # a matrix not formed or decomposed: sample by sample
                 found, bad = one_by_one()
+                stacks = {}
             kept = len(pending) if bad is None else bad[0]
+            decomposed.append((stacks, kept))
             for (state, jump, _, _), row in zip(pending[:kept], found[:kept], strict=True):
                 states.append(state)
                 ratio_rows.append(row)
@@ -335,7 +364,7 @@ def simulate(
             failure = settle()
         # the measures, from the corrected states, all at once; the run stops at the first it cannot measure
         ratio_rows[1:] = path_ratios(states[1:], space, tuple(start), ratio_rows[1:])
-        tail, count, refused = samples_of(states[1:], 1, ratio_rows[1:], jumps[1:])
+        tail, count, refused = samples_of(states[1:], 1, ratio_rows[1:], jumps[1:], _known(decomposed, task_key))
         if refused is not None:
             i = count + 1
             failure = f"step {i} (t = {i * dt:.3f} s): {refused}"

@@ -17,6 +17,11 @@ Whenever the batch cannot certify a sample (a singular Jacobian, a non-finite co
 finite non-zero twist, samples whose matrices differ in shape), it measures the samples one by one with the
 reference, which raises the same typed error at the same sample as before. The warnings of a state's stacked
 constraint (a redundant or unloaded contact) are given once per state, as the reference gives them.
+
+A run hands over what its guard decomposed already (:class:`Known`: the stacks of the braced task Jacobian and
+of J_e with their singular values, from the same LAPACK call per matrix): k and k_free are taken from them, and
+one brace's chain-split factors come as stacks (:func:`~bracekit.simulation.stacked_ratios.split_parts`), not
+from each state's ``split``.
 """
 
 from __future__ import annotations
@@ -30,14 +35,16 @@ from numpy.typing import NDArray
 from bracekit.errors import BracekitError, ContactError
 from bracekit.kinematics import BracedRobot, BracedState
 from bracekit.kinematics.clearance import link_clearances
+from bracekit.kinematics.constraint import full_rank_constraint
 from bracekit.kinematics.motions import NullMotions
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
-from bracekit.tolerances import MEASURE_SINGULAR_RATIO, UNLOADED_TOL
+from bracekit.simulation.stacked_ratios import Decomposed, split_parts
+from bracekit.tolerances import MEASURE_SINGULAR_RATIO
 
 Array = NDArray[np.float64]
 
-__all__ = ["measure_path", "path_ratios"]
+__all__ = ["Known", "measure_path", "path_ratios"]
 
 #: The recorded matrices whose σ_min/σ_max is taken over the whole path at once: singular_ratio of each (one
 #: brace's J1, A, J̃; J = J_e with any number of braces).
@@ -51,6 +58,16 @@ _STACKED: dict[str, Callable[[BracedState], Array]] = {
 #: several braces, and the task rows S A of one brace's A or S J_e N of several, S = the space's selection.
 _RANKED: dict[str, Callable[[BracedState], Array]] = {"G": lambda st: cast(NullMotions, st.motions).G}
 _SELECTED: dict[str, Callable[[BracedState], Array]] = {"SA": lambda st: st.split.A, "SJN": lambda st: st.motions.A}
+
+
+class Known(NamedTuple):
+    """The braced task Jacobian (``motions.task_jacobian``) and J_e of every state, decomposed by the run's guard.
+
+    None for a matrix the guard did not decompose (S J_e N of a task space other than the pose is not J_e N).
+    """
+
+    task: Decomposed | None
+    tip: Decomposed | None
 
 
 class _Inputs(NamedTuple):
@@ -73,17 +90,19 @@ def measure_path(
     task_error: Sequence[float],
     sigma_ratio: Sequence[dict[str, float]],
     joint_step: Sequence[float],
+    known: Known | None = None,
 ) -> tuple[Samples | None, int, BracekitError | None]:
     """The measures of `states` in order: (Samples of the first `count` states or None if 0, count, error).
 
     `error` is the typed error of the first state that cannot be measured (None if every one is), exactly as
     :func:`~bracekit.simulation.samples.measure` raises it for that state; `count` the states measured before it.
+    `known`: the stacks of every state's braced task Jacobian and J_e with their singular values, if decomposed.
     """
     if not states:
         return None, 0, None
     inputs = _Inputs(beta_x, task_error, sigma_ratio, joint_step)
     try:
-        return _batch(braced, states, inputs), len(states), None
+        return _batch(braced, states, inputs, known), len(states), None
     except (_UncertifiedError, BracekitError, FloatingPointError, np.linalg.LinAlgError):
         return _one_by_one(braced, states, inputs)
 
@@ -204,21 +223,31 @@ def _unit(betas: Array) -> Array:
     return cast(Array, betas / np.sqrt(np.einsum("ij,ij->i", betas, betas))[:, None])
 
 
-def _frobenius(j: Array) -> Array:
-    """K = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) of each 6×n J (N, 6, n), as frobenius_condition takes it."""
-    s = _singular_values(j)
+def _frobenius(j: Array, s: Array | None = None) -> Array:
+    """K = √(tr(JJᵀ) tr((JJᵀ)⁻¹)) / 6 (eq:manip) of each 6×n J (N, 6, n), as frobenius_condition takes it.
+
+    `s`: the singular values of the stack (N, 6), if taken.
+    """
+    s = _singular_values(j) if s is None else s
     if s.shape[-1] < 6 or not (s[:, -1] > MEASURE_SINGULAR_RATIO * s[:, 0]).all():
         raise _UncertifiedError
     with np.errstate(over="raise", under="ignore"):
         return np.asarray(np.sqrt(np.sum(s**2, axis=1) * np.sum(s**-2, axis=1)) / 6.0)
 
 
-def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) -> Samples:
+def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs, known: Known | None) -> Samples:
     """The samples' measures; _UncertifiedError (or the reference's error) where the batch cannot vouch for them."""
     k = states[0].K
     q = np.array([st.q for st in states])
-    j_e = _stack([st.J_e for st in states])
-    jac = _stack([st.motions.task_jacobian for st in states])
+    task, tip = (None, None) if known is None else known
+    if tip is not None and len(tip.stack) == len(states):
+        j_e, s_e = _finite(tip.stack), tip.s
+    else:
+        j_e, s_e = _stack([st.J_e for st in states]), None
+    if task is not None and len(task.stack) == len(states):
+        jac, s_task = _finite(task.stack), task.s
+    else:
+        jac, s_task = _stack([st.motions.task_jacobian for st in states]), None
     betas = _unit(_stack([np.asarray(b, dtype=np.float64).reshape(-1) for b in inputs.beta_x]))
     if betas.shape[1] != 6:
         raise _UncertifiedError
@@ -238,8 +267,8 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) 
         "prod_sigma_o": _finite(prod_o),
         "sigma_t_min": st_.min(axis=1),
         "sigma_o_min": so_.min(axis=1),
-        "k": _frobenius(jac),
-        "k_free": _frobenius(j_e),
+        "k": _frobenius(jac, s_task),
+        "k_free": _frobenius(j_e, s_e),
         "joint_limit_violation": np.max(
             np.maximum(0.0, np.maximum(braced.robot.lower - q, q - braced.robot.upper)), axis=1
         ),
@@ -249,7 +278,7 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) 
     }
     contacts = []
     for i, brace in enumerate(braced.braces):
-        z_b = np.array([st.contacts[i].z_b for st in states])
+        z_b = np.array([st.contacts[i].R_b for st in states])[:, :, 2]  # ẑ_b, the third column of each ⁰R_b_i
         b = np.array([st.contacts[i].b for st in states])
         n = brace.surface.normal
         cross = np.stack(
@@ -279,7 +308,7 @@ def _batch(braced: BracedRobot, states: Sequence[BracedState], inputs: _Inputs) 
 
 def _constrained(states: Sequence[BracedState], jk: Array, free: Array, k: Array) -> Array:
     """C_e of every sample, constrained_compliance's formula over each sample's independent rows of G."""
-    found = _full_rank(states, k)
+    found = full_rank_constraint(states, k)
     if found is None:
         cons = [st.constraint for st in states]
         rows = cons[0].independent
@@ -296,52 +325,15 @@ def _constrained(states: Sequence[BracedState], jk: Array, free: Array, k: Array
     return _sym(out)
 
 
-def _full_rank(states: Sequence[BracedState], k: Array) -> tuple[Array, Array] | None:
-    """(G (N, c, n), 1/k_env of its rows (c,)) of the path when every sample keeps every row, else None.
-
-    The stacked constraint of each sample at once (stacked_constraint's G, weights and threshold): every row is
-    independent when the weighted rigid rows w = G_rigid K^(−1/2) have σ_min² > UNLOADED_TOL · max(σ_max²,
-    max_i tr(J_b_i K⁻¹ J_b_iᵀ)) at every sample (no row dropped, no warning). None hands the path to each
-    state's own stacked constraint (which drops rows and warns, or raises on a non-finite G). A state that has
-    its constraint already gives it.
-    """
-    if any("constraint" in st.__dict__ for st in states):
-        return None
-    braced = states[0].braced
-    blocks, comp = [], []
-    traces: list[Array] = []
-    rigid_of: list[bool] = []
-    with np.errstate(all="ignore"):
-        for i, (brace, x) in enumerate(zip(braced.braces, braced.X_i, strict=True)):
-            j_b = _stack([st.contacts[i].J_b for st in states])
-            blocks.append(x.T @ j_b)
-            k_env = brace.environment_stiffness
-            comp.extend([0.0 if k_env is None else 1.0 / float(k_env)] * x.shape[1])
-            rigid_of.extend([k_env is None] * x.shape[1])
-            traces.append(np.sum(j_b * j_b / k, axis=(1, 2)) if k_env is None else np.zeros(len(states)))
-        g = np.concatenate(blocks, axis=1)
-        rigid = [r for r, yes in enumerate(rigid_of) if yes]
-        if not rigid:
-            return _finite(g), np.array(comp, dtype=np.float64)
-        w = g[:, rigid] / np.sqrt(k)
-        if len(rigid) > g.shape[2] or not (np.isfinite(w).all() and np.isfinite(traces).all()):
-            return None
-        s = np.sqrt(np.einsum("nij,nij->ni", w, w))[:, 0:1] if len(rigid) == 1 else np.linalg.svd(w, compute_uv=False)
-        limit = UNLOADED_TOL * np.maximum(s[:, 0] ** 2, np.max(traces, axis=0))
-        if not (s[:, -1] ** 2 > limit).all():
-            return None
-    return _finite(g), np.array(comp, dtype=np.float64)
-
-
 def _projection(states: Sequence[BracedState], k: Array) -> Array:
     """C_e = S_t1 (I − P) C1 (I − P) S_t1ᵀ + S_t2 C2 S_t2ᵀ of every sample (eq:Ce, the paper's model)."""
-    splits = [st.split for st in states]
-    n1 = splits[0].n1
-    j1 = _stack([s.J1 for s in splits])
-    j2 = _stack([s.J2 for s in splits])
-    t = np.eye(6) - _stack([s.P for s in splits])
-    s1 = _stack([s.S_t1 for s in splits])
-    s2 = _stack([s.S_t2 for s in splits])
+    parts = split_parts(states)
+    if parts is None:
+        raise _UncertifiedError
+    n1 = parts.j1.shape[2]
+    j1, j2 = _finite(parts.j1), _finite(parts.j2)
+    t = np.eye(6) - states[0].braced.split.P
+    s1, s2 = parts.s_t1, parts.s_t2
     c1 = (j1 / k[:n1]) @ _t(j1)
     c1t = t @ c1 @ t
     c2 = (j2 / k[n1:]) @ _t(j2)

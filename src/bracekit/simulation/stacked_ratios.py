@@ -6,21 +6,64 @@ matrix product is one BLAS call per matrix. With one brace the watched matrices 
 S A, J = J_e and J̃ (eq:J_wave) are formed as stacks, with the products and their order of
 :class:`~bracekit.kinematics.split.ChainSplit` (S_t1, S_t2 and J2 of eq:twists, eq:J2); otherwise each chart
 forms its own (:meth:`~bracekit.kinematics.motions.BracedMotions.watched`).
+
+With several braces, where no state has its stacked constraint yet and every sample keeps every row of G
+(:func:`~bracekit.kinematics.constraint.full_rank_constraint`: no row dropped, so no warning), G, N (the null
+space of G from one stacked SVD, as ``contact_null_space`` takes it per matrix), J_e N and S J_e N are formed as
+stacks too; otherwise each state's own constraint (which drops rows and warns) forms them.
+
+A caller may keep the stacks and their singular values (``kept``): the run's measures take k of the braced task
+Jacobian and of J_e from them (:mod:`bracekit.simulation.path_measures`) instead of forming and decomposing them
+again. :func:`split_parts` gives the chain-split factors of many one-brace states as stacks (J1, J2, S_t1, S_t2),
+for the guard and the measures.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.kinematics.motions import BracedMotions, SplitMotions
+from bracekit.kinematics.constraint import full_rank_constraint
+from bracekit.tolerances import NULL_SPACE_RTOL
+
+if TYPE_CHECKING:
+    from bracekit.kinematics import BracedState
 
 Array = NDArray[np.float64]
 
-__all__ = ["stacked_conditioning", "stacked_ratios"]
+__all__ = [
+    "Decomposed",
+    "SplitParts",
+    "split_parts",
+    "stacked_conditioning",
+    "stacked_ratios",
+]
+
+
+class Decomposed(NamedTuple):
+    """A watched matrix of k samples as a stack (k, r, c) and its singular values (k, min(r, c)), descending."""
+
+    stack: Array
+    s: Array
+
+
+class SplitParts(NamedTuple):
+    """The chain-split factors of k one-brace states as stacks (:class:`~bracekit.kinematics.split.ChainSplit`).
+
+    Attributes:
+        j_e: J_e (k, 6, n). j_b: J_b (k, 6, n). j1: J1 (k, 6, n1), eq:J1. j2: J2 (k, 6, n2), eq:J2.
+        s_t1: S_t1 = [[I, [b − e]×], [0, I]] (k, 6, 6); s_t2: S_t2 = diag(⁰R_b, ⁰R_b) (k, 6, 6), eq:twists.
+    """
+
+    j_e: Array
+    j_b: Array
+    j1: Array
+    j2: Array
+    s_t1: Array
+    s_t2: Array
 
 
 def _ratios(stack: Array, full_row_rank: bool, known: dict[int, Array] | None = None) -> list[float]:
@@ -54,20 +97,12 @@ def stacked_ratios(ms: Sequence[Array], full_row_rank: bool) -> list[float]:
     return out
 
 
-def _split_stacks(charts: Sequence[SplitMotions], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
-    """The watched matrices of one-brace charts as (k, …) stacks; None where a chart forms its own.
+def split_parts(states: Sequence[BracedState]) -> SplitParts | None:
+    """J_e, J_b, J1, J2, S_t1 and S_t2 of one-brace states of one model as stacks, the products of ChainSplit.
 
-    With n1 ≠ 6, A = S_t1 J1 dq1/db̃ takes each chart's own dq1/db̃ (``chain1_map``). None where the charts
-    split different models, a task-space selection is None at some samples only, dq1/db̃ changes shape, or
-    b − e or ⁰R_b is not finite (``twist_shift`` and ``twist_rotate`` raise then).
+    None where b − e or ⁰R_b is not finite (``twist_shift`` and ``twist_rotate`` raise then).
     """
-    model = charts[0].split.model
-    if any(c.split.model is not model for c in charts):
-        return None
-    if any(r is None for r in rows) and not all(r is None for r in rows):
-        return None
-    states = [c.split.state for c in charts]
-    n1, k = model.n1, len(states)
+    n1, k = states[0].braced.split.n1, len(states)
     j_e = np.array([st.J_e for st in states])
     contacts = [st.contacts[0] for st in states]
     j_b = np.array([c.J_b for c in contacts])
@@ -85,35 +120,108 @@ def _split_stacks(charts: Sequence[SplitMotions], rows: Sequence[Array | None]) 
     back = np.zeros((k, 6, 6))  # diag(⁰R_bᵀ, ⁰R_bᵀ)
     back[:, :3, :3] = back[:, 3:, 3:] = r_b.transpose(0, 2, 1)
     j1 = np.ascontiguousarray(j_b[:, :, :n1])
-    chain2 = s_t2 @ (back @ j_e[:, :, n1:])  # S_t2 J2
-    if n1 == 6:
+    return SplitParts(j_e=j_e, j_b=j_b, j1=j1, j2=back @ j_e[:, :, n1:], s_t1=s_t1, s_t2=s_t2)
+
+
+def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
+    """The watched matrices of one-brace states as (k, …) stacks; None where a chart forms its own.
+
+    With n1 ≠ 6, A = S_t1 J1 dq1/db̃ takes each state's own dq1/db̃ (``chain1_map``). None where the states
+    brace different models, a task-space selection is None at some samples only, dq1/db̃ changes shape, or
+    b − e or ⁰R_b is not finite (``twist_shift`` and ``twist_rotate`` raise then).
+    """
+    braced = states[0].braced
+    if any(st.braced is not braced for st in states):
+        return None
+    if any(r is None for r in rows) and not all(r is None for r in rows):
+        return None
+    parts = split_parts(states)
+    if parts is None:
+        return None
+    model = braced.split
+    j1, s_t1 = parts.j1, parts.s_t1
+    chain2 = parts.s_t2 @ parts.j2  # S_t2 J2
+    if model.n1 == 6:
         first = s_t1 @ model.H
     else:
-        maps = [c.split.chain1_map for c in charts]
+        maps = [st.split.chain1_map for st in states]
         if any(m.shape != maps[0].shape for m in maps):
             return None
         first = s_t1 @ j1 @ np.array(maps)
     a = np.concatenate([first, chain2], axis=2)
     j_braced = np.concatenate([s_t1 @ (np.eye(6) - model.P) @ j1, chain2], axis=2)
     sa = a if rows[0] is None else np.array(rows, dtype=np.float64) @ a
+    j_e = parts.j_e
     return {"J1": (j1, False), "A": (a, False), "SA": (sa, True), "J": (j_e, False), "J_braced": (j_braced, False)}
 
 
+def _null_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
+    """The watched matrices G, S J_e N and J = J_e of several-brace states as stacks, and J_e N ("JN").
+
+    N = ``contact_null_space(G)`` of each state from one stacked SVD (the same LAPACK call per matrix), where
+    every state keeps every row of G (:func:`~bracekit.kinematics.constraint.full_rank_constraint`) and N has
+    one width; None otherwise.
+    """
+    if any(r is None for r in rows) and not all(r is None for r in rows):
+        return None
+    found = full_rank_constraint(states, states[0].K)
+    if found is None:
+        return None
+    g = found[0]
+    _, s, vt = np.linalg.svd(g)
+    if s.shape[1] == 0:
+        return None
+    big = np.maximum(1.0, s[:, 0])
+    ranks = np.sum(s > NULL_SPACE_RTOL * big[:, None], axis=1)
+    rank = int(ranks[0])
+    if not (ranks == rank).all():
+        return None
+    null = np.ascontiguousarray(vt[:, rank:].transpose(0, 2, 1), dtype=np.float64)  # N (k, n, n − rank G)
+    j_e = np.array([st.J_e for st in states], dtype=np.float64)
+    a = j_e @ null  # J_e N
+    sa = a if rows[0] is None else np.array(rows, dtype=np.float64) @ a
+    return {"G": (g, True), "SJN": (sa, True), "J": (j_e, False), "JN": (a, False)}
+
+
 def stacked_conditioning(
-    motions: Sequence[BracedMotions], rows: Sequence[Array | None], keys: tuple[str, ...]
+    states: Sequence[BracedState],
+    rows: Sequence[Array | None],
+    keys: tuple[str, ...],
+    kept: dict[str, Decomposed] | None = None,
 ) -> list[dict[str, float]]:
-    """``motions[i].conditioning(rows[i], keys)`` of every chart, each matrix kind in one stacked SVD."""
-    if not motions:
+    """``states[i].motions.conditioning(rows[i], keys)`` of every state, each matrix kind in one stacked SVD.
+
+    `kept`: filled with the stack and singular values of each key whose matrices were decomposed as one stack.
+    """
+    if not states:
         return []
     stacks = None
-    if all(type(m) is SplitMotions for m in motions):
-        stacks = _split_stacks(motions, rows)  # type: ignore[arg-type]
-    if stacks is not None:  # the stacks stay alive while `known` holds their ids
-        known: dict[int, Array] = {}
-        columns = {key: _ratios(*stacks[key], known) for key in keys}
-    else:
+    if all(len(st.contacts) == 1 for st in states):  # the paper's chart (SplitMotions), formed as stacks
+        stacks = _split_stacks(states, rows)
+    elif all(len(st.contacts) > 1 for st in states):  # the null space of G (NullMotions), formed as stacks
+        stacks = _null_stacks(states, rows)
+    if stacks is None:  # each chart forms its own matrices, stacked where they have one shape
         watched: list[dict[str, tuple[Callable[[], Array], bool]]] = [
-            m.watched(r) for m, r in zip(motions, rows, strict=True)
+            st.motions.watched(r) for st, r in zip(states, rows, strict=True)
         ]
-        columns = {key: stacked_ratios([w[key][0]() for w in watched], watched[0][key][1]) for key in keys}
-    return [{key: columns[key][i] for key in keys} for i in range(len(motions))]
+        stacks = {}
+        columns = {}
+        for key in keys:
+            ms = [w[key][0]() for w in watched]
+            if all(m.shape == ms[0].shape for m in ms):
+                stacks[key] = (np.array(ms, dtype=np.float64), watched[0][key][1])
+            else:
+                columns[key] = stacked_ratios(ms, watched[0][key][1])
+    else:
+        columns = {}
+    known: dict[int, Array] = {}  # the stacks stay alive while `known` holds their ids
+    for key in keys:
+        if key not in columns:
+            stack, full = stacks[key]
+            columns[key] = _ratios(stack, full, known)
+            if kept is not None and id(stack) in known:
+                kept[key] = Decomposed(stack, known[id(stack)])
+    if kept is not None and "JN" in stacks and "JN" not in kept:  # J_e N of a task space other than the pose
+        stack = stacks["JN"][0]
+        kept["JN"] = Decomposed(stack, np.asarray(np.linalg.svd(stack, compute_uv=False), dtype=np.float64))
+    return [{key: columns[key][i] for key in keys} for i in range(len(states))]
