@@ -30,6 +30,7 @@ from bracekit.simulation.correction import (
     contact_jacobian,
     contact_residual,
     norm,
+    numpy_point,
     task_error,
 )
 from bracekit.simulation.scenario import load_scenario
@@ -119,9 +120,13 @@ def _reference_residual_rows(
     return res, np.vstack([s @ st.J_e, contact_jacobian(st, anchors)])
 
 
+@pytest.mark.parametrize("point", ["compiled", "numpy"])
 @pytest.mark.parametrize("space", SPACES, ids=lambda s: s.describe())
 @pytest.mark.parametrize("contacts", CONTACTS, ids="+".join)
-def test_the_kernel_gives_the_numpy_residual_rows_and_lstsq_step(contacts: tuple[str, ...], space: TaskSpace) -> None:
+def test_the_kernel_gives_the_numpy_residual_rows_and_lstsq_step(
+    contacts: tuple[str, ...], space: TaskSpace, point: str
+) -> None:
+    """The compiled point and the NumPy one (a run's without numba) against the module's formulas on braced.state."""
     braced, guess = _braced(contacts)
     rng = np.random.default_rng(len(contacts) + 7 * len(space.describe()))
     for _ in range(3):
@@ -131,6 +136,8 @@ def test_the_kernel_gives_the_numpy_residual_rows_and_lstsq_step(contacts: tuple
         rotation = pin.exp3(0.7 * _unit(rng)) @ st.R_e
         position = st.e + 0.01 * _unit(rng)
         correction = Correction(braced, rotation, anchors, space=space)
+        if point == "numpy":
+            correction._kernel = numpy_point()
         status, size, scaled, res, rows, step = _point(correction, q, position)
         want_res, want_rows = _reference_residual_rows(braced, q, position, rotation, anchors, space)
         assert status == kernel.STEP and res.shape == (space.rows + sum(x.shape[1] for x in braced.X_i),)

@@ -8,7 +8,7 @@ rows of the paper's contact); the same code serves any number of braces.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import TypedDict, Unpack
 
@@ -172,11 +172,19 @@ _STEP, _DONE = 0, 1
 def kernel() -> ModuleType:
     """The correction's kernel module (:mod:`bracekit.simulation._correction_kernel`), imported on first use.
 
-    Its ``COMPILED`` says whether it runs compiled (numba) or as Python (a run's notes then say so).
+    Its ``COMPILED`` says whether it runs compiled (numba); else the correction takes :func:`numpy_point` (a run's
+    notes then say so).
     """
     from bracekit.simulation import _correction_kernel
 
     return _correction_kernel
+
+
+def numpy_point() -> Callable[..., Point]:
+    """The correction's point in NumPy (:mod:`bracekit.simulation._correction_numpy`), where numba is absent."""
+    from bracekit.simulation import _correction_numpy
+
+    return _correction_numpy.evaluate
 
 
 class Correction:
@@ -244,7 +252,7 @@ class Correction:
         self._limits = (ACCEPT_TOL, self._roundoff)
         # two sets of (residual, rows, step): the current point's and a trial's (swapped when a trial is taken)
         self._buffers = [(np.zeros(scale.size), np.zeros((scale.size, robot.n)), np.zeros(robot.n)) for _ in "ab"]
-        self._kernel = kernel().evaluate
+        self._kernel = kernel().evaluate if kernel().COMPILED else numpy_point()
 
     def _pass(self, q: Array) -> Array:
         """Q (checked as ``braced.state`` checks it), with the frames' kinematics at q in the pass's arrays."""

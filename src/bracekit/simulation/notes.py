@@ -26,10 +26,10 @@ from bracekit.simulation.samples import Samples
 
 __all__ = ["CORRECTION_BACKEND_NOTE", "run_notes"]
 
-#: The run's note when the correction's kernel ran as Python because numba cannot be imported (the same
+#: The run's note when the correction's point ran in NumPy because numba cannot be imported (the same
 #: corrected states to rounding, slower).
 CORRECTION_BACKEND_NOTE = (
-    "the pose/contact correction ran as Python (numba cannot be imported; `pip install bracekit[fast]` gives the "
+    "the pose/contact correction ran in NumPy (numba cannot be imported; `pip install bracekit[fast]` gives the "
     "compiled correction)"
 )
 
