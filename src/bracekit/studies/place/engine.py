@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
@@ -35,8 +36,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError, InputError
+from bracekit.studies.place.ahead import RunAhead, Trial
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
-from bracekit.studies.place.outer import evaluate_place, polls, settle_place
+from bracekit.studies.place.outer import evaluate_place, polls
 from bracekit.studies.place.scenario import Place
 from bracekit.studies.place.surface import link_surface
 from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
@@ -51,9 +53,6 @@ WINDOW_PER_WORKER = 2
 #: The factor the posture radius is divided by when a place's whole-task run fails (:func:`run_place`).
 NEARER = 3.0
 
-#: A place to run over the task and the inner optimum whose start posture it is run from.
-Trial = tuple[Place, InnerResult]
-
 
 @dataclass(frozen=True)
 class PlaceSettings:
@@ -61,7 +60,9 @@ class PlaceSettings:
 
     The inner problem's, seeds per link, places run over the task, compass rounds, the compass's first steps
     (fraction, angle in rad), and how many times a place whose whole-task run fails is optimised again nearer
-    the reference start (its posture radius divided by :data:`NEARER`; :func:`run_place`).
+    the reference start (its posture radius divided by :data:`NEARER`; :func:`run_place`). ``run_ahead``: start
+    the best optimum's whole-task run on a worker the inner level's tail leaves idle, and MuJoCo's check of a
+    row that may be the best as soon as it comes back (the rows and the best are the same either way).
     """
 
     inner: InnerSettings = field(default_factory=InnerSettings)
@@ -70,6 +71,7 @@ class PlaceSettings:
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))
     nearer: int = 2
+    run_ahead: bool = True
 
 
 @dataclass
@@ -157,12 +159,21 @@ def _warm() -> None:
     import bracekit.studies.place.inner  # noqa: F401
 
 
-def bounded_map(client: Any, fn: Any, calls: list[tuple[Any, ...]], window: int, futures: list[Any]) -> list[Any]:
+def bounded_map(
+    client: Any,
+    fn: Any,
+    calls: list[tuple[Any, ...]],
+    window: int,
+    futures: list[Any],
+    on_result: Callable[[int, Any, int], None] | None = None,
+) -> list[Any]:
     """fn(*call) for every call on the Dask `client`, results in the calls' order, at most `window` submitted at once.
 
     Each finished task lets the next one in, so the workers never wait for a batch, and an interrupt (Ctrl-C,
     SIGTERM) leaves at most `window` tasks to cancel: closing the cluster then takes seconds whatever the number
     of calls. The submitted futures are appended to `futures` (the caller cancels them on an interrupt).
+    `on_result(i, result, waiting)`, when given, is called as each result comes back (call i; `waiting`: the
+    calls not yet finished), before the next call is submitted: it may submit work of its own.
     """
     from distributed import as_completed
 
@@ -181,9 +192,14 @@ def bounded_map(client: Any, fn: Any, calls: list[tuple[Any, ...]], window: int,
     queue = as_completed([])
     for _ in range(min(window, len(calls))):
         submit(queue)
+    waiting = len(calls)
     for fut in queue:
-        results[index[fut.key]] = fut.result()
+        i = index[fut.key]
+        results[i] = fut.result()
         futures.remove(fut)
+        waiting -= 1
+        if on_result is not None:
+            on_result(i, results[i], waiting)
         submit(queue)
     return results
 
@@ -221,43 +237,66 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
         futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
         links, q_ref, spans = prepare(spec, settings) if prepared is None else prepared
-        window = WINDOW_PER_WORKER * max(1, _workers(client))
+        workers = max(1, _workers(client))
+        window = WINDOW_PER_WORKER * workers
+        kind = settings.inner.surface
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
         calls = [(spec_f, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
-        inner: list[InnerResult] = bounded_map(client, optimise_start, calls, window, futures)
+        found: list[InnerResult] = []
+        ahead = RunAhead(client, (spec_f, ctx_f, kind), workers, settings.run_ahead, futures)
+
+        def inner_done(_: int, result: InnerResult, waiting: int) -> None:
+            found.append(result)
+            ahead.inner_done(found, waiting)
+
+        inner: list[InnerResult] = bounded_map(client, optimise_start, calls, window, futures, inner_done)
         timings["inner_s"] = time.perf_counter() - began
         ranking = choose(inner, len(links))
         chosen = ranking[: settings.top]
         t1 = time.perf_counter()
         evaluations: list[dict[str, Any]] = []
         starts: dict[int, InnerResult] = {}
-        kind = settings.inner.surface
+        raw: dict[int, dict[str, Any]] = {}  # evaluation → the row as it came back (:class:`RunAhead` knows it)
 
         spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
 
-        def batch(places: list[Trial], stage: str, ahead: int = 0, check: int = 0) -> list[dict[str, Any]]:
-            """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`.
+        def batch(places: list[Trial], stage: str, ahead_trials: int = 0, check: int = 0) -> list[dict[str, Any]]:
+            """Run `places`; the last `ahead_trials` of them are the first compass round's trials, kept in `spare`.
 
             The first `check` places get MuJoCo's check on their worker right after their run when feasible.
             Returns the rows of the others, in order.
             """
-            first = len(places) - ahead
-            todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare]
+            first = len(places) - ahead_trials
+            todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare and not ahead.has((p, r))]
+            # submitted: the places to check, the compass's trials, then the other places (a fallback: they count
+            # when the first fails), so a likely best comes back, and its MuJoCo check runs, before the batch ends
+            todo.sort(key=lambda i: (0 if i < check else 1 if i >= first else 2, i))
             calls = [
                 (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
                 for i in todo
             ]
-            done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures), strict=True))
+            results = bounded_map(
+                client, evaluate_place, calls, workers, futures, lambda j, row, _: ahead.came_back(row, places[todo[j]])
+            )
+            done = dict(zip(todo, results, strict=True))
             rows = []
             for i, (p, r) in enumerate(places):
-                row = done[i] if i in done else spare.pop((p, r.seed))
+                if i in done:
+                    row = done[i]
+                elif (p, r.seed) in spare:
+                    row = spare.pop((p, r.seed))
+                else:
+                    row = ahead.take((p, r))
+                    if i < check:
+                        ahead.completed(row, (p, r))
                 if i >= first:
                     spare[p, r.seed] = row
                     continue
-                row = {"place": r.seed, "evaluation": len(evaluations), **row}
-                evaluations.append(row)
-                starts[row["evaluation"]] = r
-                rows.append(row)
+                out = {"place": r.seed, "evaluation": len(evaluations), **row}
+                raw[out["evaluation"]] = row
+                evaluations.append(out)
+                starts[out["evaluation"]] = r
+                rows.append(out)
             return rows
 
         def nearer(tried: list[InnerResult], rows: list[dict[str, Any]]) -> None:
@@ -291,9 +330,9 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
             while (row := _unchecked(evaluations)) is not None:
                 place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
-                fut = client.submit(settle_place, spec_f, place, starts[row["evaluation"]].q, kind, pure=False)
-                futures.append(fut)
+                fut = ahead.check(raw[row["evaluation"]], (place, starts[row["evaluation"]]))
                 row["mujoco_settles"], row["mujoco_message"] = fut.result()
+                futures.remove(fut)
             return _best(evaluations)
 
         def trials(centre: InnerResult, row: dict[str, Any], step: tuple[float, float]) -> list[Trial]:
@@ -306,8 +345,8 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         step = settings.step
         top = chosen[0].place if chosen else None
         row0 = {"link": top.link, "fraction": top.fraction, "angle_deg": top.angle_deg} if top else {}
-        ahead = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
-        rows = batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead), check=1)  # the likely best: now
+        round1 = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
+        rows = batch([(r.place, r) for r in chosen] + round1, "task", len(round1), check=1)  # the likely best: now
         nearer(list(chosen), rows)
         while settled_best() is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
@@ -321,15 +360,16 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             batch(trials(centre, best, step), "refine")
             if settled_best() is best:
                 step = (0.5 * step[0], 0.5 * step[1])
+        best = settled_best()
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:
         client.cancel(futures)
         raise
-    best = settled_best()
+    unused = len(spare) + ahead.finish()
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     return PlaceRun(
-        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), len(spare)
+        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), unused
     )
 
 
