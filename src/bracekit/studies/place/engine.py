@@ -41,7 +41,7 @@ from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_st
 from bracekit.studies.place.outer import evaluate_place, polls
 from bracekit.studies.place.scenario import Place
 from bracekit.studies.place.surface import link_surface
-from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
+from bracekit.studies.sweep.context import TaskContext, context_scenario, reference_start, task_context
 from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
 
@@ -207,23 +207,28 @@ def bounded_map(
 class Prepared(NamedTuple):
     """What the inner level needs before any worker.
 
-    The links, the reference start q_ref (n,), each link's fraction bounds.
+    The links, the reference start q_ref (n,), each link's fraction bounds; the task context when computed here
+    (None: a worker computes it).
     """
 
     links: list[str]
     q_ref: Array
     spans: dict[str, tuple[float, float]]
+    context: TaskContext | None = None
 
 
-def prepare(spec: SweepSpec, settings: PlaceSettings) -> Prepared:
+def prepare(spec: SweepSpec, settings: PlaceSettings, context: bool = False) -> Prepared:
     """The links, q_ref (:func:`bracekit.studies.sweep.context.reference_start`) and spans, in this process.
 
-    The command line computes it while the Dask cluster starts.
+    With `context`, the task context too (:func:`~bracekit.studies.sweep.context.task_context`: the free-space
+    run). The command line computes it before its workers fork, so that they start with numba's kernels loaded
+    (numba's start and the kernels' loading cost each process 0.2–0.3 s of CPU at its first compiled call).
     """
     links = check_spec(spec)
-    q_ref = reference_start(context_scenario(spec, {}))
+    ctx = task_context(spec, {}, "{}") if context else None
+    q_ref = reference_start(context_scenario(spec, {})) if ctx is None or ctx.q_ref is None else ctx.q_ref
     robot = spec.base_scenario().robot
-    return Prepared(links, q_ref, {link: _span(robot, link, settings.inner) for link in links})
+    return Prepared(links, q_ref, {link: _span(robot, link, settings.inner) for link in links}, ctx)
 
 
 def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: Prepared | None = None) -> PlaceRun:
@@ -234,9 +239,12 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     futures: list[Any] = []
     try:
         spec_f = client.scatter(spec, broadcast=True, hash=False)
-        ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
-        futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
-        links, q_ref, spans = prepare(spec, settings) if prepared is None else prepared
+        if prepared is not None and prepared.context is not None:
+            ctx_f = client.scatter(prepared.context, broadcast=True, hash=False)
+        else:
+            ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
+            futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
+        links, q_ref, spans, _ = prepare(spec, settings) if prepared is None else prepared
         workers = max(1, _workers(client))
         window = WINDOW_PER_WORKER * workers
         kind = settings.inner.surface
