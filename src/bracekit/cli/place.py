@@ -137,6 +137,7 @@ WORKER_MODULES = (
     "bracekit.validate.contacts",
     "bracekit.validate.inputs",
     "bracekit.validate.mujoco_check",
+    "threadpoolctl",  # the worker plugin's (WorkerThreads), which each worker runs before its first task
 )
 
 

@@ -1,9 +1,9 @@
 """Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
 
-1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process: :func:`prepare`,
-   which the command line runs while the cluster starts) seeds the
-   inner level; the task context (the free-space run) is computed on a worker meanwhile, and another worker
-   imports the inner level's modules.
+1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process:
+   :func:`prepare`) seeds the inner level. The command line computes the task context (the free-space run)
+   there too, before its workers fork, so they start with numba's kernels loaded; else a worker computes it
+   while another imports the inner level's modules.
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
@@ -14,8 +14,11 @@
    ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
    of whole-task runs per round).
 
-Every task goes through :func:`bounded_map`: at most two per worker in flight, so an interrupt stops a run
-in seconds whatever the number of seeds.
+Every task goes through :func:`bounded_map`: at most two per worker in flight (inner optimisations), one per
+worker (whole-task runs: a run queued behind another on a busy worker would leave an idle one waiting), so an
+interrupt stops a run in seconds whatever the number of seeds. :class:`~.ahead.RunAhead` fills the gaps: the
+best optimum's whole-task run once the inner level's last seeds leave a worker idle, MuJoCo's check of a row
+that may be the best as soon as it is back; the rows and the best are those of the plain order.
 
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
 scenario MuJoCo's static check settles on (:mod:`.settle`): the check runs on a worker on the feasible rows,

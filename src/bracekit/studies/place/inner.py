@@ -14,7 +14,9 @@ c_t = β_xᵀ C_e β_x of the constrained model at the start's β_x — subject 
 - the posture within ``posture_radius`` R of the reference start q0, ‖q − q0‖² ≤ R² (rad²): the start alone does
   not see the task, and far from the reference start (the one the grid's candidates start from) the inner
   optimum tends to put a joint at its limit or a link through the surface later along the path;
-- the joint limits less a margin and the fraction's bounds (SLSQP bounds).
+- the joint limits less a margin and the fraction's bounds (SLSQP bounds); with a posture radius, each joint
+  also within q0 ± R (the ball lies inside that box: the same feasible set, but SLSQP keeps every iterate
+  in its bounds, whereas the ball's linearisation at q0 bounds nothing and the first step left it by radians).
 
 Every gradient is analytic: the objective's through :mod:`bracekit.studies.place.compliance`, the pose's
 through J_e, the pad's through :mod:`bracekit.studies.place.kinematics`, k's through
