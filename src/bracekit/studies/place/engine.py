@@ -241,10 +241,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
-        spec_f = client.scatter(spec, broadcast=True, hash=False)
-        if prepared is not None and prepared.context is not None:
-            ctx_f = client.scatter(prepared.context, broadcast=True, hash=False)
+        if prepared is not None and prepared.context is not None:  # both to every worker in one round trip
+            spec_f, ctx_f = client.scatter([spec, prepared.context], broadcast=True, hash=False)
         else:
+            spec_f = client.scatter(spec, broadcast=True, hash=False)
             ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
             futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
         links, q_ref, spans, _ = prepare(spec, settings) if prepared is None else prepared
