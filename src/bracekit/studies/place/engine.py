@@ -15,10 +15,11 @@
    of whole-task runs per round).
 
 Every task goes through :func:`bounded_map`: at most two per worker in flight (inner optimisations), one per
-worker (whole-task runs: a run queued behind another on a busy worker would leave an idle one waiting), so an
-interrupt stops a run in seconds whatever the number of seeds. :class:`~.ahead.RunAhead` fills the gaps: the
-best optimum's whole-task run once the inner level's last seeds leave a worker idle, MuJoCo's check of a row
-that may be the best as soon as it is back; the rows and the best are those of the plain order.
+worker and at least two (whole-task runs: a run queued behind another on a busy worker would leave an idle
+one waiting), so an interrupt stops a run in seconds whatever the number of seeds. :class:`~.ahead.RunAhead`
+fills the gaps: the best optimum's whole-task run once the inner level's last seeds leave a worker idle,
+MuJoCo's check of a row that may be the best as soon as it is back; the rows and the best are those of the
+plain order.
 
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
 scenario MuJoCo's static check settles on (:mod:`.settle`): the check runs on a worker on the feasible rows,
@@ -286,9 +287,8 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
                 for i in todo
             ]
-            results = bounded_map(
-                client, evaluate_place, calls, workers, futures, lambda j, row, _: ahead.came_back(row, places[todo[j]])
-            )
+            back = lambda j, row, _: ahead.came_back(row, places[todo[j]])  # noqa: E731
+            results = bounded_map(client, evaluate_place, calls, max(2, workers), futures, back)
             done = dict(zip(todo, results, strict=True))
             rows = []
             for i, (p, r) in enumerate(places):
