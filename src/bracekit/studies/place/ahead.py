@@ -66,6 +66,14 @@ class RunAhead:
         """Whether the trial's whole-task row was started early."""
         return (trial[0], trial[1].seed) in self.early
 
+    def back(self, trial: Trial) -> dict[str, Any] | None:
+        """The trial's early row if it is back (None if not started early, or still running)."""
+        key = (trial[0], trial[1].seed)
+        if key not in self._rows and key in self.early and self.early[key][0].done():
+            self._rows[key] = self.early[key][0].result()
+            self.came_back(self._rows[key], trial)
+        return self._rows.get(key)
+
     def take(self, trial: Trial) -> dict[str, Any]:
         """The early row of the trial (waits for it)."""
         key = (trial[0], trial[1].seed)

@@ -170,6 +170,7 @@ def bounded_map(
     window: int,
     futures: list[Any],
     on_result: Callable[[int, Any, int], None] | None = None,
+    skip: Callable[[int], bool] | None = None,
 ) -> list[Any]:
     """fn(*call) for every call on the Dask `client`, results in the calls' order, at most `window` submitted at once.
 
@@ -177,33 +178,37 @@ def bounded_map(
     SIGTERM) leaves at most `window` tasks to cancel: closing the cluster then takes seconds whatever the number
     of calls. The submitted futures are appended to `futures` (the caller cancels them on an interrupt).
     `on_result(i, result, waiting)`, when given, is called as each result comes back (call i; `waiting`: the
-    calls not yet finished), before the next call is submitted: it may submit work of its own.
+    calls not yet finished), before the next call is submitted: it may submit work of its own. A call for which
+    `skip(i)` is True when its turn comes is not run (its result None).
     """
     from distributed import as_completed
 
     results: list[Any] = [None] * len(calls)
     index: dict[Any, int] = {}
     pending = iter(enumerate(calls))
+    waiting = [len(calls)]
 
     def submit(queue: Any) -> None:
-        nxt = next(pending, None)
-        if nxt is not None:
+        while (nxt := next(pending, None)) is not None:
+            if skip is not None and skip(nxt[0]):
+                waiting[0] -= 1
+                continue
             fut = client.submit(fn, *nxt[1], pure=False)
             index[fut.key] = nxt[0]
             futures.append(fut)
             queue.add(fut)
+            return
 
     queue = as_completed([])
     for _ in range(min(window, len(calls))):
         submit(queue)
-    waiting = len(calls)
     for fut in queue:
         i = index[fut.key]
         results[i] = fut.result()
         futures.remove(fut)
-        waiting -= 1
+        waiting[0] -= 1
         if on_result is not None:
-            on_result(i, results[i], waiting)
+            on_result(i, results[i], waiting[0])
         submit(queue)
     return results
 
@@ -287,11 +292,28 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
                 for i in todo
             ]
-            back = lambda j, row, _: ahead.came_back(row, places[todo[j]])  # noqa: E731
-            results = bounded_map(client, evaluate_place, calls, max(2, workers), futures, back)
+            arrived: dict[int, dict[str, Any]] = {}
+
+            def back(j: int, row: dict[str, Any], _: int) -> None:
+                arrived[todo[j]] = row
+                ahead.came_back(row, places[todo[j]])
+
+            def centre_failed(j: int) -> bool:
+                """A trial about the first place (the centre) whose whole-task row is back and not feasible.
+
+                It could never be used (the compass starts from the best feasible place): not run.
+                """
+                if not settings.run_ahead or not ahead_trials or first == 0 or todo[j] < first:
+                    return False
+                row = arrived.get(0) if 0 in todo else ahead.back(places[0])
+                return row is not None and not usable(row)
+
+            results = bounded_map(client, evaluate_place, calls, max(2, workers), futures, back, centre_failed)
             done = dict(zip(todo, results, strict=True))
             rows = []
             for i, (p, r) in enumerate(places):
+                if i in done and done[i] is None:  # a trial about a centre that failed, not run
+                    continue
                 if i in done:
                     row = done[i]
                 elif (p, r.seed) in spare:
