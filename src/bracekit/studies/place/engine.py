@@ -19,7 +19,7 @@ worker and at least two (whole-task runs: a run queued behind another on a busy 
 one waiting), so an interrupt stops a run in seconds whatever the number of seeds. :class:`~.ahead.RunAhead`
 fills the gaps: the best optimum's whole-task run once the inner level's last seeds leave a worker idle,
 MuJoCo's check of a row that may be the best as soon as it is back; the rows and the best are those of the
-plain order.
+plain order. The first compass round's trials about a centre whose row came back not feasible are not run.
 
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
 scenario MuJoCo's static check settles on (:mod:`.settle`): the check runs on a worker on the feasible rows,
