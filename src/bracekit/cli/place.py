@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import math
 import sys
 from collections.abc import Iterator
@@ -68,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.radius) and args.radius >= 0.0):
         raise InputError(f"--radius must be a finite angle >= 0 rad (0: no bound), got {args.radius}")
     from bracekit.report.output import prepare_output
-    from bracekit.studies.place.engine import check_spec
+    from bracekit.studies.place.engine import check_spec, prepare
     from bracekit.studies.place.report import FILES, table_markdown
     from bracekit.studies.place.spec import load_place_spec
     from bracekit.studies.sweep.engine import dask_client
@@ -76,13 +77,18 @@ def run(args: argparse.Namespace) -> int:
     spec = load_place_spec(args.source)
     check_spec(spec)
     command = f"bracekit place {args.source}"
+    settings = _settings(args, spec)
     with (
         sigterm_as_interrupt(),
         prepare_output(args.out, overwrite=args.overwrite, files=FILES, command=command) as plan,
-        _forked_workers(),
-        dask_client(args.workers) as client,  # started before this process solves anything (no thread of its own)
+        _forked_workers() as fork,
     ):
-        result, names = _run(args, spec, client, plan, figures)
+        # the task context (the free-space run) here, before a worker forks: they start with numba's kernels
+        prepared = prepare(spec, settings, context=fork)
+        if fork:
+            gc.freeze()
+        with dask_client(args.workers) as client:  # no thread of this process runs while a worker forks
+            result, names = _run(spec, client, plan, figures, settings, prepared)
     print(table_markdown(result), end="")
     print(f"wrote {', '.join(names)} to {args.out}/", file=sys.stderr)
     if result.best is None:
@@ -92,24 +98,29 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run(args: argparse.Namespace, spec: Any, client: Any, plan: Any, figures: bool) -> tuple[Any, list[str]]:
-    """The placement on the cluster of `client`, its outputs written whole."""
-    from bracekit.report.output import atomic_directory
-    from bracekit.studies.place.engine import PlaceSettings, prepare, run_place
+def _settings(args: argparse.Namespace, spec: Any) -> Any:
+    """The placement's settings from the command line."""
+    from bracekit.studies.place.engine import PlaceSettings
     from bracekit.studies.place.inner import InnerSettings
-    from bracekit.studies.place.report import write_outputs
     from bracekit.studies.place.spec import default_surface
-    from bracekit.studies.place.workers import WorkerThreads
 
     surface = args.surface or default_surface(spec)
-    settings = PlaceSettings(
+    return PlaceSettings(
         inner=InnerSettings(measure=args.objective, posture_radius=args.radius or None, surface=surface),
         seeds=args.seeds,
         top=args.top,
         refine_rounds=args.refine,
     )
+
+
+def _run(spec: Any, client: Any, plan: Any, figures: bool, settings: Any, prepared: Any) -> tuple[Any, list[str]]:
+    """The placement on the cluster of `client`, its outputs written whole."""
+    from bracekit.report.output import atomic_directory
+    from bracekit.studies.place.engine import run_place
+    from bracekit.studies.place.report import write_outputs
+    from bracekit.studies.place.workers import WorkerThreads
+
     client.register_plugin(WorkerThreads())  # every worker, and one the nanny restarts, before its first task
-    prepared = prepare(spec, settings)
     result = run_place(spec, client, settings, prepared)
     with atomic_directory(plan) as tmp:
         names = write_outputs(result, tmp, figures=figures)
@@ -126,11 +137,12 @@ WORKER_MODULES = (
     "bracekit.validate.contacts",
     "bracekit.validate.inputs",
     "bracekit.validate.mujoco_check",
+    "threadpoolctl",  # the worker plugin's (WorkerThreads), which each worker runs before its first task
 )
 
 
 @contextmanager
-def _forked_workers() -> Iterator[None]:
+def _forked_workers() -> Iterator[bool]:
     """Local workers forked from this process (Dask's ``fork`` method), :data:`WORKER_MODULES` imported first.
 
     A spawned worker imports bracekit, Pinocchio, SciPy and MuJoCo again (seconds of CPU each, more than the
@@ -160,9 +172,9 @@ def _forked_workers() -> Iterator[None]:
         if collecting:
             gc.enable()
     gc.freeze()
-    method = "spawn" if _numba_threads_started() else "fork"
-    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
-        yield
+    fork = not _numba_threads_started()
+    with dask.config.set({"distributed.worker.multiprocessing-method": "fork" if fork else "spawn"}):
+        yield fork
 
 
 def _numba_threads_started() -> bool:

@@ -62,3 +62,33 @@ def test_place_on_the_collision_surface_beats_the_grids_cell(
     assert rows[0]["feasible"] == "True" and float(rows[0]["Ci_mean_gp"]) == pytest.approx(best["Ci_mean_gp"])
     capsys.readouterr()
     assert main(["run", str(out / "best.toml"), "--out", str(tmp_path / "run")]) == 0
+
+
+def test_run_ahead_on_a_centre_that_fails_changes_no_row(tmp_path: Path) -> None:
+    """panda_link3's optimum on the posture radius does not complete the task: the compass trials about it are
+    not run once its row is back (they could never be used), and every row is the plain order's.
+
+    Reference: the same placement with ``run_ahead`` off (every trial of the first round run with the batch).
+    """
+    from bracekit.studies.place.engine import PlaceRun, PlaceSettings, run_place
+    from bracekit.studies.place.inner import InnerSettings
+    from bracekit.studies.sweep.engine import dask_client
+
+    spec = load_place_spec(str(_spec(tmp_path, "place-link3", 'link = ["panda_link3"]\nangle = [0.0]\n')))
+    runs: dict[bool, PlaceRun] = {}
+    with dask_client(2) as client:
+        for ahead in (False, True):
+            settings = PlaceSettings(inner=InnerSettings(surface="collision"), top=1, run_ahead=ahead)
+            runs[ahead] = run_place(spec, client, settings)
+    plain, ahead_run = runs[False], runs[True]
+    assert not plain.evaluations[0]["completed"]  # the centre of the first round's trials failed
+    assert plain.unused >= 3  # the first round's trials (three inside the fraction's bounds here) run, discarded
+    # never more run and discarded (how many are skipped depends on when the centre's row is back)
+    assert ahead_run.unused <= plain.unused
+
+    def rows(run: PlaceRun) -> list[dict[str, object]]:
+        return [{k: v for k, v in r.items() if k != "wall_s"} for r in run.evaluations]
+
+    assert rows(ahead_run) == rows(plain)
+    assert plain.best is not None and ahead_run.best is not None
+    assert ahead_run.best["Ci_mean_gp"] == plain.best["Ci_mean_gp"]

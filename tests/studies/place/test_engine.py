@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from bracekit.studies.place.engine import PlaceSettings, run_place
+from bracekit.studies.place.engine import PlaceRun, PlaceSettings, run_place
 from bracekit.studies.place.report import write_outputs
 from bracekit.studies.sweep.engine import dask_client
 from bracekit.studies.sweep.refine import usable
@@ -44,3 +44,31 @@ def test_small_placement(tmp_path: Path) -> None:
     assert run.best_start is not None
     best = tomllib.loads((tmp_path / "best.toml").read_text(encoding="utf-8"))
     assert best["brace"]["link"] == "link4" and best["start"]["guess"] == pytest.approx(list(run.best_start.q))
+
+
+def test_run_ahead_changes_no_row() -> None:
+    """The early whole-task run and the early MuJoCo checks leave every row and the best as the plain order gives.
+
+    Reference: the same placement with ``run_ahead`` off (each whole-task run in its batch, each check when the
+    best is chosen); three links on two workers, so the inner level's tail leaves a worker idle.
+    """
+    spec = parse_spec(
+        {
+            "name": "place-three",
+            "base": "paper",
+            "axes": {"link": ["link2", "link4", "link9"]},
+            "brace": {"normal": [0, 0, 1]},
+        }
+    )
+    runs = {}
+    with dask_client(2) as client:
+        for ahead in (False, True):
+            runs[ahead] = run_place(spec, client, PlaceSettings(run_ahead=ahead))
+
+    def rows(run: PlaceRun) -> list[dict[str, object]]:
+        return [{k: v for k, v in r.items() if k != "wall_s"} for r in run.evaluations]
+
+    assert rows(runs[True]) == rows(runs[False])
+    best, plain = runs[True].best, runs[False].best
+    assert best is not None and plain is not None
+    assert {**best, "wall_s": 0} == {**plain, "wall_s": 0} and best["mujoco_settles"] is True

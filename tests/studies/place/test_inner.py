@@ -74,3 +74,32 @@ def _surface(setup: dict[str, Any], link: str) -> Any:
     from bracekit.studies.place.surface import link_surface
 
     return link_surface(setup["scenario"].robot, link)
+
+
+def test_posture_box_keeps_the_optima(setup: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
+    """The box q0 ± R in SLSQP's bounds (inside which the ball lies) finds the optima found without it.
+
+    Reference: the same seeds with the joint limits alone as bounds (the ball a constraint only), the build
+    before the box; the seeds that converge there converge here to the same start C_i. The box also keeps every
+    iterate within R of q0 per joint (SLSQP's bounds hold at each iterate).
+    """
+    spec, settings, q0 = setup["spec"], InnerSettings(), setup["q"]
+    boxed = {link: optimise_start(spec, link, 0.5, q0, settings) for link in ("link2", "link4", "link9")}
+    original = StartProblem.bounds
+
+    def limits_only(self: StartProblem, angle0: float) -> list[tuple[float | None, float | None]]:
+        saved = self.settings
+        self.settings = InnerSettings(posture_radius=None)
+        try:
+            return original(self, angle0)
+        finally:
+            self.settings = saved
+
+    monkeypatch.setattr(StartProblem, "bounds", limits_only)
+    for link, r in boxed.items():
+        ref = optimise_start(spec, link, 0.5, q0, settings)
+        assert ref.success and r.success, (link, ref.message, r.message)
+        assert r.value == pytest.approx(ref.value, rel=1e-6)
+        assert settings.posture_radius is not None
+        assert np.abs(r.q - q0).max() <= settings.posture_radius + 1e-9
+        assert r.iterations <= ref.iterations + 2

@@ -1,9 +1,9 @@
 """Both levels of the placement on Dask: the seeds' inner optimisations, then the best places over the task.
 
-1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process: :func:`prepare`,
-   which the command line runs while the cluster starts) seeds the
-   inner level; the task context (the free-space run) is computed on a worker meanwhile, and another worker
-   imports the inner level's modules.
+1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process:
+   :func:`prepare`) seeds the inner level. The command line computes the task context (the free-space run)
+   there too, before its workers fork, so they start with numba's kernels loaded; else a worker computes it
+   while another imports the inner level's modules.
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
@@ -14,8 +14,12 @@
    ``refine_rounds`` rounds of the compass search from the best feasible one (:func:`.outer.polls`, one batch
    of whole-task runs per round).
 
-Every task goes through :func:`bounded_map`: at most two per worker in flight, so an interrupt stops a run
-in seconds whatever the number of seeds.
+Every task goes through :func:`bounded_map`: at most two per worker in flight (inner optimisations), one per
+worker and at least two (whole-task runs: a run queued behind another on a busy worker would leave an idle
+one waiting), so an interrupt stops a run in seconds whatever the number of seeds. :class:`~.ahead.RunAhead`
+fills the gaps: the best optimum's whole-task run once the inner level's last seeds leave a worker idle,
+MuJoCo's check of a row that may be the best as soon as it is back; the rows and the best are those of the
+plain order. The first compass round's trials about a centre whose row came back not feasible are not run.
 
 The best place is the feasible whole-task evaluation with the least mean C_i of gradient projection whose
 scenario MuJoCo's static check settles on (:mod:`.settle`): the check runs on a worker on the feasible rows,
@@ -28,6 +32,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
@@ -35,11 +40,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError, InputError
+from bracekit.studies.place.ahead import RunAhead, Trial
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
-from bracekit.studies.place.outer import evaluate_place, polls, settle_place
+from bracekit.studies.place.outer import evaluate_place, polls
 from bracekit.studies.place.scenario import Place
 from bracekit.studies.place.surface import link_surface
-from bracekit.studies.sweep.context import context_scenario, reference_start, task_context
+from bracekit.studies.sweep.context import TaskContext, context_scenario, reference_start, task_context
 from bracekit.studies.sweep.refine import usable
 from bracekit.studies.sweep.spec import SweepSpec
 
@@ -51,9 +57,6 @@ WINDOW_PER_WORKER = 2
 #: The factor the posture radius is divided by when a place's whole-task run fails (:func:`run_place`).
 NEARER = 3.0
 
-#: A place to run over the task and the inner optimum whose start posture it is run from.
-Trial = tuple[Place, InnerResult]
-
 
 @dataclass(frozen=True)
 class PlaceSettings:
@@ -61,7 +64,9 @@ class PlaceSettings:
 
     The inner problem's, seeds per link, places run over the task, compass rounds, the compass's first steps
     (fraction, angle in rad), and how many times a place whose whole-task run fails is optimised again nearer
-    the reference start (its posture radius divided by :data:`NEARER`; :func:`run_place`).
+    the reference start (its posture radius divided by :data:`NEARER`; :func:`run_place`). ``run_ahead``: start
+    the best optimum's whole-task run on a worker the inner level's tail leaves idle, and MuJoCo's check of a
+    row that may be the best as soon as it comes back (the rows and the best are the same either way).
     """
 
     inner: InnerSettings = field(default_factory=InnerSettings)
@@ -70,6 +75,7 @@ class PlaceSettings:
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))
     nearer: int = 2
+    run_ahead: bool = True
 
 
 @dataclass
@@ -157,33 +163,52 @@ def _warm() -> None:
     import bracekit.studies.place.inner  # noqa: F401
 
 
-def bounded_map(client: Any, fn: Any, calls: list[tuple[Any, ...]], window: int, futures: list[Any]) -> list[Any]:
+def bounded_map(
+    client: Any,
+    fn: Any,
+    calls: list[tuple[Any, ...]],
+    window: int,
+    futures: list[Any],
+    on_result: Callable[[int, Any, int], None] | None = None,
+    skip: Callable[[int], bool] | None = None,
+) -> list[Any]:
     """fn(*call) for every call on the Dask `client`, results in the calls' order, at most `window` submitted at once.
 
     Each finished task lets the next one in, so the workers never wait for a batch, and an interrupt (Ctrl-C,
     SIGTERM) leaves at most `window` tasks to cancel: closing the cluster then takes seconds whatever the number
     of calls. The submitted futures are appended to `futures` (the caller cancels them on an interrupt).
+    `on_result(i, result, waiting)`, when given, is called as each result comes back (call i; `waiting`: the
+    calls not yet finished), before the next call is submitted: it may submit work of its own. A call for which
+    `skip(i)` is True when its turn comes is not run (its result None).
     """
     from distributed import as_completed
 
     results: list[Any] = [None] * len(calls)
     index: dict[Any, int] = {}
     pending = iter(enumerate(calls))
+    waiting = [len(calls)]
 
     def submit(queue: Any) -> None:
-        nxt = next(pending, None)
-        if nxt is not None:
+        while (nxt := next(pending, None)) is not None:
+            if skip is not None and skip(nxt[0]):
+                waiting[0] -= 1
+                continue
             fut = client.submit(fn, *nxt[1], pure=False)
             index[fut.key] = nxt[0]
             futures.append(fut)
             queue.add(fut)
+            return
 
     queue = as_completed([])
     for _ in range(min(window, len(calls))):
         submit(queue)
     for fut in queue:
-        results[index[fut.key]] = fut.result()
+        i = index[fut.key]
+        results[i] = fut.result()
         futures.remove(fut)
+        waiting[0] -= 1
+        if on_result is not None:
+            on_result(i, results[i], waiting[0])
         submit(queue)
     return results
 
@@ -191,23 +216,28 @@ def bounded_map(client: Any, fn: Any, calls: list[tuple[Any, ...]], window: int,
 class Prepared(NamedTuple):
     """What the inner level needs before any worker.
 
-    The links, the reference start q_ref (n,), each link's fraction bounds.
+    The links, the reference start q_ref (n,), each link's fraction bounds; the task context when computed here
+    (None: a worker computes it).
     """
 
     links: list[str]
     q_ref: Array
     spans: dict[str, tuple[float, float]]
+    context: TaskContext | None = None
 
 
-def prepare(spec: SweepSpec, settings: PlaceSettings) -> Prepared:
+def prepare(spec: SweepSpec, settings: PlaceSettings, context: bool = False) -> Prepared:
     """The links, q_ref (:func:`bracekit.studies.sweep.context.reference_start`) and spans, in this process.
 
-    The command line computes it while the Dask cluster starts.
+    With `context`, the task context too (:func:`~bracekit.studies.sweep.context.task_context`: the free-space
+    run). The command line computes it before its workers fork, so that they start with numba's kernels loaded
+    (numba's start and the kernels' loading cost each process 0.2–0.3 s of CPU at its first compiled call).
     """
     links = check_spec(spec)
-    q_ref = reference_start(context_scenario(spec, {}))
+    ctx = task_context(spec, {}, "{}") if context else None
+    q_ref = reference_start(context_scenario(spec, {})) if ctx is None or ctx.q_ref is None else ctx.q_ref
     robot = spec.base_scenario().robot
-    return Prepared(links, q_ref, {link: _span(robot, link, settings.inner) for link in links})
+    return Prepared(links, q_ref, {link: _span(robot, link, settings.inner) for link in links}, ctx)
 
 
 def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: Prepared | None = None) -> PlaceRun:
@@ -217,47 +247,89 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
-        spec_f = client.scatter(spec, broadcast=True, hash=False)
-        ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
-        futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
-        links, q_ref, spans = prepare(spec, settings) if prepared is None else prepared
-        window = WINDOW_PER_WORKER * max(1, _workers(client))
+        if prepared is not None and prepared.context is not None:  # both to every worker in one round trip
+            spec_f, ctx_f = client.scatter([spec, prepared.context], broadcast=True, hash=False)
+        else:
+            spec_f = client.scatter(spec, broadcast=True, hash=False)
+            ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
+            futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
+        links, q_ref, spans, _ = prepare(spec, settings) if prepared is None else prepared
+        workers = max(1, _workers(client))
+        window = WINDOW_PER_WORKER * workers
+        kind = settings.inner.surface
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
         calls = [(spec_f, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
-        inner: list[InnerResult] = bounded_map(client, optimise_start, calls, window, futures)
+        found: list[InnerResult] = []
+        ahead = RunAhead(client, (spec_f, ctx_f, kind), workers, settings.run_ahead, futures)
+
+        def inner_done(_: int, result: InnerResult, waiting: int) -> None:
+            found.append(result)
+            ahead.inner_done(found, waiting)
+
+        inner: list[InnerResult] = bounded_map(client, optimise_start, calls, window, futures, inner_done)
         timings["inner_s"] = time.perf_counter() - began
         ranking = choose(inner, len(links))
         chosen = ranking[: settings.top]
         t1 = time.perf_counter()
         evaluations: list[dict[str, Any]] = []
         starts: dict[int, InnerResult] = {}
-        kind = settings.inner.surface
+        raw: dict[int, dict[str, Any]] = {}  # evaluation → the row as it came back (:class:`RunAhead` knows it)
 
         spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
 
-        def batch(places: list[Trial], stage: str, ahead: int = 0, check: int = 0) -> list[dict[str, Any]]:
-            """Run `places`; the last `ahead` of them are the first compass round's trials, kept in `spare`.
+        def batch(places: list[Trial], stage: str, ahead_trials: int = 0, check: int = 0) -> list[dict[str, Any]]:
+            """Run `places`; the last `ahead_trials` of them are the first compass round's trials, kept in `spare`.
 
             The first `check` places get MuJoCo's check on their worker right after their run when feasible.
             Returns the rows of the others, in order.
             """
-            first = len(places) - ahead
-            todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare]
+            first = len(places) - ahead_trials
+            todo = [i for i, (p, r) in enumerate(places) if (p, r.seed) not in spare and not ahead.has((p, r))]
+            # submitted: the places to check, the compass's trials, then the other places (a fallback: they count
+            # when the first fails), so a likely best comes back, and its MuJoCo check runs, before the batch ends
+            todo.sort(key=lambda i: (0 if i < check else 1 if i >= first else 2, i))
             calls = [
                 (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
                 for i in todo
             ]
-            done = dict(zip(todo, bounded_map(client, evaluate_place, calls, window, futures), strict=True))
+            arrived: dict[int, dict[str, Any]] = {}
+
+            def back(j: int, row: dict[str, Any], _: int) -> None:
+                arrived[todo[j]] = row
+                ahead.came_back(row, places[todo[j]])
+
+            def centre_failed(j: int) -> bool:
+                """A trial about the first place (the centre) whose whole-task row is back and not feasible.
+
+                It could never be used (the compass starts from the best feasible place): not run.
+                """
+                if not settings.run_ahead or not ahead_trials or first == 0 or todo[j] < first:
+                    return False
+                row = arrived.get(0) if 0 in todo else ahead.back(places[0])
+                return row is not None and not usable(row)
+
+            results = bounded_map(client, evaluate_place, calls, max(2, workers), futures, back, centre_failed)
+            done = dict(zip(todo, results, strict=True))
             rows = []
             for i, (p, r) in enumerate(places):
-                row = done[i] if i in done else spare.pop((p, r.seed))
+                if i in done and done[i] is None:  # a trial about a centre that failed, not run
+                    continue
+                if i in done:
+                    row = done[i]
+                elif (p, r.seed) in spare:
+                    row = spare.pop((p, r.seed))
+                else:
+                    row = ahead.take((p, r))
+                    if i < check:
+                        ahead.completed(row, (p, r))
                 if i >= first:
                     spare[p, r.seed] = row
                     continue
-                row = {"place": r.seed, "evaluation": len(evaluations), **row}
-                evaluations.append(row)
-                starts[row["evaluation"]] = r
-                rows.append(row)
+                out = {"place": r.seed, "evaluation": len(evaluations), **row}
+                raw[out["evaluation"]] = row
+                evaluations.append(out)
+                starts[out["evaluation"]] = r
+                rows.append(out)
             return rows
 
         def nearer(tried: list[InnerResult], rows: list[dict[str, Any]]) -> None:
@@ -291,9 +363,9 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
             while (row := _unchecked(evaluations)) is not None:
                 place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
-                fut = client.submit(settle_place, spec_f, place, starts[row["evaluation"]].q, kind, pure=False)
-                futures.append(fut)
+                fut = ahead.check(raw[row["evaluation"]], (place, starts[row["evaluation"]]))
                 row["mujoco_settles"], row["mujoco_message"] = fut.result()
+                futures.remove(fut)
             return _best(evaluations)
 
         def trials(centre: InnerResult, row: dict[str, Any], step: tuple[float, float]) -> list[Trial]:
@@ -306,8 +378,8 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         step = settings.step
         top = chosen[0].place if chosen else None
         row0 = {"link": top.link, "fraction": top.fraction, "angle_deg": top.angle_deg} if top else {}
-        ahead = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
-        rows = batch([(r.place, r) for r in chosen] + ahead, "task", len(ahead), check=1)  # the likely best: now
+        round1 = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
+        rows = batch([(r.place, r) for r in chosen] + round1, "task", len(round1), check=1)  # the likely best: now
         nearer(list(chosen), rows)
         while settled_best() is None and len(chosen) < len(ranking):  # none usable: the next
             more = ranking[len(chosen) : len(chosen) + settings.top]
@@ -321,15 +393,16 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             batch(trials(centre, best, step), "refine")
             if settled_best() is best:
                 step = (0.5 * step[0], 0.5 * step[1])
+        best = settled_best()
         timings["outer_s"] = time.perf_counter() - t1
     except BaseException:
         client.cancel(futures)
         raise
-    best = settled_best()
+    unused = len(spare) + ahead.finish()
     best_start = None if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     return PlaceRun(
-        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), len(spare)
+        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), unused
     )
 
 

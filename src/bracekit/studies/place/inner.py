@@ -14,7 +14,9 @@ c_t = β_xᵀ C_e β_x of the constrained model at the start's β_x — subject 
 - the posture within ``posture_radius`` R of the reference start q0, ‖q − q0‖² ≤ R² (rad²): the start alone does
   not see the task, and far from the reference start (the one the grid's candidates start from) the inner
   optimum tends to put a joint at its limit or a link through the surface later along the path;
-- the joint limits less a margin and the fraction's bounds (SLSQP bounds).
+- the joint limits less a margin and the fraction's bounds (SLSQP bounds); with a posture radius, each joint
+  also within q0 ± R (the ball lies inside that box: the same feasible set, but SLSQP keeps every iterate
+  in its bounds, whereas the ball's linearisation at q0 bounds nothing and the first step left it by radians).
 
 Every gradient is analytic: the objective's through :mod:`bracekit.studies.place.compliance`, the pose's
 through J_e, the pad's through :mod:`bracekit.studies.place.kinematics`, k's through
@@ -248,13 +250,27 @@ class StartProblem:
         return 1.0 if r is None else float(r * r - np.sum((x[: self.n] - self.q0) ** 2))
 
     def bounds(self, angle0: float) -> list[tuple[float | None, float | None]]:
-        """SLSQP bounds: the joint limits less the margin (None where infinite), the fraction's, φ within π."""
+        """SLSQP bounds: the joint limits less the margin (None where infinite), the fraction's, φ within π.
+
+        With a posture radius R, each joint also within q0 ± R: the ball ‖q − q0‖ ≤ R lies inside that box, so
+        the feasible set is the same, but SLSQP keeps every iterate inside its bounds, whereas the ball's
+        linearisation at q0 itself (gradient 0) bounds nothing: the first step would leave it by radians.
+        """
         robot = self.scenario.robot
         m = self.settings.limit_margin
+        r = self.settings.posture_radius
         out: list[tuple[float | None, float | None]] = []
-        for lo, hi in zip(robot.lower, robot.upper, strict=True):
+        for lo, hi, centre in zip(robot.lower, robot.upper, self.q0, strict=True):
             mm = min(m, 0.25 * float(hi - lo)) if np.isfinite(hi - lo) else m
-            out.append((float(lo + mm) if np.isfinite(lo) else None, float(hi - mm) if np.isfinite(hi) else None))
+            low = float(lo + mm) if np.isfinite(lo) else None
+            high = float(hi - mm) if np.isfinite(hi) else None
+            if r is not None:
+                box = (float(centre) - r, float(centre) + r)
+                low2 = box[0] if low is None else max(low, box[0])
+                high2 = box[1] if high is None else min(high, box[1])
+                if low2 <= high2:  # else the ball misses the limits: no feasible posture, the limits kept
+                    low, high = low2, high2
+            out.append((low, high))
         return [*out, self.surface.fraction_bounds(self.settings.fraction_bounds), (angle0 - math.pi, angle0 + math.pi)]
 
 

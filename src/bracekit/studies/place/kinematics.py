@@ -50,8 +50,11 @@ class PlacedBrace(NamedTuple):
 
 
 def _cross_columns(a: Array, w: Array) -> Array:
-    """a[:, i] × w for every column i of a (3×n), or a[:, i, k] × w[:, k] when w is (3, m) and a (3, n, 1)."""
-    return np.cross(a, w, axisa=0, axisb=0, axisc=0)
+    """The cross product a × w along the first axis (3, ...), the other axes broadcast (columns: a[:, i] × w[:, i]).
+
+    Written out (NumPy's ``cross`` moves the axes on every call, several times the arithmetic here).
+    """
+    return np.stack([a[1] * w[2] - a[2] * w[1], a[2] * w[0] - a[0] * w[2], a[0] * w[1] - a[1] * w[0]])
 
 
 def link_axes_in_brace(robot: Robot, link: str, frame: str) -> Array:
@@ -78,16 +81,14 @@ def placed_brace(
     j0, dj0 = contact.J_b, contact.dJ_b
     j_w = j0[3:]
     n = j0.shape[1]
+    w = _cross_columns(j_w, d[:, None])  # ω_k × d, column k
     jb = j0.copy()
-    jb[:3] += _cross_columns(j_w, np.broadcast_to(d[:, None], (3, n)))
+    jb[:3] += w
     dj = dj0.copy()
-    dj[:3] += np.cross(dj0[3:], d, axisa=0, axisc=0)
-    w = _cross_columns(j_w, np.broadcast_to(d[:, None], (3, n)))  # ω_k × d, column k
-    dj[:3] += np.cross(j_w[:, :, None], w[:, None, :], axisa=0, axisb=0, axisc=0)
+    dj[:3] += _cross_columns(dj0[3:], d[:, None, None]) + _cross_columns(j_w[:, :, None], w[:, None, :])
     db = rot @ surface.point_derivative(s, phi)
     dth = np.zeros((6, n, 2))
-    for j in range(2):
-        dth[:3, :, j] = _cross_columns(j_w, np.broadcast_to(db[:, j : j + 1], (3, n)))
+    dth[:3] = _cross_columns(j_w[:, :, None], db[:, None, :])
     nw = rot @ surface.normal(s, phi)
     return PlacedBrace(
         b=contact.b + d,
@@ -96,6 +97,6 @@ def placed_brace(
         dJ_dq=dj,
         dJ_dtheta=dth,
         db_dtheta=db,
-        dn_dq=_cross_columns(j_w, np.broadcast_to(nw[:, None], (3, n))),
+        dn_dq=_cross_columns(j_w, nw[:, None]),
         dn_dtheta=rot @ surface.normal_derivative(s, phi),
     )

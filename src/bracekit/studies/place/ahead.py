@@ -1,0 +1,126 @@
+"""Work the placement starts before its plain order asks for it, on workers that would otherwise wait.
+
+Two kinds (:class:`RunAhead`, used by :func:`bracekit.studies.place.engine.run_place`):
+
+- **The early whole-task run**: once fewer inner optimisations are left than there are workers, the best
+  successful optimum so far is run over the task on the idle worker. When the inner level ends and that place
+  is among the chosen, its batch takes the row instead of running it again; else it is discarded.
+- **Early MuJoCo checks**: a feasible row that comes back with the least mean C_i so far has MuJoCo's static
+  check started at once, ahead of the queued runs (a Dask priority). The engine takes it when it checks that
+  row; a check it never asks for is discarded.
+
+Either way each row and the best place are the ones the plain order gives: the early run is the same
+computation on the same inputs, run without MuJoCo's check, which is added (early or not) where the plain
+order runs it with the row (:meth:`RunAhead.completed`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from bracekit.studies.place.inner import InnerResult
+from bracekit.studies.place.outer import evaluate_place, settle_place
+from bracekit.studies.place.scenario import Place
+from bracekit.studies.sweep.refine import usable
+
+#: A place and the inner optimum whose start posture it is run from.
+Trial = tuple[Place, InnerResult]
+
+#: Dask priority of an early MuJoCo check: before the runs already queued.
+CHECK_PRIORITY = 10
+
+
+class RunAhead:
+    """The early run and early checks of one placement (see the module).
+
+    Args:
+        client: the Dask client. inputs: the scattered spec's and the task context's futures, the surface kind.
+        workers: the number of workers. enabled: False runs nothing ahead (the plain order).
+        futures: the engine's list of futures in flight (cancelled on an interrupt); this object adds its own.
+    """
+
+    def __init__(
+        self, client: Any, inputs: tuple[Any, Any, str], workers: int, enabled: bool, futures: list[Any]
+    ) -> None:
+        self.client, self.workers, self.enabled, self.futures = client, workers, enabled, futures
+        self.spec_f, self.ctx_f, self.kind = inputs
+        self.early: dict[tuple[Place, int], tuple[Any, InnerResult]] = {}
+        self.checks: dict[int, Any] = {}  # id of a row (kept alive in `seen`) → its early check
+        self.seen: list[dict[str, Any]] = []
+        self._rows: dict[tuple[Place, int], dict[str, Any]] = {}  # early rows back (one object each: see `checks`)
+        self._started = False
+
+    def inner_done(self, found: list[InnerResult], waiting: int) -> None:
+        """After each inner result (`found` so far, `waiting` not yet back): the early run, once, when due."""
+        if not self.enabled or self._started or waiting >= self.workers:
+            return
+        good = [r for r in found if r.success]
+        if not good:
+            return
+        r = min(good, key=lambda x: (x.value, x.place.link))
+        fut = self._submit(evaluate_place, self.spec_f, r.place, r.q, self.ctx_f, "task", self.kind, False)
+        self.early[r.place, r.seed] = (fut, r)
+        self._started = True
+
+    def has(self, trial: Trial) -> bool:
+        """Whether the trial's whole-task row was started early."""
+        return (trial[0], trial[1].seed) in self.early
+
+    def back(self, trial: Trial) -> dict[str, Any] | None:
+        """The trial's early row if it is back (None if not started early, or still running)."""
+        key = (trial[0], trial[1].seed)
+        if key not in self._rows and key in self.early and self.early[key][0].done():
+            self._rows[key] = self.early[key][0].result()
+            self.came_back(self._rows[key], trial)
+        return self._rows.get(key)
+
+    def take(self, trial: Trial) -> dict[str, Any]:
+        """The early row of the trial (waits for it)."""
+        key = (trial[0], trial[1].seed)
+        fut, _ = self.early.pop(key)
+        if key not in self._rows:
+            self._rows[key] = fut.result()
+            self.came_back(self._rows[key], trial)
+        self.futures.remove(fut)
+        return self._rows.pop(key)
+
+    def came_back(self, row: dict[str, Any], trial: Trial) -> None:
+        """Note a row that came back; start its MuJoCo check if it is feasible with the least mean C_i so far."""
+        self.seen.append(row)
+        for key, (fut, r) in list(self.early.items()):  # an early row counts once it is back
+            if fut.done() and key not in self._rows:
+                self._rows[key] = fut.result()
+                self.came_back(self._rows[key], (key[0], r))
+        if not self.enabled or not usable(row) or row.get("mujoco_settles") is not None or id(row) in self.checks:
+            return
+        least = min(r["Ci_mean_gp"] for r in self.seen if usable(r) and r.get("mujoco_settles") is not False)
+        if row["Ci_mean_gp"] <= least:
+            self.checks[id(row)] = self._submit(
+                settle_place, self.spec_f, trial[0], trial[1].q, self.kind, priority=CHECK_PRIORITY
+            )
+
+    def check(self, row: dict[str, Any], trial: Trial) -> Any:
+        """The future of the row's MuJoCo check: the early one, else one submitted now."""
+        fut = self.checks.pop(id(row), None)
+        if fut is None:
+            fut = self._submit(settle_place, self.spec_f, trial[0], trial[1].q, self.kind)
+        return fut
+
+    def completed(self, row: dict[str, Any], trial: Trial) -> None:
+        """An early row completed as the plain order's run with MuJoCo's check after it would be (in place)."""
+        if usable(row) and row.get("mujoco_settles") is None:
+            fut = self.check(row, trial)
+            row["mujoco_settles"], row["mujoco_message"] = fut.result()
+            self.futures.remove(fut)
+
+    def finish(self) -> int:
+        """Cancel what was run ahead and not taken; the number of early runs discarded."""
+        left = [fut for fut, _ in self.early.values()] + list(self.checks.values())
+        if left:
+            self.client.cancel(left)
+        return len(self.early)
+
+    def _submit(self, fn: Any, *args: Any, priority: int = 0) -> Any:
+        fut = self.client.submit(fn, *args, pure=False, priority=priority)
+        self.futures.append(fut)
+        return fut
