@@ -20,6 +20,7 @@ from bracekit.errors import BracekitError
 from bracekit.simulation.scenario import parse_scenario
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.studies.sweep.candidates import Candidate
+from bracekit.studies.sweep.collector import collector_paused
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.scenario import candidate_data, point_offset
 from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
@@ -190,8 +191,16 @@ def judge(spec: SweepSpec, row: dict[str, Any]) -> dict[str, Any]:
 
 
 def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> dict[str, Any]:
-    """The candidate's row: inputs, C_i and k of each strategy, margins, feasibility and the failure reason."""
+    """The candidate's row: inputs, C_i and k of each strategy, margins, feasibility and the failure reason.
+
+    Python's cyclic garbage collector is held off during the run (:mod:`.collector`).
+    """
     single_thread()
+    with collector_paused():
+        return _evaluate(spec, candidate, context)
+
+
+def _evaluate(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> dict[str, Any]:
     began = time.perf_counter()
     row = empty_row(spec, candidate)
     row["Ci_mean_free_space"] = context.free.get("Ci_mean")
