@@ -265,3 +265,16 @@ def test_refinements_on_the_cluster_equal_searches_in_this_process(
         if improved:
             for key in ("refined_fraction", "refined_Ci_mean_gp", "refined_k_mean_gp", "refined_point"):
                 assert got[key] == here[key], key
+
+
+def _worker_settings(dask_worker: Any) -> tuple[object, object, bool]:
+    import dask
+
+    sampling = "profile" in dask_worker.periodic_callbacks  # distributed's statistical profiler, every 10 ms
+    return dask.config.get("distributed.worker.profile.enabled"), os.environ.get("OMP_NUM_THREADS"), sampling
+
+
+def test_local_workers_run_one_thread_and_no_profiler(client2: Any) -> None:
+    settings = client2.run(_worker_settings)
+    assert len(settings) == 2
+    assert all(found == (False, "1", False) for found in settings.values()), settings
