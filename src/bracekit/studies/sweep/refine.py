@@ -2,7 +2,8 @@
 
 For each of the ``refine.top`` best feasible candidates (lowest mean C_i of gradient projection), SciPy's
 bounded Brent search (``minimize_scalar(method="bounded")``) varies the fraction between the neighbouring grid
-values (±0.1 with random sampling), every evaluation a whole-task run (:func:`.evaluate.evaluate_candidate`).
+values (±0.1 with random sampling), every evaluation a whole-task run of gradient projection
+(:func:`.evaluate.evaluate_candidate`).
 The objective is the mean C_i of gradient projection; an infeasible evaluation counts as PENALTY. The best
 feasible evaluation is reported (the grid candidate itself if none is better).
 """
@@ -18,7 +19,7 @@ from typing import Any
 
 from bracekit.studies.sweep.candidates import Candidate, candidate_id
 from bracekit.studies.sweep.context import TaskContext
-from bracekit.studies.sweep.evaluate import evaluate_candidate, finite
+from bracekit.studies.sweep.evaluate import SEARCH_STRATEGIES, evaluate_candidate, finite
 from bracekit.studies.sweep.spec import SweepSpec
 from bracekit.studies.sweep.store import RowStore
 
@@ -54,8 +55,9 @@ def refine_candidate(
 ) -> dict[str, Any]:
     """Search the fraction in [low, high] for the candidate's link; return the best feasible evaluation.
 
-    `evaluate`: a candidate's row, :func:`.evaluate.evaluate_candidate` of `context` (the default, in this
-    process) or the same call on a Dask worker (:func:`refine_best`).
+    `evaluate`: a candidate's row, :func:`.evaluate.evaluate_candidate` of `context` with gradient projection's
+    run only (the default, in this process: the search reads nothing of minimum norm's) or the same call on a
+    Dask worker (:func:`refine_best`).
     """
     from scipy.optimize import minimize_scalar
 
@@ -64,7 +66,10 @@ def refine_candidate(
     def objective(x: float) -> float:
         inputs = dict(candidate.inputs) | {"fraction": float(x)}
         c = Candidate(-1, candidate_id(inputs), inputs)
-        row = evaluate_candidate(spec, c, context) if evaluate is None else evaluate(c)  # type: ignore[arg-type]
+        if evaluate is None:
+            row = evaluate_candidate(spec, c, context, SEARCH_STRATEGIES)  # type: ignore[arg-type]
+        else:
+            row = evaluate(c)
         evaluations.append(row)
         return float(row["Ci_mean_gp"]) if usable(row) else PENALTY
 
@@ -128,7 +133,7 @@ def refine_best(
         def remote(cand: Candidate) -> dict[str, Any]:
             if stop.is_set():  # interrupted: no new evaluation
                 raise CancelledError
-            fut = client.submit(evaluate_candidate, on_workers, cand, context, pure=False)
+            fut = client.submit(evaluate_candidate, on_workers, cand, context, SEARCH_STRATEGIES, pure=False)
             futures.append(fut)
             return fut.result()  # type: ignore[no-any-return]
 
