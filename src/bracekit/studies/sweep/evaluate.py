@@ -206,14 +206,16 @@ def evaluate_candidate(
     if strategies not in (BRACED_STRATEGIES, SEARCH_STRATEGIES):
         raise ValueError(f"strategies must be {BRACED_STRATEGIES} or {SEARCH_STRATEGIES}, got {strategies!r}")
     single_thread()
+    began = time.perf_counter()
     with collector_paused():
-        return _evaluate(spec, candidate, context, strategies)
+        row = _evaluate(spec, candidate, context, strategies, began)
+    row["wall_s"] = time.perf_counter() - began  # with the collection of what the runs left
+    return row
 
 
 def _evaluate(
-    spec: SweepSpec, candidate: Candidate, context: TaskContext, strategies: tuple[str, ...]
+    spec: SweepSpec, candidate: Candidate, context: TaskContext, strategies: tuple[str, ...], began: float
 ) -> dict[str, Any]:
-    began = time.perf_counter()
     row = empty_row(spec, candidate)
     row["Ci_mean_free_space"] = context.free.get("Ci_mean")
     if context.q_ref is None:
