@@ -68,7 +68,8 @@ def test_an_error_inside_restores_it(collector_on: None) -> None:
     assert gc.isenabled()
 
 
-def test_concurrent_holders_bring_it_back_when_the_last_leaves(collector_on: None) -> None:
+def test_overlapping_holders_let_it_run_and_it_stays_on(collector_on: None) -> None:
+    """Two task threads whose runs overlap: the collector runs meanwhile (garbage never held for long)."""
     entered, leave_first, first_left = threading.Event(), threading.Event(), threading.Event()
 
     def first() -> None:
@@ -80,11 +81,16 @@ def test_concurrent_holders_bring_it_back_when_the_last_leaves(collector_on: Non
     thread = threading.Thread(target=first)
     thread.start()
     assert entered.wait(10)
+    assert not gc.isenabled()  # one run alone: held off
     with collector_paused():
+        assert gc.isenabled()  # a second run overlaps: on again
         leave_first.set()
         assert first_left.wait(10)
-        assert not gc.isenabled()  # the other holder left; this one still holds
+        assert gc.isenabled()
     thread.join(10)
+    assert gc.isenabled()
+    with collector_paused():  # alone again: held off again
+        assert not gc.isenabled()
     assert gc.isenabled()
 
 

@@ -9,8 +9,10 @@ one collection of the youngest generation (where everything allocated meanwhile 
 frees everything else as usual, so memory stays that of one run. The numbers a run computes do not depend on
 when garbage is collected.
 
-Process-wide (the collector is): nested and concurrent holders (several task threads of one worker) are
-counted, and the collector comes back when the last one leaves.
+Process-wide (the collector is): holders are counted, and the collector comes back when the last one leaves.
+It is held off only while one thread's run is under way: when another thread comes while the first still holds
+(a worker with several task threads whose runs overlap), the collector is switched back on at once, so that a
+worker whose threads are never all idle still collects its garbage as usual.
 """
 
 from __future__ import annotations
@@ -21,29 +23,36 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 _lock = threading.Lock()
-#: [holders now, whether the collector was on when the first of them came]
-_state: list[int | bool] = [0, False]
+#: Holding threads (their ids) and how many holds each has (a thread may hold inside its own hold).
+_holders: dict[int, int] = {}
+#: Whether the collector was on when the first holder came.
+_was_on = [False]
 
 
 @contextmanager
 def collector_paused() -> Iterator[None]:
     """Hold the cyclic garbage collector off inside the block; on leaving, one young-generation collection.
 
-    The collector's own state is restored: a program that had it switched off keeps it off (and nothing is
-    collected here).
+    Not held off while another thread holds it too (see the module). The collector's own state is restored:
+    a program that had it switched off keeps it off (and nothing is collected here).
     """
+    me = threading.get_ident()
     with _lock:
-        if _state[0] == 0:
-            _state[1] = gc.isenabled()
+        if not _holders:
+            _was_on[0] = gc.isenabled()
             gc.disable()
-        _state[0] = int(_state[0]) + 1
+        elif me not in _holders and _was_on[0]:  # runs of two threads overlap: the collector runs meanwhile
+            gc.enable()
+        _holders[me] = _holders.get(me, 0) + 1
     try:
         yield
     finally:
         with _lock:
-            _state[0] = int(_state[0]) - 1
-            last = _state[0] == 0
-            if last and _state[1]:
+            _holders[me] -= 1
+            if not _holders[me]:
+                del _holders[me]
+            last = not _holders and _was_on[0]
+            if last:
                 gc.enable()
-        if last and _state[1]:
+        if last:
             gc.collect(0)
