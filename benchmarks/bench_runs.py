@@ -13,7 +13,9 @@ its load: every result carries :func:`machine`.
   CPU seconds of the same calls (``run_paper_cpu_s`` …: what other load on the machine changes least);
 * ``sweep_candidates_per_s_1`` and ``_2``: ``bracekit sweep paper-links --limit N --no-screen --no-refine
   --no-figures`` in this process against a local Dask cluster of 1, then 2 worker processes (one thread each),
-  started and warmed (every worker runs the ``paper`` scenario once) before the clock starts;
+  started and warmed (every worker runs the ``paper`` scenario once) before the clock starts; and where its time
+  went: ``sweep_candidate_s_1`` and ``_2`` (a candidate's mean seconds on a worker) and ``sweep_fixed_s_1`` and
+  ``_2`` (the rest of the command's time);
 * ``step_gp_us``: one braced gradient-projection step (``GradientProjectionStep`` of the ``paper`` scenario's
   strategy, numba backend when installed), joint values in and joint velocities out;
 * ``pinocchio_floor_us``: Pinocchio's FK + Jacobian + kinematic Hessian of the tip frame (and
@@ -175,8 +177,28 @@ def per_step_runs(rounds: int = 3) -> dict[str, Any]:
     return out
 
 
-def _sweep_once(workers: int, candidates: int) -> tuple[float, float]:
-    """(candidates per second, cluster start-up and warm-up s) of one ``bracekit sweep`` on a new local cluster."""
+def _sweep_split(out: Path, workers: int, candidates: int, elapsed: float) -> dict[str, float]:
+    """Where a sweep's time went, from its summary.json: a candidate's mean seconds on a worker, and the rest.
+
+    ``candidate_s``: the mean wall time of a candidate's evaluation on its worker (the rows' ``wall_s``);
+    ``fixed_s``: the command's time beyond its candidates' share of the workers (elapsed − candidates ×
+    candidate_s / workers): the command's own work, the task contexts, Dask's round trips, the writes and the
+    workers' uneven ends. Empty when this version's summary does not say.
+    """
+    import json
+
+    try:
+        summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        per = float(summary["screening"]["mean_simulation_wall_s"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    return {"candidate_s": per, "fixed_s": elapsed - candidates * per / workers}
+
+
+def _sweep_once(workers: int, candidates: int) -> tuple[float, float, dict[str, float]]:
+    """(candidates per second, cluster start-up and warm-up s, :func:`_sweep_split`) of one ``bracekit sweep``.
+
+    On a new local cluster of `workers` processes."""
     import logging
 
     from distributed import Client, LocalCluster
@@ -209,15 +231,20 @@ def _sweep_once(workers: int, candidates: int) -> tuple[float, float]:
                 finally:
                     sys.stdout = saved
             elapsed = time.perf_counter() - ready
+            split = _sweep_split(Path(tmp) / "sweep", workers, candidates, elapsed) if code == 0 else {}
     finally:
         cluster.close()
     if code != 0:
         raise RuntimeError(f"bracekit {' '.join(argv)} exited with {code}")
-    return candidates / elapsed, ready - began
+    return candidates / elapsed, ready - began, split
 
 
 def sweep_runs(candidates: int = 16, rounds: int = 1) -> dict[str, Any]:
-    """Candidates per second of ``bracekit sweep`` on 1 then 2 local workers (medians of `rounds`), and scaling."""
+    """Candidates per second of ``bracekit sweep`` on 1 then 2 local workers (medians of `rounds`), and scaling.
+
+    With where the time went (:func:`_sweep_split`): ``sweep_candidate_s_N``, a candidate's mean seconds on a
+    worker, and ``sweep_fixed_s_N``, the rest of the command's time, when the version's summary says.
+    """
     import importlib.util
 
     missing = [m for m in ("distributed", "pyarrow") if importlib.util.find_spec(m) is None]
@@ -226,12 +253,16 @@ def sweep_runs(candidates: int = 16, rounds: int = 1) -> dict[str, Any]:
     out: dict[str, Any] = {"sweep_candidates": candidates}
     for workers in (1, 2):
         rates, starts = [], []
+        splits: dict[str, list[float]] = {}
         for _ in range(rounds):
-            rate, start = _sweep_once(workers, candidates)
+            rate, start, split = _sweep_once(workers, candidates)
             rates.append(rate)
             starts.append(start)
+            for key, value in split.items():
+                splits.setdefault(key, []).append(value)
         out[f"sweep_candidates_per_s_{workers}"] = statistics.median(rates)
         out[f"sweep_cluster_start_s_{workers}"] = statistics.median(starts)
+        out.update({f"sweep_{key}_{workers}": statistics.median(values) for key, values in splits.items()})
     out["sweep_scaling_1_to_2"] = out["sweep_candidates_per_s_2"] / out["sweep_candidates_per_s_1"]
     return out
 

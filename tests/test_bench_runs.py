@@ -108,6 +108,10 @@ def test_the_sweep_is_timed_on_one_and_two_workers() -> None:
     assert r["sweep_candidates"] == 2
     assert r["sweep_candidates_per_s_1"] > 0 and r["sweep_candidates_per_s_2"] > 0
     assert r["sweep_scaling_1_to_2"] == pytest.approx(r["sweep_candidates_per_s_2"] / r["sweep_candidates_per_s_1"])
+    for n in (1, 2):  # the command's time: its candidates' share of the workers and the rest
+        elapsed = 2 / r[f"sweep_candidates_per_s_{n}"]
+        assert 0 < r[f"sweep_candidate_s_{n}"] < elapsed * n
+        assert r[f"sweep_fixed_s_{n}"] == pytest.approx(elapsed - 2 * r[f"sweep_candidate_s_{n}"] / n)
 
 
 def test_the_table_shows_the_control_step_against_its_floor_and_says_why_a_step_is_missing() -> None:

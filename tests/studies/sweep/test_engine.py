@@ -212,3 +212,69 @@ def test_rows_equal_candidates_evaluated_one_by_one_in_this_process(tiny_spec: P
         here = judge(spec, evaluate_candidate(spec, c, context))
         assert row["Ci_mean_free_space"] is not None
         assert without_times([{k: here.get(k) for k in row}]) == without_times([row]), c.id
+
+
+def test_screening_in_chunks_equals_one_call_for_the_whole_context(
+    tiny_spec: Path, client2: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each chunk of a context's candidates is screened by its own task: the same screening and verdicts."""
+    from bracekit.studies.sweep import engine
+    from bracekit.studies.sweep.context import task_context
+    from bracekit.studies.sweep.screen import screen_context, select
+
+    spec = load_spec(tiny_spec)
+    cands = expand(spec)
+    whole = screen_context(spec, task_context(spec, {}, cands[0].context_key), cands)
+    verdicts = select(spec, whole)
+    assert engine.chunks(cands, 3) == [cands[:3], cands[3:]]
+    monkeypatch.setattr(engine, "SCREEN_CHUNK", 1)  # a task per candidate
+    run = run_sweep(spec, tmp_path, client2, refine=False)
+    for s, row in zip(whole, run.rows, strict=True):
+        assert row["candidate"] == s.candidate
+        assert (row["screen_Ci_mean"], row["screen_k_max"], row["screen_clearance_m"]) == (
+            s.Ci_mean,
+            s.k_max,
+            s.clearance,
+        )
+        assert row["screened_out"] == (verdicts[s.candidate] is not None)
+
+
+def test_refinements_on_the_cluster_equal_searches_in_this_process(
+    tiny_spec: Path, client2: Any, tmp_path: Path
+) -> None:
+    """Three searches share the two workers evaluation by evaluation: each is the search run in one process."""
+    from bracekit.studies.sweep.context import task_context
+    from bracekit.studies.sweep.refine import interval, refine_candidate, usable
+
+    text = tiny_spec.read_text(encoding="utf-8").replace('["link4", "link8"]', '["link4"]')
+    path = tiny_spec.with_name("tiny_three.toml")  # three feasible points on link4, all refined
+    path.write_text(text.replace("[0.3, 0.7]", "[0.2, 0.25, 0.3]").replace("top = 1", "top = 3"), encoding="utf-8")
+    spec = load_spec(path)
+    run = run_sweep(spec, tmp_path, client2, screen=False)
+    best = sorted((r for r in run.rows if usable(r)), key=lambda r: (r["Ci_mean_gp"], r["index"]))[:3]
+    assert len(best) == 3, "not three feasible candidates: fewer searches side by side"
+    assert [r["candidate"] for r in run.refined] == [r["candidate"] for r in best]
+    by_id = {c.id: c for c in expand(spec)}
+    context = task_context(spec, {}, expand(spec)[0].context_key)
+    for row, got in zip(best, run.refined, strict=True):
+        c = by_id[row["candidate"]]
+        here = refine_candidate(spec, c, context, *interval(spec, c.inputs["fraction"]))
+        assert got["evaluations"] == here["evaluations"] and got["interval"] == list(here["interval"])
+        improved = here["refined_Ci_mean_gp"] is not None and here["refined_Ci_mean_gp"] < row["Ci_mean_gp"]
+        assert got["improved"] == improved
+        if improved:
+            for key in ("refined_fraction", "refined_Ci_mean_gp", "refined_k_mean_gp", "refined_point"):
+                assert got[key] == here[key], key
+
+
+def _worker_settings(dask_worker: Any) -> tuple[object, object, bool]:
+    import dask
+
+    sampling = "profile" in dask_worker.periodic_callbacks  # distributed's statistical profiler, every 10 ms
+    return dask.config.get("distributed.worker.profile.enabled"), os.environ.get("OMP_NUM_THREADS"), sampling
+
+
+def test_local_workers_run_one_thread_and_no_profiler(client2: Any) -> None:
+    settings = client2.run(_worker_settings)
+    assert len(settings) == 2
+    assert all(found == (False, "1", False) for found in settings.values()), settings

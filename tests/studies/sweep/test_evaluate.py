@@ -124,3 +124,23 @@ def test_a_failed_free_space_run_gives_the_row_of_a_failed_context(tiny_spec: Pa
     row = with_free_space(spec, cand, evaluate_candidate(spec, cand, ref), failed)
     assert _no_time(row) == _no_time(evaluate_candidate(spec, cand, failed))
     assert row["failure"] == failed.failure and row["completed"] is False and row["Ci_mean_gp"] is None
+
+
+def test_a_search_evaluation_is_the_rows_gradient_projection_without_minimum_norm(tiny_spec: Path) -> None:
+    """A refinement's evaluation runs gradient projection only: its columns are the full row's, min norm's None."""
+    from bracekit.studies.sweep.evaluate import SEARCH_STRATEGIES
+
+    spec = load_spec(tiny_spec)
+    cands = expand(spec)
+    ctx = task_context(spec, {}, cands[0].context_key)
+    minimum_norm = ("Ci_mean_min_norm", "k_mean_min_norm", "completed_min_norm", "failure_min_norm")
+    for c in cands:
+        full = evaluate_candidate(spec, c, ctx)
+        search = evaluate_candidate(spec, c, ctx, SEARCH_STRATEGIES)
+        assert full["completed_min_norm"] is not None
+        assert all(search[key] is None for key in minimum_norm)
+        assert search["warnings"] <= full["warnings"]
+        skip = {*minimum_norm, "warnings", "wall_s"}
+        assert {k: v for k, v in search.items() if k not in skip} == {k: v for k, v in full.items() if k not in skip}
+    with pytest.raises(ValueError, match="strategies"):
+        evaluate_candidate(spec, cands[0], ctx, ("braced_min_norm",))

@@ -96,7 +96,7 @@ def test_refinement_ignores_an_evaluation_without_mean_ci(tiny_spec: Path, monke
     spec = load_spec(tiny_spec)
     calls: list[float] = []
 
-    def fake(spec_: Any, cand: Candidate, ctx: Any) -> dict[str, Any]:
+    def fake(spec_: Any, cand: Candidate, ctx: Any, *strategies: str) -> dict[str, Any]:
         calls.append(cand.inputs["fraction"])
         return completed(fraction=cand.inputs["fraction"], Ci_mean_gp=None)  # marked feasible, no C_i
 

@@ -33,3 +33,36 @@ def test_refinement_reports_its_best_feasible_evaluation(tiny_spec: Path) -> Non
     inputs = cand.inputs | {"fraction": out["refined_fraction"]}
     again = evaluate_candidate(spec, Candidate(-1, candidate_id(inputs), inputs), ctx)
     assert again["feasible"] and again["Ci_mean_gp"] == out["refined_Ci_mean_gp"] < PENALTY
+
+
+class _Interrupted:
+    """A Dask client stand-in whose evaluations are interrupted (Ctrl-C while waiting for a worker)."""
+
+    def __init__(self) -> None:
+        self.submitted = 0
+        self.cancelled: list[object] = []
+
+    def submit(self, *args: object, **kwargs: object) -> _Interrupted:
+        self.submitted += 1
+        return self
+
+    def result(self) -> None:
+        raise KeyboardInterrupt
+
+    def cancel(self, futures: list[object]) -> None:
+        self.cancelled += futures
+
+
+def test_an_interrupted_refinement_cancels_its_evaluations(tiny_spec: Path, tmp_path: Path) -> None:
+    from bracekit.studies.sweep.refine import refine_best
+    from bracekit.studies.sweep.store import RowStore
+
+    spec = load_spec(tiny_spec)
+    cands = expand(spec)
+    row = {"candidate": cands[0].id, "index": 0, "feasible": True, "Ci_mean_gp": 0.004, "fraction": 0.3}
+    client = _Interrupted()
+    futures: list[object] = []
+    with pytest.raises(KeyboardInterrupt):
+        refine_best(spec, [row], cands, {cands[0].context_key: None}, client, RowStore(tmp_path, spec), futures)
+    assert client.submitted == 1 and client.cancelled == futures == [client]  # no evaluation after the interrupt
+    assert not list((tmp_path / ".sweep" / "refined").iterdir())

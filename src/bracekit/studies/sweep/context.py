@@ -22,6 +22,7 @@ from bracekit.errors import BracekitError
 from bracekit.simulation.scenario import parse_scenario
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.simulation.simulate import correct, simulate
+from bracekit.studies.sweep.collector import collector_paused
 from bracekit.studies.sweep.spec import SweepSpec
 
 Array = NDArray[np.float64]
@@ -97,10 +98,16 @@ def free_space_context(spec: SweepSpec, reference: TaskContext) -> TaskContext:
     """`reference` (:func:`reference_context`) completed by the free-space minimum-norm run from its start.
 
     Never raises a BracekitError: a free-space run that fails makes the context a failed one (``q_ref`` None),
-    as when the reference start cannot be solved.
+    as when the reference start cannot be solved. Python's garbage collector is held off during the run
+    (:mod:`.collector`).
     """
     if reference.q_ref is None:
         return reference
+    with collector_paused():
+        return _free_space(spec, reference, reference.q_ref)
+
+
+def _free_space(spec: SweepSpec, reference: TaskContext, q_ref: Array) -> TaskContext:
     key, inputs = reference.key, reference.inputs
     began = time.perf_counter() - reference.wall_s
     try:
@@ -111,7 +118,7 @@ def free_space_context(spec: SweepSpec, reference: TaskContext) -> TaskContext:
                 sc.braced,
                 sc.strategy("free_space_min_norm"),
                 sc.task,
-                reference.q_ref,
+                q_ref,
                 sc.dt,
                 sc.beta_x,
                 feedback_gain=sc.feedback_gain,
@@ -123,7 +130,7 @@ def free_space_context(spec: SweepSpec, reference: TaskContext) -> TaskContext:
     return TaskContext(
         key,
         inputs,
-        reference.q_ref,
+        q_ref,
         t=tr.t,
         Q=tr.q,
         beta=beta,

@@ -6,6 +6,7 @@ is the same whichever process computes it (no times or process names in it, apar
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import time
@@ -20,14 +21,17 @@ from bracekit.errors import BracekitError
 from bracekit.simulation.scenario import parse_scenario
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.studies.sweep.candidates import Candidate
+from bracekit.studies.sweep.collector import collector_paused
 from bracekit.studies.sweep.context import TaskContext
 from bracekit.studies.sweep.scenario import candidate_data, point_offset
-from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
+from bracekit.studies.sweep.spec import BRACED_STRATEGIES, POINT_FRAME, SweepSpec
 
 Array = NDArray[np.float64]
 
 #: The short names of the strategies in column names.
 SHORT = {"free_space_min_norm": "free_space", "braced_min_norm": "min_norm", "braced_gradient_projection": "gp"}
+#: The braced run a refinement's search reads (:func:`evaluate_candidate`): gradient projection's.
+SEARCH_STRATEGIES = ("braced_gradient_projection",)
 #: Output columns of a candidate's row, after its inputs (SI units: m/N, m, rad, s).
 RESULT_COLUMNS = (
     "point_x",
@@ -189,10 +193,29 @@ def judge(spec: SweepSpec, row: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> dict[str, Any]:
-    """The candidate's row: inputs, C_i and k of each strategy, margins, feasibility and the failure reason."""
+def evaluate_candidate(
+    spec: SweepSpec, candidate: Candidate, context: TaskContext, strategies: tuple[str, ...] = BRACED_STRATEGIES
+) -> dict[str, Any]:
+    """The candidate's row: inputs, C_i and k of each strategy, margins, feasibility and the failure reason.
+
+    `strategies`: the braced runs, both by default. With :data:`SEARCH_STRATEGIES` (gradient projection only,
+    what a refinement's search reads) the minimum-norm columns are None and ``warnings`` counts that run's
+    only; every other column is the one of both runs (the runs are independent of each other). Python's cyclic
+    garbage collector is held off during the runs (:mod:`.collector`).
+    """
+    if strategies not in (BRACED_STRATEGIES, SEARCH_STRATEGIES):
+        raise ValueError(f"strategies must be {BRACED_STRATEGIES} or {SEARCH_STRATEGIES}, got {strategies!r}")
     single_thread()
     began = time.perf_counter()
+    with collector_paused():
+        row = _evaluate(spec, candidate, context, strategies, began)
+    row["wall_s"] = time.perf_counter() - began  # with the collection of what the runs left
+    return row
+
+
+def _evaluate(
+    spec: SweepSpec, candidate: Candidate, context: TaskContext, strategies: tuple[str, ...], began: float
+) -> dict[str, Any]:
     row = empty_row(spec, candidate)
     row["Ci_mean_free_space"] = context.free.get("Ci_mean")
     if context.q_ref is None:
@@ -202,7 +225,8 @@ def evaluate_candidate(spec: SweepSpec, candidate: Candidate, context: TaskConte
 
     def build() -> tuple[Array, Scenario]:
         point = candidate_point(spec, candidate, context)
-        return point, candidate_scenario(spec, candidate, context, point)
+        sc = candidate_scenario(spec, candidate, context, point)
+        return point, sc if sc.strategies == strategies else dataclasses.replace(sc, strategies=strategies)
 
     return judged_run(spec, row, began, context, build)
 
@@ -259,8 +283,9 @@ def judged_run(
 
 
 def summary_columns(spec: SweepSpec, strategies: dict[str, dict[str, Any]], context: TaskContext) -> dict[str, Any]:
-    """The result columns from run_scenario's per-strategy summary."""
-    mn, gp = strategies["braced_min_norm"], strategies["braced_gradient_projection"]
+    """The result columns from run_scenario's per-strategy summary (minimum norm's None when it did not run)."""
+    gp = strategies["braced_gradient_projection"]
+    mn = strategies.get("braced_min_norm", dict.fromkeys(("Ci_mean", "k_mean", "completed", "failure")))
     free = context.free.get("Ci_mean")
     out: dict[str, Any] = {
         "Ci_mean_min_norm": _num(mn["Ci_mean"]),
@@ -274,7 +299,7 @@ def summary_columns(spec: SweepSpec, strategies: dict[str, dict[str, Any]], cont
         "min_liftoff_margin": _num(gp.get("min_liftoff_margin")),
         "min_slip_margin": _num(gp.get("min_slip_margin")),
         "min_torque_margin": _num(gp.get("min_torque_margin")),
-        "completed_min_norm": bool(mn["completed"]),
+        "completed_min_norm": None if mn["completed"] is None else bool(mn["completed"]),
         "failure_min_norm": mn["failure"],
         "holds": gp.get("holds"),
         "unstable_samples": gp.get("unstable_samples"),

@@ -22,6 +22,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from bracekit.compliance.batch import evaluate_batch
 from bracekit.compliance.preloaded import simulated_model
@@ -30,10 +31,13 @@ from bracekit.errors import BracekitError
 from bracekit.kinematics import BracedRobot
 from bracekit.kinematics.clearance import link_clearance
 from bracekit.studies.sweep.candidates import Candidate
+from bracekit.studies.sweep.collector import collector_paused
 from bracekit.studies.sweep.context import TaskContext, context_scenario
 from bracekit.studies.sweep.evaluate import single_thread
 from bracekit.studies.sweep.scenario import point_offset
 from bracekit.studies.sweep.spec import POINT_FRAME, SweepSpec
+
+Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -52,10 +56,18 @@ class Screened:
 
 
 def screen_context(spec: SweepSpec, context: TaskContext, candidates: list[Candidate]) -> list[Screened]:
-    """Screen the candidates of one task context (all of them share its free-space path)."""
+    """Screen the candidates of one task context (all of them share its free-space path), each on its own.
+
+    Python's garbage collector is held off meanwhile (:mod:`.collector`).
+    """
     single_thread()
     if context.q_ref is None:
         return [Screened(c.id, None, None, context.failure) for c in candidates]
+    with collector_paused():
+        return _screen(spec, context, context.q_ref, candidates)
+
+
+def _screen(spec: SweepSpec, context: TaskContext, q_ref: Array, candidates: list[Candidate]) -> list[Screened]:
     sc = context_scenario(spec, context.inputs)
     robot = sc.robot
     normal = np.asarray(spec.normal if spec.normal is not None else sc.braced.brace.surface.normal, dtype=float)
@@ -66,13 +78,13 @@ def screen_context(spec: SweepSpec, context: TaskContext, candidates: list[Candi
     for c in candidates:
         try:
             point = robot.with_point_frame(POINT_FRAME, c.inputs["link"], point_offset(spec, robot, c.inputs))
-            placement, _ = point.frame_kinematics(context.q_ref, [point.frame_id(POINT_FRAME)])[0]
+            placement, _ = point.frame_kinematics(q_ref, [point.frame_id(POINT_FRAME)])[0]
             centre = placement[:3, 3] + np.asarray(c.inputs.get("region_offset", [0.0, 0.0, 0.0]), dtype=float)
             brace = Brace(
                 POINT_FRAME, Surface(centre, normal), kind, region_radius=region, surface_radius=spec.surface_radius
             )
             braced = BracedRobot(point, brace)
-            clearance = float(link_clearance(braced.state(context.q_ref))[0])
+            clearance = float(link_clearance(braced.state(q_ref))[0])
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 ev = evaluate_batch(braced, context.Q, context.beta, models=(model,), errors="nan", k_braced=True)
