@@ -21,13 +21,13 @@ if TYPE_CHECKING:
         mujoco_static_deflection,
     )
     from bracekit.validate.plane_contact import PlaneContact
+    from bracekit.validate.preload_series import preload_study
     from bracekit.validate.runner import (
         CapacityValidationReport,
         HoldingValidationReport,
         PreloadedValidationReport,
         ValidationReport,
         check_compliance,
-        preload_study,
         run_capacity_validation,
         run_holding_validation,
         run_preloaded_validation,
@@ -68,7 +68,7 @@ _EXPORTS = {
     "PreloadedValidationReport": "bracekit.validate.runner",
     "ValidationReport": "bracekit.validate.runner",
     "check_compliance": "bracekit.validate.runner",
-    "preload_study": "bracekit.validate.runner",
+    "preload_study": "bracekit.validate.preload_series",
     "run_capacity_validation": "bracekit.validate.runner",
     "run_holding_validation": "bracekit.validate.runner",
     "run_preloaded_validation": "bracekit.validate.runner",

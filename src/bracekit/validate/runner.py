@@ -43,7 +43,7 @@ from bracekit.validate.inputs import (
     path_samples,
     validation_configurations,
 )
-from bracekit.validate.preload_study import preload_study
+from bracekit.validate.preload_series import preload_study
 from bracekit.validate.preloaded_check import (
     PRELOADED_MODELS,
     PreloadedValidationReport,
