@@ -234,8 +234,8 @@ class Correction:
         self._robot, self._n, self._ones = robot, robot.n, np.ones(robot.n)
         self._ids = (robot.tip_id, *braced.brace_ids)
         data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
-        #: Pinocchio's model, the correction's own data and its frame placements (None: the chain's kinematics)
-        self._pin = None if data is None else (robot.model, data, data.oMf)
+        #: Pinocchio's model and the correction's own data (None: the chain's kinematics)
+        self._pin = None if data is None else (robot.model, data)
         # the kernel's inputs: the frames' kinematics of the last pass (new arrays each call: the returned state
         # holds views of them), and the constants of the problem
         self._mats, self._jacs = np.zeros((len(self._ids), 4, 4)), np.zeros((len(self._ids), 6, robot.n))
@@ -268,12 +268,12 @@ class Correction:
             for i, (m, j) in enumerate(self._robot.frame_kinematics(q, self._ids)):
                 mats[i], jacs[i] = m, j
             return q
-        model, data, placements = self._pin
+        model, data = self._pin
         pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
+        place, jacobian = pin.updateFramePlacement, pin.getFrameJacobian  # the frames asked, not all the model's
         for i, f in enumerate(self._ids):
-            mats[i] = placements[f].homogeneous
-            jacs[i] = pin.getFrameJacobian(model, data, f, LWA)
+            mats[i] = place(model, data, f).homogeneous
+            jacs[i] = jacobian(model, data, f, LWA)
         return q
 
     def _evaluate(self, q: Array, position: Array, previous: float, slot: int, tol: float | None = None) -> Point:
