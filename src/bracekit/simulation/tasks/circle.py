@@ -25,7 +25,7 @@ from bracekit.spatial import unit
 
 __all__ = ["MEMO_SIZE", "Circle"]
 
-#: Entries a circle keeps of p_d, ṗ_d and r̂ at float times before it forgets them all (about 7 MB at most).
+#: Times a circle keeps p_d, ṗ_d or r̂ of before it forgets that one's (about 7 MB at most for the three).
 MEMO_SIZE = 50_000
 
 
@@ -46,9 +46,9 @@ class Circle:
     turns: float = 1.0
     _u: Array = field(init=False, repr=False)
     _w: Array = field(init=False, repr=False)
-    #: p_d, ṗ_d and r̂ by (what, t) for float times (read-only arrays): the runs of one scenario take them at the
-    #: same times; cleared past MEMO_SIZE entries
-    _memo: dict[tuple[int, float], Array] = field(init=False, repr=False, default_factory=dict)
+    #: p_d, ṗ_d and r̂ by float time t (read-only arrays; float keys, so the garbage collector does not track
+    #: them): the runs of one scenario take them at the same times; each cleared past MEMO_SIZE entries
+    _memo: tuple[dict[float, Array], ...] = field(init=False, repr=False, default_factory=lambda: ({}, {}, {}))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "centre", vec3(self.centre, "circle centre (m)"))
@@ -80,15 +80,15 @@ class Circle:
         return a
 
     def _kept(self, what: int, t: float, compute: Callable[[float], Array]) -> Array:
-        """compute(t), kept by (what, t) where t is a float (a read-only array: every caller gets the same one)."""
+        """compute(t), kept in memo `what` where t is a float (a read-only array: every caller gets the same one)."""
         if type(t) is not float:
             return compute(t)
-        key = (what, t)
-        found = self._memo.get(key)
+        memo = self._memo[what]
+        found = memo.get(t)
         if found is None:
-            if len(self._memo) >= MEMO_SIZE:
-                self._memo.clear()
-            found = self._memo[key] = compute(t)
+            if len(memo) >= MEMO_SIZE:
+                memo.clear()
+            found = memo[t] = compute(t)
             found.flags.writeable = False
         return found
 
