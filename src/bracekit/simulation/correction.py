@@ -289,15 +289,15 @@ class Correction:
 
     def _state(self, q: Array) -> BracedState:
         """The state at q from the last pass (at q), on views of the pass's arrays (this call's own)."""
-        mats, jacs = self._mats, self._jacs
-        return self.braced.state_from_kinematics(q, [(mats[i], jacs[i]) for i in range(len(mats))])
+        return self.braced.state_from_kinematics(q, list(zip(self._mats, self._jacs, strict=True)))
 
     def __call__(self, q: Array, position: Array) -> BracedState:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
-        position = np.ascontiguousarray(position, dtype=np.float64)
+        if not (type(position) is np.ndarray and position.dtype == np.float64 and position.flags.c_contiguous):
+            position = np.ascontiguousarray(position, dtype=np.float64)
         if position.shape != (3,):
             raise InputError(f"the tip's target position must be 3 numbers (m), got shape {position.shape}")
-        self._mats, self._jacs = np.empty_like(self._mats), np.empty_like(self._jacs)
+        self._mats, self._jacs = np.empty(self._mats.shape), np.empty(self._jacs.shape)
         q = self._pass(q)
         now = 0  # the buffer set of the current point; the trial's is 1 - now
         status, size, scaled = self._evaluate(q, position, math.inf, now)
