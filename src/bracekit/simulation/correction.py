@@ -20,6 +20,7 @@ from bracekit.errors import ConvergenceError, InputError
 from bracekit.kinematics import LWA, BracedRobot, BracedState, skeleton
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.robot import Robot
+from bracekit.resolution.fused_several import FramePass
 from bracekit.resolution.task_space import POSE, TaskSpace
 from bracekit.tolerances import ACCEPT_TOL, CORRECTION_ROUNDOFF, CORRECTION_TOL
 
@@ -236,6 +237,7 @@ class Correction:
         data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
         #: Pinocchio's model and the correction's own data (None: the chain's kinematics)
         self._pin = None if data is None else (robot.model, data)
+        self._at: Array | None = None  # the q of the last pass
         # the kernel's inputs: the frames' kinematics of the last pass (new arrays each call: the returned state
         # holds views of them), and the constants of the problem
         self._mats, self._jacs = np.zeros((len(self._ids), 4, 4)), np.zeros((len(self._ids), 6, robot.n))
@@ -269,12 +271,23 @@ class Correction:
                 mats[i], jacs[i] = m, j
             return q
         model, data = self._pin
+        self._at = q
         pin.computeJointJacobians(model, data, q)
         place, jacobian = pin.updateFramePlacement, pin.getFrameJacobian  # the frames asked, not all the model's
         for i, f in enumerate(self._ids):
             mats[i] = place(model, data, f).homogeneous
             jacs[i] = jacobian(model, data, f, LWA)
         return q
+
+    def last_pass(self, q: Array) -> FramePass | None:
+        """The last pass (its Data, ⁰M and J of the tip and each brace) if it was at this very array q, else None.
+
+        A state this correction returned was built on the pass at its q: a step at that state can take the pass
+        instead of making its own (:class:`~bracekit.resolution.GradientProjectionStep`).
+        """
+        if self._pin is None or self._at is not q:
+            return None
+        return FramePass(self._pin[1], self._mats, self._jacs)
 
     def _evaluate(self, q: Array, position: Array, previous: float, slot: int, tol: float | None = None) -> Point:
         """The kernel at the last pass (at q): the point's status and sizes.
