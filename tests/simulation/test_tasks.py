@@ -157,3 +157,19 @@ def test_a_circle_keeps_what_it_computed_at_a_time_and_gives_the_same_numbers_as
         assert np.array_equal(small.position(0.1), c.position(0.1))
     finally:
         module.MEMO_SIZE = old
+
+
+def test_a_pickled_circle_leaves_what_it_kept_behind_and_gives_the_same_numbers() -> None:
+    """Reference: the circle before pickling (its kept p_d, ṗ_d and r̂)."""
+    import copy
+    import pickle
+
+    c = Circle(centre=[0.7, -0.15, 0.05], radius=0.1, normal=[0.0, 0.0, 1.0], period=4.0, start_direction=[1.0, 0, 0])
+    times = np.linspace(0.0, 4.0, 9).tolist()
+    kept = [(c.position(t), c.velocity(t), c.radial(t)) for t in times]
+    for other in (pickle.loads(pickle.dumps(c)), copy.deepcopy(c)):
+        assert all(not memo for memo in other._memo) and all(memo for memo in c._memo)
+        for t, (p, v, r) in zip(times, kept, strict=True):
+            assert np.array_equal(other.position(t), p) and np.array_equal(other.velocity(t), v)
+            assert np.array_equal(other.radial(t), r)
+        assert np.array_equal(other.normal, c.normal) and other.period == c.period

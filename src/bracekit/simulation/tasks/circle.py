@@ -67,6 +67,13 @@ class Circle:
         object.__setattr__(self, "_u", u)
         object.__setattr__(self, "_w", np.cross(n, u))
 
+    def __getstate__(self) -> dict[str, object]:
+        """The fields without what the circle kept (a pickled circle, e.g. sent to a worker, starts empty)."""
+        return {**self.__dict__, "_memo": ({}, {}, {})}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+
     @property
     def duration(self) -> float:
         """Time of the whole task, s."""
