@@ -84,3 +84,34 @@ def test_one_correction_of_a_run_gives_the_state_of_braced_state_at_its_q_and_cl
         assert np.max(np.abs(contact_residual(ref, anchors))) < 1e-9
         again = correct(braced, out.q, target, base.R_e, anchors, space=space)  # the function: the same correction
         assert np.array_equal(again.q, out.q)
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_a_step_on_the_correction_s_pass_is_the_step_on_its_own_pass_to_the_last_bit(name: str) -> None:
+    """Reference: the gradient-projection step making its own Pinocchio pass at the same q (a copy of the array)."""
+    from bracekit.resolution.fused import GradientProjectionStep
+    from bracekit.simulation.start import solve_start
+
+    sc = load_scenario(name)
+    start = solve_start(sc.braced, sc.task.position(0.0), sc.guess, space=sc.task_space)
+    anchors = [(c.b.copy(), c.R_b.copy()) for c in start.contacts]
+    corr = Correction(sc.braced, start.R_e.copy(), anchors, space=sc.task_space)
+    step = GradientProjectionStep(sc.braced, sc.strategy("braced_gradient_projection"), backend="auto")
+    if not step.uses_kernel:
+        pytest.skip(f"the compiled step does not run here ({step.fallback_reason}): the NumPy step makes its own pass")
+    rng = np.random.default_rng(5)
+    xdot = np.array([0.02, -0.01, 0.03, 0.0, 0.0, 0.0])
+    beta = sc.beta_x(0.3)
+    for k in range(4):
+        st = corr(start.q + 1e-3 * rng.standard_normal(start.q.shape), sc.task.position(0.01 * k))
+        at = corr.last_pass(st.q)
+        assert at is not None and corr.last_pass(st.q.copy()) is None  # only at the very array of the pass
+        shared = step(st.q, xdot, beta, at)
+        own = step(st.q.copy(), xdot, beta)
+        assert np.array_equal(shared, own)
+        # the pass's frames are the state's: ⁰M and J of the tip, then of each brace
+        assert np.array_equal(at.jacobians[0], st.J_e) and np.array_equal(at.placements[0][:3, 3], st.e)
+        for i, c in enumerate(st.contacts):
+            assert np.array_equal(at.jacobians[1 + i], c.J_b) and np.array_equal(at.placements[1 + i][:3, :3], c.R_b)
+    later = corr(start.q, sc.task.position(0.0))
+    assert corr.last_pass(st.q) is None and corr.last_pass(later.q) is not None  # a new pass: the old one is gone

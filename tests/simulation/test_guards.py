@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -259,3 +260,30 @@ def test_dependent_braces_are_left_to_each_state_s_constraint_and_its_warning() 
         ref = [sigma_ratios(twice.state(q), sc.task_space, keys) for q in qs]
     assert found == ref
     assert [str(w.message) for w in stacked] == [str(w.message) for w in alone] and alone
+
+
+@pytest.mark.parametrize("link", ["link4", "link8"])
+def test_chain1_maps_of_a_link_point_are_each_state_s_own_null_space_to_the_last_bit(link: str, tmp_path: Path) -> None:
+    """Reference: ``state.split.chain1_map`` and ``state.split.A`` (n1 ≠ 6), formed one state at a time."""
+    from bracekit.simulation.scenario import shipped_scenarios
+    from bracekit.simulation.stacked_ratios import chain1_maps
+
+    text = shipped_scenarios()["paper"].read_text(encoding="utf-8")
+    text = text.replace('frame = "brace"', f'link = "{link}"\nframe = "p"\noffset = [0.0, 0.0, 0.05]')
+    path = tmp_path / f"{link}.toml"
+    path.write_text(text.replace("theta_z = 0.6", "theta_z = 0.0"), encoding="utf-8")
+    sc = load_scenario(path)
+    assert sc.braced.split.n1 != 6
+    rng = np.random.default_rng(7)
+    base = np.asarray(sc.guess, dtype=float)
+    states = [sc.braced.state(base + 0.3 * rng.standard_normal(base.shape)) for _ in range(6)]
+    j1 = np.array([st.split.J1 for st in states])
+    maps = chain1_maps(sc.braced.split.X, j1)
+    stacks = _split_stacks(states, [None] * len(states))
+    assert maps is not None and stacks is not None
+    for i, st in enumerate(states):
+        assert np.array_equal(maps[i], st.split.chain1_map)
+        assert np.array_equal(stacks["A"][0][i], st.split.A)
+    # a J1 whose Xᵀ J1 has another rank (zero: the whole chain-1 space) is left to each state
+    j1[2] = 0.0
+    assert chain1_maps(sc.braced.split.X, j1) is None

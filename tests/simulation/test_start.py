@@ -98,3 +98,12 @@ def test_a_failed_start_names_the_joints_at_a_limit_and_a_link_inside_the_post(t
     # at the planar guess the elbow point is inside link3's housing: link 3 starts inside the post
     inside = _blocked(sc.braced, sc.braced.state(np.array(sc.guess, dtype=float)))
     assert "at a joint limit" not in inside and "m inside the surface's solid" in inside
+
+
+def test_the_start_s_cross_product_is_numpy_s_to_the_last_bit() -> None:
+    """Reference: ``np.cross`` of the same 3-vectors (random, of every scale, and the axes)."""
+    rng = np.random.default_rng(11)
+    pairs = [(rng.standard_normal(3) * 10.0 ** rng.integers(-8, 8), rng.standard_normal(3)) for _ in range(200)]
+    pairs += [(a, b) for a in np.eye(3) for b in np.eye(3)]
+    for a, b in pairs:
+        assert np.array_equal(start_module._cross(a, b), np.cross(a, b))

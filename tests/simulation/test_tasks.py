@@ -120,3 +120,56 @@ def test_positions_refuse_a_time_that_is_not_a_finite_number(t: object) -> None:
         for fn in (task.position, task.velocity):
             with pytest.raises(InputError):
                 fn(t)  # type: ignore[arg-type]
+
+
+def test_a_circle_keeps_what_it_computed_at_a_time_and_gives_the_same_numbers_as_the_formula() -> None:
+    """Reference: p_d, ṗ_d and r̂ from the circle's formula at each t, written out here (a fresh circle each time)."""
+    from bracekit.simulation.tasks import circle as module
+
+    kwargs = {
+        "centre": [0.7, -0.15, 0.05],
+        "radius": 0.1,
+        "normal": [0.0, 0.0, 1.0],
+        "period": 4.0,
+        "start_direction": [1.0, 0.0, 0.0],
+    }
+    c = Circle(**kwargs)
+    u, w = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    for t in np.linspace(0.0, 4.0, 41).tolist() * 2:  # every time twice: the second from what the circle kept
+        a = 2.0 * np.pi * t / 4.0
+        np.testing.assert_allclose(c.position(t), [0.7 + 0.1 * np.cos(a), -0.15 + 0.1 * np.sin(a), 0.05], atol=1e-15)
+        np.testing.assert_allclose(c.velocity(t), 0.1 * np.pi / 2.0 * (-np.sin(a) * u + np.cos(a) * w), atol=1e-15)
+        np.testing.assert_allclose(c.radial(t), np.cos(a) * u + np.sin(a) * w, atol=1e-15)
+        fresh = Circle(**kwargs)  # nothing kept: the same bits
+        for kept, computed in ((c.position, fresh.position), (c.velocity, fresh.velocity), (c.radial, fresh.radial)):
+            assert np.array_equal(kept(t), computed(t))
+    assert c.position(1.0) is c.position(1.0) and not c.position(1.0).flags.writeable  # one read-only array
+    with pytest.raises(ValueError):
+        c.position(1.0)[0] = 0.0
+    assert np.array_equal(c.position(np.float64(1.0)), c.position(1.0))  # a time not a float: computed, not kept
+    old = module.MEMO_SIZE
+    try:
+        module.MEMO_SIZE = 3
+        small = Circle(**kwargs)
+        for t in (0.1, 0.2, 0.3, 0.4):
+            small.position(t)
+        assert len(small._memo[0]) == 1  # forgotten past MEMO_SIZE, then kept again
+        assert np.array_equal(small.position(0.1), c.position(0.1))
+    finally:
+        module.MEMO_SIZE = old
+
+
+def test_a_pickled_circle_leaves_what_it_kept_behind_and_gives_the_same_numbers() -> None:
+    """Reference: the circle before pickling (its kept p_d, ṗ_d and r̂)."""
+    import copy
+    import pickle
+
+    c = Circle(centre=[0.7, -0.15, 0.05], radius=0.1, normal=[0.0, 0.0, 1.0], period=4.0, start_direction=[1.0, 0, 0])
+    times = np.linspace(0.0, 4.0, 9).tolist()
+    kept = [(c.position(t), c.velocity(t), c.radial(t)) for t in times]
+    for other in (pickle.loads(pickle.dumps(c)), copy.deepcopy(c)):
+        assert all(not memo for memo in other._memo) and all(memo for memo in c._memo)
+        for t, (p, v, r) in zip(times, kept, strict=True):
+            assert np.array_equal(other.position(t), p) and np.array_equal(other.velocity(t), v)
+            assert np.array_equal(other.radial(t), r)
+        assert np.array_equal(other.normal, c.normal) and other.period == c.period

@@ -54,7 +54,7 @@ from bracekit.kinematics.braced import MAX_HESSIAN_JOINTS
 from bracekit.kinematics.hessian import ensure_hessian_layout
 from bracekit.objective import Objective, Term, central_difference
 from bracekit.objective.fused import FusedGradient, FusedKinematics, NotCertified
-from bracekit.resolution.fused_several import KernelInputs, Kinematics, SeveralBraceKernel
+from bracekit.resolution.fused_several import FramePass, KernelInputs, Kinematics, SeveralBraceKernel
 from bracekit.resolution.strategies import BracedGradientProjection, finite_rates, tip_twist
 from bracekit.spatial import twist_shift
 from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
@@ -255,21 +255,27 @@ class GradientProjectionStep:
         return kernels.gp_step
 
     # --- public API --------------------------------------------------------------------------------
-    def __call__(self, q: ArrayLike, xdot: ArrayLike, beta_x: ArrayLike | None = None) -> Array:
-        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) and descend g, at q (n,)."""
+    def __call__(
+        self, q: ArrayLike, xdot: ArrayLike, beta_x: ArrayLike | None = None, at: FramePass | None = None
+    ) -> Array:
+        """Joint velocities q̇ (n,) that realise the tip twist ẋ (6,) and descend g, at q (n,).
+
+        `at`: a Pinocchio pass of this model already made at q (a run's correction's, the frames of
+        ``state_from_kinematics``): the compiled step then adds only the Hessians (the same q̇ to the last bit).
+        """
         qa = self._check_q(q)
         xd = xdot
         if not (type(xd) is np.ndarray and xd.dtype == np.float64 and xd.shape == (6,) and math.isfinite(xd.sum())):
             xd = tip_twist(xdot)
         if self._several:
             if self._multi is not None:
-                fast = self._multi(qa, xd, beta_x)
+                fast = self._multi(qa, xd, beta_x, at)
                 if fast is not None:
                     return fast
             strategy = self._reference(beta_x)
             return strategy.velocity(self.braced.state(qa, hessians=strategy.needs_hessians), xd)
         if self._kernel is not None:
-            out = self._numba_step(qa, xd, beta_x)
+            out = self._numba_step(qa, xd, beta_x, at)
             if out is not None:
                 return out
         obj = self._with_beta(beta_x)
@@ -351,24 +357,27 @@ class GradientProjectionStep:
         je, jb, mb, me = last[1]
         return (me, je), (mb, jb)
 
-    def _kinematics(self, qa: Array, hessians: bool) -> tuple[Any, ...]:
-        """One Pinocchio pass: J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows (n×6n) if asked."""
+    def _kinematics(self, qa: Array, hessians: bool, at: FramePass | None = None) -> tuple[Any, ...]:
+        """One Pinocchio pass (or `at`'s): J_e, J_b (6×n, world axes), ⁰M_b, ⁰M_e (4×4), Hessian rows if asked."""
         model, data = self._model, self._data
-        pin.computeJointJacobians(model, data, qa)
-        mb = pin.updateFramePlacement(model, data, self._bid).homogeneous  # the two frames, not all the model's
-        me = pin.updateFramePlacement(model, data, self._tip).homogeneous
-        je = pin.getFrameJacobian(model, data, self._tip, LWA)
-        jb = pin.getFrameJacobian(model, data, self._bid, LWA)
+        if at is not None:
+            data, (me, mb), (je, jb) = at.data, at.placements, at.jacobians
+        else:
+            pin.computeJointJacobians(model, data, qa)
+            mb = pin.updateFramePlacement(model, data, self._bid).homogeneous  # the two frames, not the model's
+            me = pin.updateFramePlacement(model, data, self._tip).homogeneous
+            je = pin.getFrameJacobian(model, data, self._tip, LWA)
+            jb = pin.getFrameJacobian(model, data, self._bid, LWA)
         self._last = (qa, (je, jb, mb, me))
         if not hessians:
             return je, jb, mb, me, None, None
         pin.computeJointKinematicHessians(model, data)
         return je, jb, mb, me, frame_hessian_rows(model, data, self._tip), frame_hessian_rows(model, data, self._bid)
 
-    def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None) -> Array | None:
+    def _numba_step(self, qa: Array, xd: Array, beta_x: ArrayLike | None, at: FramePass | None = None) -> Array | None:
         """q̇ by the numba kernel after one Pinocchio pass; None where the kernel declines (NumPy code then)."""
         ci, xd = self._inputs(beta_x, xd)
-        je, jb, mb, me, he, hb = self._kinematics(qa, True)
+        je, jb, mb, me, he, hb = self._kinematics(qa, True, at)
         h, x, t, kinv = self._nb_const
         assert self._kernel is not None
         status, out = self._kernel(

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from types import ModuleType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -32,6 +32,20 @@ from bracekit.tolerances import CERTIFIED_COND, NULL_SPACE_RTOL, UNLOADED_TOL
 Array = NDArray[np.float64]
 #: (⁰M, J) of the tip, then of each brace, as :meth:`BracedRobot.state_from_kinematics` takes them.
 Kinematics = tuple[tuple[Array, Array], ...]
+
+
+class FramePass(NamedTuple):
+    """A Pinocchio pass already made at a q (``computeJointJacobians`` and the frames' placements), to share.
+
+    Attributes:
+        data: the Data the pass wrote (Pinocchio's joint Jacobians at q); a step adds its kinematic Hessians.
+        placements: ⁰M (k, 4, 4) of the tip, then of each brace, in the order of ``braced.braces``.
+        jacobians: J (k, 6, n), LOCAL_WORLD_ALIGNED, of the same frames.
+    """
+
+    data: pin.Data
+    placements: Array
+    jacobians: Array
 
 
 def kernel_inputs(ci: Array, beta_x: Any, xd: Array) -> tuple[Array, Array]:
@@ -171,15 +185,22 @@ class SeveralBraceKernel:
         last = self._last
         return None if last is None or last[0] is not q else last[1]
 
-    def __call__(self, qa: Array, xd: Array, beta_x: Any = None) -> Array | None:
-        """q̇ (n,) at a checked q (n,) for a checked ẋ (6,); None where the kernel declines."""
+    def __call__(self, qa: Array, xd: Array, beta_x: Any = None, at: FramePass | None = None) -> Array | None:
+        """q̇ (n,) at a checked q (n,) for a checked ẋ (6,); None where the kernel declines.
+
+        `at`: a pass already made at qa (the same numbers as this call's own): only the Hessians are computed.
+        """
         ci, xd = self._inputs(beta_x, xd)
         model, data, tip, bids = self._model, self._data, self._tip, self._bids
-        pin.computeJointJacobians(model, data, qa)
-        me = pin.updateFramePlacement(model, data, tip).homogeneous  # the frames asked for, not all the model's
-        mbs = tuple(pin.updateFramePlacement(model, data, f).homogeneous for f in bids)
-        je = pin.getFrameJacobian(model, data, tip, LWA)
-        jbs = tuple(pin.getFrameJacobian(model, data, f, LWA) for f in bids)
+        if at is not None:
+            data, me, je = at.data, at.placements[0], at.jacobians[0]
+            mbs, jbs = tuple(at.placements[1:]), tuple(at.jacobians[1:])
+        else:
+            pin.computeJointJacobians(model, data, qa)
+            me = pin.updateFramePlacement(model, data, tip).homogeneous  # the frames asked for, not all the model's
+            mbs = tuple(pin.updateFramePlacement(model, data, f).homogeneous for f in bids)
+            je = pin.getFrameJacobian(model, data, tip, LWA)
+            jbs = tuple(pin.getFrameJacobian(model, data, f, LWA) for f in bids)
         self._last = (qa, ((me, je), *zip(mbs, jbs, strict=True)))
         pin.computeJointKinematicHessians(model, data)
         he = frame_hessian_rows(model, data, tip)

@@ -20,6 +20,7 @@ from bracekit.errors import ConvergenceError, InputError
 from bracekit.kinematics import LWA, BracedRobot, BracedState, skeleton
 from bracekit.model.chain import DATA_JOINT_LIMIT
 from bracekit.model.robot import Robot
+from bracekit.resolution.fused_several import FramePass
 from bracekit.resolution.task_space import POSE, TaskSpace
 from bracekit.tolerances import ACCEPT_TOL, CORRECTION_ROUNDOFF, CORRECTION_TOL
 
@@ -234,8 +235,9 @@ class Correction:
         self._robot, self._n, self._ones = robot, robot.n, np.ones(robot.n)
         self._ids = (robot.tip_id, *braced.brace_ids)
         data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
-        #: Pinocchio's model, the correction's own data and its frame placements (None: the chain's kinematics)
-        self._pin = None if data is None else (robot.model, data, data.oMf)
+        #: Pinocchio's model and the correction's own data (None: the chain's kinematics)
+        self._pin = None if data is None else (robot.model, data)
+        self._at: Array | None = None  # the q of the last pass
         # the kernel's inputs: the frames' kinematics of the last pass (new arrays each call: the returned state
         # holds views of them), and the constants of the problem
         self._mats, self._jacs = np.zeros((len(self._ids), 4, 4)), np.zeros((len(self._ids), 6, robot.n))
@@ -268,13 +270,24 @@ class Correction:
             for i, (m, j) in enumerate(self._robot.frame_kinematics(q, self._ids)):
                 mats[i], jacs[i] = m, j
             return q
-        model, data, placements = self._pin
+        model, data = self._pin
+        self._at = q
         pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
+        place, jacobian = pin.updateFramePlacement, pin.getFrameJacobian  # the frames asked, not all the model's
         for i, f in enumerate(self._ids):
-            mats[i] = placements[f].homogeneous
-            jacs[i] = pin.getFrameJacobian(model, data, f, LWA)
+            mats[i] = place(model, data, f).homogeneous
+            jacs[i] = jacobian(model, data, f, LWA)
         return q
+
+    def last_pass(self, q: Array) -> FramePass | None:
+        """The last pass (its Data, ⁰M and J of the tip and each brace) if it was at this very array q, else None.
+
+        A state this correction returned was built on the pass at its q: a step at that state can take the pass
+        instead of making its own (:class:`~bracekit.resolution.GradientProjectionStep`).
+        """
+        if self._pin is None or self._at is not q:
+            return None
+        return FramePass(self._pin[1], self._mats, self._jacs)
 
     def _evaluate(self, q: Array, position: Array, previous: float, slot: int, tol: float | None = None) -> Point:
         """The kernel at the last pass (at q): the point's status and sizes.
@@ -289,15 +302,15 @@ class Correction:
 
     def _state(self, q: Array) -> BracedState:
         """The state at q from the last pass (at q), on views of the pass's arrays (this call's own)."""
-        mats, jacs = self._mats, self._jacs
-        return self.braced.state_from_kinematics(q, [(mats[i], jacs[i]) for i in range(len(mats))])
+        return self.braced.state_from_kinematics(q, list(zip(self._mats, self._jacs, strict=True)))
 
     def __call__(self, q: Array, position: Array) -> BracedState:
         """The corrected state from q (n,) with the tip at `position` (3,) m; ConvergenceError if it cannot."""
-        position = np.ascontiguousarray(position, dtype=np.float64)
+        if not (type(position) is np.ndarray and position.dtype == np.float64 and position.flags.c_contiguous):
+            position = np.ascontiguousarray(position, dtype=np.float64)
         if position.shape != (3,):
             raise InputError(f"the tip's target position must be 3 numbers (m), got shape {position.shape}")
-        self._mats, self._jacs = np.empty_like(self._mats), np.empty_like(self._jacs)
+        self._mats, self._jacs = np.empty(self._mats.shape), np.empty(self._jacs.shape)
         q = self._pass(q)
         now = 0  # the buffer set of the current point; the trial's is 1 - now
         status, size, scaled = self._evaluate(q, position, math.inf, now)

@@ -209,8 +209,8 @@ def simulate(
     def rate(st: BracedState, t: float, xdot: Array, scale: float = 1.0) -> Array:
         """Q̇ of the strategy at st, with its null-space motion scaled by `scale` (gradient projection only)."""
         if fast is not None and scale > 0.0:  # the fused step: the same q̇ as the strategy's, to ~1e-13
-            if scale == 1.0:
-                return fast(st.q, xdot, beta(t))
+            if scale == 1.0:  # on the correction's pass where st is the state it returned
+                return fast(st.q, xdot, beta(t), correct.last_pass(st.q))
             if scale not in scaled_steps:
                 scaled_steps[scale] = GradientProjectionStep(braced, scaled_alpha(strategy, scale), backend)  # type: ignore[arg-type]
             return scaled_steps[scale](st.q, xdot, beta(t))

@@ -37,6 +37,7 @@ Array = NDArray[np.float64]
 __all__ = [
     "Decomposed",
     "SplitParts",
+    "chain1_maps",
     "split_parts",
     "stacked_conditioning",
     "stacked_ratios",
@@ -123,6 +124,25 @@ def split_parts(states: Sequence[BracedState]) -> SplitParts | None:
     return SplitParts(j_e=j_e, j_b=j_b, j1=j1, j2=back @ j_e[:, :, n1:], s_t1=s_t1, s_t2=s_t2)
 
 
+def chain1_maps(x: Array, j1: Array) -> Array | None:
+    """dq1/db̃ of k one-brace states (k, n1, l') with n1 ≠ 6: the null space of Xᵀ J1 of each, from one stacked SVD.
+
+    The numbers of each state's ``split.chain1_map`` (:func:`~bracekit.kinematics.constraint.contact_null_space`
+    of Xᵀ J1, the same LAPACK call per matrix); None where the null spaces differ in width or Xᵀ J1 has no rows.
+    `x`: X (6×(6−l)); `j1`: the stack of J1 (k, 6, n1), world axes.
+    """
+    g = x.T @ j1
+    if g.shape[1] == 0:
+        return None
+    _, s, vt = np.linalg.svd(g)
+    big = np.maximum(1.0, s[:, 0])
+    ranks = np.sum(s > NULL_SPACE_RTOL * big[:, None], axis=1)
+    rank = int(ranks[0])
+    if not (ranks == rank).all():
+        return None
+    return np.ascontiguousarray(vt[:, rank:].transpose(0, 2, 1), dtype=np.float64)
+
+
 def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
     """The watched matrices of one-brace states as (k, …) stacks; None where a chart forms its own.
 
@@ -144,10 +164,10 @@ def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -
     if model.n1 == 6:
         first = s_t1 @ model.H
     else:
-        maps = [st.split.chain1_map for st in states]
-        if any(m.shape != maps[0].shape for m in maps):
+        maps = chain1_maps(model.X, j1)
+        if maps is None:
             return None
-        first = s_t1 @ j1 @ np.array(maps)
+        first = s_t1 @ j1 @ maps
     a = np.concatenate([first, chain2], axis=2)
     j_braced = np.concatenate([s_t1 @ (np.eye(6) - model.P) @ j1, chain2], axis=2)
     sa = a if rows[0] is None else np.array(rows, dtype=np.float64) @ a

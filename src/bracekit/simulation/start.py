@@ -162,7 +162,7 @@ def solve_start(
         soft = [region_weight * j[:3] for j in st.J_b_i]
         for i, (x_t, y_t) in zip(pads, tangents, strict=False):
             c = st.contacts[i]
-            soft.append(theta_weight * np.vstack([np.cross(c.z_b, x_t) @ c.J_b[3:], np.cross(c.z_b, y_t) @ c.J_b[3:]]))
+            soft.append(theta_weight * np.vstack([_cross(c.z_b, x_t) @ c.J_b[3:], _cross(c.z_b, y_t) @ c.J_b[3:]]))
         soft.append(posture_weight * np.eye(q.size))
         if conditioned:
             soft.append(conditioning_weight * _conditioning_jacobian(braced, st, conditioning_floor, space))
@@ -222,6 +222,13 @@ def solve_start(
             stacklevel=2,
         )
     return st
+
+
+def _cross(a: Array, b: Array) -> Array:
+    """The cross product a × b of two 3-vectors: ``np.cross``'s products and differences, without its axes."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def _conditioning_jacobian(braced: BracedRobot, state: BracedState, floor: float, space: TaskSpace) -> Array:

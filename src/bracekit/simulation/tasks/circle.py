@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import cast
 
@@ -22,7 +23,10 @@ from bracekit.simulation.tasks.base import (
 )
 from bracekit.spatial import unit
 
-__all__ = ["Circle"]
+__all__ = ["MEMO_SIZE", "Circle"]
+
+#: Times a circle keeps p_d, ṗ_d or r̂ of before it forgets that one's (about 7 MB at most for the three).
+MEMO_SIZE = 50_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,6 +46,9 @@ class Circle:
     turns: float = 1.0
     _u: Array = field(init=False, repr=False)
     _w: Array = field(init=False, repr=False)
+    #: p_d, ṗ_d and r̂ by float time t (read-only arrays; float keys, so the garbage collector does not track
+    #: them): the runs of one scenario take them at the same times; each cleared past MEMO_SIZE entries
+    _memo: tuple[dict[float, Array], ...] = field(init=False, repr=False, default_factory=lambda: ({}, {}, {}))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "centre", vec3(self.centre, "circle centre (m)"))
@@ -60,6 +67,13 @@ class Circle:
         object.__setattr__(self, "_u", u)
         object.__setattr__(self, "_w", np.cross(n, u))
 
+    def __getstate__(self) -> dict[str, object]:
+        """The fields without what the circle kept (a pickled circle, e.g. sent to a worker, starts empty)."""
+        return {**self.__dict__, "_memo": ({}, {}, {})}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+
     @property
     def duration(self) -> float:
         """Time of the whole task, s."""
@@ -72,18 +86,40 @@ class Circle:
             raise NumericalError(f"the circle's angle at t = {t:g} s overflows float64")
         return a
 
+    def _kept(self, what: int, t: float, compute: Callable[[float], Array]) -> Array:
+        """compute(t), kept in memo `what` where t is a float (a read-only array: every caller gets the same one)."""
+        if type(t) is not float:
+            return compute(t)
+        memo = self._memo[what]
+        found = memo.get(t)
+        if found is None:
+            if len(memo) >= MEMO_SIZE:
+                memo.clear()
+            found = memo[t] = compute(t)
+            found.flags.writeable = False
+        return found
+
     def position(self, t: float) -> Array:
-        """Desired tip position p_d(t) (3,), m, world frame."""
+        """Desired tip position p_d(t) (3,), m, world frame (read-only)."""
+        return self._kept(0, t, self._position)
+
+    def velocity(self, t: float) -> Array:
+        """Desired tip velocity ṗ_d(t) (3,), m/s, world frame (read-only)."""
+        return self._kept(1, t, self._velocity)
+
+    def radial(self, t: float) -> Array:
+        """Unit vector from the centre to the desired point at t (3,) (read-only)."""
+        return self._kept(2, t, self._radial)
+
+    def _position(self, t: float) -> Array:
         a = self.angle(t)
         return cast(Array, self.centre + self.radius * (np.cos(a) * self._u + np.sin(a) * self._w))
 
-    def velocity(self, t: float) -> Array:
-        """Desired tip velocity ṗ_d(t) (3,), m/s, world frame."""
+    def _velocity(self, t: float) -> Array:
         a, om = self.angle(t), 2.0 * np.pi / self.period
         return cast(Array, self.radius * om * (-np.sin(a) * self._u + np.cos(a) * self._w))
 
-    def radial(self, t: float) -> Array:
-        """Unit vector from the centre to the desired point at t (3,)."""
+    def _radial(self, t: float) -> Array:
         a = self.angle(t)
         return cast(Array, np.cos(a) * self._u + np.sin(a) * self._w)
 
