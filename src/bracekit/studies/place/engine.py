@@ -71,7 +71,7 @@ class PlaceSettings:
 
     inner: InnerSettings = field(default_factory=InnerSettings)
     seeds: int = 1
-    top: int = 2
+    top: int = 1
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))
     nearer: int = 2
