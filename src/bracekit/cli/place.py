@@ -21,7 +21,13 @@ MAX_PLACE_COUNT = 64
 COUNTS = (
     CountFlag("--workers", 1, 1, MAX_WORKERS, "local Dask worker processes (default 1)"),
     CountFlag("--seeds", 1, 1, MAX_PLACE_COUNT, "inner optimisations per link (default 1)"),
-    CountFlag("--top", 2, 1, MAX_PLACE_COUNT, "places run over the whole task and refined (default 2)"),
+    CountFlag(
+        "--top",
+        1,
+        1,
+        MAX_PLACE_COUNT,
+        "places run over the whole task at once, the next while none is feasible (default 1)",
+    ),
     CountFlag(
         "--refine", 1, 0, MAX_PLACE_COUNT, "compass rounds on fraction and angle, one batch of 4 runs each (default 1)"
     ),

@@ -43,3 +43,40 @@ def test_bounded_map_keeps_order_and_window() -> None:
     assert got == [i * i for i in range(12)]
     assert futures.most == 3 and _running[1] <= 3  # never more than the window submitted, nor running
     assert futures == []  # the finished ones are dropped: an interrupt cancels only what is in flight
+
+
+def test_occupying_futures_count_in_the_window() -> None:
+    """Other work on the workers (an early run, a MuJoCo check) holds a place in the window until it ends.
+
+    Reference: the tasks found running at once by the function itself (the other work is the same function).
+    """
+    from distributed import Client
+
+    _running[:] = [0, 0]
+    with Client(processes=False, n_workers=1, threads_per_worker=4, dashboard_address=None) as client:
+        other = client.submit(_slow_square, 100, 1.0, pure=False)
+        while _running[0] == 0:  # the other work has started
+            time.sleep(0.01)
+        futures = _Counted()
+        calls = [(i, 0.02) for i in range(8)]
+        got = bounded_map(client, _slow_square, calls, 3, futures, occupying=lambda: [other])
+        assert not other.done()  # the calls ran beside it, two at a time
+        assert other.result() == 10000
+    assert got == [i * i for i in range(8)]
+    assert futures.most == 2 and _running[1] == 3
+
+
+def test_the_window_opens_when_the_occupying_future_ends() -> None:
+    """A window full of other work: the first call is submitted only once that work ends."""
+    from distributed import Client
+
+    with Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
+        other = client.submit(_slow_square, 3, 0.3, pure=False)
+        began = time.perf_counter()
+        got = bounded_map(client, _stamp, [(1,), (2,)], 1, [], occupying=lambda: [other])
+        assert other.done() and got[0][0] == 1 and got[1][0] == 2
+    assert min(t for _, t in got) - began >= 0.25  # the calls started after the other work's 0.3 s
+
+
+def _stamp(x: int) -> tuple[int, float]:
+    return x, time.perf_counter()

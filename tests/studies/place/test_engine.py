@@ -63,12 +63,28 @@ def test_run_ahead_changes_no_row() -> None:
     runs = {}
     with dask_client(2) as client:
         for ahead in (False, True):
-            runs[ahead] = run_place(spec, client, PlaceSettings(run_ahead=ahead))
-
-    def rows(run: PlaceRun) -> list[dict[str, object]]:
-        return [{k: v for k, v in r.items() if k != "wall_s"} for r in run.evaluations]
+            runs[ahead] = run_place(spec, client, PlaceSettings(top=2, run_ahead=ahead))
+        one = run_place(spec, client, PlaceSettings(top=1))
 
     assert rows(runs[True]) == rows(runs[False])
     best, plain = runs[True].best, runs[False].best
     assert best is not None and plain is not None
     assert {**best, "wall_s": 0} == {**plain, "wall_s": 0} and best["mujoco_settles"] is True
+    # one place at a time (the default): the first place feasible and settled, the second is not run; every row
+    # is the two-place run's (the second place's rows left out, the evaluations renumbered), the best the same
+    second = runs[False].chosen[1].place
+    assert usable(runs[False].evaluations[0]) and runs[False].evaluations[0]["mujoco_settles"] is True
+    assert [r.place for r in one.chosen] == [runs[False].chosen[0].place]
+    kept = [r for r in rows(runs[False]) if (r["link"], r["stage"]) != (second.link, "task")]
+    assert len(kept) < len(rows(runs[False]))
+    assert [{**r, "evaluation": 0} for r in rows(one)] == [{**r, "evaluation": 0} for r in kept]
+    assert one.best is not None and {**one.best, "wall_s": 0, "evaluation": 0} == {
+        **plain,
+        "wall_s": 0,
+        "evaluation": 0,
+    }
+
+
+def rows(run: PlaceRun) -> list[dict[str, object]]:
+    """The run's whole-task rows without their wall times."""
+    return [{k: v for k, v in r.items() if k != "wall_s"} for r in run.evaluations]

@@ -113,6 +113,11 @@ class RunAhead:
             row["mujoco_settles"], row["mujoco_message"] = fut.result()
             self.futures.remove(fut)
 
+    def in_flight(self) -> list[Any]:
+        """The early runs' and early checks' futures not yet finished (they hold a worker, or will)."""
+        running = [fut for fut, _ in self.early.values()] + list(self.checks.values())
+        return [fut for fut in running if not fut.done()]
+
     def finish(self) -> int:
         """Cancel what was run ahead and not taken; the number of early runs discarded."""
         left = [fut for fut, _ in self.early.values()] + list(self.checks.values())

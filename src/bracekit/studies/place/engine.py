@@ -71,7 +71,7 @@ class PlaceSettings:
 
     inner: InnerSettings = field(default_factory=InnerSettings)
     seeds: int = 1
-    top: int = 2
+    top: int = 1
     refine_rounds: int = 1
     step: tuple[float, float] = (0.05, math.radians(15.0))
     nearer: int = 2
@@ -171,6 +171,7 @@ def bounded_map(
     futures: list[Any],
     on_result: Callable[[int, Any, int], None] | None = None,
     skip: Callable[[int], bool] | None = None,
+    occupying: Callable[[], list[Any]] | None = None,
 ) -> list[Any]:
     """fn(*call) for every call on the Dask `client`, results in the calls' order, at most `window` submitted at once.
 
@@ -179,7 +180,10 @@ def bounded_map(
     of calls. The submitted futures are appended to `futures` (the caller cancels them on an interrupt).
     `on_result(i, result, waiting)`, when given, is called as each result comes back (call i; `waiting`: the
     calls not yet finished), before the next call is submitted: it may submit work of its own. A call for which
-    `skip(i)` is True when its turn comes is not run (its result None).
+    `skip(i)` is True when its turn comes is not run (its result None). `occupying()`, when given, returns other
+    futures on the same workers (work run ahead, MuJoCo's checks): those not finished count in the window, so
+    that a call is not queued on a busy worker (Dask assigns a task to a worker when it is submitted) while the
+    other becomes idle.
     """
     from distributed import as_completed
 
@@ -187,9 +191,19 @@ def bounded_map(
     index: dict[Any, int] = {}
     pending = iter(enumerate(calls))
     waiting = [len(calls)]
+    watched: set[Any] = set()
+
+    def others(queue: Any) -> int:
+        """The occupying futures not finished (each added to the queue once: its end lets the next call in)."""
+        busy = [f for f in (occupying() if occupying is not None else []) if not f.done()]
+        for f in busy:
+            if f.key not in watched:
+                watched.add(f.key)
+                queue.add(f)
+        return len(busy)
 
     def submit(queue: Any) -> None:
-        while (nxt := next(pending, None)) is not None:
+        while len(index) + others(queue) < window and (nxt := next(pending, None)) is not None:
             if skip is not None and skip(nxt[0]):
                 waiting[0] -= 1
                 continue
@@ -197,13 +211,15 @@ def bounded_map(
             index[fut.key] = nxt[0]
             futures.append(fut)
             queue.add(fut)
-            return
 
     queue = as_completed([])
-    for _ in range(min(window, len(calls))):
-        submit(queue)
-    for fut in queue:
-        i = index[fut.key]
+    submit(queue)
+    while waiting[0]:  # not until the occupying futures end: they are the caller's
+        fut = next(queue)
+        if fut.key not in index:  # an occupying future ended
+            submit(queue)
+            continue
+        i = index.pop(fut.key)
         results[i] = fut.result()
         futures.remove(fut)
         waiting[0] -= 1
@@ -308,7 +324,9 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 row = arrived.get(0) if 0 in todo else ahead.back(places[0])
                 return row is not None and not usable(row)
 
-            results = bounded_map(client, evaluate_place, calls, max(2, workers), futures, back, centre_failed)
+            results = bounded_map(
+                client, evaluate_place, calls, max(2, workers), futures, back, centre_failed, ahead.in_flight
+            )
             done = dict(zip(todo, results, strict=True))
             rows = []
             for i, (p, r) in enumerate(places):
