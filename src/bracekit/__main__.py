@@ -1,7 +1,5 @@
 """``python -m bracekit``: the command line."""
 
-import sys
+from bracekit.cli.main import console_main
 
-from bracekit.cli import main
-
-sys.exit(main())
+console_main()

@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 try:
-    from numba import njit
+    from numba import config, njit
 
-    #: Whether the kernels run compiled (numba) or as Python.
-    COMPILED = True
+    #: Whether the kernels run compiled (numba) or as Python (numba absent, or NUMBA_DISABLE_JIT set).
+    COMPILED = not getattr(config, "DISABLE_JIT", False)
 except ImportError:  # pragma: no cover - numba is in the test extras
     COMPILED = False
 

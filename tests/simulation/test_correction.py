@@ -11,7 +11,7 @@ import re
 import numpy as np
 import pytest
 
-from bracekit.errors import ConvergenceError
+from bracekit.errors import ConvergenceError, InputError
 from bracekit.simulation.correction import Correction, contact_residual, correct, reach, task_error
 from bracekit.simulation.scenario import load_scenario
 
@@ -115,3 +115,20 @@ def test_a_step_on_the_correction_s_pass_is_the_step_on_its_own_pass_to_the_last
             assert np.array_equal(at.jacobians[1 + i], c.J_b) and np.array_equal(at.placements[1 + i][:3, :3], c.R_b)
     later = corr(start.q, sc.task.position(0.0))
     assert corr.last_pass(st.q) is None and corr.last_pass(later.q) is not None  # a new pass: the old one is gone
+
+
+def test_no_pass_is_handed_over_for_a_q_changed_in_place_or_after_a_call_that_raised() -> None:
+    """Reference: the pass at the state's q as returned; a q changed since, or a failed call, gives none."""
+    sc = load_scenario("paper")
+    st0 = sc.braced.state(np.asarray(sc.guess, dtype=float))
+    anchors = [(c.b.copy(), c.R_b.copy()) for c in st0.contacts]
+    corr = Correction(sc.braced, st0.R_e.copy(), anchors)
+    q = st0.q.copy()
+    st = corr(q, st0.e)  # already on the task and contact: accepted at once, the state on the caller's array
+    assert corr.last_pass(st.q) is not None
+    q += 0.05  # the caller's array changed in place: the pass is not at it any more
+    assert corr.last_pass(q) is None
+    st = corr(st0.q.copy(), st0.e)
+    with pytest.raises(InputError):
+        corr(np.full_like(st.q, np.nan), st0.e)
+    assert corr.last_pass(st.q) is None  # the failed call replaced the pass's arrays

@@ -315,7 +315,7 @@ def test_the_kernels_codes_are_the_correctors() -> None:
     assert module._KINDS == {"pose": kernel.POSE, "position": kernel.POSITION, "position+axis": kernel.POSITION_AXIS}
 
 
-def test_without_numba_the_kernel_runs_as_python_the_run_says_so_and_follows_the_same_path() -> None:
+def test_without_numba_the_numpy_point_runs_the_run_says_so_and_follows_the_same_path() -> None:
     """A short braced run in a process where numba cannot be imported, against the same run here (compiled)."""
     pytest.importorskip("numba")
     from bracekit.simulation.notes import CORRECTION_BACKEND_NOTE

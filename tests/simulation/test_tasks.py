@@ -173,3 +173,15 @@ def test_a_pickled_circle_leaves_what_it_kept_behind_and_gives_the_same_numbers(
             assert np.array_equal(other.position(t), p) and np.array_equal(other.velocity(t), v)
             assert np.array_equal(other.radial(t), r)
         assert np.array_equal(other.normal, c.normal) and other.period == c.period
+
+
+def test_a_circles_fields_cannot_change_under_its_kept_values() -> None:
+    """The kept p_d would go stale if a field changed in place: the fields are read-only copies of the inputs."""
+    centre = np.array([0.1, 0.2, 0.3])
+    c = Circle(centre, 0.05, np.array([0.0, 0.0, 1.0]), 4.0, np.array([1.0, 0.0, 0.0]), rotation=np.eye(3))
+    before = c.position(0.3).copy()
+    for name in ("centre", "normal", "start_direction", "rotation"):
+        with pytest.raises(ValueError):
+            getattr(c, name)[0] = 1.0
+    centre[0] = 1.0  # the caller's array stays the caller's (writeable, not the circle's)
+    assert np.array_equal(c.position(0.3), before) and np.array_equal(c.centre, [0.1, 0.2, 0.3])

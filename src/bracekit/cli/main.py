@@ -64,19 +64,21 @@ def _end_process(code: int) -> None:
     main_thread = threading.main_thread()
     if any(t is not main_thread and t.is_alive() and not t.daemon for t in threading.enumerate()):
         return
-    _flush_streams()
+    flushed = _flush_streams()
     atexit._run_exitfuncs()
-    _flush_streams()
-    os._exit(code)
+    flushed = _flush_streams() and flushed
+    os._exit(code if flushed or code else 120)  # 120: Python's own status when its final flush fails
 
 
-def _flush_streams() -> None:
-    """Flush the standard output and error; one closed or on a full device is left as an ordinary exit leaves it."""
+def _flush_streams() -> bool:
+    """Flush the standard output and error; whether the output was flushed (False if closed or on a full device)."""
+    flushed = True
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
         except (OSError, ValueError):
-            pass
+            flushed = flushed and stream is not sys.stdout
+    return flushed
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -89,8 +91,12 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the `bracekit` console script; returns the exit code."""
+def main(argv: Sequence[str] | None = None, *, end_at_once: bool = False) -> int:
+    """The command line on `argv` (sys.argv[1:] if None); returns the exit code.
+
+    `end_at_once` (the console script's and ``python -m bracekit``'s, :func:`console_main`): a command of
+    :data:`ENDS_AT_ONCE` ends the process as soon as it returns; a caller in Python keeps its process.
+    """
     args_list = join_negative(list(sys.argv[1:] if argv is None else argv))
     parser = build_parser()
     args = parser.parse_args(args_list)
@@ -106,7 +112,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         code = COMMANDS[args.command](args)
         sys.stdout.flush()  # a full device or a closed pipe is found here, not at exit
-        if argv is None and args.command in ENDS_AT_ONCE:
+        if end_at_once and args.command in ENDS_AT_ONCE:
             _end_process(code)
         return code
     except OSError as exc:
@@ -134,3 +140,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
+
+
+def console_main() -> None:
+    """The `bracekit` console script and ``python -m bracekit``: :func:`main` on sys.argv, its code the exit status."""
+    sys.exit(main(end_at_once=True))

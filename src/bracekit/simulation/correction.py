@@ -207,7 +207,8 @@ class Correction:
     Each point takes one Pinocchio pass (the calls and numbers of ``braced.state``, into the correction's own
     arrays) and one call of the compiled kernel (:mod:`bracekit.simulation._correction_kernel`: the residual,
     the stopping test, the rows and the minimum-norm step, the formulas of :func:`task_error`,
-    :func:`contact_residual` and :func:`contact_jacobian`); the state is built once, at the corrected q. Call it
+    :func:`contact_residual` and :func:`contact_jacobian`; without numba the same point in NumPy,
+    :func:`numpy_point`, which the run's notes name); the state is built once, at the corrected q. Call it
     as ``correction(q, position)`` (q (n,) the start, `position` (3,) m the tip's target); one instance per
     thread.
     """
@@ -237,7 +238,7 @@ class Correction:
         data = robot.model.createData() if robot.n <= DATA_JOINT_LIMIT else None
         #: Pinocchio's model and the correction's own data (None: the chain's kinematics)
         self._pin = None if data is None else (robot.model, data)
-        self._at: Array | None = None  # the q of the last pass
+        self._at: tuple[Array, Array] | None = None  # the q of the returned state's pass, and its values
         # the kernel's inputs: the frames' kinematics of the last pass (new arrays each call: the returned state
         # holds views of them), and the constants of the problem
         self._mats, self._jacs = np.zeros((len(self._ids), 4, 4)), np.zeros((len(self._ids), 6, robot.n))
@@ -271,7 +272,6 @@ class Correction:
                 mats[i], jacs[i] = m, j
             return q
         model, data = self._pin
-        self._at = q
         pin.computeJointJacobians(model, data, q)
         place, jacobian = pin.updateFramePlacement, pin.getFrameJacobian  # the frames asked, not all the model's
         for i, f in enumerate(self._ids):
@@ -285,7 +285,7 @@ class Correction:
         A state this correction returned was built on the pass at its q: a step at that state can take the pass
         instead of making its own (:class:`~bracekit.resolution.GradientProjectionStep`).
         """
-        if self._pin is None or self._at is not q:
+        if self._pin is None or self._at is None or self._at[0] is not q or not np.array_equal(q, self._at[1]):
             return None
         return FramePass(self._pin[1], self._mats, self._jacs)
 
@@ -301,7 +301,12 @@ class Correction:
         return point
 
     def _state(self, q: Array) -> BracedState:
-        """The state at q from the last pass (at q), on views of the pass's arrays (this call's own)."""
+        """The state at q from the last pass (at q), on views of the pass's arrays (this call's own).
+
+        The pass is kept for :meth:`last_pass` with q and a copy of its values (a q changed in place since is not
+        at this pass).
+        """
+        self._at = (q, q.copy())
         return self.braced.state_from_kinematics(q, list(zip(self._mats, self._jacs, strict=True)))
 
     def __call__(self, q: Array, position: Array) -> BracedState:
@@ -310,6 +315,7 @@ class Correction:
             position = np.ascontiguousarray(position, dtype=np.float64)
         if position.shape != (3,):
             raise InputError(f"the tip's target position must be 3 numbers (m), got shape {position.shape}")
+        self._at = None  # no pass to hand over until this call returns a state
         self._mats, self._jacs = np.empty(self._mats.shape), np.empty(self._jacs.shape)
         q = self._pass(q)
         now = 0  # the buffer set of the current point; the trial's is 1 - now

@@ -41,11 +41,11 @@ class Task(Protocol):
         ...
 
     def position(self, t: float) -> Array:
-        """Desired tip position at t (3,), m, world."""
+        """Desired tip position at t (3,), m, world; may be read-only (a shape keeping its values): copy to change."""
         ...
 
     def velocity(self, t: float) -> Array:
-        """Desired tip velocity at t (3,), m/s, world."""
+        """Desired tip velocity at t (3,), m/s, world; may be read-only, as :meth:`position`."""
         ...
 
 

@@ -26,7 +26,7 @@ from bracekit.spatial import unit
 __all__ = ["MEMO_SIZE", "Circle"]
 
 #: Times a circle keeps p_d, ṗ_d or r̂ of before it forgets that one's (about 7 MB at most for the three).
-MEMO_SIZE = 50_000
+MEMO_SIZE = 12_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,6 +66,12 @@ class Circle:
         object.__setattr__(self, "rotation", rotation_matrix(self.rotation))
         object.__setattr__(self, "_u", u)
         object.__setattr__(self, "_w", np.cross(n, u))
+        for name in ("centre", "normal", "start_direction", "rotation", "_u", "_w"):  # what the kept values are of
+            value = getattr(self, name)
+            if isinstance(value, np.ndarray):
+                value = value.copy()
+                value.flags.writeable = False
+                object.__setattr__(self, name, value)
 
     def __getstate__(self) -> dict[str, object]:
         """The fields without what the circle kept (a pickled circle, e.g. sent to a worker, starts empty)."""
