@@ -87,8 +87,8 @@ class RunAhead:
     def came_back(self, row: dict[str, Any], trial: Trial) -> None:
         """Note a row that came back; start its MuJoCo check if it is feasible with the least mean C_i so far."""
         self.seen.append(row)
-        for key, (fut, r) in list(self.early.items()):  # an early row counts once it is back
-            if fut.done() and key not in self._rows:
+        for key, (fut, r) in list(self.early.items()):  # an early row counts once it is back (an error: when taken)
+            if fut.done() and fut.status == "finished" and key not in self._rows:
                 self._rows[key] = fut.result()
                 self.came_back(self._rows[key], (key[0], r))
         if not self.enabled or not usable(row) or row.get("mujoco_settles") is not None or id(row) in self.checks:
