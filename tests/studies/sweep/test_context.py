@@ -15,19 +15,23 @@ from bracekit.studies.sweep import context as context_module
 from bracekit.studies.sweep.candidates import expand
 from bracekit.studies.sweep.context import (
     context_inputs,
+    held_base,
     held_reference,
     held_scenario,
     reference_context,
 )
 from bracekit.studies.sweep.evaluate import candidate_point, evaluate_candidate, evaluate_held
+from bracekit.studies.sweep.scenario import candidate_data
 from bracekit.studies.sweep.spec import load_spec
 
 
 @pytest.fixture(autouse=True)
 def nothing_held() -> Iterator[None]:
     context_module._HELD.clear()
+    context_module._BASE.clear()
     yield
     context_module._HELD.clear()
+    context_module._BASE.clear()
 
 
 @pytest.fixture
@@ -118,3 +122,30 @@ def test_every_row_from_a_held_reference_is_the_row_from_a_plain_one(tiny_spec: 
         plain = reference_context(spec, {}, c.context_key)
         assert _no_time(evaluate_held(spec, c)) == _no_time(evaluate_candidate(spec, c, plain))
     assert len(solves) == len(cands) + 1  # each plain one, and the held one once
+
+
+def test_the_held_base_scenario_is_built_once_per_spec_and_gives_each_candidate_its_own_data(
+    tiny_spec: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    spec, twin = load_spec(tiny_spec), load_spec(tiny_spec)
+    ref = reference_context(spec, {}, "{}")
+    assert ref.q_ref is not None
+    built: list[int] = []
+    base_scenario = type(spec).base_scenario
+
+    def counted(self: Any) -> Any:
+        built.append(1)
+        return base_scenario(self)
+
+    monkeypatch.setattr(type(spec), "base_scenario", counted)
+    centre = np.array([0.4, 0.1, 0.3])
+    fresh = []
+    for c in expand(spec):  # the base built anew for each candidate
+        context_module._BASE.clear()
+        fresh.append(candidate_data(spec, c, ref.q_ref, centre))
+    assert len(built) == len(fresh)
+    context_module._BASE.clear()
+    held = [candidate_data(spec, c, ref.q_ref, centre) for c in expand(spec)]
+    assert held == fresh and len(built) == len(fresh) + 1
+    assert held_base(twin) is held_base(spec)  # an equal spec: the same base
+    assert len(built) == len(fresh) + 1

@@ -198,6 +198,21 @@ def held_reference(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskCon
     return reference
 
 
+_BASE: list[tuple[SweepSpec, Scenario]] = []  # the last spec's base scenario
+
+
+def held_base(spec: SweepSpec) -> Scenario:
+    """:meth:`SweepSpec.base_scenario`, built once in this process per spec (the last spec's kept)."""
+    with _HELD_LOCK:
+        hit = _BASE[0] if _BASE else None
+    if hit is not None and (hit[0] is spec or hit[0] == spec):
+        return hit[1]
+    base = spec.base_scenario()
+    with _HELD_LOCK:
+        _BASE[:] = [(spec, base)]
+    return base
+
+
 def held_scenario(spec: SweepSpec, context: TaskContext) -> Scenario:
     """:func:`context_scenario` of `context`'s inputs: the one :func:`held_reference` built, else a new one."""
     hit = _held(spec, context.key)
