@@ -273,7 +273,8 @@ def run_sweep(
         timings["contexts_and_screening_s"] = time.perf_counter() - t0
         todo = [c for c in chosen if c.id not in done and verdicts.get(c.id) is None]
         t1 = time.perf_counter()
-        ev_f = {client.submit(evaluate_held, spec_f, c, pure=False): c for c in todo}
+        # one graph for all of them (one message to the scheduler, not one per candidate)
+        ev_f = dict(zip(client.map(evaluate_held, [spec_f] * len(todo), todo, pure=False), todo, strict=True))
         futures += list(ev_f)
         contexts: dict[str, TaskContext] = {}
 
