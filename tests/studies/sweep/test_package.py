@@ -36,3 +36,17 @@ def test_a_worker_s_modules_do_not_import_the_client_s() -> None:
     env = {**os.environ, "PYTHONPATH": str(Path(bracekit.__file__).parents[1])}  # this source tree's bracekit
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     assert done.stdout.strip() == ""
+
+
+def test_the_parquet_writer_is_imported_while_the_candidates_run() -> None:
+    """In a new process: the writers' thread imports pyarrow.parquet, which the tables then write with."""
+    code = (
+        "import sys\n"
+        "from bracekit.studies.sweep.store import import_writers\n"
+        "assert 'pyarrow.parquet' not in sys.modules\n"
+        "import_writers().join(60)\n"
+        "print('pyarrow.parquet' in sys.modules)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(bracekit.__file__).parents[1])}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    assert done.stdout.strip() == "True"
