@@ -74,8 +74,10 @@ def _sweep(args: argparse.Namespace, spec: Any, plan: Any, client: Any, figures:
     from bracekit.report.output import atomic_directory
     from bracekit.studies.sweep.engine import run_sweep
     from bracekit.studies.sweep.report import summary, table_markdown, write_outputs
+    from bracekit.studies.sweep.store import import_writers
 
     out: Path = args.out
+    import_writers()  # while the candidates run
     try:
         plan.path.mkdir(exist_ok=True)
     except OSError as exc:

@@ -6,10 +6,14 @@ minimum-norm run goes from there along the task. Candidates that differ only in 
 context; the other inputs (task centre and radius, stiffness, preload, friction) make new ones. A candidate's
 run needs the reference start only (:func:`reference_context`), so a sweep runs its candidates while the
 free-space run (:func:`free_space_context`) is still under way and adds its columns to their rows afterwards.
+A worker solves a task's reference start and builds its scenario once (:func:`held_reference`,
+:func:`held_scenario`): its candidates' tasks then depend on no other task, so the scheduler hands each to
+whichever worker is free, and a candidate does not parse the task's scenario again.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -23,7 +27,7 @@ from bracekit.simulation.scenario import parse_scenario
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.simulation.simulate import correct, simulate
 from bracekit.studies.sweep.collector import collector_paused
-from bracekit.studies.sweep.spec import SweepSpec
+from bracekit.studies.sweep.spec import BRACE_AXES, SweepSpec
 
 Array = NDArray[np.float64]
 
@@ -143,3 +147,75 @@ def _free_space(spec: SweepSpec, reference: TaskContext, q_ref: Array) -> TaskCo
 def task_context(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskContext:
     """Solve the reference start and run free-space minimum norm along the task; never raises a BracekitError."""
     return free_space_context(spec, reference_context(spec, inputs, key))
+
+
+def context_inputs(inputs: dict[str, Any]) -> dict[str, Any]:
+    """A candidate's inputs without where the brace is: its task context's inputs."""
+    return {k: v for k, v in inputs.items() if k not in BRACE_AXES}
+
+
+#: Task contexts this process holds (:func:`held_reference`), at most this many (the oldest dropped first).
+MAX_HELD = 64
+
+
+@dataclass(frozen=True)
+class _Held:
+    spec: SweepSpec
+    scenario: Scenario | None  # None: it could not be built (the reference's failure says why)
+    reference: TaskContext
+
+
+_HELD: dict[str, _Held] = {}
+_HELD_LOCK = threading.Lock()
+
+
+def _held(spec: SweepSpec, key: str) -> _Held | None:
+    with _HELD_LOCK:
+        hit = _HELD.get(key)
+    return hit if hit is not None and (hit.spec is spec or hit.spec == spec) else None
+
+
+def held_reference(spec: SweepSpec, inputs: dict[str, Any], key: str) -> TaskContext:
+    """:func:`reference_context` of the task, solved once in this process per spec and context key.
+
+    The same as solving it again (the solve is deterministic); never raises a BracekitError.
+    """
+    hit = _held(spec, key)
+    if hit is not None:
+        return hit.reference
+    began = time.perf_counter()
+    scenario: Scenario | None = None
+    try:
+        scenario = context_scenario(spec, inputs)
+        reference = TaskContext(key, inputs, reference_start(scenario), wall_s=time.perf_counter() - began)
+    except BracekitError as exc:
+        reference = TaskContext(key, inputs, None, failure=f"task context: {exc}", wall_s=time.perf_counter() - began)
+    with _HELD_LOCK:
+        _HELD.pop(key, None)
+        _HELD[key] = _Held(spec, scenario, reference)
+        while len(_HELD) > MAX_HELD:
+            del _HELD[next(iter(_HELD))]
+    return reference
+
+
+_BASE: list[tuple[SweepSpec, Scenario]] = []  # the last spec's base scenario
+
+
+def held_base(spec: SweepSpec) -> Scenario:
+    """:meth:`SweepSpec.base_scenario`, built once in this process per spec (the last spec's kept)."""
+    with _HELD_LOCK:
+        hit = _BASE[0] if _BASE else None
+    if hit is not None and (hit[0] is spec or hit[0] == spec):
+        return hit[1]
+    base = spec.base_scenario()
+    with _HELD_LOCK:
+        _BASE[:] = [(spec, base)]
+    return base
+
+
+def held_scenario(spec: SweepSpec, context: TaskContext) -> Scenario:
+    """:func:`context_scenario` of `context`'s inputs: the one :func:`held_reference` built, else a new one."""
+    hit = _held(spec, context.key)
+    if hit is not None and hit.scenario is not None and hit.reference.inputs == context.inputs:
+        return hit.scenario
+    return context_scenario(spec, context.inputs)

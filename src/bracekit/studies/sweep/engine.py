@@ -1,8 +1,9 @@
 """Running a sweep on Dask distributed: a local cluster of worker processes, or an existing scheduler.
 
 The steps: the task contexts (a reference start, then one free-space run per task), the batch screening (one
-task per context), the candidates that pass (one task each, run from the reference start while the free-space
-runs are under way; as they finish, their rows get the free-space columns and are saved), then the refinement
+task per context), the candidates that pass (one task each, run from the reference start its worker solves
+once per task, while the free-space runs are under way; as they finish, their rows get the free-space columns
+and are saved), then the refinement
 of the best feasible candidates, and the final tables. Rows are sorted by candidate order, so the tables are
 the same whatever the number of workers or the order in which they finish.
 """
@@ -22,11 +23,11 @@ from typing import Any
 from bracekit._linalg import show
 from bracekit.errors import InputError
 from bracekit.studies.sweep.candidates import Candidate, expand
-from bracekit.studies.sweep.context import TaskContext, free_space_context, reference_context
+from bracekit.studies.sweep.context import TaskContext, context_inputs, task_context
 from bracekit.studies.sweep.evaluate import (
     RESULT_COLUMNS,
     empty_row,
-    evaluate_candidate,
+    evaluate_held,
     input_columns,
     judge,
     with_free_space,
@@ -187,9 +188,7 @@ def _contexts(candidates: list[Candidate]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for c in candidates:
         if c.context_key not in out:
-            from bracekit.studies.sweep.spec import BRACE_AXES
-
-            out[c.context_key] = {k: v for k, v in c.inputs.items() if k not in BRACE_AXES}
+            out[c.context_key] = context_inputs(c.inputs)
     return out
 
 
@@ -248,10 +247,10 @@ def run_sweep(
         needed = everything if screening else chosen
         keys = _contexts(needed)
         t0 = time.perf_counter()
-        # the candidates need the reference start only: they run while the free-space runs are under way
-        ref_f = {k: client.submit(reference_context, spec_f, inputs, k, pure=False) for k, inputs in keys.items()}
-        ctx_f = {k: client.submit(free_space_context, spec_f, f, pure=False) for k, f in ref_f.items()}
-        futures += [*ref_f.values(), *ctx_f.values()]
+        # the candidates need the reference start only, which each worker solves once per task (evaluate_held):
+        # they depend on no task, so they run while the free-space runs are under way, on whichever worker is free
+        ctx_f = {k: client.submit(task_context, spec_f, inputs, k, pure=False) for k, inputs in keys.items()}
+        futures += list(ctx_f.values())
         verdicts: dict[str, str | None] = {}
         screened: dict[str, Screened] = {}
         if screening:
@@ -274,7 +273,8 @@ def run_sweep(
         timings["contexts_and_screening_s"] = time.perf_counter() - t0
         todo = [c for c in chosen if c.id not in done and verdicts.get(c.id) is None]
         t1 = time.perf_counter()
-        ev_f = {client.submit(evaluate_candidate, spec_f, c, ref_f[c.context_key], pure=False): c for c in todo}
+        # one graph for all of them (one message to the scheduler, not one per candidate)
+        ev_f = dict(zip(client.map(evaluate_held, [spec_f] * len(todo), todo, pure=False), todo, strict=True))
         futures += list(ev_f)
         contexts: dict[str, TaskContext] = {}
 

@@ -107,11 +107,11 @@ def empty_row(spec: SweepSpec, candidate: Candidate) -> dict[str, Any]:
 
 def candidate_point(spec: SweepSpec, candidate: Candidate, context: TaskContext) -> np.ndarray:
     """The candidate point's world position at the context's reference start (m)."""
-    from bracekit.studies.sweep.context import context_scenario
+    from bracekit.studies.sweep.context import held_scenario
 
     if context.q_ref is None:
         raise ValueError("the task context has no reference start")
-    robot = context_scenario(spec, context.inputs).robot
+    robot = held_scenario(spec, context).robot
     point = robot.with_point_frame(POINT_FRAME, candidate.inputs["link"], point_offset(spec, robot, candidate.inputs))
     placement, _ = point.frame_kinematics(context.q_ref, [point.frame_id(POINT_FRAME)])[0]
     return np.asarray(placement[:3, 3], dtype=float)
@@ -211,6 +211,21 @@ def evaluate_candidate(
         row = _evaluate(spec, candidate, context, strategies, began)
     row["wall_s"] = time.perf_counter() - began  # with the collection of what the runs left
     return row
+
+
+def evaluate_held(
+    spec: SweepSpec, candidate: Candidate, strategies: tuple[str, ...] = BRACED_STRATEGIES
+) -> dict[str, Any]:
+    """:func:`evaluate_candidate` from the candidate's reference context as this process holds it.
+
+    (:func:`.context.held_reference`: solved once per process and task.) A sweep's candidate task, which so
+    depends on no other task; the row is the one :func:`evaluate_candidate` gives from
+    :func:`.context.reference_context`.
+    """
+    from bracekit.studies.sweep.context import context_inputs, held_reference
+
+    context = held_reference(spec, context_inputs(candidate.inputs), candidate.context_key)
+    return evaluate_candidate(spec, candidate, context, strategies)
 
 
 def _evaluate(

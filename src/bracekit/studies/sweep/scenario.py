@@ -70,10 +70,12 @@ def candidate_data(
         guess: the start guess (n,), the reference start of the candidate's task context.
         centre: the region centre (3,), m, world: the candidate point at the reference start (plus region_offset).
     """
+    from bracekit.studies.sweep.context import held_base
+
     inputs = candidate.inputs
     data = context_data(spec, inputs)
     base_brace = data.get("brace", {})
-    robot = spec.base_scenario().robot
+    robot = held_base(spec).robot
     brace: dict[str, Any] = {"link": inputs["link"], "frame": POINT_FRAME}
     if "angle" in inputs:  # a pad on the link's surface, its axis the surface's inward normal
         brace["surface"] = {

@@ -12,6 +12,7 @@ import csv
 import json
 import os
 import secrets
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -173,3 +174,21 @@ def write_parquet(rows: list[dict[str, Any]], path: Path) -> None:
     names = columns(rows)
     table = pa.table({n: [row.get(n) for row in rows] for n in names})
     pq.write_table(table, path)
+
+
+def import_writers() -> threading.Thread:
+    """Import the Parquet writer (pyarrow, ≈ 0.1 s) in a daemon thread, while the candidates run; the thread.
+
+    :func:`write_parquet` at the end then finds it imported (Python's import lock makes it wait for an import
+    under way). Nothing else happens: a missing or broken pyarrow is reported by :func:`write_parquet`.
+    """
+
+    def load() -> None:
+        try:
+            import pyarrow.parquet  # noqa: F401
+        except Exception:  # write_parquet reports it
+            pass
+
+    thread = threading.Thread(target=load, name="bracekit-import-writers", daemon=True)
+    thread.start()
+    return thread
