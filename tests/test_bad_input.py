@@ -415,3 +415,11 @@ def test_solve_start_with_bad_values_gives_bracekit_errors(
     bad = data.draw(BAD.filter(_not_a_valid(shape)).filter(lambda v: not (key == "rotation" and v is None)))
     valid = {"position": np.array([1.34, -0.32, -0.17]), "guess": Q, "rotation": None}
     check(lambda: bk.solve_start(BRACED, **replaced(valid, key, bad)))
+
+
+@pytest.mark.parametrize("huge", [3e307, -3e307])
+def test_finite_inputs_whose_sum_overflows_are_checked_without_numpys_warning(huge: float) -> None:
+    """A twist or q of finite values too large to add: a bracekit error or a result, no NumPy warning."""
+    q = BRACED.robot.neutral()
+    check(lambda: GradientProjectionStep(BRACED, _GP)(q, np.full(6, huge)))
+    check(lambda: BRACED.state(np.full_like(q, huge)))

@@ -10,7 +10,6 @@ Pinocchio's LOCAL_WORLD_ALIGNED frame Jacobian is the paper's J (reference point
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -150,7 +149,7 @@ class BracedRobot:
         and are refused beyond MAX_HESSIAN_JOINTS joints.
         """
         n = self.robot.n
-        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum()):
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and bool(np.isfinite(q).all()):
             qa = q  # what check_q returns for it (a view of it), without the checks' cost
         else:
             qa = self.robot.check_q(q)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import math
 from collections.abc import Sequence
 from functools import cache
 from types import ModuleType
@@ -62,4 +61,4 @@ def path_placements(robot: Robot, data: pin.Data, qs: Sequence[Array], frames: S
 
 def _plain(q: object, n: int) -> bool:
     """Whether q is already what ``Robot.check_q`` returns: a finite float64 array (n,)."""
-    return type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and math.isfinite(q.sum())
+    return type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and bool(np.isfinite(q).all())

@@ -37,7 +37,6 @@ and notes a run that took the NumPy step because numba cannot be imported.
 from __future__ import annotations
 
 import importlib
-import math
 from collections.abc import Sequence
 from dataclasses import replace
 from types import ModuleType
@@ -265,7 +264,7 @@ class GradientProjectionStep:
         """
         qa = self._check_q(q)
         xd = xdot
-        if not (type(xd) is np.ndarray and xd.dtype == np.float64 and xd.shape == (6,) and math.isfinite(xd.sum())):
+        if not (type(xd) is np.ndarray and xd.dtype == np.float64 and xd.shape == (6,) and bool(np.isfinite(xd).all())):
             xd = tip_twist(xdot)
         if self._several:
             if self._multi is not None:
@@ -282,7 +281,7 @@ class GradientProjectionStep:
         try:
             with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by finite_rates, by name
                 qdot = self._step(qa, xd, obj)
-                finite = math.isfinite(qdot.sum())
+                finite = bool(np.isfinite(qdot).all())
             return qdot if finite else finite_rates(qdot)
         except NotCertified:
             strategy = replace(self.strategy, objective=_objective(obj))
@@ -322,7 +321,7 @@ class GradientProjectionStep:
         return replace(self.strategy, objective=self.strategy.objective.with_beta_x(beta_x))
 
     def _check_q(self, q: ArrayLike) -> Array:
-        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._n,) and math.isfinite(q.sum()):
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._n,) and bool(np.isfinite(q).all()):
             return q
         return self.braced.robot.check_q(q)
 
@@ -383,7 +382,7 @@ class GradientProjectionStep:
         status, out = self._kernel(
             je, jb, he, hb, mb, me, xd, h, x, t, kinv, ci, self._reg, self._nb_normal, self._par, self._n1
         )
-        return out if status == 0 and math.isfinite(out.sum()) else None  # else the NumPy code (raises or warns)
+        return out if status == 0 and bool(np.isfinite(out).all()) else None  # else the NumPy code (raises or warns)
 
     def _chain1(self, jb: Array) -> Array:
         """dq1/db̃ (n1×l): J1⁻¹ H (eq:q1) when n1 = 6, else the null space of Xᵀ J1 (as BracedState)."""

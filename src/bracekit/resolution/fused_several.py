@@ -14,7 +14,6 @@ certificates fail it returns None and the caller runs the reference step (same e
 
 from __future__ import annotations
 
-import math
 from types import ModuleType
 from typing import Any, NamedTuple
 
@@ -209,4 +208,4 @@ class SeveralBraceKernel:
         kin = (je, jbs, he, hbs, mbs)
         terms = (ci, self._reg, self._jl, self._cond)
         status, out = self._kernel(qa, kin, sel, xd, self._xrows, self._rowbrace, self._kinv, terms, self._par)
-        return out if status == 0 and math.isfinite(out.sum()) else None
+        return out if status == 0 and bool(np.isfinite(out).all()) else None

@@ -28,7 +28,6 @@ the reference's. Where certified, q̇ equals the reference's to ~1e-13 relative.
 from __future__ import annotations
 
 import importlib
-import math
 from typing import Any
 
 import numpy as np
@@ -109,13 +108,13 @@ class MinNormStep:
                 state.J_e, contact.J_b, contact.b, state.e, xd, self._h, self._x, self._n1, self._braced,
                 self._rows, self._cert2, NULL_SPACE_RTOL,
             )  # fmt: skip
-            if status == 0 and math.isfinite(qdot.sum()):
+            if status == 0 and bool(np.isfinite(qdot).all()):
                 return np.asarray(qdot, dtype=np.float64)
         rates = self._braced_rates if self._split else self._null_rates if self._braced else self._free_rates
         try:
             with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported by the reference
                 qdot = rates(state, xd)
-            if math.isfinite(qdot.sum()):
+            if bool(np.isfinite(qdot).all()):
                 return qdot
         except NotCertified:
             pass
