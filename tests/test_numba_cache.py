@@ -62,6 +62,7 @@ def _compiled_under(folder: Path) -> set[Path]:
     return {p for pattern in ("*.nbi", "*.nbc") for p in folder.rglob(pattern)}
 
 
+@pytest.mark.slow  # a new process (or a Dask cluster): seconds, in the slow group
 def test_a_new_process_caches_the_kernels_in_the_user_cache_not_in_src(tmp_path: Path) -> None:
     pytest.importorskip("numba")
     before = _compiled_under(SRC)

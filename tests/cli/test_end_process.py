@@ -30,6 +30,7 @@ def _run(end: str, thread: bool) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
 
 
+@pytest.mark.slow  # a new process (or a Dask cluster): seconds, in the slow group
 def test_ends_like_the_ordinary_exit() -> None:
     """The same output, error output and status as sys.exit, the exit handlers run."""
     ours, ordinary = _run("_end_process", False), _run("sys.exit", False)
@@ -38,6 +39,7 @@ def test_ends_like_the_ordinary_exit() -> None:
     assert ours.stderr == ordinary.stderr == "to stderr"
 
 
+@pytest.mark.slow  # a new process (or a Dask cluster): seconds, in the slow group
 def test_returns_while_a_thread_python_waits_for_runs() -> None:
     """A non-daemon thread still running: it returns, and the ordinary exit waits for the thread."""
     ours = _run("_end_process", True)

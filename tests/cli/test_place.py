@@ -108,6 +108,7 @@ def test_forked_workers_take_their_threads_from_their_environment() -> None:
         assert all(n == int(WORKER_ENV["OMP_NUM_THREADS"]) for n in found)
 
 
+@pytest.mark.slow  # a new process (or a Dask cluster): seconds, in the slow group
 def test_numba_threads_started_is_seen() -> None:
     """Started numba threads are seen (the workers are then spawned, not forked): in a fresh process."""
     import subprocess

@@ -92,6 +92,7 @@ def test_a_box_beside_the_xarm7_counts_as_its_stl_vertices_say() -> None:
     assert inside >= 1
 
 
+@pytest.mark.slow  # central differences of the mesh clearance over every joint: seconds
 def test_the_clearance_gradient_with_a_box_matches_central_differences() -> None:
     braced = _braced(xarm7(), tilt=0.1)
     clearance = Clearance(with_obstacles(braced, [box_obstacle("box", 2.0 * HALF, _box_pose(braced.robot, Q0))]))

@@ -49,6 +49,7 @@ def http_address() -> Iterator[str]:
         server.server_close()
 
 
+@pytest.mark.slow  # a new process (or a Dask cluster): seconds, in the slow group
 def test_an_http_server_as_scheduler_is_one_line_and_leaves_no_folder(
     tiny_spec: Path,
     http_address: str,
@@ -69,6 +70,7 @@ def test_an_http_server_as_scheduler_is_one_line_and_leaves_no_folder(
     assert not out.exists() and not list(tmp_path.iterdir())  # no folder, no lock file left behind
 
 
+@pytest.mark.slow  # a new process (or a Dask cluster): seconds, in the slow group
 def test_an_unreachable_scheduler_leaves_no_folder(
     tiny_spec: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
