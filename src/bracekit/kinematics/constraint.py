@@ -43,6 +43,23 @@ def contact_null_space(g: Array) -> Array:
     return np.ascontiguousarray(vt[rank:].T, dtype=np.float64)
 
 
+def stacked_null_spaces(g: Array) -> Array | None:
+    """:func:`contact_null_space` of each matrix of a stack g (k, rows, n) from one stacked SVD: (k, n, n − rank).
+
+    The same LAPACK call and rank rule per matrix; None where the ranks differ (the bases would differ in width)
+    or the matrices have no rows or columns.
+    """
+    if min(g.shape[1], g.shape[2]) == 0:
+        return None
+    _, s, vt = np.linalg.svd(g)
+    big = np.maximum(1.0, s[:, 0])
+    ranks = np.sum(s > NULL_SPACE_RTOL * big[:, None], axis=1)
+    rank = int(ranks[0])
+    if not (ranks == rank).all():
+        return None
+    return np.ascontiguousarray(vt[:, rank:].transpose(0, 2, 1), dtype=np.float64)
+
+
 @dataclass(frozen=True, eq=False)
 class StackedConstraint:
     """The stacked contact constraint of the braces at one configuration (one brace: G = Xᵀ J_b).

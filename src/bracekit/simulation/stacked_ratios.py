@@ -26,8 +26,7 @@ from typing import TYPE_CHECKING, NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.kinematics.constraint import full_rank_constraint
-from bracekit.tolerances import NULL_SPACE_RTOL
+from bracekit.kinematics.constraint import full_rank_constraint, stacked_null_spaces
 
 if TYPE_CHECKING:
     from bracekit.kinematics import BracedState
@@ -131,16 +130,7 @@ def chain1_maps(x: Array, j1: Array) -> Array | None:
     of Xᵀ J1, the same LAPACK call per matrix); None where the null spaces differ in width or Xᵀ J1 has no rows.
     `x`: X (6×(6−l)); `j1`: the stack of J1 (k, 6, n1), world axes.
     """
-    g = x.T @ j1
-    if g.shape[1] == 0:
-        return None
-    _, s, vt = np.linalg.svd(g)
-    big = np.maximum(1.0, s[:, 0])
-    ranks = np.sum(s > NULL_SPACE_RTOL * big[:, None], axis=1)
-    rank = int(ranks[0])
-    if not (ranks == rank).all():
-        return None
-    return np.ascontiguousarray(vt[:, rank:].transpose(0, 2, 1), dtype=np.float64)
+    return stacked_null_spaces(x.T @ j1)
 
 
 def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
@@ -188,15 +178,9 @@ def _null_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) ->
     if found is None:
         return None
     g = found[0]
-    _, s, vt = np.linalg.svd(g)
-    if s.shape[1] == 0:
+    null = stacked_null_spaces(g)  # N (k, n, n − rank G)
+    if null is None:
         return None
-    big = np.maximum(1.0, s[:, 0])
-    ranks = np.sum(s > NULL_SPACE_RTOL * big[:, None], axis=1)
-    rank = int(ranks[0])
-    if not (ranks == rank).all():
-        return None
-    null = np.ascontiguousarray(vt[:, rank:].transpose(0, 2, 1), dtype=np.float64)  # N (k, n, n − rank G)
     j_e = np.array([st.J_e for st in states], dtype=np.float64)
     a = j_e @ null  # J_e N
     sa = a if rows[0] is None else np.array(rows, dtype=np.float64) @ a
