@@ -3,7 +3,8 @@
 1. The reference start q_ref (:func:`bracekit.studies.sweep.context.reference_start`, in this process:
    :func:`prepare`) seeds the inner level. The command line computes the task context (the free-space run)
    there too, before its workers fork, so they start with numba's kernels loaded; else a worker computes it
-   while another imports the inner level's modules.
+   while another imports the inner level's modules. The spec and the task context go with each task (tens of
+   kB: no round trip to scatter them first, and no worker is preferred for holding them).
 2. Inner (:mod:`.inner`): for every link of the spec's ``link`` axis, ``seeds`` starting fractions evenly spread
    over the link, each one task: SLSQP over posture, fraction and angle at the task's start.
 3. Outer (:mod:`.outer`): the best successful optimum of each link, ranked by the start objective, the ``top``
@@ -263,11 +264,12 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     timings: dict[str, float] = {}
     futures: list[Any] = []
     try:
-        if prepared is not None and prepared.context is not None:  # both to every worker in one round trip
-            spec_f, ctx_f = client.scatter([spec, prepared.context], broadcast=True, hash=False)
-        else:
-            spec_f = client.scatter(spec, broadcast=True, hash=False)
-            ctx_f = client.submit(task_context, spec_f, {}, "{}", pure=False)
+        # the spec (a few kB) and the task context (tens of kB) go with each task: no round trip to scatter them
+        # first, and no worker is preferred for holding them
+        spec_f: Any = spec
+        ctx_f: Any = None if prepared is None else prepared.context
+        if ctx_f is None:
+            ctx_f = client.submit(task_context, spec, {}, "{}", pure=False)
             futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
         links, q_ref, spans, _ = prepare(spec, settings) if prepared is None else prepared
         workers = max(1, _workers(client))
