@@ -8,55 +8,45 @@ state and the terms from ``bracekit.kinematics`` and ``bracekit.objective``, the
 ``bracekit.resolution``, ``Trajectory`` from ``bracekit.simulation``).
 """
 
-import gc as _gc
-
-# The imports below create objects that all stay: Python's cyclic collector is held off while they run (its
-# passes over the growing heap cost ≈ 0.04 s of the ≈ 0.5 s import), then restored as it was.
-_collecting = _gc.isenabled()
-_gc.disable()
-try:
-    from bracekit import _numba_cache  # noqa: F401  (first: numba's cache directory, before numba is imported)
-    from bracekit._version import __version__
-    from bracekit.compliance import (
-        compliance_ellipsoids,
-        compliance_index,
-        directional_compliance,
-        end_effector_compliance,
-        free_space_compliance,
-        frobenius_condition,
-        preloaded_compliance,
-        singular_value_measures,
-        theta_z,
-    )
-    from bracekit.compliance.batch import evaluate_batch
-    from bracekit.contact import Brace, Surface, contact_type
-    from bracekit.errors import BracekitError, BracekitWarning, InputError, NumericalError
-    from bracekit.kinematics import BracedRobot
-    from bracekit.model import Robot, load_model
-    from bracekit.objective import ComplianceIndex, ConditionNumber, Objective, RegionBarrier
-    from bracekit.resolution import (
-        BracedGradientProjection,
-        BracedMinNorm,
-        FreeSpaceMinNorm,
-        TaskSpace,
-    )
-    from bracekit.simulation import (
-        Circle,
-        Holding,
-        Line,
-        RunResult,
-        Scenario,
-        Waypoints,
-        load_scenario,
-        run_scenario,
-        simulate,
-        solve_start,
-    )
-    from bracekit.statics import actuator_relief, capacity_along, contact_response, load_capacity
-    from bracekit.studies import brace_location_study, evaluate
-finally:
-    if _collecting:
-        _gc.enable()
+from bracekit import _numba_cache  # noqa: F401  (first: numba's cache directory, before numba is imported)
+from bracekit._version import __version__
+from bracekit.compliance import (
+    compliance_ellipsoids,
+    compliance_index,
+    directional_compliance,
+    end_effector_compliance,
+    free_space_compliance,
+    frobenius_condition,
+    preloaded_compliance,
+    singular_value_measures,
+    theta_z,
+)
+from bracekit.compliance.batch import evaluate_batch
+from bracekit.contact import Brace, Surface, contact_type
+from bracekit.errors import BracekitError, BracekitWarning, InputError, NumericalError
+from bracekit.kinematics import BracedRobot
+from bracekit.model import Robot, load_model
+from bracekit.objective import ComplianceIndex, ConditionNumber, Objective, RegionBarrier
+from bracekit.resolution import (
+    BracedGradientProjection,
+    BracedMinNorm,
+    FreeSpaceMinNorm,
+    TaskSpace,
+)
+from bracekit.simulation import (
+    Circle,
+    Holding,
+    Line,
+    RunResult,
+    Scenario,
+    Waypoints,
+    load_scenario,
+    run_scenario,
+    simulate,
+    solve_start,
+)
+from bracekit.statics import actuator_relief, capacity_along, contact_response, load_capacity
+from bracekit.studies import brace_location_study, evaluate
 
 __all__ = [
     "Brace",
