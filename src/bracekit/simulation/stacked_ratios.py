@@ -61,9 +61,9 @@ class Watched(Generic[T]):
 
     `T` is the stack (k, r, c) itself (``Watched[Array]``) or the stack with its singular values
     (``Watched[Decomposed]``). One brace fills J1, A, S A, J_e and J̃; several braces G, S J_e N, J_e and J_e N.
-    S is the task-space selection (m×6) at each sample, None for the whole pose: then S A is A and S J_e N is
-    J_e N, the same stack. World axes; rows of twists in m/rad (linear) and dimensionless (angular). The printed
-    names and keys of the measures (``sigma_ratio_<key>``) are those of
+    S is the task-space selection (m×6) at each sample, I for the whole pose: then S A is A and S J_e N is
+    J_e N, the same stack. World axes; the tip-twist rows in m/rad (linear) and dimensionless (angular). The
+    keys of the measures (``sigma_ratio_<key>``) and their printed names are those of
     :data:`~bracekit.kinematics.motions.MATRIX_LABELS`, given with each field.
 
     Attributes:
@@ -130,8 +130,8 @@ class Conditioning(NamedTuple):
 
     Attributes:
         ratios: one dict per sample, by key of MATRIX_LABELS (the user-facing names of the measures).
-        decomposed: each matrix decomposed as one stack with its singular values; J_e N also where the ratios
-            take S J_e N of a task space other than the pose (the run's measures take k of J_e N).
+        decomposed: each matrix decomposed as one stack, with its singular values; also J_e N where several
+            braces' stacks are formed at once (the run's measures take k of it; S J_e N's values for the pose).
     """
 
     ratios: list[dict[str, float]]
@@ -284,8 +284,8 @@ def stacked_conditioning(
 ) -> Conditioning:
     """``states[i].motions.conditioning(rows[i], keys)`` of every state, each matrix kind in one stacked SVD.
 
-    With the ratios, the stacks of every matrix decomposed as one stack, with their singular values (for the
-    run's measures); J_e N is decomposed beside S J_e N of a task space other than the pose.
+    With the ratios, every matrix decomposed as one stack with its singular values (for the run's measures);
+    also J_e N where several braces' stacks are formed at once (S J_e N's values for the whole pose: one stack).
     """
     if not states:
         return Conditioning([], Watched())
