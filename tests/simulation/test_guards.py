@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 import warnings
 from collections.abc import Callable
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -16,10 +17,10 @@ import pytest
 
 from bracekit import BracedMinNorm, Circle, load_scenario, simulate, solve_start
 from bracekit.errors import NumericalError
-from bracekit.kinematics.motions import rank_ratio, singular_ratio
+from bracekit.kinematics.motions import MATRIX_LABELS, rank_ratio, singular_ratio
 from bracekit.simulation.guards import WATCH_BATCH, first_singular, sigma_ratios, stacked_sigma_ratios
 from bracekit.simulation.scenario import Scenario
-from bracekit.simulation.stacked_ratios import Decomposed, _split_stacks, stacked_ratios
+from bracekit.simulation.stacked_ratios import FULL_ROW_RANK, Watched, _split_stacks, stacked_ratios
 from bracekit.simulation.trajectory import Trajectory
 
 GUARDS = importlib.import_module("bracekit.simulation.guards")
@@ -49,8 +50,9 @@ def test_stacked_sigma_ratios_equal_sigma_ratios_of_each_state(name: str, scale:
     base = np.asarray(sc.guess, dtype=float)
     states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(7)]
     keys = tuple(sigma_ratios(states[0], sc.task_space))
-    assert stacked_sigma_ratios(states, sc.task_space, keys) == [sigma_ratios(st, sc.task_space, keys) for st in states]
-    assert stacked_sigma_ratios([], sc.task_space, keys) == []
+    found = stacked_sigma_ratios(states, sc.task_space, keys).ratios
+    assert found == [sigma_ratios(st, sc.task_space, keys) for st in states]
+    assert stacked_sigma_ratios([], sc.task_space, keys).ratios == []
 
 
 def test_a_stack_watched_under_two_keys_is_decomposed_once(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -69,11 +71,37 @@ def test_a_stack_watched_under_two_keys_is_decomposed_once(monkeypatch: pytest.M
         return svd(m, **kw)
 
     monkeypatch.setattr(module.np.linalg, "svd", counted)
-    found = stacked_sigma_ratios(states, sc.task_space, keys)
+    found = stacked_sigma_ratios(states, sc.task_space, keys).ratios
     monkeypatch.setattr(module.np.linalg, "svd", svd)
     assert set(keys) == {"J1", "A", "SA", "J", "J_braced"} and len(calls) == len(keys) - 1
     assert found == [sigma_ratios(st, sc.task_space, keys) for st in states]
     assert all(row["A"] == row["SA"] for row in found)
+
+
+def _assert_sample(stacks: Watched[np.ndarray], i: int, want: Watched[np.ndarray]) -> None:
+    """Sample i of each stack is the wanted matrix to the last bit, and the stacks form no other matrix."""
+    for f in fields(want):
+        stack, matrix = getattr(stacks, f.name), getattr(want, f.name)
+        assert (stack is None) == (matrix is None), f.name
+        if matrix is not None:
+            assert np.array_equal(stack[i], matrix), f.name
+
+
+def test_the_record_s_fields_are_the_keys_of_the_recorded_measures() -> None:
+    """Reference: MATRIX_LABELS (the measures' keys) and J_e N ("JN"), one field each, both ways."""
+    keys = (*MATRIX_LABELS, "JN")
+    record = Watched.of_keys({key: i for i, key in enumerate(keys)})
+    assert [record.get(key) for key in keys] == list(range(len(keys)))
+    assert sorted(getattr(record, f.name) for f in fields(record)) == list(range(len(keys)))
+    assert record.get("j_e") is None and Watched.of_keys({"J_e": 0}) == Watched()
+
+
+@pytest.mark.parametrize("name", ["paper", "two-braces"])
+def test_the_matrices_that_need_full_row_rank_are_those_each_chart_flags(name: str) -> None:
+    """Reference: the flags of ``motions.watched`` (``rank_ratio`` or ``singular_ratio`` of each matrix)."""
+    sc = load_scenario(name)
+    watched = sc.braced.state(np.asarray(sc.guess, dtype=float)).motions.watched(None)
+    assert {key for key, (_, full) in watched.items() if full} == FULL_ROW_RANK & set(watched)
 
 
 def test_first_singular_names_the_first_sample_below_the_ratio() -> None:
@@ -137,9 +165,8 @@ def test_one_brace_stacks_are_the_chain_split_matrices_to_the_last_bit(name: str
     assert stacks is not None
     for i, (st, sel) in enumerate(zip(states, rows, strict=True)):
         sp = st.split
-        want = {"J1": sp.J1, "A": sp.A, "SA": sp.A if sel is None else sel @ sp.A, "J": st.J_e, "J_braced": sp.J_braced}
-        for key, matrix in want.items():
-            assert np.array_equal(stacks[key][0][i], matrix), key
+        sa = sp.A if sel is None else sel @ sp.A
+        _assert_sample(stacks, i, Watched(J1=sp.J1, A=sp.A, SA=sa, J_e=st.J_e, J_braced=sp.J_braced))
 
 
 def test_where_the_stacks_cannot_be_formed_the_guard_takes_each_sample_alone(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -200,19 +227,25 @@ def test_the_kept_stacks_are_each_state_s_own_matrix_and_svd(name: str, scale: f
     states = [sc.braced.state(base + scale * rng.standard_normal(base.shape)) for _ in range(6)]
     keys = tuple(sigma_ratios(states[0], sc.task_space))
     fresh = [sc.braced.state(st.q) for st in states]  # nothing formed yet: the stacks form every matrix
-    kept: dict[str, Decomposed] = {}
-    found = stacked_sigma_ratios(fresh, sc.task_space, keys, kept)
+    found, kept = stacked_sigma_ratios(fresh, sc.task_space, keys)
     assert found == [sigma_ratios(st, sc.task_space, keys) for st in states]
     task = states[0].motions.task_key(sc.task_space.is_pose)
-    assert task is not None and {task, "J"} <= set(kept)
+    assert task is not None and kept.get(task) is not None and kept.J_e is not None
+    held = [key for key in (*keys, "JN") if kept.get(key) is not None]
+    assert set(keys) <= set(held)  # every recorded matrix decomposed, and no field but those
+    assert sum(getattr(kept, f.name) is not None for f in fields(kept)) == len(held)
     for i, st in enumerate(states):
         rows = None if sc.task_space.is_pose else sc.task_space.selection(st.R_e)
         watched = st.motions.watched(rows)
-        for key, (stack, s) in kept.items():
+        for key in held:
+            d = kept.get(key)
+            assert d is not None
+            stack, s = d
             matrix = watched[key][0]() if key in watched else st.motions.task_jacobian
             assert np.array_equal(stack[i], matrix), key
             assert np.array_equal(s[i], np.linalg.svd(matrix, compute_uv=False)), key
-        assert np.array_equal(kept[task].stack[i], st.motions.task_jacobian)
+        d = kept.get(task)
+        assert d is not None and np.array_equal(d.stack[i], st.motions.task_jacobian)
 
 
 @pytest.mark.parametrize("space", ["pose", "position"])
@@ -232,9 +265,7 @@ def test_several_brace_stacks_are_each_state_s_constraint_matrices_to_the_last_b
     for i, (st, sel) in enumerate(zip(states, rows, strict=True)):
         m = st.motions
         assert st.constraint.dependent == ()
-        want = {"G": m.G, "SJN": m.A if sel is None else sel @ m.A, "J": st.J_e, "JN": m.A}
-        for key, matrix in want.items():
-            assert np.array_equal(stacks[key][0][i], matrix), key
+        _assert_sample(stacks, i, Watched(G=m.G, SJN=m.A if sel is None else sel @ m.A, J_e=st.J_e, JN=m.A))
     assert _null_stacks(states, rows) is None  # their constraints are known now: each state's own counts
 
 
@@ -254,7 +285,7 @@ def test_dependent_braces_are_left_to_each_state_s_constraint_and_its_warning() 
         keys = tuple(sigma_ratios(twice.state(qs[0]), sc.task_space))
     with warnings.catch_warnings(record=True) as stacked:
         warnings.simplefilter("always")
-        found = stacked_sigma_ratios([twice.state(q) for q in qs], sc.task_space, keys)
+        found = stacked_sigma_ratios([twice.state(q) for q in qs], sc.task_space, keys).ratios
     with warnings.catch_warnings(record=True) as alone:
         warnings.simplefilter("always")
         ref = [sigma_ratios(twice.state(q), sc.task_space, keys) for q in qs]
@@ -283,7 +314,7 @@ def test_chain1_maps_of_a_link_point_are_each_state_s_own_null_space_to_the_last
     assert maps is not None and stacks is not None
     for i, st in enumerate(states):
         assert np.array_equal(maps[i], st.split.chain1_map)
-        assert np.array_equal(stacks["A"][0][i], st.split.A)
+        assert stacks.A is not None and np.array_equal(stacks.A[i], st.split.A)
     # a J1 whose Xᵀ J1 has another rank (zero: the whole chain-1 space) is left to each state
     j1[2] = 0.0
     assert chain1_maps(sc.braced.split.X, j1) is None

@@ -164,15 +164,14 @@ def test_the_measures_from_the_guard_s_stacks_equal_the_samples_one_by_one(name:
     assert task == ("J_braced" if name == "paper" else "JN")  # two braces: a position task, J_e N beside S J_e N
     batches = []
     for first in range(0, len(fresh), WATCH_BATCH):  # as the run's guard takes them
-        kept: dict[str, Decomposed] = {}
-        stacked_sigma_ratios(fresh[first : first + WATCH_BATCH], space, keys, kept)
-        batches.append(kept)
-    def joined(key: str | None) -> Decomposed | None:
-        if key is None:
-            return None
-        return Decomposed(np.concatenate([b[key].stack for b in batches]), np.concatenate([b[key].s for b in batches]))
+        batches.append(stacked_sigma_ratios(fresh[first : first + WATCH_BATCH], space, keys).decomposed)
 
-    known = Known(joined(task), joined("J"))
+    def joined(parts: list[Decomposed | None]) -> Decomposed:
+        done = [d for d in parts if d is not None]
+        assert len(done) == len(parts)
+        return Decomposed(np.concatenate([d.stack for d in done]), np.concatenate([d.s for d in done]))
+
+    known = Known(joined([b.get(task) for b in batches]), joined([b.J_e for b in batches]))
     samples, count, error = measure_path(sc.braced, fresh, betas, errors, ratios, steps, known)
     assert error is None and count == len(fresh) and samples is not None
     # nothing of the chain split or of the stacked constraint formed state by state: the stacks served

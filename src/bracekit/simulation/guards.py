@@ -23,7 +23,7 @@ from bracekit.kinematics.motions import MATRIX_LABELS
 from bracekit.model.robot import Robot
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.correction import norm
-from bracekit.simulation.stacked_ratios import Decomposed, stacked_conditioning
+from bracekit.simulation.stacked_ratios import Conditioning, stacked_conditioning
 from bracekit.tolerances import (
     DEFAULT_JOINT_SPEED,
     JOINT_STEP_SAFETY,
@@ -126,18 +126,14 @@ def sigma_ratios(state: BracedState, space: TaskSpace, keys: tuple[str, ...] | N
     return state.motions.conditioning(None if space.is_pose else space.selection(state.R_e), keys)
 
 
-def stacked_sigma_ratios(
-    states: Sequence[BracedState],
-    space: TaskSpace,
-    keys: tuple[str, ...],
-    kept: dict[str, Decomposed] | None = None,
-) -> list[dict[str, float]]:
+def stacked_sigma_ratios(states: Sequence[BracedState], space: TaskSpace, keys: tuple[str, ...]) -> Conditioning:
     """:func:`sigma_ratios` of every state (the same numbers), each matrix kind in one stacked SVD.
 
-    `kept`: filled with each decomposed stack and its singular values, by key (for the run's measures).
+    With them (``decomposed``), each stack decomposed and its singular values, one field per matrix (for the
+    run's measures).
     """
     rows = [None if space.is_pose else space.selection(st.R_e) for st in states]
-    return stacked_conditioning(states, rows, keys, kept)
+    return stacked_conditioning(states, rows, keys)
 
 
 def first_singular(ratios: Sequence[Mapping[str, float]], keys: tuple[str, ...]) -> tuple[int, SingularityError] | None:

@@ -73,7 +73,7 @@ from bracekit.simulation.guards import (
 from bracekit.simulation.notes import run_notes
 from bracekit.simulation.path_measures import Known, measure_path, path_ratios
 from bracekit.simulation.samples import Samples
-from bracekit.simulation.stacked_ratios import Decomposed
+from bracekit.simulation.stacked_ratios import Decomposed, Watched
 from bracekit.simulation.tasks import Task
 from bracekit.simulation.trajectory import Trajectory
 from bracekit.tolerances import MAX_STEPS
@@ -130,17 +130,21 @@ def _check_inputs(
     return max(1, round(task.duration / dt))
 
 
-def _known(decomposed: list[tuple[dict[str, Decomposed], int]], task_key: str | None) -> Known | None:
-    """The guard's stacks of the braced task Jacobian and J_e over the kept samples (None where a batch lacks one)."""
+def _known(decomposed: list[tuple[Watched[Decomposed], int]], task_key: str | None) -> Known | None:
+    """The guard's stacks of the braced task Jacobian (`task_key`) and J_e over the kept samples.
+
+    None for a matrix a batch did not decompose.
+    """
     kept = [(found, count) for found, count in decomposed if count]
 
-    def joined(key: str | None) -> Decomposed | None:
-        if key is None or not kept or any(key not in found for found, _ in kept):
+    def joined(parts: list[tuple[Decomposed | None, int]]) -> Decomposed | None:
+        if not parts or any(d is None for d, _ in parts):
             return None
-        parts = [(found[key], count) for found, count in kept]
-        return Decomposed(np.concatenate([d.stack[:c] for d, c in parts]), np.concatenate([d.s[:c] for d, c in parts]))
+        done = [(d, c) for d, c in parts if d is not None]
+        return Decomposed(np.concatenate([d.stack[:c] for d, c in done]), np.concatenate([d.s[:c] for d, c in done]))
 
-    return Known(joined(task_key), joined("J"))
+    task = None if task_key is None else joined([(found.get(task_key), count) for found, count in kept])
+    return Known(task, joined([(found.J_e, count) for found, count in kept]))
 
 
 def simulate(
@@ -292,7 +296,7 @@ def simulate(
         pending: list[tuple[BracedState, float, int, dict[str, int]]] = []
         # the stacks the guard decomposed, with the samples kept of each batch: the measures' k and k_free
         task_key = st.motions.task_key(space.is_pose)
-        decomposed: list[tuple[dict[str, Decomposed], int]] = []
+        decomposed: list[tuple[Watched[Decomposed], int]] = []
 
         def one_by_one() -> tuple[list[dict[str, float]], tuple[int, BracekitError] | None]:
             """The pending samples' ratios up to the first that fails its check (a matrix the guard cannot form)."""
@@ -313,13 +317,13 @@ def simulate(
             The steps after a singular one are undone: their states, warnings and counts are dropped, so the
             run is the one a guard after every step gives.
             """
-            stacks: dict[str, Decomposed] = {}
+            stacks: Watched[Decomposed] = Watched()
             try:
-                found = stacked_sigma_ratios([p[0] for p in pending], space, recorded, stacks)
+                found, stacks = stacked_sigma_ratios([p[0] for p in pending], space, recorded)
                 bad: tuple[int, BracekitError] | None = first_singular(found, checked)
             except (BracekitError, np.linalg.LinAlgError):  # a matrix not formed or decomposed: sample by sample
                 found, bad = one_by_one()
-                stacks = {}
+                stacks = Watched()
             kept = len(pending) if bad is None else bad[0]
             decomposed.append((stacks, kept))
             for (state, jump, _, _), row in zip(pending[:kept], found[:kept], strict=True):

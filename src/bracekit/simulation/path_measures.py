@@ -39,25 +39,38 @@ from bracekit.kinematics.constraint import full_rank_constraint
 from bracekit.kinematics.motions import NullMotions
 from bracekit.resolution.task_space import TaskSpace
 from bracekit.simulation.samples import ContactSeries, Samples, compliance_models, measure
-from bracekit.simulation.stacked_ratios import Decomposed, split_parts
+from bracekit.simulation.stacked_ratios import FULL_ROW_RANK, Decomposed, split_parts
 from bracekit.tolerances import MEASURE_SINGULAR_RATIO
 
 Array = NDArray[np.float64]
 
 __all__ = ["Known", "measure_path", "path_ratios"]
 
-#: The recorded matrices whose σ_min/σ_max is taken over the whole path at once: singular_ratio of each (one
-#: brace's J1, A, J̃; J = J_e with any number of braces).
-_STACKED: dict[str, Callable[[BracedState], Array]] = {
-    "J": lambda st: st.J_e,
-    "J1": lambda st: st.split.J1,
-    "A": lambda st: st.split.A,
-    "J_braced": lambda st: st.split.J_braced,
+
+class _Former(NamedTuple):
+    """How the path forms a recorded matrix of one state (for its σ_min/σ_max over the whole path at once).
+
+    Attributes:
+        form: the matrix of a state (the whole pose's rows for a task-row matrix).
+        task_rows: whether the matrix is the task rows S(⁰R_e) of `form` (S A, S J_e N), S the space's selection.
+    """
+
+    form: Callable[[BracedState], Array]
+    task_rows: bool = False
+
+
+#: The recorded matrices, by key of MATRIX_LABELS: one brace's J1, A, S A and J̃, several braces' G (independent
+#: rows) and S J_e N, and J = J_e with any number of braces. Those of FULL_ROW_RANK (G, S A, S J_e N) take
+#: rank_ratio, the others singular_ratio.
+_FORMERS: dict[str, _Former] = {
+    "J": _Former(lambda st: st.J_e),
+    "J1": _Former(lambda st: st.split.J1),
+    "A": _Former(lambda st: st.split.A),
+    "J_braced": _Former(lambda st: st.split.J_braced),
+    "G": _Former(lambda st: cast(NullMotions, st.motions).G),
+    "SA": _Former(lambda st: st.split.A, task_rows=True),
+    "SJN": _Former(lambda st: st.motions.A, task_rows=True),
 }
-#: The matrices that must have full row rank (rank_ratio of each), taken at once: G (independent rows) of
-#: several braces, and the task rows S A of one brace's A or S J_e N of several, S = the space's selection.
-_RANKED: dict[str, Callable[[BracedState], Array]] = {"G": lambda st: cast(NullMotions, st.motions).G}
-_SELECTED: dict[str, Callable[[BracedState], Array]] = {"SA": lambda st: st.split.A, "SJN": lambda st: st.motions.A}
 
 
 class Known(NamedTuple):
@@ -121,7 +134,7 @@ def path_ratios(
     missing = [key for key in keys if key not in known[0]]
     found: dict[str, Array] = {}
     for key in missing:
-        ranked = key in _RANKED or key in _SELECTED
+        ranked = key in FULL_ROW_RANK
         try:
             stack = _matrices(states, space, key)
         except (ValueError, AttributeError, BracekitError):
@@ -147,13 +160,13 @@ def path_ratios(
 
 def _matrices(states: Sequence[BracedState], space: TaskSpace, key: str) -> Array | None:
     """The matrix `key` of every state as one stack (N, ·, ·), its task rows S(⁰R_e) for S A and S J_e N."""
-    if key in _SELECTED:
-        found = np.array([_SELECTED[key](st) for st in states], dtype=np.float64)
-        if space.is_pose:
-            return found
-        return np.array([space.selection(st.R_e) for st in states], dtype=np.float64) @ found
-    get = _RANKED.get(key) or _STACKED.get(key)
-    return None if get is None else np.array([get(st) for st in states], dtype=np.float64)
+    former = _FORMERS.get(key)
+    if former is None:
+        return None
+    found = np.array([former.form(st) for st in states], dtype=np.float64)
+    if not former.task_rows or space.is_pose:
+        return found
+    return np.array([space.selection(st.R_e) for st in states], dtype=np.float64) @ found
 
 
 #: The stacks whose singular values were taken last, with them: J_e's SVD serves both the ratio σ_min/σ_max of J

@@ -12,16 +12,18 @@ With several braces, where no state has its stacked constraint yet and every sam
 space of G from one stacked SVD, as ``contact_null_space`` takes it per matrix), J_e N and S J_e N are formed as
 stacks too; otherwise each state's own constraint (which drops rows and warns) forms them.
 
-A caller may keep the stacks and their singular values (``kept``): the run's measures take k of the braced task
-Jacobian and of J_e from them (:mod:`bracekit.simulation.path_measures`) instead of forming and decomposing them
-again. :func:`split_parts` gives the chain-split factors of many one-brace states as stacks (J1, J2, S_t1, S_t2),
-for the guard and the measures.
+:func:`stacked_conditioning` also hands on the stacks it decomposed with their singular values, one typed field per
+matrix (:class:`Watched`): the run's measures take k of the braced task Jacobian and of J_e from them
+(:mod:`bracekit.simulation.path_measures`) instead of forming and decomposing them again. :func:`split_parts`
+gives the chain-split factors of many one-brace states as stacks (J1, J2, S_t1, S_t2), for the guard and the
+measures.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, NamedTuple, cast
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Generic, NamedTuple, TypeVar, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,10 +34,13 @@ if TYPE_CHECKING:
     from bracekit.kinematics import BracedState
 
 Array = NDArray[np.float64]
+T = TypeVar("T")
 
 __all__ = [
+    "Conditioning",
     "Decomposed",
     "SplitParts",
+    "Watched",
     "chain1_maps",
     "split_parts",
     "stacked_conditioning",
@@ -48,6 +53,89 @@ class Decomposed(NamedTuple):
 
     stack: Array
     s: Array
+
+
+@dataclass(frozen=True, slots=True)
+class Watched(Generic[T]):
+    """The matrices a run watches at k samples, each as one stack over the samples; None where not formed so.
+
+    `T` is the stack (k, r, c) itself (``Watched[Array]``) or the stack with its singular values
+    (``Watched[Decomposed]``). One brace fills J1, A, S A, J_e and J̃; several braces G, S J_e N, J_e and J_e N.
+    S is the task-space selection (m×6) at each sample, I for the whole pose: then S A is A and S J_e N is
+    J_e N, the same stack. World axes; the tip-twist rows in m/rad (linear) and dimensionless (angular). The
+    keys of the measures (``sigma_ratio_<key>``) and their printed names are those of
+    :data:`~bracekit.kinematics.motions.MATRIX_LABELS`, given with each field.
+
+    Attributes:
+        J1: J1 (k, 6, n1), the first n1 columns of J_b: the twist of b per chain-1 rate (eq:J1); key "J1".
+        A: A = [S_t1 H, S_t2 J2] (k, 6, l′ + n2), the tip twist per braced coordinate (eq:braced_kin); key "A".
+        SA: S A (k, m, l′ + n2), the task rows of A that a braced step inverts (full row rank); key "SA".
+        J_e: J_e = J (k, 6, n), the whole robot's tip Jacobian (eq:J); key "J".
+        J_braced: J̃ = [S_t1 (I − P) J1, S_t2 J2] (k, 6, n), the braced Jacobian of the measures (eq:J_wave);
+            key "J_braced".
+        G: G (k, c, n), the stacked constraint [X_1ᵀ J_b1; X_2ᵀ J_b2; …] over its c independent rows (c = Σ
+            (6 − l_i) where every row is kept; docs/model.md, "Stacked constraint"; full row rank); key "G".
+        SJN: S J_e N (k, m, n − c), the task rows of J_e N that a braced step inverts (full row rank); key "SJN".
+        JN: J_e N (k, 6, n − c), the braced task Jacobian of several braces, N (n×(n − c)) an orthonormal basis
+            of the null space of G; key "JN" (not a recorded measure: k and Πσ are taken of it).
+    """
+
+    J1: T | None = None
+    A: T | None = None
+    SA: T | None = None
+    J_e: T | None = None
+    J_braced: T | None = None
+    G: T | None = None
+    SJN: T | None = None
+    JN: T | None = None
+
+    @classmethod
+    def of_keys(cls, found: Mapping[str, T]) -> Watched[T]:
+        """The record of matrices given by their keys of MATRIX_LABELS ("JN": J_e N); the other keys are ignored."""
+        return cls(
+            J1=found.get("J1"),
+            A=found.get("A"),
+            SA=found.get("SA"),
+            J_e=found.get("J"),
+            J_braced=found.get("J_braced"),
+            G=found.get("G"),
+            SJN=found.get("SJN"),
+            JN=found.get("JN"),
+        )
+
+    def get(self, key: str) -> T | None:
+        """The matrix of MATRIX_LABELS key `key` ("JN": J_e N); None if it is not formed or no such key."""
+        match key:
+            case "J1":
+                return self.J1
+            case "A":
+                return self.A
+            case "SA":
+                return self.SA
+            case "J":
+                return self.J_e
+            case "J_braced":
+                return self.J_braced
+            case "G":
+                return self.G
+            case "SJN":
+                return self.SJN
+            case "JN":
+                return self.JN
+        return None
+
+
+class Conditioning(NamedTuple):
+    """σ_min/σ_max of the watched matrices at each sample, and the stacks decomposed for them.
+
+    Attributes:
+        ratios: one dict per sample, by key of MATRIX_LABELS (the user-facing names of the measures).
+        decomposed: each matrix decomposed as one stack, with its singular values; also J_e N where several
+            braces' stacks are formed at once (the run's measures take k of it; S J_e N's values for the pose).
+    """
+
+    ratios: list[dict[str, float]]
+    decomposed: Watched[Decomposed]
 
 
 class SplitParts(NamedTuple):
@@ -133,7 +221,7 @@ def chain1_maps(x: Array, j1: Array) -> Array | None:
     return stacked_null_spaces(x.T @ j1)
 
 
-def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
+def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> Watched[Array] | None:
     """The watched matrices of one-brace states as (k, …) stacks; None where a chart forms its own.
 
     With n1 ≠ 6, A = S_t1 J1 dq1/db̃ takes each state's own dq1/db̃ (``chain1_map``). None where the states
@@ -161,12 +249,11 @@ def _split_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -
     a = np.concatenate([first, chain2], axis=2)
     j_braced = np.concatenate([s_t1 @ (np.eye(6) - model.P) @ j1, chain2], axis=2)
     sa = a if rows[0] is None else np.array(rows, dtype=np.float64) @ a
-    j_e = parts.j_e
-    return {"J1": (j1, False), "A": (a, False), "SA": (sa, True), "J": (j_e, False), "J_braced": (j_braced, False)}
+    return Watched(J1=j1, A=a, SA=sa, J_e=parts.j_e, J_braced=j_braced)
 
 
-def _null_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> dict[str, tuple[Array, bool]] | None:
-    """The watched matrices G, S J_e N and J = J_e of several-brace states as stacks, and J_e N ("JN").
+def _null_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) -> Watched[Array] | None:
+    """The watched matrices G, S J_e N and J = J_e of several-brace states as stacks, and J_e N.
 
     N = ``contact_null_space(G)`` of each state from one stacked SVD (the same LAPACK call per matrix), where
     every state keeps every row of G (:func:`~bracekit.kinematics.constraint.full_rank_constraint`) and N has
@@ -184,48 +271,56 @@ def _null_stacks(states: Sequence[BracedState], rows: Sequence[Array | None]) ->
     j_e = np.array([st.J_e for st in states], dtype=np.float64)
     a = j_e @ null  # J_e N
     sa = a if rows[0] is None else np.array(rows, dtype=np.float64) @ a
-    return {"G": (g, True), "SJN": (sa, True), "J": (j_e, False), "JN": (a, False)}
+    return Watched(G=g, SJN=sa, J_e=j_e, JN=a)
+
+
+#: The keys of MATRIX_LABELS whose matrix must have full row rank (``rank_ratio``): the task rows a braced step
+#: inverts and the stacked constraint, as each chart's ``watched`` flags them.
+FULL_ROW_RANK = frozenset({"SA", "G", "SJN"})
 
 
 def stacked_conditioning(
-    states: Sequence[BracedState],
-    rows: Sequence[Array | None],
-    keys: tuple[str, ...],
-    kept: dict[str, Decomposed] | None = None,
-) -> list[dict[str, float]]:
+    states: Sequence[BracedState], rows: Sequence[Array | None], keys: tuple[str, ...]
+) -> Conditioning:
     """``states[i].motions.conditioning(rows[i], keys)`` of every state, each matrix kind in one stacked SVD.
 
-    `kept`: filled with the stack and singular values of each key whose matrices were decomposed as one stack.
+    With the ratios, every matrix decomposed as one stack with its singular values (for the run's measures);
+    also J_e N where several braces' stacks are formed at once (S J_e N's values for the whole pose: one stack).
     """
     if not states:
-        return []
-    stacks = None
+        return Conditioning([], Watched())
+    formed = None
     if all(len(st.contacts) == 1 for st in states):  # the paper's chart (SplitMotions), formed as stacks
-        stacks = _split_stacks(states, rows)
+        formed = _split_stacks(states, rows)
     elif all(len(st.contacts) > 1 for st in states):  # the null space of G (NullMotions), formed as stacks
-        stacks = _null_stacks(states, rows)
-    if stacks is None:  # each chart forms its own matrices, stacked where they have one shape
+        formed = _null_stacks(states, rows)
+    stacks: dict[str, tuple[Array, bool]] = {}  # by key: the stack and whether it needs full row rank
+    columns: dict[str, list[float]] = {}
+    if formed is not None:
+        for key in keys:
+            stack = formed.get(key)
+            if stack is not None:
+                stacks[key] = (stack, key in FULL_ROW_RANK)
+    rest = [key for key in keys if key not in stacks]
+    if rest:  # each chart forms its own matrices, stacked where they have one shape
         watched: list[dict[str, tuple[Callable[[], Array], bool]]] = [
             st.motions.watched(r) for st, r in zip(states, rows, strict=True)
         ]
-        stacks = {}
-        columns = {}
-        for key in keys:
+        for key in rest:
             ms = [w[key][0]() for w in watched]
             if all(m.shape == ms[0].shape for m in ms):
                 stacks[key] = (np.array(ms, dtype=np.float64), watched[0][key][1])
             else:
                 columns[key] = stacked_ratios(ms, watched[0][key][1])
-    else:
-        columns = {}
-    known: dict[int, Array] = {}  # the stacks stay alive while `known` holds their ids
+    known: dict[int, Array] = {}  # the stacks stay alive while `stacks` holds them
     for key in keys:
         if key not in columns:
             stack, full = stacks[key]
             columns[key] = _ratios(stack, full, known)
-            if kept is not None and id(stack) in known:
-                kept[key] = Decomposed(stack, known[id(stack)])
-    if kept is not None and "JN" in stacks and "JN" not in kept:  # J_e N of a task space other than the pose
-        stack = stacks["JN"][0]
-        kept["JN"] = Decomposed(stack, np.asarray(np.linalg.svd(stack, compute_uv=False), dtype=np.float64))
-    return [{key: columns[key][i] for key in keys} for i in range(len(states))]
+    decomposed = Watched.of_keys({key: Decomposed(m, known[id(m)]) for key, (m, _) in stacks.items() if id(m) in known})
+    jn = None if formed is None else formed.JN
+    if jn is not None and decomposed.JN is None:  # J_e N: S J_e N's singular values for the pose, else its own
+        s = known.get(id(jn))
+        s = np.asarray(np.linalg.svd(jn, compute_uv=False), dtype=np.float64) if s is None else s
+        decomposed = replace(decomposed, JN=Decomposed(jn, s))
+    return Conditioning([{key: columns[key][i] for key in keys} for i in range(len(states))], decomposed)
