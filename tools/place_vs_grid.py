@@ -157,11 +157,7 @@ def main() -> None:
     p.add_argument("--searches", action="store_true")
     p.add_argument("--json", type=Path, default=None)
     a = p.parse_args()
-    res = (
-        searches(a.spec, a.rounds, a.workers)
-        if a.searches
-        else commands(a.spec, a.rounds, a.workers, a.place_source)
-    )
+    res = searches(a.spec, a.rounds, a.workers) if a.searches else commands(a.spec, a.rounds, a.workers, a.place_source)
     res["cores"] = os.cpu_count()
     res["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     if a.json is not None:

@@ -16,12 +16,14 @@ order runs it with the row (:meth:`RunAhead.completed`).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 from bracekit.studies.place.inner import InnerResult
 from bracekit.studies.place.outer import evaluate_place, settle_place
 from bracekit.studies.place.scenario import Place
+from bracekit.studies.place.surface import SurfaceKind
 from bracekit.studies.sweep.refine import usable
+from bracekit.studies.sweep.spec import SweepSpec
 
 #: A place and the inner optimum whose start posture it is run from.
 Trial = tuple[Place, InnerResult]
@@ -30,20 +32,30 @@ Trial = tuple[Place, InnerResult]
 CHECK_PRIORITY = 10
 
 
+class TaskInputs(NamedTuple):
+    """What every whole-task run and MuJoCo check of a placement takes.
+
+    The spec, the task context (a :class:`~bracekit.studies.sweep.context.TaskContext`, or the future of the
+    task that computes it on a worker) and the surface the pad is placed on.
+    """
+
+    spec: SweepSpec
+    context: Any
+    kind: SurfaceKind
+
+
 class RunAhead:
     """The early run and early checks of one placement (see the module).
 
     Args:
-        client: the Dask client. inputs: the scattered spec's and the task context's futures, the surface kind.
+        client: the Dask client. inputs: the spec, the task context and the surface kind.
         workers: the number of workers. enabled: False runs nothing ahead (the plain order).
         futures: the engine's list of futures in flight (cancelled on an interrupt); this object adds its own.
     """
 
-    def __init__(
-        self, client: Any, inputs: tuple[Any, Any, str], workers: int, enabled: bool, futures: list[Any]
-    ) -> None:
+    def __init__(self, client: Any, inputs: TaskInputs, workers: int, enabled: bool, futures: list[Any]) -> None:
         self.client, self.workers, self.enabled, self.futures = client, workers, enabled, futures
-        self.spec_f, self.ctx_f, self.kind = inputs
+        self.inputs = inputs
         self.early: dict[tuple[Place, int], tuple[Any, InnerResult]] = {}
         self.checks: dict[int, Any] = {}  # id of a row (kept alive in `seen`) → its early check
         self.seen: list[dict[str, Any]] = []
@@ -58,7 +70,8 @@ class RunAhead:
         if not good:
             return
         r = min(good, key=lambda x: (x.value, x.place.link))
-        fut = self._submit(evaluate_place, self.spec_f, r.place, r.q, self.ctx_f, "task", self.kind, False)
+        spec, context, kind = self.inputs
+        fut = self._submit(evaluate_place, spec, r.place, r.q, context, "task", kind, False)
         self.early[r.place, r.seed] = (fut, r)
         self._started = True
 
@@ -96,14 +109,14 @@ class RunAhead:
         least = min(r["Ci_mean_gp"] for r in self.seen if usable(r) and r.get("mujoco_settles") is not False)
         if row["Ci_mean_gp"] <= least:
             self.checks[id(row)] = self._submit(
-                settle_place, self.spec_f, trial[0], trial[1].q, self.kind, priority=CHECK_PRIORITY
+                settle_place, self.inputs.spec, trial[0], trial[1].q, self.inputs.kind, priority=CHECK_PRIORITY
             )
 
     def check(self, row: dict[str, Any], trial: Trial) -> Any:
         """The future of the row's MuJoCo check: the early one, else one submitted now."""
         fut = self.checks.pop(id(row), None)
         if fut is None:
-            fut = self._submit(settle_place, self.spec_f, trial[0], trial[1].q, self.kind)
+            fut = self._submit(settle_place, self.inputs.spec, trial[0], trial[1].q, self.inputs.kind)
         return fut
 
     def completed(self, row: dict[str, Any], trial: Trial) -> None:

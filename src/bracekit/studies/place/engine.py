@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bracekit.errors import BracekitError, InputError
-from bracekit.studies.place.ahead import RunAhead, Trial
+from bracekit.studies.place.ahead import RunAhead, TaskInputs, Trial
 from bracekit.studies.place.inner import InnerResult, InnerSettings, optimise_start
 from bracekit.studies.place.outer import evaluate_place, polls
 from bracekit.studies.place.scenario import Place
@@ -266,7 +266,6 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     try:
         # the spec (a few kB) and the task context (tens of kB) go with each task: no round trip to scatter them
         # first, and no worker is preferred for holding them
-        spec_f: Any = spec
         ctx_f: Any = None if prepared is None else prepared.context
         if ctx_f is None:
             ctx_f = client.submit(task_context, spec, {}, "{}", pure=False)
@@ -276,9 +275,9 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         window = WINDOW_PER_WORKER * workers
         kind = settings.inner.surface
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
-        calls = [(spec_f, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
+        calls = [(spec, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
         found: list[InnerResult] = []
-        ahead = RunAhead(client, (spec_f, ctx_f, kind), workers, settings.run_ahead, futures)
+        ahead = RunAhead(client, TaskInputs(spec, ctx_f, kind), workers, settings.run_ahead, futures)
 
         def inner_done(_: int, result: InnerResult, waiting: int) -> None:
             found.append(result)
@@ -307,7 +306,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             # when the first fails), so a likely best comes back, and its MuJoCo check runs, before the batch ends
             todo.sort(key=lambda i: (0 if i < check else 1 if i >= first else 2, i))
             calls = [
-                (spec_f, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
+                (spec, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
                 for i in todo
             ]
             arrived: dict[int, dict[str, Any]] = {}
@@ -364,7 +363,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                     return
                 calls = [
                     (
-                        spec_f,
+                        spec,
                         r.place.link,
                         r.place.fraction,
                         q_ref,
