@@ -266,10 +266,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     try:
         # the spec (a few kB) and the task context (tens of kB) go with each task: no round trip to scatter them
         # first, and no worker is preferred for holding them
-        ctx_f: Any = None if prepared is None else prepared.context
-        if ctx_f is None:
-            ctx_f = client.submit(task_context, spec, {}, "{}", pure=False)
-            futures += [ctx_f, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
+        context: Any = None if prepared is None else prepared.context
+        if context is None:
+            context = client.submit(task_context, spec, {}, "{}", pure=False)
+            futures += [context, client.submit(_warm, pure=False)]  # an idle worker imports while q_ref is solved
         links, q_ref, spans, _ = prepare(spec, settings) if prepared is None else prepared
         workers = max(1, _workers(client))
         window = WINDOW_PER_WORKER * workers
@@ -277,7 +277,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         seeds = [(link, f) for link in links for f in seed_fractions(settings.seeds, spans[link])]
         calls = [(spec, link, f, q_ref, settings.inner, i) for i, (link, f) in enumerate(seeds)]
         found: list[InnerResult] = []
-        ahead = RunAhead(client, TaskInputs(spec, ctx_f, kind), workers, settings.run_ahead, futures)
+        ahead = RunAhead(client, TaskInputs(spec, context, kind), workers, settings.run_ahead, futures)
 
         def inner_done(_: int, result: InnerResult, waiting: int) -> None:
             found.append(result)
@@ -306,7 +306,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             # when the first fails), so a likely best comes back, and its MuJoCo check runs, before the batch ends
             todo.sort(key=lambda i: (0 if i < check else 1 if i >= first else 2, i))
             calls = [
-                (spec, places[i][0], places[i][1].q, ctx_f, "refine" if i >= first else stage, kind, i < check)
+                (spec, places[i][0], places[i][1].q, context, "refine" if i >= first else stage, kind, i < check)
                 for i in todo
             ]
             arrived: dict[int, dict[str, Any]] = {}
