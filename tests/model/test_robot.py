@@ -161,6 +161,7 @@ def test_non_numeric_stiffness_is_an_input_error(bad: object) -> None:
     one_line(info)
 
 
+# ---------------------------------------------------------------------------------------------- joint values
 @pytest.mark.parametrize("q", [[0.1] * 5, [0.1] * 7, []], ids=["too-few", "too-many", "empty"])
 def test_wrong_number_of_joint_values_is_an_input_error(q: list[float]) -> None:
     robot = Robot.from_urdf(PUMA, tip="flange")
