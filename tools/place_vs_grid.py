@@ -135,7 +135,10 @@ def searches(spec_name: str, rounds: int, workers: int) -> dict[str, Any]:
                         feasible = [r["Ci_mean_gp"] for r in run.rows if r.get("feasible")]
                         bests["grid"] = min(feasible, default=math.inf)
                     else:
-                        result = run_place(pspec, client, settings, prepare(pspec, settings) if i else prepared)
+                        # the reference start and the task context in this process, as the command computes them
+                        result = run_place(
+                            pspec, client, settings, prepare(pspec, settings, context=True) if i else prepared
+                        )
                         bests["place"] = math.inf if result.best is None else float(result.best["Ci_mean_gp"])
                     if i:  # round 0 warms both up
                         times[kind].append(time.perf_counter() - began)

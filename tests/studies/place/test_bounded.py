@@ -80,3 +80,29 @@ def test_the_window_opens_when_the_occupying_future_ends() -> None:
 
 def _stamp(x: int) -> tuple[int, float]:
     return x, time.perf_counter()
+
+
+def test_idle_is_told_the_running_calls_once_all_are_submitted() -> None:
+    """Room in the window after the last call is submitted is an idle worker: `idle` gets the calls in flight.
+
+    Reference: the calls' own order and delays (a long last call, short ones before it, a window of 2): once every
+    call is submitted and a short one ends, the long one is the only one running; the work `idle` starts counts
+    in the window (no call submitted beside it: there are none left) and the results keep their order.
+    """
+    from distributed import Client
+
+    told: list[list[int]] = []
+    started: list[Any] = []
+
+    with Client(processes=False, n_workers=1, threads_per_worker=3, dashboard_address=None) as client:
+
+        def idle(running: list[int]) -> None:
+            told.append(running)
+            if not started:
+                started.append(client.submit(_slow_square, 7, 0.05, pure=False))
+
+        calls = [(0, 0.01), (1, 0.01), (2, 0.4)]
+        got = bounded_map(client, _slow_square, calls, 2, [], occupying=lambda: started, idle=idle)
+        assert got == [0, 1, 4]
+        assert started and started[0].result() == 49
+    assert told and all(running == [2] for running in told)  # only the long last call was in flight

@@ -7,7 +7,12 @@ Two kinds (:class:`RunAhead`, used by :func:`bracekit.studies.place.engine.run_p
   is among the chosen, its batch takes the row instead of running it again; else it is discarded.
 - **Early MuJoCo checks**: a feasible row that comes back with the least mean C_i so far has MuJoCo's static
   check started at once, ahead of the queued runs (a Dask priority). The engine takes it when it checks that
-  row; a check it never asks for is discarded.
+  row; a check it never asks for is discarded. A compass trial that comes back while the early whole-task run
+  is still running is not checked early: the trials run gradient projection only and come back sooner, and
+  the early run's place, their centre, is the likely best, whose check the plain order needs first (the
+  compass starts from a place MuJoCo settles on). At a batch's tail, a worker with nothing left to run checks
+  the place of a run still in flight (:meth:`RunAhead.idle`: the check needs the place and its start posture,
+  not the run), kept for its row should that row need a check.
 
 Either way each row and the best place are the ones the plain order gives: the early run is the same
 computation on the same inputs, run without MuJoCo's check, which is added (early or not) where the plain
@@ -58,6 +63,7 @@ class RunAhead:
         self.inputs = inputs
         self.early: dict[tuple[Place, int], tuple[Any, InnerResult]] = {}
         self.checks: dict[int, Any] = {}  # id of a row (kept alive in `seen`) → its early check
+        self.tail: dict[tuple[Place, int], Any] = {}  # a place whose run was in flight → its check (:meth:`idle`)
         self.seen: list[dict[str, Any]] = []
         self._rows: dict[tuple[Place, int], dict[str, Any]] = {}  # early rows back (one object each: see `checks`)
         self._started = False
@@ -100,12 +106,17 @@ class RunAhead:
     def came_back(self, row: dict[str, Any], trial: Trial) -> None:
         """Note a row that came back; start its MuJoCo check if it is feasible with the least mean C_i so far."""
         self.seen.append(row)
+        started = self.tail.pop((trial[0], trial[1].seed), None)
+        if started is not None:  # checked while its run was in flight: the row's check
+            self.checks[id(row)] = started
         for key, (fut, r) in list(self.early.items()):  # an early row counts once it is back (an error: when taken)
             if fut.done() and fut.status == "finished" and key not in self._rows:
                 self._rows[key] = fut.result()
                 self.came_back(self._rows[key], (key[0], r))
         if not self.enabled or not usable(row) or row.get("mujoco_settles") is not None or id(row) in self.checks:
             return
+        if row.get("stage") == "refine" and any(not fut.done() for fut, _ in self.early.values()):
+            return  # a compass trial: its centre's early run, the likely best and checked first, is still running
         least = min(r["Ci_mean_gp"] for r in self.seen if usable(r) and r.get("mujoco_settles") is not False)
         if row["Ci_mean_gp"] <= least:
             self.checks[id(row)] = self._submit(
@@ -126,14 +137,28 @@ class RunAhead:
             row["mujoco_settles"], row["mujoco_message"] = fut.result()
             self.futures.remove(fut)
 
+    def idle(self, running: list[Trial]) -> None:
+        """A worker is idle at a batch's tail: check the first of the `running` places not checked yet.
+
+        Only when no check is in flight (one worker idle at a time); the check is the row's once it comes back
+        (:meth:`came_back`), else discarded.
+        """
+        if not self.enabled or any(not fut.done() for fut in [*self.checks.values(), *self.tail.values()]):
+            return
+        for place, start in running:
+            if (place, start.seed) not in self.tail:
+                spec, _, kind = self.inputs
+                self.tail[place, start.seed] = self._submit(settle_place, spec, place, start.q, kind)
+                return
+
     def in_flight(self) -> list[Any]:
         """The early runs' and early checks' futures not yet finished (they hold a worker, or will)."""
-        running = [fut for fut, _ in self.early.values()] + list(self.checks.values())
+        running = [fut for fut, _ in self.early.values()] + list(self.checks.values()) + list(self.tail.values())
         return [fut for fut in running if not fut.done()]
 
     def finish(self) -> int:
         """Cancel what was run ahead and not taken; the number of early runs discarded."""
-        left = [fut for fut, _ in self.early.values()] + list(self.checks.values())
+        left = [fut for fut, _ in self.early.values()] + list(self.checks.values()) + list(self.tail.values())
         if left:
             self.client.cancel(left)
         return len(self.early)

@@ -173,6 +173,7 @@ def bounded_map(
     on_result: Callable[[int, Any, int], None] | None = None,
     skip: Callable[[int], bool] | None = None,
     occupying: Callable[[], list[Any]] | None = None,
+    idle: Callable[[list[int]], None] | None = None,
 ) -> list[Any]:
     """fn(*call) for every call on the Dask `client`, results in the calls' order, at most `window` submitted at once.
 
@@ -184,7 +185,8 @@ def bounded_map(
     `skip(i)` is True when its turn comes is not run (its result None). `occupying()`, when given, returns other
     futures on the same workers (work run ahead, MuJoCo's checks): those not finished count in the window, so
     that a call is not queued on a busy worker (Dask assigns a task to a worker when it is submitted) while the
-    other becomes idle.
+    other becomes idle. `idle(running)`, when given, is called when every call is submitted and the window has
+    room (a worker is idle), with the calls still running: it may submit work of its own (an occupying future).
     """
     from distributed import as_completed
 
@@ -204,7 +206,12 @@ def bounded_map(
         return len(busy)
 
     def submit(queue: Any) -> None:
-        while len(index) + others(queue) < window and (nxt := next(pending, None)) is not None:
+        while len(index) + others(queue) < window:
+            if (nxt := next(pending, None)) is None:  # every call submitted: room in the window is an idle worker
+                if idle is not None and index:
+                    idle(sorted(index.values()))
+                    others(queue)  # what it started counts in the window, and its end wakes this loop
+                return
             if skip is not None and skip(nxt[0]):
                 waiting[0] -= 1
                 continue
@@ -325,8 +332,11 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 row = arrived.get(0) if 0 in todo else ahead.back(places[0])
                 return row is not None and not usable(row)
 
+            def tail(running: list[int]) -> None:
+                ahead.idle([places[todo[j]] for j in running])
+
             results = bounded_map(
-                client, evaluate_place, calls, max(2, workers), futures, back, centre_failed, ahead.in_flight
+                client, evaluate_place, calls, max(2, workers), futures, back, centre_failed, ahead.in_flight, tail
             )
             done = dict(zip(todo, results, strict=True))
             rows = []
