@@ -1,11 +1,11 @@
 """The objects alive before the figures are drawn, kept out of the garbage collector's passes while they are drawn.
 
-Drawing with matplotlib allocates many short-lived objects, and each of the collector's full passes then walks
-every object of the process: after a run that is the whole heap of numba, SciPy and the trajectories, which none
-of the drawing frees. :func:`frozen_heap` moves those objects out of the collector's sight (``gc.freeze``) for
-the drawing and back afterwards (``gc.unfreeze``); what the drawing leaves behind is still collected. A child
-forked meanwhile (:mod:`bracekit.report.forked`) then also leaves the parent's pages unwritten (copy-on-write),
-as the documentation of ``gc.freeze`` advises before a fork.
+Drawing with matplotlib allocates many short-lived objects, so the collector runs often, and each of its full
+passes walks every object of the process: after a run, the whole heap of numba, SciPy and the trajectories,
+none of which the drawing frees. :func:`frozen_heap` moves those objects out of the collector's sight
+(``gc.freeze``) for the drawing and back afterwards (``gc.unfreeze``); what the drawing itself leaves behind
+is collected as before. A child forked meanwhile (:mod:`bracekit.report.forked`) then also leaves the parent's
+pages unwritten (copy-on-write), as the documentation of ``gc.freeze`` advises before a fork.
 """
 
 from __future__ import annotations
