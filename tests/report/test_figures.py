@@ -173,6 +173,27 @@ def test_film_strip_draws_the_tip_traces_in_the_colour_of_their_strategy(paper_r
         assert near.sum() > 15, f"no {name} trace"
 
 
+def test_a_scene_view_made_for_its_samples_draws_what_the_view_for_any_sample_draws(paper_run) -> None:
+    """Reference: the same panel drawn by a view with an artist for every possible link piece (pixel equality)."""
+    from bracekit.report.figure_common import _new_figure
+    from bracekit.report.scene import SceneView
+
+    scene = figures._scene(paper_run)
+    for name in STRATEGIES:
+        last = paper_run.trajectories[paper_run.compliance_model][name].t.size - 1
+        for k in (0, last):
+            images, patches = [], []
+            for samples in (None, [k]):
+                fig = _new_figure(3.0, 3.0)
+                ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
+                SceneView(ax, scene, name, samples=samples).show(k)
+                images.append(_pixels(fig))
+                patches.append(ax.patches)
+            assert np.array_equal(images[0], images[1]), f"{name} at sample {k}"
+            assert all(p.get_visible() for p in patches[1])  # no artist made for a piece it never draws
+            assert len(patches[1]) == sum(p.get_visible() for p in patches[0])
+
+
 def test_animation_shows_every_strategy_side_by_side_frame_by_frame(paper_run, tmp_path: Path) -> None:
     anim = figures.RunAnimation(paper_run, frames=4)
     images = anim.images()

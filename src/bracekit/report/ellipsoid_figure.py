@@ -116,9 +116,9 @@ def ellipsoid_figure(result: RunResult, points: int = 6) -> Figure:
             color = COLORS.get(name, "C0")
             flat = cam.project(path_pts)
             ax.plot(*np.vstack([flat, flat[:1]]).T, color=TASK_COLOR, lw=0.8, ls=(0, (4, 2)))
-            for (e, _), outline in zip(items, outlines[v][c], strict=True):
-                ax.add_patch(Polygon(outline, closed=True, fc=color, ec=color, alpha=0.35, lw=1.0))
-                ax.add_patch(Polygon(outline, closed=True, fc="none", ec=color, lw=1.0))
+            for (e, _), outline in zip(items, outlines[v][c], strict=True):  # add_artist: the limits are set below
+                ax.add_artist(Polygon(outline, closed=True, fc=color, ec=color, alpha=0.35, lw=1.0))
+                ax.add_artist(Polygon(outline, closed=True, fc="none", ec=color, lw=1.0))
                 ax.plot(*cam.project(e), "o", color="k", ms=2.0)
             (lo, hi) = boxes[v]
             ax.set_xlim(lo[0], hi[0])

@@ -16,6 +16,7 @@ from bracekit.report import forked
 from bracekit.report.ellipsoid_figure import ellipsoid_figure, figure_ellipsoids
 from bracekit.report.figure_common import COLORS, DPI, _label, _scene
 from bracekit.report.film import RunAnimation, animate, figure_film_strip, film_strip
+from bracekit.report.frozen_heap import frozen_heap
 from bracekit.report.measure_figures import (
     capacity_figure,
     figure_capacity,
@@ -81,17 +82,18 @@ def write_figures(result: RunResult, folder: Path, progress: Callable[[str], Non
         "animation.gif": lambda: animate(result, folder / "animation.gif"),
         "fig_capacity.png": lambda: figure_capacity(result, folder / "fig_capacity.png"),
     }
-    _scene(result)  # made once, shared with the child
-    job = forked.start(writers["animation.gif"], "animation.gif")
-    try:
-        for name in names:
-            if progress is not None:
-                progress(name)
-            if name == "animation.gif" and job is not None:
-                job.wait()
-            else:
-                writers[name]()
-    finally:
-        if job is not None:
-            job.stop()
+    with frozen_heap():  # the run's objects stay out of the collector's passes while drawing (and the fork)
+        _scene(result)  # made once, shared with the child
+        job = forked.start(writers["animation.gif"], "animation.gif")
+        try:
+            for name in names:
+                if progress is not None:
+                    progress(name)
+                if name == "animation.gif" and job is not None:
+                    job.wait()
+                else:
+                    writers[name]()
+        finally:
+            if job is not None:
+                job.stop()
     return [folder / name for name in names]

@@ -75,8 +75,8 @@ def film_strip(result: RunResult, frames: int = 5) -> Figure:
             x = (left + c * (pw + gap)) / width
             y = (bottom + (len(names) - 1 - r) * (ph + gap)) / height
             ax = fig.add_axes((x, y, pw / width, ph / height))
-            view = SceneView(ax, scene, name)
             k = _sample(tr, float(t))
+            view = SceneView(ax, scene, name, samples=[k])
             view.show(k)
             ax.add_artist(
                 Polygon(

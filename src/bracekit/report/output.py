@@ -23,6 +23,7 @@ import numpy as np
 
 from bracekit.errors import MissingDependencyError
 from bracekit.report.folder import OutputPlan, atomic_directory, prepare_output
+from bracekit.report.frozen_heap import frozen_heap
 from bracekit.report.swap import MANIFEST
 from bracekit.report.table import table_csv, table_markdown
 from bracekit.viewer.link_meshes import MESH_FILE, link_meshes, save_link_meshes
@@ -140,7 +141,8 @@ def write_run(
     drawing: ModuleType | None = None
     if figures:
         try:
-            from bracekit.report import figures as fig  # matplotlib only when figures are asked for
+            with frozen_heap():  # matplotlib's import, out of the way of the run's objects
+                from bracekit.report import figures as fig  # matplotlib only when figures are asked for
         except ImportError as exc:
             raise MissingDependencyError(
                 f"figures need matplotlib, which cannot be imported ({exc}): pip install 'bracekit[viz]', "

@@ -13,6 +13,7 @@ within a layer the pieces are drawn far to near.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -356,9 +357,19 @@ class SceneView:
         name: the run (strategy) drawn.
         animated: mark the changing artists animated (drawn by the caller, e.g. when blitting frames).
         trace_width: line width of the tip trace, pt.
+        samples: the only samples :meth:`show` is given (default: any); then only as many artists for the link
+            pieces are made as these samples draw.
     """
 
-    def __init__(self, ax: Axes, scene: RunScene, name: str, animated: bool = False, trace_width: float = 1.6) -> None:
+    def __init__(
+        self,
+        ax: Axes,
+        scene: RunScene,
+        name: str,
+        animated: bool = False,
+        trace_width: float = 1.6,
+        samples: Sequence[int] | None = None,
+    ) -> None:
         self.ax, self.scene, self.name = ax, scene, name
         cam = scene.camera
         x0, x1, y0, y1 = scene.limits
@@ -404,7 +415,12 @@ class SceneView:
         task = cam.project(np.vstack([scene.task_path, scene.task_path[:1]]))
         top = 2.0 * len(scene.planes) + 3.0
         (self.task,) = ax.plot(*task.T, color=TASK_COLOR, lw=0.9, ls=(0, (4, 2)), zorder=top - 0.1, animated=animated)
-        slots = scene.cap_r.size * (len(scene.planes) + 1) if scene.blocks is None else scene.blocks.joint.size
+        if samples is not None:  # the pieces these samples draw (each at most the slots below)
+            slots = max((len(scene.pieces(name, k)[4]) for k in samples), default=0)
+        elif scene.blocks is None:
+            slots = scene.cap_r.size * (len(scene.planes) + 1)
+        else:
+            slots = scene.blocks.joint.size
         self.patches: list[Polygon] = [
             Polygon(np.zeros((3, 2)), closed=True, lw=0.6, animated=animated, visible=False) for _ in range(slots)
         ]

@@ -126,15 +126,19 @@ def refine_best(
     saved = store.refined()
     on_workers = spec if shared_spec is None else shared_spec
     stop = threading.Event()
+    # Held by a search around its stop check and its submit, and by the interrupt around the stop and the
+    # cancel: no evaluation is submitted after the stop, and every evaluation submitted is cancelled.
+    submitting = threading.Lock()
 
     def search(c: Candidate, low: float, high: float) -> dict[str, Any]:
         context = contexts[c.context_key]
 
         def remote(cand: Candidate) -> dict[str, Any]:
-            if stop.is_set():  # interrupted: no new evaluation
-                raise CancelledError
-            fut = client.submit(evaluate_candidate, on_workers, cand, context, SEARCH_STRATEGIES, pure=False)
-            futures.append(fut)
+            with submitting:
+                if stop.is_set():  # interrupted: no new evaluation
+                    raise CancelledError
+                fut = client.submit(evaluate_candidate, on_workers, cand, context, SEARCH_STRATEGIES, pure=False)
+                futures.append(fut)
             return fut.result()  # type: ignore[no-any-return]
 
         return refine_candidate(spec, c, None, low, high, evaluate=remote)
@@ -152,8 +156,9 @@ def refine_best(
                 out.append((key, pool.submit(search, c, low, high), row))
             result = [item if not isinstance(item, tuple) else _settled(store, *item) for item in out]
         except BaseException:
-            stop.set()
-            client.cancel(futures)  # the searches' waits end with the evaluations cancelled
+            with submitting:  # a search between its check and its submit has submitted: cancelled below
+                stop.set()
+                client.cancel(futures)  # the searches' waits end with the evaluations cancelled
             pool.shutdown(wait=False, cancel_futures=True)
             raise
     return result
