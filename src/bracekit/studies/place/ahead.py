@@ -137,13 +137,17 @@ class RunAhead:
             row["mujoco_settles"], row["mujoco_message"] = fut.result()
             self.futures.remove(fut)
 
-    def idle(self, running: list[Trial]) -> None:
-        """A worker is idle at a batch's tail: check the first of the `running` places not checked yet.
+    def idle(self, running: list[Trial], calls: int) -> None:
+        """Room in a batch's window at its tail: check the first of the `running` places not checked yet.
 
-        Only when no check is in flight (one worker idle at a time); the check is the row's once it comes back
-        (:meth:`came_back`), else discarded.
+        `calls`: the batch's calls still running (`running` may leave out places checked in their own task).
+        Only when a worker is free (fewer calls and futures run ahead in flight than workers: with one worker,
+        room in the window is not a free worker) and no check is in flight; the check is the row's once it comes
+        back (:meth:`came_back`), else discarded.
         """
-        if not self.enabled or any(not fut.done() for fut in [*self.checks.values(), *self.tail.values()]):
+        if not self.enabled or calls + len(self.in_flight()) >= self.workers:
+            return
+        if any(not fut.done() for fut in [*self.checks.values(), *self.tail.values()]):
             return
         for place, start in running:
             if (place, start.seed) not in self.tail:

@@ -84,7 +84,8 @@ class PlaceRun:
     """What a placement did: every inner result, every whole-task row, the best, the timings (s).
 
     ``unused``: the first compass round's trials run ahead with the task batch and discarded (their centre
-    was not the best place MuJoCo settled on).
+    was not the best place MuJoCo settled on). ``place``: the best's place as it was run (its row's angle is in
+    degrees).
     """
 
     spec: SweepSpec
@@ -98,6 +99,7 @@ class PlaceRun:
     timings: dict[str, float]
     workers: int = 0
     unused: int = 0
+    place: Place | None = None
 
 
 def check_spec(spec: SweepSpec) -> list[str]:
@@ -296,7 +298,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         chosen = ranking[: settings.top]
         t1 = time.perf_counter()
         evaluations: list[dict[str, Any]] = []
-        starts: dict[int, InnerResult] = {}
+        starts: dict[int, Trial] = {}  # evaluation → its place (as run: no angle through degrees) and start
         raw: dict[int, dict[str, Any]] = {}  # evaluation → the row as it came back (:class:`RunAhead` knows it)
 
         spare: dict[tuple[Place, int], dict[str, Any]] = {}  # the compass's first trials, run ahead
@@ -332,8 +334,8 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 row = arrived.get(0) if 0 in todo else ahead.back(places[0])
                 return row is not None and not usable(row)
 
-            def tail(running: list[int]) -> None:
-                ahead.idle([places[todo[j]] for j in running])
+            def tail(running: list[int]) -> None:  # a place checked in its own task (i < check) is not checked again
+                ahead.idle([places[todo[j]] for j in running if todo[j] >= check], len(running))
 
             results = bounded_map(
                 client, evaluate_place, calls, max(2, workers), futures, back, centre_failed, ahead.in_flight, tail
@@ -357,7 +359,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
                 out = {"place": r.seed, "evaluation": len(evaluations), **row}
                 raw[out["evaluation"]] = row
                 evaluations.append(out)
-                starts[out["evaluation"]] = r
+                starts[out["evaluation"]] = (p, r)
                 rows.append(out)
             return rows
 
@@ -391,23 +393,19 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         def settled_best() -> dict[str, Any] | None:
             """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
             while (row := _unchecked(evaluations)) is not None:
-                place = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
-                fut = ahead.check(raw[row["evaluation"]], (place, starts[row["evaluation"]]))
+                fut = ahead.check(raw[row["evaluation"]], starts[row["evaluation"]])
                 row["mujoco_settles"], row["mujoco_message"] = fut.result()
                 futures.remove(fut)
             return _best(evaluations)
 
-        def trials(centre: InnerResult, row: dict[str, Any], step: tuple[float, float]) -> list[Trial]:
-            """The compass trials about the place of `row` (link, fraction, angle_deg), at the centre's posture."""
-            here = Place(row["link"], float(row["fraction"]), math.radians(row["angle_deg"]))
+        def trials(here: Place, centre: InnerResult, step: tuple[float, float]) -> list[Trial]:
+            """The compass trials about `here`, at the centre's start posture."""
             return [(p, centre) for p in polls(here, step, spans[here.link])]
 
         # the first compass round's trials about the best inner optimum run with the task batch: they are used
         # when that place is the best feasible one MuJoCo settles on (else discarded)
         step = settings.step
-        top = chosen[0].place if chosen else None
-        row0 = {"link": top.link, "fraction": top.fraction, "angle_deg": top.angle_deg} if top else {}
-        round1 = trials(chosen[0], row0, step) if top and settings.refine_rounds else []
+        round1 = trials(chosen[0].place, chosen[0], step) if chosen and settings.refine_rounds else []
         rows = batch([(r.place, r) for r in chosen] + round1, "task", len(round1), check=1)  # the likely best: now
         nearer(list(chosen), rows)
         while settled_best() is None and len(chosen) < len(ranking):  # none usable: the next
@@ -418,8 +416,7 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
             best = settled_best()
             if best is None:
                 break
-            centre = starts[best["evaluation"]]
-            batch(trials(centre, best, step), "refine")
+            batch(trials(*starts[best["evaluation"]], step), "refine")
             if settled_best() is best:
                 step = (0.5 * step[0], 0.5 * step[1])
         best = settled_best()
@@ -428,10 +425,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         client.cancel(futures)
         raise
     unused = len(spare) + ahead.finish()
-    best_start = None if best is None else starts[best["evaluation"]]
+    place, best_start = (None, None) if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     return PlaceRun(
-        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), unused
+        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), unused, place
     )
 
 
@@ -445,4 +442,5 @@ def best_place(run: PlaceRun) -> tuple[Place, Array] | None:
     if run.best is None or run.best_start is None:
         return None
     row = run.best
-    return Place(row["link"], float(row["fraction"]), float(np.radians(row["angle_deg"]))), run.best_start.q
+    place = run.place or Place(row["link"], float(row["fraction"]), float(np.radians(row["angle_deg"])))
+    return place, run.best_start.q
