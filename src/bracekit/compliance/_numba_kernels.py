@@ -1,7 +1,7 @@
 """The compiled helpers of the batch kernel (internal, numba).
 
-k from a Cholesky factor, the Cholesky inverse of a shifted symmetric matrix (shared with the fused step's
-kernels), cyclic Jacobi, the constrained model's loaded gain, the shift of wrench rows and the
+k from a Cholesky factor (the factor and the inverse of a shifted symmetric matrix: :mod:`bracekit._cholesky`),
+cyclic Jacobi, the constrained model's loaded gain, the shift of wrench rows and the
 per-row finish of :mod:`bracekit.compliance._numba_batch`.
 """
 
@@ -12,6 +12,8 @@ import math
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
+
+from bracekit._cholesky import cholesky_inverse
 
 Array = NDArray[np.float64]
 
@@ -95,57 +97,13 @@ def _jacobi(m: Array) -> tuple[Array, Array]:  # pragma: no cover - compiled
 
 
 @_jit
-def _cholesky(m: Array, add: float) -> tuple[Array, bool]:  # pragma: no cover - compiled
-    """(L, ok): the Cholesky factor of M + add·I (symmetric M); ok is False where it is not positive definite."""
-    c = m.shape[0]
-    lo = np.zeros((c, c))
-    for j in range(c):
-        s = m[j, j] + add
-        for p in range(j):
-            s -= lo[j, p] * lo[j, p]
-        if not s > 0.0:
-            return lo, False
-        lo[j, j] = math.sqrt(s)
-        for i in range(j + 1, c):
-            t = m[i, j]
-            for p in range(j):
-                t -= lo[i, p] * lo[j, p]
-            lo[i, j] = t / lo[j, j]
-    return lo, True
-
-
-@_jit
-def _cholesky_inverse(m: Array, add: float, out: Array) -> bool:  # pragma: no cover - compiled
-    """(M + add·I)⁻¹ = L⁻ᵀ L⁻¹ into out (c×c) by Cholesky; False (out untouched) where not positive definite."""
-    c = m.shape[0]
-    lo, ok = _cholesky(m, add)
-    if not ok:
-        return False
-    li = np.zeros((c, c))
-    for col in range(c):
-        li[col, col] = 1.0 / lo[col, col]
-        for i in range(col + 1, c):
-            s = 0.0
-            for p in range(col, i):
-                s -= lo[i, p] * li[p, col]
-            li[i, col] = s / lo[i, i]
-    for i in range(c):
-        for j in range(c):
-            s = 0.0
-            for p in range(max(i, j), c):
-                s += li[p, i] * li[p, j]
-            out[i, j] = s
-    return True
-
-
-@_jit
 def _gain(
     m: Array, tr: float, env_inv: float, unloaded_tol: float, g: Array
 ) -> tuple[int, bool]:  # pragma: no cover - compiled
     """G of ``compliance.loaded_gain`` into g (c×c); returns (unloaded directions, ok)."""
     c = m.shape[0]
     if env_inv > 0.0:  # (m + I/k_env)⁻¹ by Cholesky (symmetric positive definite)
-        return 0, _cholesky_inverse(m, env_inv, g)
+        return 0, cholesky_inverse(m, env_inv, g)
     limit = unloaded_tol * max(tr, 1e-300)
     if c == 1:  # one constraint direction: m is its own eigenvalue
         if m[0, 0] > limit:

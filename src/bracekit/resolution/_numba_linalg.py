@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from bracekit.compliance._numba_kernels import _cholesky, _cholesky_inverse
+from bracekit._cholesky import cholesky, cholesky_inverse
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -222,9 +222,9 @@ def _spd_inverse(m: Array, shift: float) -> tuple[Array, bool]:  # pragma: no co
     """
     c = m.shape[0]
     g = np.zeros((c, c))
-    if not _cholesky(m, -shift)[1]:
+    if not cholesky(m, -shift)[1]:
         return g, False
-    return g, _cholesky_inverse(m, 0.0, g)
+    return g, cholesky_inverse(m, 0.0, g)
 
 
 @_jit

@@ -33,6 +33,7 @@ import math
 
 import numpy as np
 
+from bracekit._cholesky import cholesky, lower_inverse
 from bracekit._compiled import COMPILED, F64, I64
 from bracekit._compiled import inline as _inline
 from bracekit._compiled import jit as _jit
@@ -381,31 +382,15 @@ WELL_CONDITIONED = 1e-8
 def _cholesky_solve(gram: F64, res: F64) -> F64:
     """G⁻¹ res of a symmetric G (m×m) certified to λ_min / λ_max ≥ WELL_CONDITIONED, else an empty array."""
     m = gram.shape[0]
-    low = np.zeros((m, m))
+    low, ok = cholesky(gram, 0.0)
+    if not ok:
+        return np.empty(0)
+    inverse = lower_inverse(low)
     trace = 0.0
-    for j in range(m):
-        trace += gram[j, j]
-        d = gram[j, j]
-        for k in range(j):
-            d -= low[j, k] * low[j, k]
-        if not d > 0.0:
-            return np.empty(0)
-        low[j, j] = math.sqrt(d)
-        for i in range(j + 1, m):
-            acc = gram[i, j]
-            for k in range(j):
-                acc -= low[i, k] * low[j, k]
-            low[i, j] = acc / low[j, j]
-    inverse = np.zeros((m, m))  # L⁻¹, lower triangular, by forward substitution
     frobenius = 0.0
     for j in range(m):
-        inverse[j, j] = 1.0 / low[j, j]
-        frobenius += inverse[j, j] * inverse[j, j]
-        for i in range(j + 1, m):
-            acc = 0.0
-            for k in range(j, i):
-                acc -= low[i, k] * inverse[k, j]
-            inverse[i, j] = acc / low[i, i]
+        trace += gram[j, j]
+        for i in range(j, m):
             frobenius += inverse[i, j] * inverse[i, j]
     if not 1.0 >= WELL_CONDITIONED * trace * frobenius:
         return np.empty(0)
