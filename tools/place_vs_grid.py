@@ -16,6 +16,9 @@ imported (as ``bracekit place`` starts its own), then per round :func:`bracekit.
 (into a fresh folder) and :func:`bracekit.studies.place.engine.run_place` with :func:`~bracekit.studies.place.
 engine.prepare`, alternating, after one warm-up round of each: the searches' own wall times, without the start-up
 both commands pay (Python, the imports, numba's start, the cluster). Medians over the rounds.
+
+``--json FILE`` writes either result with the machine's cores, the load average before and after, the commit
+(``git rev-parse --short HEAD``) and the UTC date.
 """
 
 from __future__ import annotations
@@ -160,8 +163,12 @@ def main() -> None:
     p.add_argument("--searches", action="store_true")
     p.add_argument("--json", type=Path, default=None)
     a = p.parse_args()
+    load_before = os.getloadavg()[0]
     res = searches(a.spec, a.rounds, a.workers) if a.searches else commands(a.spec, a.rounds, a.workers, a.place_source)
     res["cores"] = os.cpu_count()
+    res["load_before"], res["load_after"] = load_before, os.getloadavg()[0]
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False)
+    res["commit"] = commit.stdout.strip() or None
     res["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     if a.json is not None:
         a.json.write_text(json.dumps(res, indent=2) + "\n", encoding="utf-8")

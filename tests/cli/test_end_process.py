@@ -60,3 +60,23 @@ def test_place_from_the_console_ends_with_its_outputs_whole(tmp_path: Path) -> N
     assert done.stdout == (out / "table.md").read_text()
     assert {"best.toml", "summary.json", "evaluations.parquet", "table.csv"} <= {p.name for p in out.iterdir()}
     assert done.stderr.endswith(f"run the best place: bracekit run {out}/best.toml --out DIR\n")
+
+
+@pytest.mark.slow  # a new process: seconds, in the slow group
+def test_a_command_started_with_its_output_closed_ends_without_a_traceback(tmp_path: Path) -> None:
+    """Standard output closed at the start (Python's sys.stdout is None): the command's files, status 0, no traceback.
+
+    Reference: the same command with its output open writes the same files.
+    """
+    env = {**os.environ, "PYTHONPATH": SRC}
+    argv = [sys.executable, "-m", "bracekit", "run", "paper", "--no-figures", "--quiet"]
+    closed = subprocess.run(
+        [*argv, "--out", str(tmp_path / "closed")], stdout=None, stderr=subprocess.PIPE, text=True, env=env,
+        timeout=600, pass_fds=(), preexec_fn=lambda: os.close(1),
+    )  # fmt: skip
+    assert closed.returncode == 0, closed.stderr
+    assert "Traceback" not in closed.stderr
+    opened = subprocess.run([*argv, "--out", str(tmp_path / "open")], capture_output=True, env=env, timeout=600)
+    assert opened.returncode == 0
+    names = [sorted(p.name for p in (tmp_path / d).iterdir()) for d in ("closed", "open")]
+    assert names[0] == names[1]

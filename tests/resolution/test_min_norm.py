@@ -24,19 +24,20 @@ def _states(name: str, count: int = 8, scale: float = 0.2):  # type: ignore[no-u
 
 @pytest.mark.parametrize("name", ["paper", "panda", "two-braces"])
 @pytest.mark.parametrize("kind", [FreeSpaceMinNorm, BracedMinNorm])
-@pytest.mark.parametrize("space", ["pose", "position"])
+@pytest.mark.parametrize("space", ["pose", "position", "position+axis"])
 @pytest.mark.parametrize("backend", ["numpy", "auto"])
 def test_the_lean_step_is_the_strategy_s_velocity(name: str, kind: type, space: str, backend: str) -> None:
     """Reference: ``strategy.velocity`` (the SVD pseudo-inverse of S J or S A, q̇1 from the chain split).
 
-    Both the NumPy code and the compiled kernel (numba installed; panda: n1 ≠ 6; pose and position rows).
+    Both the NumPy code and the compiled kernel (numba installed; panda: n1 ≠ 6; pose and position rows; the
+    rows of position+axis, S turning with the tool, in NumPy).
     """
     sc, states, rng = _states(name)
     strategy = kind(space=TaskSpace(space))
     step = min_norm_step(sc.braced, strategy, backend)  # type: ignore[arg-type]
     assert isinstance(step, MinNormStep)
-    if backend == "auto" and numba_available():  # the kernel: free space and one brace
-        assert step.uses_kernel == (kind is FreeSpaceMinNorm or name != "two-braces")
+    if backend == "auto" and numba_available():  # the kernel: free space and one brace, pose and position rows
+        assert step.uses_kernel == (space != "position+axis" and (kind is FreeSpaceMinNorm or name != "two-braces"))
     else:
         assert not step.uses_kernel
     checked = compiled = 0

@@ -132,3 +132,31 @@ def test_no_pass_is_handed_over_for_a_q_changed_in_place_or_after_a_call_that_ra
     with pytest.raises(InputError):
         corr(np.full_like(st.q, np.nan), st0.e)
     assert corr.last_pass(st.q) is None  # the failed call replaced the pass's arrays
+
+
+def test_a_point_that_converges_on_the_last_allowed_step_is_accepted() -> None:
+    """max_iter steps that reach the tolerance give the corrected state, not a ConvergenceError.
+
+    Reference: the same correction with room to spare (max_iter 50); the steps it took, counted as its Pinocchio
+    passes after the first (no damped trial at a start this near).
+    """
+    sc = load_scenario("paper")
+    st0 = sc.braced.state(np.asarray(sc.guess, dtype=float))
+    anchors = [(c.b.copy(), c.R_b.copy()) for c in st0.contacts]
+    start = st0.q + 1e-5 * np.random.default_rng(2).standard_normal(st0.q.shape)
+    roomy = Correction(sc.braced, st0.R_e.copy(), anchors, max_iter=50)
+    passes = [0]
+    own = roomy._pass
+
+    def counted(q: np.ndarray) -> np.ndarray:
+        passes[0] += 1
+        return own(q)
+
+    roomy._pass = counted  # type: ignore[method-assign]
+    reference = roomy(start.copy(), st0.e)
+    steps = passes[0] - 1
+    assert steps >= 1
+    tight = Correction(sc.braced, st0.R_e.copy(), anchors, max_iter=steps)
+    assert np.array_equal(tight(start.copy(), st0.e).q, reference.q)
+    with pytest.raises(ConvergenceError):
+        Correction(sc.braced, st0.R_e.copy(), anchors, max_iter=steps - 1)(start.copy(), st0.e)

@@ -178,6 +178,7 @@ def test_the_rows_are_minus_the_derivative_of_the_residual(contacts: tuple[str, 
 def test_the_step_is_lstsqs_minimum_norm_one_also_for_dependent_rows(compiled: bool) -> None:
     """Reference: rowsᵀ np.linalg.lstsq(rows rowsᵀ, res, rcond=None); dependent rows give its finite compromise."""
     min_norm_step = _both(kernel.min_norm_step)[not compiled]
+    cholesky_solve = _both(kernel._cholesky_solve)[not compiled]
 
     def solve(rows: np.ndarray, res: np.ndarray) -> np.ndarray:
         step = np.full(rows.shape[1], np.nan)
@@ -185,6 +186,7 @@ def test_the_step_is_lstsqs_minimum_norm_one_also_for_dependent_rows(compiled: b
         return step
 
     rng = np.random.default_rng(4)
+    branches: set[bool] = set()
     for m, n in [(1, 4), (5, 11), (7, 11), (11, 11), (13, 11)]:
         # well conditioned (Cholesky), ill conditioned but of full rank (gelsd keeps every σ), dependent rows
         for spread, dependent in ((2, False), (7, False), (2, True)):
@@ -196,9 +198,18 @@ def test_the_step_is_lstsqs_minimum_norm_one_also_for_dependent_rows(compiled: b
             want = rows.T @ np.linalg.lstsq(rows @ rows.T, res, rcond=None)[0]
             got = solve(rows, res)
             assert np.all(np.isfinite(got))
+            # which branch: Cholesky only where LAPACK's eigenvalues say rows rowsᵀ is that well conditioned, and
+            # wherever they clear it by m² (tr G ≤ m λ_max, ‖L⁻¹‖_F² = tr G⁻¹ ≤ m / λ_min)
+            gram = rows @ rows.T
+            certified = cholesky_solve(gram, res).shape[0] == m
+            eig = np.linalg.eigvalsh(gram)
+            assert not certified or eig[0] >= kernel.WELL_CONDITIONED * eig[-1]
+            assert certified or eig[0] < m * m * kernel.WELL_CONDITIONED * eig[-1]
+            branches.add(certified)
             # rounding of rows rowsᵀ, grown by its condition where it is ill conditioned
             atol = (1e-10 if spread == 2 else 1e-4) * max(1.0, np.abs(want).max())
             np.testing.assert_allclose(got, want, rtol=0.0, atol=atol)
+    assert branches == {True, False}  # both Cholesky and gelsd were taken
     zero = np.zeros((3, 5))
     assert np.array_equal(solve(zero, np.ones(3)), np.zeros(5))
 

@@ -74,6 +74,8 @@ def _flush_streams() -> bool:
     """Flush the standard output and error; whether the output was flushed (False if closed or on a full device)."""
     flushed = True
     for stream in (sys.stdout, sys.stderr):
+        if stream is None:  # started with it closed: nothing to flush
+            continue
         try:
             stream.flush()
         except (OSError, ValueError):
@@ -111,7 +113,8 @@ def main(argv: Sequence[str] | None = None, *, end_at_once: bool = False) -> int
     warnings.showwarning = show
     try:
         code = COMMANDS[args.command](args)
-        sys.stdout.flush()  # a full device or a closed pipe is found here, not at exit
+        if sys.stdout is not None:  # None: started with its standard output closed (print writes nothing)
+            sys.stdout.flush()  # a full device or a closed pipe is found here, not at exit
         if end_at_once and args.command in ENDS_AT_ONCE:
             _end_process(code)
         return code

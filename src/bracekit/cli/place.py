@@ -161,12 +161,14 @@ def _forked_workers() -> Iterator[bool]:
     The imports run without the garbage collector, and the objects imported so far are then moved out of its
     generations (``gc.freeze``, as Python's documentation advises before a fork): the workers' collections and
     this process's collection at exit no longer traverse the libraries' objects (a tenth or two of a second
-    each), nor copy their pages. On leaving, they are put back (``gc.unfreeze``), unless the process had frozen
-    objects of its own before (then nothing is unfrozen): a caller of :func:`bracekit.cli.main.main` keeps its
-    collector as it was.
+    each), nor copy their pages (:func:`bracekit.report.frozen_heap.frozen_heap`). On leaving, they are put back
+    (``gc.unfreeze``); a process that had frozen objects of its own before is left as it was: a caller of
+    :func:`bracekit.cli.main.main` keeps its collector as it was.
     """
     import gc
     import importlib
+
+    from bracekit.report.frozen_heap import frozen_heap
 
     collecting = gc.isenabled()
     gc.disable()  # the imports create objects that all stay: no collection during them
@@ -179,15 +181,9 @@ def _forked_workers() -> Iterator[bool]:
     finally:
         if collecting:
             gc.enable()
-    ours = gc.get_freeze_count() == 0
-    gc.freeze()
     fork = not _numba_threads_started()
-    try:
-        with dask.config.set({"distributed.worker.multiprocessing-method": "fork" if fork else "spawn"}):
-            yield fork
-    finally:
-        if ours:
-            gc.unfreeze()
+    with frozen_heap(), dask.config.set({"distributed.worker.multiprocessing-method": "fork" if fork else "spawn"}):
+        yield fork
 
 
 def _numba_threads_started() -> bool:

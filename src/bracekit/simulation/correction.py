@@ -331,6 +331,8 @@ class Correction:
                     break
                 t_q, trial = damped
             q, (status, size, scaled), now = t_q, trial, 1 - now
+        if status != _STEP:  # the last step's point met the test: accepted, as at the top of the loop
+            return self._state(q)
         res, rows, _ = self._buffers[now]
         scale = self.scale
         size = float(np.max(np.abs(res) / scale))

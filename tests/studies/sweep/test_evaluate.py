@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from bracekit.errors import InputError
 from bracekit.resolution.strategies import FreeSpaceMinNorm
 from bracekit.simulation.run import run_scenario
 from bracekit.simulation.scenario import load_scenario
@@ -142,5 +143,5 @@ def test_a_search_evaluation_is_the_rows_gradient_projection_without_minimum_nor
         assert search["warnings"] <= full["warnings"]
         skip = {*minimum_norm, "warnings", "wall_s"}
         assert {k: v for k, v in search.items() if k not in skip} == {k: v for k, v in full.items() if k not in skip}
-    with pytest.raises(ValueError, match="strategies"):
+    with pytest.raises(InputError, match="strategies"):
         evaluate_candidate(spec, cands[0], ctx, ("braced_min_norm",))

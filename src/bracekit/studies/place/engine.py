@@ -84,8 +84,9 @@ class PlaceRun:
     """What a placement did: every inner result, every whole-task row, the best, the timings (s).
 
     ``unused``: the first compass round's trials run ahead with the task batch and discarded (their centre
-    was not the best place MuJoCo settled on). ``place``: the best's place as it was run (its row's angle is in
-    degrees).
+    was not the best place MuJoCo settled on); ``unused_early``: the early whole-task runs discarded (their
+    place was not among the chosen, :class:`~.ahead.RunAhead`). ``place``: the best's place as it was run (its
+    row's angle is in degrees).
     """
 
     spec: SweepSpec
@@ -100,6 +101,7 @@ class PlaceRun:
     workers: int = 0
     unused: int = 0
     place: Place | None = None
+    unused_early: int = 0
 
 
 def check_spec(spec: SweepSpec) -> list[str]:
@@ -393,8 +395,10 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
         def settled_best() -> dict[str, Any] | None:
             """The best row, MuJoCo's static check run on the feasible rows best first until one settles."""
             while (row := _unchecked(evaluations)) is not None:
-                fut = ahead.check(raw[row["evaluation"]], starts[row["evaluation"]])
-                row["mujoco_settles"], row["mujoco_message"] = fut.result()
+                came = raw[row["evaluation"]]  # the row RunAhead holds: its verdict too (a rejected row is no least)
+                fut = ahead.check(came, starts[row["evaluation"]])
+                verdict = fut.result()
+                row["mujoco_settles"], row["mujoco_message"] = came["mujoco_settles"], came["mujoco_message"] = verdict
                 futures.remove(fut)
             return _best(evaluations)
 
@@ -424,11 +428,23 @@ def run_place(spec: SweepSpec, client: Any, settings: PlaceSettings, prepared: P
     except BaseException:
         client.cancel(futures)
         raise
-    unused = len(spare) + ahead.finish()
+    unused, unused_early = len(spare), ahead.finish()
     place, best_start = (None, None) if best is None else starts[best["evaluation"]]
     timings["total_s"] = time.perf_counter() - began
     return PlaceRun(
-        spec, settings, q_ref, inner, chosen, evaluations, best, best_start, timings, _workers(client), unused, place
+        spec,
+        settings,
+        q_ref,
+        inner,
+        chosen,
+        evaluations,
+        best,
+        best_start,
+        timings,
+        _workers(client),
+        unused,
+        place,
+        unused_early,
     )
 
 

@@ -77,6 +77,7 @@ def summary(run: PlaceRun) -> dict[str, Any]:
         },
         "workers": run.workers,
         "trials_run_ahead_unused": run.unused,
+        "early_runs_unused": run.unused_early,
         "timings": run.timings,
         "best": None
         if best is None or found is None

@@ -17,7 +17,7 @@ from typing import Any, TypeGuard
 import numpy as np
 from numpy.typing import NDArray
 
-from bracekit.errors import BracekitError
+from bracekit.errors import BracekitError, InputError
 from bracekit.simulation.scenario import parse_scenario
 from bracekit.simulation.scenario_model import Scenario
 from bracekit.studies.sweep.candidates import Candidate
@@ -204,7 +204,7 @@ def evaluate_candidate(
     garbage collector is held off during the runs (:mod:`.collector`).
     """
     if strategies not in (BRACED_STRATEGIES, SEARCH_STRATEGIES):
-        raise ValueError(f"strategies must be {BRACED_STRATEGIES} or {SEARCH_STRATEGIES}, got {strategies!r}")
+        raise InputError(f"strategies must be {BRACED_STRATEGIES} or {SEARCH_STRATEGIES}, got {strategies!r}")
     single_thread()
     began = time.perf_counter()
     with collector_paused():
